@@ -1,0 +1,252 @@
+//! Commands: `run`, `plan`, `dot`, `ops`. Exit codes: 0 success, 1 a run error, 2 a usage or
+//! pipeline-file error.
+
+mod progress;
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::{Args, Parser, Subcommand};
+
+use hdrflow::engine::cache::store::DEFAULT_LIMIT_BYTES;
+use hdrflow::engine::cache::CacheStore;
+use hdrflow::engine::graph::{Override, Pipeline};
+use hdrflow::engine::op::Default;
+use hdrflow::engine::registry::Registry;
+use hdrflow::engine::scheduler::{self, NodeStatus, RunOptions};
+
+#[derive(Parser)]
+#[command(name = "hdrflow", version, about = "A node-graph engine for HDR image processing", long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Validate a pipeline file, then evaluate the nodes its targets need.
+    Run(RunArgs),
+    /// Show what a run would do per node: compute, cached, or not needed.
+    Plan(RunArgs),
+    /// Print the pipeline as a Graphviz DOT graph.
+    Dot(GraphArgs),
+    /// List every operator with its fields, types, defaults and docs.
+    Ops {
+        /// Show only this operator.
+        name: Option<String>,
+    },
+}
+
+#[derive(Args)]
+struct GraphArgs {
+    /// The pipeline file (RON).
+    graph: PathBuf,
+    /// Override one field: NODE.FIELD=RON_VALUE (repeatable), e.g. env.path="../x.exr".
+    #[arg(long = "set", value_name = "NODE.FIELD=VALUE")]
+    set: Vec<String>,
+}
+
+#[derive(Args)]
+struct RunArgs {
+    #[command(flatten)]
+    graph: GraphArgs,
+    /// Output folder for Save nodes.
+    #[arg(long, default_value = "out")]
+    out: PathBuf,
+    /// Evaluate only these nodes and what they need (repeatable). Default: every Save node and
+    /// every node nothing consumes.
+    #[arg(long = "target", value_name = "NODE")]
+    targets: Vec<String>,
+    /// Cache folder (default: $HDRFLOW_CACHE_DIR, $XDG_CACHE_HOME/hdrflow or ~/.cache/hdrflow).
+    #[arg(long)]
+    cache_dir: Option<PathBuf>,
+    /// Compute everything; neither read nor write the cache.
+    #[arg(long)]
+    no_cache: bool,
+    /// Cache size limit in MiB; least recently used entries are evicted past it.
+    #[arg(long, default_value_t = DEFAULT_LIMIT_BYTES >> 20)]
+    cache_limit_mb: u64,
+    /// Worker threads (default: one per core).
+    #[arg(long)]
+    jobs: Option<usize>,
+    /// Write the run report as JSON to this file.
+    #[arg(long)]
+    report: Option<PathBuf>,
+    /// Print only errors and warnings.
+    #[arg(long, short)]
+    quiet: bool,
+}
+
+pub fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let registry = Registry::with_builtins();
+    match cli.command {
+        Command::Ops { name } => ops(&registry, name.as_deref()),
+        Command::Dot(args) => match load(&registry, &args) {
+            Ok(p) => {
+                print!("{}", p.to_dot());
+                ExitCode::SUCCESS
+            }
+            Err(code) => code,
+        },
+        Command::Plan(args) => plan(&registry, &args),
+        Command::Run(args) => run(&registry, &args),
+    }
+}
+
+fn load(registry: &Registry, args: &GraphArgs) -> Result<Pipeline, ExitCode> {
+    let mut overrides = Vec::new();
+    for s in &args.set {
+        match Override::parse(s) {
+            Ok(o) => overrides.push(o),
+            Err(e) => {
+                eprintln!("error: {e}");
+                return Err(ExitCode::from(2));
+            }
+        }
+    }
+    Pipeline::load(&args.graph, registry, &overrides).map_err(|errors| {
+        for e in &errors.0 {
+            eprintln!("error: {e}");
+        }
+        eprintln!("{} error{} in {}; nothing was run", errors.0.len(), if errors.0.len() == 1 { "" } else { "s" }, args.graph.display());
+        ExitCode::from(2)
+    })
+}
+
+fn cache_of(args: &RunArgs) -> Option<CacheStore> {
+    (!args.no_cache).then(|| {
+        CacheStore::new(args.cache_dir.clone().unwrap_or_else(CacheStore::default_dir), args.cache_limit_mb << 20)
+    })
+}
+
+fn plan(registry: &Registry, args: &RunArgs) -> ExitCode {
+    let p = match load(registry, &args.graph) {
+        Ok(p) => p,
+        Err(code) => return code,
+    };
+    let cache = cache_of(args);
+    match scheduler::plan(&p, &args.targets, cache.as_ref()) {
+        Ok(plan) => {
+            println!("{:<24} {:<18} {:<10} key", "node", "operator", "plan");
+            for (i, n) in p.nodes.iter().enumerate() {
+                let what = match plan.status[i] {
+                    NodeStatus::Computed => "compute",
+                    NodeStatus::Cached => "cached",
+                    NodeStatus::Skipped => "not needed",
+                };
+                let key = plan.keys[i].map(|k| hdrflow::engine::cache::key_hex(&k)[..16].to_string()).unwrap_or_default();
+                println!("{:<24} {:<18} {:<10} {key}", n.name, n.spec.name, what);
+            }
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::from(run_error_code(&e))
+        }
+    }
+}
+
+fn run_error_code(e: &hdrflow::engine::error::RunError) -> u8 {
+    match e {
+        hdrflow::engine::error::RunError::UnknownTarget(_) => 2,
+        _ => 1,
+    }
+}
+
+fn run(registry: &Registry, args: &RunArgs) -> ExitCode {
+    let p = match load(registry, &args.graph) {
+        Ok(p) => p,
+        Err(code) => return code,
+    };
+    let observer = progress::Progress::new(args.quiet);
+    let options = RunOptions {
+        targets: args.targets.clone(),
+        out_dir: args.out.clone(),
+        cache: cache_of(args),
+        jobs: args.jobs,
+        observer: &observer,
+    };
+    let outcome = scheduler::run(&p, &options);
+    observer.finish();
+    let outcome = match outcome {
+        Ok(o) => o,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(run_error_code(&e));
+        }
+    };
+    let report = &outcome.report;
+    if !args.quiet {
+        progress::print_table(report);
+        println!(
+            "{} nodes: {} computed, {} cached, {} not needed; {:.1} ms; {} file{} written to {}",
+            report.nodes.len(),
+            report.count(NodeStatus::Computed),
+            report.count(NodeStatus::Cached),
+            report.count(NodeStatus::Skipped),
+            report.total_ms,
+            report.written.len(),
+            if report.written.len() == 1 { "" } else { "s" },
+            args.out.display()
+        );
+    }
+    if let Some(cache) = &options.cache {
+        match cache.evict() {
+            Ok(r) if r.removed > 0 && !args.quiet => {
+                eprintln!("cache: evicted {} entries ({} MiB -> {} MiB)", r.removed, r.bytes_before >> 20, r.bytes_after >> 20)
+            }
+            Ok(_) => {}
+            Err(e) => eprintln!("warning: cache eviction: {e}"),
+        }
+    }
+    if let Some(path) = &args.report {
+        let json = serde_json::to_string_pretty(report).expect("report serialises");
+        if let Err(e) = hdrflow::engine::cache::store::write_atomic(path, json.as_bytes()) {
+            eprintln!("error: writing report {}: {e}", path.display());
+            return ExitCode::from(1);
+        }
+    }
+    ExitCode::SUCCESS
+}
+
+fn ops(registry: &Registry, name: Option<&str>) -> ExitCode {
+    let all = registry.all();
+    let selected: Vec<_> = all.iter().filter(|s| name.is_none_or(|n| s.name.eq_ignore_ascii_case(n))).collect();
+    if selected.is_empty() {
+        eprintln!("error: no operator {:?} (operators: {})", name.unwrap_or(""), registry.names().join(", "));
+        return ExitCode::from(2);
+    }
+    let mut category = "";
+    for spec in selected {
+        if spec.category != category {
+            category = spec.category;
+            println!("== {category} ==");
+        }
+        println!("{} (v{}) -> {}", spec.name, spec.version, match spec.output {
+            hdrflow::engine::op::OutputType::Fixed(t) => t.to_string(),
+            hdrflow::engine::op::OutputType::SameAsInput(f) => format!("same type as `{f}`"),
+        });
+        println!("    {}", spec.doc);
+        for f in spec.fields {
+            let default = match f.default {
+                Default::Required => "required".to_string(),
+                Default::Float(v) => format!("default {v:?}"),
+                Default::Int(v) => format!("default {v}"),
+                Default::Bool(v) => format!("default {v}"),
+                Default::Text(v) => format!("default {v:?}"),
+                Default::Choice(v) => format!("default {v}"),
+                Default::Tuple(v) => format!("default ({})", v.iter().map(|x| format!("{x:?}")).collect::<Vec<_>>().join(", ")),
+            };
+            println!("    {:<14} {:<40} {:<22} {}", f.name, f.kind.describe(), default, f.doc);
+        }
+        if spec.name == "LoadHdr" {
+            println!("    built-in maps (path: \"builtin:NAME\"):");
+            for (n, doc) in hdrflow::formats::builtin::BUILTINS {
+                println!("      {n:<10} {doc}");
+            }
+        }
+        println!();
+    }
+    ExitCode::SUCCESS
+}

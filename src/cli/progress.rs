@@ -1,0 +1,102 @@
+//! Progress on a terminal (a bar, shown once a run lasts more than a moment) or plain lines
+//! when stderr is not a terminal; and the end-of-run table.
+
+use std::io::IsTerminal;
+use std::sync::Mutex;
+use std::time::{Duration, Instant};
+
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+
+use hdrflow::engine::scheduler::{NodeReport, NodeStatus, Observer, RunReport};
+
+/// How long a run may last before a bar appears.
+const BAR_DELAY: Duration = Duration::from_millis(300);
+
+pub struct Progress {
+    quiet: bool,
+    terminal: bool,
+    start: Instant,
+    bar: Mutex<Option<ProgressBar>>,
+    shown: std::sync::atomic::AtomicBool,
+}
+
+impl Progress {
+    pub fn new(quiet: bool) -> Self {
+        Progress {
+            quiet,
+            terminal: std::io::stderr().is_terminal(),
+            start: Instant::now(),
+            bar: Mutex::new(None),
+            shown: std::sync::atomic::AtomicBool::new(false),
+        }
+    }
+
+    fn with_bar(&self, f: impl FnOnce(&ProgressBar)) {
+        if let Some(bar) = self.bar.lock().expect("progress lock").as_ref() {
+            if !self.shown.load(std::sync::atomic::Ordering::Relaxed) && self.start.elapsed() > BAR_DELAY {
+                bar.set_draw_target(ProgressDrawTarget::stderr());
+                bar.enable_steady_tick(Duration::from_millis(100));
+                self.shown.store(true, std::sync::atomic::Ordering::Relaxed);
+            }
+            f(bar);
+        }
+    }
+
+    pub fn finish(&self) {
+        if let Some(bar) = self.bar.lock().expect("progress lock").take() {
+            bar.finish_and_clear();
+        }
+    }
+}
+
+impl Observer for Progress {
+    fn planned(&self, compute: usize, _cached: usize) {
+        if self.quiet || !self.terminal {
+            return;
+        }
+        let bar = ProgressBar::with_draw_target(Some(compute as u64), ProgressDrawTarget::hidden());
+        bar.set_style(
+            ProgressStyle::with_template("{spinner} [{elapsed_precise}] {bar:30} {pos}/{len} nodes  {msg}")
+                .expect("valid template"),
+        );
+        *self.bar.lock().expect("progress lock") = Some(bar);
+    }
+
+    fn node_started(&self, name: &str) {
+        self.with_bar(|b| b.set_message(name.to_string()));
+    }
+
+    fn node_finished(&self, r: &NodeReport) {
+        if self.quiet {
+            return;
+        }
+        if self.terminal {
+            if r.status == NodeStatus::Computed {
+                self.with_bar(|b| b.inc(1));
+            }
+        } else if r.status == NodeStatus::Computed {
+            eprintln!("[{:>8.1} ms] computed {} ({}) in {:.1} ms", self.start.elapsed().as_secs_f64() * 1e3, r.name, r.op, r.ms);
+        }
+    }
+
+    fn warning(&self, message: &str) {
+        let line = format!("warning: {message}");
+        match self.bar.lock().expect("progress lock").as_ref() {
+            Some(bar) => bar.println(line),
+            None => eprintln!("{line}"),
+        }
+    }
+}
+
+/// The per-node table printed at the end of a run.
+pub fn print_table(report: &RunReport) {
+    println!("{:<24} {:<18} {:<9} {:>10}", "node", "operator", "status", "ms");
+    for n in &report.nodes {
+        let status = match n.status {
+            NodeStatus::Computed => "computed",
+            NodeStatus::Cached => "cached",
+            NodeStatus::Skipped => "skipped",
+        };
+        println!("{:<24} {:<18} {:<9} {:>10.2}", n.name, n.op, status, n.ms);
+    }
+}

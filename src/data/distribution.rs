@@ -1,0 +1,592 @@
+//! `Distribution2D`: a 2D piecewise-constant distribution over a W x H lat-long map, for
+//! importance sampling an environment map by luminance.
+//!
+//! The structure is pbrt-v4's `PiecewiseConstant2D` (src/pbrt/util/sampling.h; Pharr, Jakob,
+//! Humphreys, *Physically Based Rendering* 4th ed., section A.5): one conditional CDF per row
+//! (choosing a column) and a marginal CDF over rows (weighted by the row sums). Differences
+//! from pbrt, all aimed at the failures listed in `../shared/NOTES.md`:
+//! - every sum and CDF is f64 (pbrt: f32), so a 1e30 sun next to 1e-3 sky still normalises;
+//! - the last entry of every CDF is exactly 1.0, and so is every entry after the last non-zero
+//!   weight, so trailing zero rows/columns get an empty interval and are never chosen;
+//! - intervals are found with `partition_point(|c| c <= u)`: an interval `[c_i, c_{i+1})` of
+//!   zero width can never contain u, so zero-probability rows and columns are skipped, u = 0
+//!   cannot give index -1 (YafaRay #92), and u is clamped to 1 - 2^-53 so u = 1 works;
+//! - the pdf is `func / total` divided by the texel's solid angle, looked up at exactly the texel
+//!   that was sampled (no half-texel offset: the map is piecewise constant over texels whose
+//!   centres are `maths::latlong`'s theta = pi (y + 1/2) / H, phi = 2 pi (x + 1/2) / W);
+//! - an all-black map does not fail: it falls back to uniform sampling over solid angle.
+//!
+//! Texel weights: `w(x, y) = Y(x, y) sin(theta_y)` when `sin_theta` (the sampling density is then
+//! proportional to luminance over solid angle; without the sine, poles are oversampled:
+//! three-gpu-pathtracer #813), else `w = Y`. With `p(x, y) = w / sum(w)` and the midpoint texel
+//! solid angle `dOmega_y = (2 pi / W)(pi / H) sin(theta_y)`, the density over solid angle is
+//! `pdf = p / dOmega_y`, which for `sin_theta` is `Y W H / (2 pi^2 sum(w))` — pbrt-v3's
+//! `mapPdf / (2 pi^2 sin(theta))` (InfiniteAreaLight::Pdf_Li) with
+//! `mapPdf = Y W H / sum(w)` the density over the unit square.
+
+use rayon::prelude::*;
+
+use crate::data::image::Image;
+use crate::maths::latlong::{texel_of_direction, texel_solid_angle, theta_of_row};
+
+/// The largest f64 below 1: 1 - 2^-53.
+const ONE_MINUS_EPSILON: f64 = 1.0 - f64::EPSILON / 2.0;
+
+#[derive(Debug, thiserror::Error)]
+pub enum DistributionError {
+    #[error("texel ({x}, {y}) is {value}: pass `sanitize: true` to treat NaN and negative texels as 0 and +Inf as the largest float")]
+    BadTexel { x: usize, y: usize, value: f32 },
+    #[error("{0}")]
+    Invalid(String),
+}
+
+/// A piecewise-constant 2D distribution over a lat-long map (see the module documentation).
+/// All fields are public for the cache codec; `build` establishes their invariants.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Distribution2D {
+    pub width: usize,
+    pub height: usize,
+    /// Whether the weights include sin(theta) (sampling proportional to luminance x solid angle).
+    pub sin_theta: bool,
+    /// Texel weights `w(x, y) = Y sin(theta_y)` (or `Y`), row-major, `width * height`.
+    pub func: Vec<f64>,
+    /// `height` rows of `width + 1` entries: row y's CDF over columns, 0.0 .. exactly 1.0,
+    /// non-decreasing; uniform `k / W` for a row of zero weight.
+    pub conditional_cdf: Vec<f64>,
+    /// Sum of each row's weights (`height` entries).
+    pub row_sums: Vec<f64>,
+    /// CDF over rows (`height + 1` entries, 0.0 .. exactly 1.0). Proportional to `row_sums`, or,
+    /// when the map carries no light, to sin(theta_y) (uniform over solid angle).
+    pub marginal_cdf: Vec<f64>,
+    /// Sum of `func`.
+    pub total: f64,
+    /// `sum Y(x, y) dOmega_y`: the integral of the (sanitised) luminance over the sphere.
+    pub luminance_integral: f64,
+    /// `total` is finite and positive; false means the uniform solid-angle fallback is in use.
+    pub carries_light: bool,
+}
+
+/// Normalises running sums `cdf[0] = 0, cdf[i+1] = cdf[i] + w_i` into a CDF in place and returns
+/// the sum `cdf[n]`. Entries equal to the sum (every entry after the last non-zero weight)
+/// become exactly 1.0, the others `cdf[i] / sum` (monotone: division by a positive constant is
+/// monotone under rounding, and `cdf[i] <= sum`). A zero (or non-finite) sum gives the uniform
+/// CDF `k / n`. Either way `cdf[0] = 0` and `cdf[n] = 1` exactly.
+fn normalise_cdf(cdf: &mut [f64]) -> f64 {
+    let n = cdf.len() - 1;
+    let sum = cdf[n];
+    if sum > 0.0 && sum.is_finite() {
+        for c in cdf.iter_mut() {
+            *c = if *c == sum { 1.0 } else { *c / sum };
+        }
+    } else {
+        for (k, c) in cdf.iter_mut().enumerate() {
+            *c = k as f64 / n as f64;
+        }
+    }
+    cdf[0] = 0.0;
+    cdf[n] = 1.0;
+    sum
+}
+
+/// The index i with `cdf[i] <= u < cdf[i+1]` (cdf non-decreasing from 0 to 1, `u` in [0, 1)):
+/// `partition_point(|c| c <= u) - 1`, clamped to `[0, n - 1]`. Zero-width intervals never match.
+#[inline]
+fn find_interval(cdf: &[f64], u: f64) -> usize {
+    let n = cdf.len() - 1;
+    cdf.partition_point(|&c| c <= u).saturating_sub(1).min(n.saturating_sub(1))
+}
+
+/// u clamped into [0, 1 - 2^-53]; NaN becomes 0.
+#[inline]
+fn clamp_unit(u: f64) -> f64 {
+    if u.is_nan() {
+        0.0
+    } else {
+        u.clamp(0.0, ONE_MINUS_EPSILON)
+    }
+}
+
+impl Distribution2D {
+    /// Builds the distribution of a one-channel luminance map (rows in parallel).
+    ///
+    /// Texels that are NaN, +-Inf or negative are an error (`BadTexel`, the first in row-major
+    /// order) unless `sanitize`, which maps NaN and negatives (including -Inf) to 0 and +Inf to
+    /// `f32::MAX`. See the module documentation for the weights and the all-black fallback.
+    pub fn build(luminance: &Image, sin_theta: bool, sanitize: bool) -> Result<Distribution2D, DistributionError> {
+        if luminance.channels != 1 {
+            return Err(DistributionError::Invalid(format!(
+                "a distribution is built from a one-channel luminance map, got {} channels",
+                luminance.channels
+            )));
+        }
+        let (w, h) = (luminance.width, luminance.height);
+        if w == 0 || h == 0 {
+            return Err(DistributionError::Invalid(format!("cannot build a distribution over an empty {w}x{h} map")));
+        }
+        if luminance.data.len() != w * h {
+            return Err(DistributionError::Invalid(format!(
+                "luminance buffer holds {} values, expected {w}x{h} = {}",
+                luminance.data.len(),
+                w * h
+            )));
+        }
+
+        let mut func = vec![0.0f64; w * h];
+        let mut conditional_cdf = vec![0.0f64; h * (w + 1)];
+
+        // Per row: (sum of weights, sum of luminance), or the first bad texel (x, value).
+        let rows: Vec<Result<(f64, f64), (usize, f32)>> = func
+            .par_chunks_mut(w)
+            .zip(conditional_cdf.par_chunks_mut(w + 1))
+            .enumerate()
+            .map(|(y, (frow, crow))| {
+                let src = luminance.row(y);
+                let s = if sin_theta { theta_of_row(y, h).sin() } else { 1.0 };
+                let mut running = 0.0f64;
+                let mut lum_sum = 0.0f64;
+                crow[0] = 0.0;
+                for (x, &v) in src.iter().enumerate() {
+                    let lum = if v.is_nan() || v < 0.0 || v == f32::INFINITY {
+                        if !sanitize {
+                            return Err((x, v));
+                        }
+                        if v == f32::INFINITY {
+                            f32::MAX as f64
+                        } else {
+                            0.0
+                        }
+                    } else if v > 0.0 {
+                        v as f64
+                    } else {
+                        0.0 // +0 and -0
+                    };
+                    let wt = lum * s;
+                    frow[x] = wt;
+                    running += wt;
+                    crow[x + 1] = running;
+                    lum_sum += lum;
+                }
+                let row_sum = normalise_cdf(crow);
+                Ok((row_sum, lum_sum))
+            })
+            .collect();
+
+        let mut row_sums = Vec::with_capacity(h);
+        let mut luminance_integral = 0.0f64;
+        for (y, r) in rows.into_iter().enumerate() {
+            match r {
+                Ok((row_sum, lum_sum)) => {
+                    row_sums.push(row_sum);
+                    luminance_integral += lum_sum * texel_solid_angle(y, w, h);
+                }
+                Err((x, value)) => return Err(DistributionError::BadTexel { x, y, value }),
+            }
+        }
+
+        let mut marginal_cdf = vec![0.0f64; h + 1];
+        for y in 0..h {
+            marginal_cdf[y + 1] = marginal_cdf[y] + row_sums[y];
+        }
+        let total = marginal_cdf[h];
+        let carries_light = total > 0.0 && total.is_finite();
+        if !carries_light {
+            // Uniform over solid angle: rows in proportion to sin(theta_y) (all conditionals are
+            // already uniform, every row being zero).
+            for y in 0..h {
+                marginal_cdf[y + 1] = marginal_cdf[y] + theta_of_row(y, h).sin();
+            }
+        }
+        normalise_cdf(&mut marginal_cdf);
+
+        Ok(Distribution2D {
+            width: w,
+            height: h,
+            sin_theta,
+            func,
+            conditional_cdf,
+            row_sums,
+            marginal_cdf,
+            total,
+            luminance_integral,
+            carries_light,
+        })
+    }
+
+    /// Row y's conditional CDF (`width + 1` entries).
+    #[inline]
+    pub fn conditional_row(&self, y: usize) -> &[f64] {
+        let n = self.width + 1;
+        &self.conditional_cdf[y * n..(y + 1) * n]
+    }
+
+    /// Draws a texel: the row from the marginal CDF with `u1`, the column from that row's
+    /// conditional CDF with `u2` (both clamped to [0, 1 - 2^-53]; 0 and 1 are valid).
+    /// Returns `(x, y, pdf)` with `pdf = self.pdf(x, y)` (per steradian). When the map carries
+    /// light the texel always has a positive weight, so the pdf is positive and finite.
+    pub fn sample(&self, u1: f64, u2: f64) -> (usize, usize, f64) {
+        let y = find_interval(&self.marginal_cdf, clamp_unit(u1)).min(self.height.saturating_sub(1));
+        let x = find_interval(self.conditional_row(y), clamp_unit(u2)).min(self.width.saturating_sub(1));
+        (x, y, self.pdf(x, y))
+    }
+
+    /// The discrete probability of texel (x, y): `func(x, y) / total` when the map carries light;
+    /// otherwise the fallback's `P(row y) / W`, read from the CDFs (`(M_{y+1} - M_y)(C_{x+1} -
+    /// C_x)`, with uniform conditionals). 0 outside the map.
+    pub fn texel_probability(&self, x: usize, y: usize) -> f64 {
+        if x >= self.width || y >= self.height {
+            return 0.0;
+        }
+        if self.carries_light {
+            self.func[y * self.width + x] / self.total
+        } else {
+            let row = self.conditional_row(y);
+            (self.marginal_cdf[y + 1] - self.marginal_cdf[y]) * (row[x + 1] - row[x])
+        }
+    }
+
+    /// Density over solid angle of `sample` at texel (x, y): `texel_probability / dOmega_y`,
+    /// `dOmega_y = (2 pi / W)(pi / H) sin(theta_y)` (always > 0 at row centres). For `sin_theta`
+    /// this is `Y W H / (2 pi^2 total)` (pbrt-v3's `mapPdf / (2 pi^2 sin theta)`). Finite, >= 0;
+    /// 0 outside the map.
+    pub fn pdf(&self, x: usize, y: usize) -> f64 {
+        if x >= self.width || y >= self.height {
+            return 0.0;
+        }
+        let p = self.texel_probability(x, y) / texel_solid_angle(y, self.width, self.height);
+        if p.is_finite() && p > 0.0 {
+            p
+        } else {
+            0.0
+        }
+    }
+
+    /// Density over solid angle of direction `d` (the texel containing it; for MIS).
+    pub fn pdf_direction(&self, d: [f64; 3]) -> f64 {
+        let (x, y) = texel_of_direction(d, self.width, self.height);
+        self.pdf(x, y)
+    }
+
+    /// Approximate heap plus inline size in bytes.
+    pub fn approx_bytes(&self) -> usize {
+        std::mem::size_of::<Self>()
+            + 8 * (self.func.len() + self.conditional_cdf.len() + self.row_sums.len() + self.marginal_cdf.len())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::maths::chi_square::chi_square_test;
+    use crate::maths::sequences::SplitMix64;
+    use std::f64::consts::PI;
+
+    /// A random map: values in [0, 10) with about a fifth of the texels zero, and row
+    /// `zero_row` (if any) all zero.
+    fn random_map(w: usize, h: usize, seed: u64, zero_row: Option<usize>) -> Image {
+        let mut rng = SplitMix64::new(seed);
+        let mut data = Vec::with_capacity(w * h);
+        for y in 0..h {
+            for _ in 0..w {
+                let v = if rng.next_f64() < 0.2 || Some(y) == zero_row { 0.0 } else { 10.0 * rng.next_f64() };
+                data.push(v as f32);
+            }
+        }
+        Image::from_vec(w, h, 1, data)
+    }
+
+    /// `sum_{x,y} pdf(x, y) dOmega_y`, which must be 1.
+    fn pdf_integral(d: &Distribution2D) -> f64 {
+        let mut s = 0.0;
+        for y in 0..d.height {
+            let sa = texel_solid_angle(y, d.width, d.height);
+            for x in 0..d.width {
+                s += d.pdf(x, y) * sa;
+            }
+        }
+        s
+    }
+
+    fn check_invariants(d: &Distribution2D) {
+        assert_eq!(d.func.len(), d.width * d.height);
+        assert_eq!(d.conditional_cdf.len(), d.height * (d.width + 1));
+        assert_eq!(d.row_sums.len(), d.height);
+        assert_eq!(d.marginal_cdf.len(), d.height + 1);
+        assert_eq!(d.marginal_cdf[0], 0.0);
+        assert_eq!(d.marginal_cdf[d.height], 1.0);
+        assert!(d.marginal_cdf.windows(2).all(|p| p[0] <= p[1]));
+        for y in 0..d.height {
+            let row = d.conditional_row(y);
+            assert_eq!(row[0], 0.0);
+            assert_eq!(row[d.width], 1.0);
+            assert!(row.windows(2).all(|p| p[0] <= p[1]));
+        }
+        for y in 0..d.height {
+            for x in 0..d.width {
+                let p = d.pdf(x, y);
+                assert!(p.is_finite() && p >= 0.0);
+            }
+        }
+    }
+
+    fn build(img: &Image, sin_theta: bool) -> Distribution2D {
+        let d = Distribution2D::build(img, sin_theta, false).unwrap();
+        check_invariants(&d);
+        d
+    }
+
+    #[test]
+    fn pdf_integrates_to_one() {
+        let mut maps = vec![
+            random_map(16, 8, 1, None),
+            random_map(33, 17, 2, Some(5)),
+            random_map(64, 32, 3, Some(0)),
+            Image::from_vec(8, 4, 1, vec![2.5; 32]),
+            Image::new(12, 6, 1),
+            Image::from_vec(1, 1, 1, vec![3.0]),
+            Image::from_vec(1, 1, 1, vec![0.0]),
+            random_map(1, 7, 4, None),
+            random_map(7, 1, 5, None),
+            Image::new(1, 7, 1),
+            Image::new(7, 1, 1),
+        ];
+        let mut hot = Image::new(16, 8, 1);
+        hot.data[5 * 16 + 3] = 1000.0;
+        maps.push(hot);
+        for img in &maps {
+            for sin_theta in [true, false] {
+                let d = build(img, sin_theta);
+                let s = pdf_integral(&d);
+                assert!((s - 1.0).abs() < 1e-12, "{}x{} sin {sin_theta}: {s}", img.width, img.height);
+                let p: f64 = (0..d.height)
+                    .flat_map(|y| (0..d.width).map(move |x| (x, y)))
+                    .map(|(x, y)| d.texel_probability(x, y))
+                    .sum();
+                assert!((p - 1.0).abs() < 1e-12);
+            }
+        }
+    }
+
+    #[test]
+    fn all_black_map_falls_back_to_uniform_solid_angle() {
+        let d = build(&Image::new(16, 8, 1), true);
+        assert!(!d.carries_light);
+        assert_eq!(d.total, 0.0);
+        assert_eq!(d.luminance_integral, 0.0);
+        let p0 = d.pdf(0, 0);
+        for y in 0..8 {
+            for x in 0..16 {
+                assert!((d.pdf(x, y) - p0).abs() < 1e-12 * p0);
+            }
+        }
+        assert!((p0 - 1.0 / (4.0 * PI)).abs() < 1e-2 / (4.0 * PI));
+        let (x, y, pdf) = d.sample(0.3, 0.9);
+        assert!(x < 16 && y < 8 && pdf > 0.0);
+    }
+
+    #[test]
+    fn hot_texel_is_always_sampled() {
+        let mut img = Image::new(16, 8, 1);
+        img.data[5 * 16 + 3] = 1e6;
+        let d = build(&img, true);
+        let mut rng = SplitMix64::new(3);
+        let mut us = vec![(0.0, 0.0), (1.0, 1.0), (ONE_MINUS_EPSILON, ONE_MINUS_EPSILON), (0.0, 1.0), (1.0, 0.0)];
+        for _ in 0..1000 {
+            us.push((rng.next_f64(), rng.next_f64()));
+        }
+        let expect = d.pdf(3, 5);
+        assert!(expect > 0.0);
+        for (u1, u2) in us {
+            assert_eq!(d.sample(u1, u2), (3, 5, expect), "u = ({u1}, {u2})");
+        }
+        // pdf * solid angle = 1 for the single texel.
+        assert!((expect * texel_solid_angle(5, 16, 8) - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn edge_u_values_skip_zero_rows_and_columns() {
+        // Zero first and last rows, zero first and last columns.
+        let (w, h) = (6usize, 5usize);
+        let mut img = Image::new(w, h, 1);
+        for y in 1..h - 1 {
+            for x in 1..w - 1 {
+                img.data[y * w + x] = 1.0 + (x * y) as f32;
+            }
+        }
+        for sin_theta in [true, false] {
+            let d = build(&img, sin_theta);
+            for &u1 in &[0.0, f64::MIN_POSITIVE, ONE_MINUS_EPSILON, 1.0, 1.5, -0.5, f64::NAN] {
+                for &u2 in &[0.0, ONE_MINUS_EPSILON, 1.0] {
+                    let (x, y, pdf) = d.sample(u1, u2);
+                    assert!((1..w - 1).contains(&x) && (1..h - 1).contains(&y), "u ({u1}, {u2}) -> ({x}, {y})");
+                    assert!(pdf.is_finite() && pdf > 0.0);
+                    assert_eq!(pdf, d.pdf(x, y));
+                }
+            }
+            assert_eq!(d.sample(0.0, 0.0).0, 1);
+            assert_eq!(d.sample(0.0, 0.0).1, 1);
+            assert_eq!(d.sample(1.0, 1.0).0, w - 2);
+            assert_eq!(d.sample(1.0, 1.0).1, h - 2);
+        }
+    }
+
+    #[test]
+    fn samples_never_land_on_zero_texels() {
+        let img = random_map(32, 16, 9, Some(7));
+        let d = build(&img, true);
+        let mut rng = SplitMix64::new(10);
+        for _ in 0..20_000 {
+            let (x, y, pdf) = d.sample(rng.next_f64(), rng.next_f64());
+            assert!(d.func[y * 32 + x] > 0.0 && pdf > 0.0);
+            assert_ne!(y, 7);
+        }
+    }
+
+    #[test]
+    fn chi_square_against_texel_probability() {
+        let (w, h) = (8usize, 6usize);
+        let img = random_map(w, h, 21, Some(2));
+        for sin_theta in [true, false] {
+            let d = build(&img, sin_theta);
+            let n = 100_000usize;
+            let mut obs = vec![0.0; w * h];
+            let mut rng = SplitMix64::new(77);
+            for _ in 0..n {
+                let (x, y, _) = d.sample(rng.next_f64(), rng.next_f64());
+                obs[y * w + x] += 1.0;
+            }
+            let exp: Vec<f64> = (0..w * h).map(|i| n as f64 * d.texel_probability(i % w, i / w)).collect();
+            let r = chi_square_test(&obs, &exp, 5.0);
+            assert_eq!(r.impossible_cells, 0);
+            assert!(r.p_value > 1e-4, "sin {sin_theta}: {r:?}");
+        }
+    }
+
+    #[test]
+    fn pdf_matches_pbrt_v3_formula() {
+        let (w, h) = (20usize, 10usize);
+        let img = random_map(w, h, 31, None);
+        let d = build(&img, true);
+        for y in 0..h {
+            for x in 0..w {
+                let lum = img.data[y * w + x] as f64;
+                let expect = lum * (w * h) as f64 / (2.0 * PI * PI * d.total);
+                let got = d.pdf(x, y);
+                assert!((got - expect).abs() <= 1e-12 * expect.max(1e-300), "({x}, {y}): {got} vs {expect}");
+            }
+        }
+    }
+
+    #[test]
+    fn constant_map_is_uniform_over_the_sphere() {
+        let (w, h) = (64usize, 32usize);
+        let d = build(&Image::from_vec(w, h, 1, vec![1.0; w * h]), true);
+        let target = 1.0 / (4.0 * PI);
+        for y in 0..h {
+            for x in [0, w / 2, w - 1] {
+                let p = d.pdf(x, y);
+                // Midpoint rule: sum_y sin(theta_y) (pi / H) = 2 (1 + O(1/H^2)).
+                assert!((p - target).abs() < 1e-3 * target, "row {y}: {p}");
+            }
+        }
+        // The luminance integral of a constant 1 is the sphere's area, 4 pi (midpoint rule).
+        assert!((d.luminance_integral - 4.0 * PI).abs() < 1e-3 * 4.0 * PI);
+    }
+
+    #[test]
+    fn bad_texels_error_or_are_sanitised() {
+        let (w, h) = (4usize, 5usize);
+        let mut img = Image::from_vec(w, h, 1, vec![1.0; w * h]);
+        img.data[3 * w] = -1.0; // (0, 3)
+        img.data[w + 2] = f32::NAN; // (2, 1): first in row-major order
+        img.data[4 * w + 1] = f32::INFINITY; // (1, 4)
+        img.data[2 * w + 3] = f32::NEG_INFINITY; // (3, 2)
+        match Distribution2D::build(&img, true, false) {
+            Err(DistributionError::BadTexel { x, y, value }) => {
+                assert_eq!((x, y), (2, 1));
+                assert!(value.is_nan());
+            }
+            other => panic!("expected BadTexel, got {other:?}"),
+        }
+        let msg = Distribution2D::build(&img, true, false).unwrap_err().to_string();
+        assert!(msg.contains("sanitize: true"), "{msg}");
+
+        let d = Distribution2D::build(&img, true, true).unwrap();
+        check_invariants(&d);
+        assert!(d.carries_light);
+        assert_eq!(d.texel_probability(2, 1), 0.0);
+        assert_eq!(d.texel_probability(0, 3), 0.0);
+        assert_eq!(d.texel_probability(3, 2), 0.0);
+        assert_eq!(d.func[4 * w + 1], f32::MAX as f64 * theta_of_row(4, h).sin());
+        assert!(d.texel_probability(1, 4) > 0.999_999);
+        assert!((pdf_integral(&d) - 1.0).abs() < 1e-12);
+        assert!(d.luminance_integral.is_finite());
+
+        // Only an infinite texel: still an error without sanitising.
+        let mut img = Image::from_vec(2, 2, 1, vec![1.0; 4]);
+        img.data[3] = f32::INFINITY;
+        assert!(matches!(
+            Distribution2D::build(&img, false, false),
+            Err(DistributionError::BadTexel { x: 1, y: 1, .. })
+        ));
+        // -0.0 is fine and weighs nothing.
+        let img = Image::from_vec(2, 1, 1, vec![-0.0, 1.0]);
+        let d = build(&img, true);
+        assert_eq!(d.texel_probability(0, 0), 0.0);
+        assert_eq!(d.sample(0.0, 0.0).0, 1);
+    }
+
+    #[test]
+    fn huge_dynamic_range() {
+        let (w, h) = (16usize, 8usize);
+        let mut img = random_map(w, h, 41, None);
+        img.data[3 * w + 5] = 1e30;
+        img.data[6 * w + 1] = f32::MAX;
+        img.data[0] = 1e-30;
+        for sin_theta in [true, false] {
+            let d = build(&img, sin_theta);
+            assert!(d.total.is_finite() && d.carries_light);
+            assert!((pdf_integral(&d) - 1.0).abs() < 1e-12);
+            let (x, y, pdf) = d.sample(0.5, 0.5);
+            assert!(pdf.is_finite() && pdf > 0.0 && d.func[y * w + x] > 0.0);
+            // A tiny texel keeps a tiny but positive, finite pdf.
+            assert!(d.pdf(0, 0) > 0.0);
+        }
+    }
+
+    #[test]
+    fn rejects_wrong_shapes() {
+        assert!(matches!(Distribution2D::build(&Image::new(4, 2, 3), true, false), Err(DistributionError::Invalid(_))));
+        assert!(matches!(Distribution2D::build(&Image::new(0, 2, 1), true, false), Err(DistributionError::Invalid(_))));
+        assert!(matches!(Distribution2D::build(&Image::new(4, 0, 1), true, false), Err(DistributionError::Invalid(_))));
+    }
+
+    #[test]
+    fn thin_maps_sample_correctly() {
+        for (w, h) in [(1usize, 7usize), (7, 1), (1, 1)] {
+            let img = random_map(w, h, 51, None);
+            let d = build(&img, true);
+            for &(u1, u2) in &[(0.0, 0.0), (1.0, 1.0), (0.5, 0.5), (ONE_MINUS_EPSILON, 0.0)] {
+                let (x, y, pdf) = d.sample(u1, u2);
+                assert!(x < w && y < h && pdf.is_finite());
+                if d.carries_light {
+                    assert!(pdf > 0.0);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn parallel_build_is_deterministic() {
+        let img = random_map(50, 25, 61, Some(3));
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+        let one = pool.install(|| Distribution2D::build(&img, true, false).unwrap());
+        let many = Distribution2D::build(&img, true, false).unwrap();
+        assert_eq!(one, many);
+        assert!(many.approx_bytes() >= 8 * (50 * 25 + 25 * 51 + 25 + 26));
+        // pdf_direction agrees with the texel lookup at texel centres.
+        for (x, y) in [(0usize, 0usize), (10, 7), (49, 24)] {
+            let dir = crate::maths::latlong::texel_direction(x, y, 50, 25);
+            assert_eq!(many.pdf_direction(dir), many.pdf(x, y));
+        }
+    }
+}

@@ -1,0 +1,13 @@
+//! The data types that flow between operators.
+
+pub mod curves;
+pub mod distribution;
+pub mod image;
+pub mod metrics;
+pub mod samples;
+
+pub use curves::Curves;
+pub use distribution::Distribution2D;
+pub use image::Image;
+pub use metrics::Metrics;
+pub use samples::{Sample, SampleSet};

@@ -1,0 +1,16 @@
+//! The content-addressed cache.
+//!
+//! - `key`: a node's key is a BLAKE3 hash of its operator's name and version, its parameters in
+//!   canonical binary form (floats by their bits), its inputs' keys, and for loaders the content
+//!   of the file they read. Keys never contain absolute paths, times, thread counts or RON text,
+//!   so they are portable between machines.
+//! - `codec`: values to bytes and back, with every length checked on the way in.
+//! - `store`: one file per key under the cache folder, written atomically (temporary file then
+//!   rename), checksummed, evicted least-recently-used past a size limit.
+
+pub mod codec;
+pub mod key;
+pub mod store;
+
+pub use key::{key_hex, node_key, Key};
+pub use store::CacheStore;

@@ -1,0 +1,264 @@
+//! The on-disk store: `<dir>/v1/<first two hex digits>/<key hex>.val`.
+//!
+//! Entry layout: magic `HDRFLOWC`, codec version (u32), payload length (u64), BLAKE3 of the
+//! payload (32 bytes), payload. An entry is written to a temporary file in its final folder and
+//! renamed into place, so readers see a whole entry or none, and two runs writing the same key
+//! at once both succeed (the last rename wins; both wrote the same bytes). A read checks magic,
+//! version, length and checksum: anything else is reported as corrupt and recomputed.
+//! Reads refresh the entry's modification time, which is what eviction orders by (LRU).
+
+use std::fs;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::SystemTime;
+
+use super::codec::{self, CODEC_VERSION};
+use super::key::{key_hex, Key};
+use crate::engine::error::CacheError;
+use crate::engine::value::Value;
+
+const MAGIC: &[u8; 8] = b"HDRFLOWC";
+const HEADER_LEN: usize = 8 + 4 + 8 + 32;
+
+/// Default size limit: 4 GiB.
+pub const DEFAULT_LIMIT_BYTES: u64 = 4 << 30;
+
+#[derive(Debug, Clone)]
+pub struct CacheStore {
+    root: PathBuf,
+    limit_bytes: u64,
+}
+
+/// What eviction did.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct EvictionReport {
+    pub entries: usize,
+    pub bytes_before: u64,
+    pub removed: usize,
+    pub bytes_after: u64,
+}
+
+impl CacheStore {
+    /// A store under `dir` (created on first write).
+    pub fn new(dir: impl Into<PathBuf>, limit_bytes: u64) -> Self {
+        CacheStore { root: dir.into().join("v1"), limit_bytes }
+    }
+
+    /// The per-user default folder: `$HDRFLOW_CACHE_DIR`, else `$XDG_CACHE_HOME/hdrflow`,
+    /// else `$HOME/.cache/hdrflow`, else `.hdrflow-cache` in the working folder.
+    pub fn default_dir() -> PathBuf {
+        if let Some(d) = std::env::var_os("HDRFLOW_CACHE_DIR").filter(|d| !d.is_empty()) {
+            return PathBuf::from(d);
+        }
+        if let Some(d) = std::env::var_os("XDG_CACHE_HOME").filter(|d| !d.is_empty()) {
+            return PathBuf::from(d).join("hdrflow");
+        }
+        if let Some(h) = std::env::var_os("HOME").filter(|d| !d.is_empty()) {
+            return PathBuf::from(h).join(".cache").join("hdrflow");
+        }
+        PathBuf::from(".hdrflow-cache")
+    }
+
+    pub fn root(&self) -> &Path {
+        &self.root
+    }
+
+    pub fn path_for(&self, key: &Key) -> PathBuf {
+        let hex = key_hex(key);
+        self.root.join(&hex[..2]).join(format!("{hex}.val"))
+    }
+
+    pub fn contains(&self, key: &Key) -> bool {
+        self.path_for(key).is_file()
+    }
+
+    /// Reads an entry: `Ok(None)` when absent, `Err(Corrupt)` when it cannot be trusted
+    /// (the corrupt file is removed so the recomputed value can replace it).
+    pub fn get(&self, key: &Key) -> Result<Option<Value>, CacheError> {
+        let path = self.path_for(key);
+        let bytes = match fs::read(&path) {
+            Ok(b) => b,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
+            Err(source) => return Err(CacheError::Io { path, source }),
+        };
+        match check_entry(&bytes).and_then(codec::decode) {
+            Ok(v) => {
+                // Refresh the LRU clock; failure only makes eviction less precise.
+                if let Ok(f) = fs::File::options().write(true).open(&path) {
+                    let _ = f.set_modified(SystemTime::now());
+                }
+                Ok(Some(v))
+            }
+            Err(reason) => {
+                let _ = fs::remove_file(&path);
+                Err(CacheError::Corrupt { path, reason })
+            }
+        }
+    }
+
+    /// Writes an entry atomically.
+    pub fn put(&self, key: &Key, value: &Value) -> Result<(), CacheError> {
+        let path = self.path_for(key);
+        let payload = codec::encode(value);
+        let mut entry = Vec::with_capacity(HEADER_LEN + payload.len());
+        entry.extend_from_slice(MAGIC);
+        entry.extend_from_slice(&CODEC_VERSION.to_le_bytes());
+        entry.extend_from_slice(&(payload.len() as u64).to_le_bytes());
+        entry.extend_from_slice(blake3::hash(&payload).as_bytes());
+        entry.extend_from_slice(&payload);
+        write_atomic(&path, &entry).map_err(|source| CacheError::Io { path, source })
+    }
+
+    /// Removes least-recently-used entries until the store is under its limit.
+    pub fn evict(&self) -> Result<EvictionReport, CacheError> {
+        let mut entries: Vec<(SystemTime, u64, PathBuf)> = Vec::new();
+        let dirs = match fs::read_dir(&self.root) {
+            Ok(d) => d,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(EvictionReport::default()),
+            Err(source) => return Err(CacheError::Io { path: self.root.clone(), source }),
+        };
+        for dir in dirs.flatten() {
+            let Ok(files) = fs::read_dir(dir.path()) else { continue };
+            for f in files.flatten() {
+                let Ok(meta) = f.metadata() else { continue };
+                if !meta.is_file() {
+                    continue;
+                }
+                let path = f.path();
+                let is_tmp = path.to_string_lossy().contains(".tmp-");
+                let mtime = meta.modified().unwrap_or(SystemTime::UNIX_EPOCH);
+                // Temporary files older than an hour were left by a killed run.
+                if is_tmp {
+                    if mtime.elapsed().map(|e| e.as_secs() > 3600).unwrap_or(false) {
+                        let _ = fs::remove_file(&path);
+                    }
+                    continue;
+                }
+                entries.push((mtime, meta.len(), path));
+            }
+        }
+        let bytes_before: u64 = entries.iter().map(|e| e.1).sum();
+        let mut report = EvictionReport { entries: entries.len(), bytes_before, removed: 0, bytes_after: bytes_before };
+        if bytes_before <= self.limit_bytes {
+            return Ok(report);
+        }
+        entries.sort_by_key(|e| e.0);
+        for (_, len, path) in entries {
+            if report.bytes_after <= self.limit_bytes {
+                break;
+            }
+            if fs::remove_file(&path).is_ok() {
+                report.removed += 1;
+                report.bytes_after -= len;
+            }
+        }
+        Ok(report)
+    }
+}
+
+fn check_entry(bytes: &[u8]) -> Result<&[u8], String> {
+    if bytes.len() < HEADER_LEN {
+        return Err(format!("truncated header ({} bytes)", bytes.len()));
+    }
+    if &bytes[..8] != MAGIC {
+        return Err("bad magic".into());
+    }
+    let version = u32::from_le_bytes(bytes[8..12].try_into().expect("4 bytes"));
+    if version != CODEC_VERSION {
+        return Err(format!("codec version {version}, expected {CODEC_VERSION}"));
+    }
+    let len = u64::from_le_bytes(bytes[12..20].try_into().expect("8 bytes"));
+    let payload = &bytes[HEADER_LEN..];
+    if payload.len() as u64 != len {
+        return Err(format!("payload is {} bytes, header says {len}", payload.len()));
+    }
+    if blake3::hash(payload).as_bytes() != &bytes[20..52] {
+        return Err("checksum mismatch".into());
+    }
+    Ok(payload)
+}
+
+static TMP_COUNTER: AtomicU64 = AtomicU64::new(0);
+
+/// Writes `bytes` to `path` atomically: a uniquely named temporary file in the same folder,
+/// flushed, then renamed over `path`. A killed process leaves at most a `.tmp-` file behind.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    let dir = path.parent().unwrap_or_else(|| Path::new("."));
+    fs::create_dir_all(dir)?;
+    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let nanos = SystemTime::now().duration_since(SystemTime::UNIX_EPOCH).map(|d| d.as_nanos()).unwrap_or(0);
+    let tmp = dir.join(format!(
+        ".{name}.tmp-{}-{}-{nanos}",
+        std::process::id(),
+        TMP_COUNTER.fetch_add(1, Ordering::Relaxed)
+    ));
+    let result = (|| {
+        let mut f = fs::File::create(&tmp)?;
+        f.write_all(bytes)?;
+        f.sync_data()?;
+        drop(f);
+        fs::rename(&tmp, path)
+    })();
+    if result.is_err() {
+        let _ = fs::remove_file(&tmp);
+    }
+    result
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::data::Image;
+
+    fn store() -> (tempfile::TempDir, CacheStore) {
+        let dir = tempfile::tempdir().unwrap();
+        let s = CacheStore::new(dir.path(), DEFAULT_LIMIT_BYTES);
+        (dir, s)
+    }
+
+    #[test]
+    fn put_get_round_trip() {
+        let (_d, s) = store();
+        let key = [7u8; 32];
+        assert!(s.get(&key).unwrap().is_none());
+        s.put(&key, &Value::image(Image::new(2, 2, 3))).unwrap();
+        assert!(matches!(s.get(&key).unwrap(), Some(Value::Image(_))));
+    }
+
+    #[test]
+    fn corrupt_and_truncated_entries_are_errors_and_removed() {
+        let (_d, s) = store();
+        let key = [9u8; 32];
+        s.put(&key, &Value::image(Image::new(4, 4, 3))).unwrap();
+        let path = s.path_for(&key);
+        let mut bytes = fs::read(&path).unwrap();
+        let last = bytes.len() - 1;
+        bytes[last] ^= 0xff;
+        fs::write(&path, &bytes).unwrap();
+        assert!(matches!(s.get(&key), Err(CacheError::Corrupt { .. })));
+        assert!(!path.exists());
+        s.put(&key, &Value::image(Image::new(4, 4, 3))).unwrap();
+        let bytes = fs::read(&path).unwrap();
+        fs::write(&path, &bytes[..bytes.len() / 2]).unwrap();
+        assert!(matches!(s.get(&key), Err(CacheError::Corrupt { .. })));
+    }
+
+    #[test]
+    fn eviction_removes_least_recently_used_first() {
+        let dir = tempfile::tempdir().unwrap();
+        let s = CacheStore::new(dir.path(), 1);
+        let old = [1u8; 32];
+        let new = [2u8; 32];
+        s.put(&old, &Value::image(Image::new(8, 8, 3))).unwrap();
+        let f = fs::File::options().write(true).open(s.path_for(&old)).unwrap();
+        f.set_modified(SystemTime::UNIX_EPOCH + std::time::Duration::from_secs(1000)).unwrap();
+        s.put(&new, &Value::image(Image::new(8, 8, 3))).unwrap();
+        let size = fs::metadata(s.path_for(&new)).unwrap().len();
+        let s = CacheStore::new(dir.path(), size);
+        let report = s.evict().unwrap();
+        assert_eq!(report.removed, 1);
+        assert!(!s.contains(&old));
+        assert!(s.contains(&new));
+    }
+}

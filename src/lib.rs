@@ -1,0 +1,33 @@
+//! hdrflow: a node-graph engine for HDR image processing.
+//!
+//! - [`engine`]: pipeline files, validation, the parallel demand-driven scheduler, the cache.
+//! - [`ops`]: the built-in operators, one file each, grouped by domain.
+//! - [`data`], [`maths`], [`formats`], [`plotting`]: values, mathematics, file formats, plots.
+//!
+//! Running a pipeline from code:
+//! ```no_run
+//! use hdrflow::engine::{graph::Pipeline, registry::Registry, scheduler};
+//! let registry = Registry::with_builtins();
+//! let pipeline = Pipeline::load("graphs/example.ron".as_ref(), &registry, &[]).unwrap();
+//! let options = scheduler::RunOptions {
+//!     targets: vec![],
+//!     out_dir: "out".into(),
+//!     cache: None,
+//!     jobs: None,
+//!     observer: &scheduler::Silent,
+//! };
+//! let outcome = scheduler::run(&pipeline, &options).unwrap();
+//! println!("{} ms", outcome.report.total_ms);
+//! ```
+
+pub mod data;
+pub mod engine;
+pub mod formats;
+pub mod maths;
+pub mod ops;
+pub mod plotting;
+
+pub use engine::graph::{Override, Pipeline};
+pub use engine::op::{OpContext, OpError, OpSpec};
+pub use engine::registry::Registry;
+pub use engine::value::{Value, ValueType};

@@ -1,0 +1,560 @@
+//! 2D point sequences in [0, 1)^2 that drive the samplers: independent random, stratified,
+//! Owen-scrambled Sobol and scrambled Halton.
+//!
+//! Everything here is deterministic for a given `(sequence, count, seed)`, independent of the
+//! number of rayon threads: the random numbers come from a self-contained SplitMix64 generator
+//! (no dependency on `rand`'s API or its stream stability across versions), and the
+//! low-discrepancy points are pure functions of their index.
+//!
+//! Sources:
+//! - SplitMix64: G. Steele, D. Lea, C. Flood, "Fast Splittable Pseudorandom Number Generators",
+//!   OOPSLA 2014; constants as in S. Vigna's public-domain `splitmix64.c`.
+//! - Bounded integers: D. Lemire, "Fast Random Integer Generation in an Interval", ACM TOMACS 2019.
+//! - Sobol: I. M. Sobol' 1967; P. Bratley, B. L. Fox, "Algorithm 659", ACM TOMS 1988 (direction
+//!   numbers, Gray-code order of Antonov and Saleev 1979); S. Joe, F. Y. Kuo 2008 (dimension 2:
+//!   m = 1, 3, 5, 15, ...).
+//! - Owen scrambling: A. B. Owen 1995; S. Laine, T. Karras, "Stratified Sampling for Stochastic
+//!   Transparency", EGSR 2011 (hash permutation); B. Burley, "Practical Hash-based Owen
+//!   Scrambling", JCGT 9(4), 2020 (nested uniform scramble = reverse bits, LK hash, reverse bits).
+//! - Halton with random digit permutations: J. H. Halton 1960; pbrt-v3 `ScrambledRadicalInverse`
+//!   (Pharr, Jakob, Humphreys, *Physically Based Rendering* 3rd ed., section 7.4.2).
+
+use rayon::prelude::*;
+
+/// The largest f64 below 1: 1 - 2^-53.
+const ONE_MINUS_EPSILON: f64 = 1.0 - f64::EPSILON / 2.0;
+
+/// The point sequences `generate` knows.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Sequence {
+    /// Independent uniform points (SplitMix64).
+    Random,
+    /// Jittered k x k grid when the count is a perfect square, else Latin hypercube (N-rooks).
+    Stratified,
+    /// The 2D Sobol (0,2)-sequence, Owen-scrambled (Burley 2020).
+    Sobol,
+    /// Halton, bases 2 and 3, with seeded random digit permutations.
+    Halton,
+}
+
+/// The names of the sequences, in declaration order (as written in pipeline files).
+pub const NAMES: &[&str] = &["Random", "Stratified", "Sobol", "Halton"];
+
+/// The sequence called `name` (case-insensitive), or `None`.
+pub fn from_name(name: &str) -> Option<Sequence> {
+    Sequence::from_name(name)
+}
+
+impl Sequence {
+    /// Same as the module-level [`NAMES`].
+    pub const NAMES: &'static [&'static str] = NAMES;
+    pub const ALL: [Sequence; 4] =
+        [Sequence::Random, Sequence::Stratified, Sequence::Sobol, Sequence::Halton];
+
+    /// The sequence called `name` (case-insensitive), or `None`.
+    pub fn from_name(name: &str) -> Option<Sequence> {
+        Sequence::ALL.iter().copied().find(|s| s.name().eq_ignore_ascii_case(name.trim()))
+    }
+
+    /// The name as listed in [`NAMES`].
+    pub fn name(self) -> &'static str {
+        match self {
+            Sequence::Random => "Random",
+            Sequence::Stratified => "Stratified",
+            Sequence::Sobol => "Sobol",
+            Sequence::Halton => "Halton",
+        }
+    }
+}
+
+impl std::fmt::Display for Sequence {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// SplitMix64
+// ---------------------------------------------------------------------------------------------
+
+/// The SplitMix64 finaliser (a bijective 64-bit mix):
+/// `z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9; z = (z ^ (z >> 27)) * 0x94D049BB133111EB;
+/// z ^ (z >> 31)` (Steele, Lea, Flood 2014; Vigna's `splitmix64.c`).
+#[inline]
+pub fn mix64(mut z: u64) -> u64 {
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+/// A tiny, fully deterministic 64-bit generator: state += 0x9E3779B97F4A7C15 (the golden
+/// ratio in 0.64 fixed point), output `mix64(state)`. Period 2^64; passes BigCrush
+/// (Steele, Lea, Flood 2014). Used instead of `rand` so streams never change with a dependency.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct SplitMix64 {
+    state: u64,
+}
+
+impl SplitMix64 {
+    pub fn new(seed: u64) -> Self {
+        SplitMix64 { state: seed }
+    }
+
+    #[inline]
+    pub fn next_u64(&mut self) -> u64 {
+        self.state = self.state.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        mix64(self.state)
+    }
+
+    /// Uniform in [0, 1): the top 53 bits times 2^-53 (every value a multiple of 2^-53).
+    #[inline]
+    pub fn next_f64(&mut self) -> f64 {
+        (self.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
+    }
+
+    /// Uniform integer in [0, n) without modulo bias (Lemire 2019: multiply, keep the high
+    /// word, reject when the low word is below 2^64 mod n). `n == 0` returns 0.
+    pub fn below(&mut self, n: u64) -> u64 {
+        if n == 0 {
+            return 0;
+        }
+        let mut m = (self.next_u64() as u128) * (n as u128);
+        let mut low = m as u64;
+        if low < n {
+            let threshold = n.wrapping_neg() % n;
+            while low < threshold {
+                m = (self.next_u64() as u128) * (n as u128);
+                low = m as u64;
+            }
+        }
+        (m >> 64) as u64
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Generation
+// ---------------------------------------------------------------------------------------------
+
+/// `count` points of sequence `seq` in [0, 1)^2, deterministic for `(seq, count, seed)`
+/// whatever the number of threads.
+///
+/// - `Random`: independent points from `SplitMix64::new(seed)` (x then y for each point).
+/// - `Stratified`: if `count = k^2`, a jittered grid: point `(i, j)` (row-major, j outer) is
+///   `((i + u) / k, (j + v) / k)` with u, v uniform in [0, 1) — exactly one point per cell.
+///   Otherwise a Latin hypercube (N-rooks, McKay, Beckman, Conover 1979): point i is
+///   `((i + u) / N, (pi(i) + v) / N)` for one seeded random permutation pi (Fisher-Yates) —
+///   exactly one point in each of the N columns and each of the N rows. Points are not shuffled.
+/// - `Sobol`: `sobol_2d` (Gray-code order) with each dimension Owen-scrambled by Burley's
+///   hash-based nested uniform scramble with seeds derived from `seed`. The index is not
+///   shuffled, so every aligned block of 2^m points is a (0, m, 2)-net. Indices wrap at 2^32.
+/// - `Halton`: radical inverses in bases 2 and 3, each digit passed through a random
+///   permutation of {0..b-1} drawn per digit position from `seed` (random digit scrambling, as
+///   pbrt-v3's `ScrambledRadicalInverse`; not a Cranley-Patterson rotation). Index starts at 0.
+///
+/// All coordinates are clamped to at most 1 - 2^-53 so that none rounds to 1.0.
+pub fn generate(seq: Sequence, count: usize, seed: u64) -> Vec<[f64; 2]> {
+    match seq {
+        Sequence::Random => {
+            let mut rng = SplitMix64::new(seed);
+            (0..count).map(|_| [rng.next_f64(), rng.next_f64()]).collect()
+        }
+        Sequence::Stratified => stratified(count, seed),
+        Sequence::Sobol => {
+            let (s0, s1) = sobol_seeds(seed);
+            (0..count)
+                .into_par_iter()
+                .map(|i| {
+                    let [x, y] = sobol_2d_bits(i as u32);
+                    [
+                        bits_to_unit(nested_uniform_scramble(x, s0)),
+                        bits_to_unit(nested_uniform_scramble(y, s1)),
+                    ]
+                })
+                .collect()
+        }
+        Sequence::Halton => {
+            let perms2 = digit_permutations(2, HALTON_DIGITS_BASE2, mix64(seed ^ 0x4841_4C54_4F4E_0002));
+            let perms3 = digit_permutations(3, HALTON_DIGITS_BASE3, mix64(seed ^ 0x4841_4C54_4F4E_0003));
+            (0..count)
+                .into_par_iter()
+                .map(|i| {
+                    [
+                        scrambled_radical_inverse(i as u64, 2, &perms2),
+                        scrambled_radical_inverse(i as u64, 3, &perms3),
+                    ]
+                })
+                .collect()
+        }
+    }
+}
+
+/// Integer square root (floor), exact for all usize.
+fn isqrt(n: usize) -> usize {
+    let mut k = (n as f64).sqrt() as usize;
+    while k > 0 && k.checked_mul(k).map_or(true, |s| s > n) {
+        k -= 1;
+    }
+    while (k + 1).checked_mul(k + 1).is_some_and(|s| s <= n) {
+        k += 1;
+    }
+    k
+}
+
+/// `(cell + jitter) / strata`, kept below 1 (for k > 1 the sum can round up to k).
+#[inline]
+fn stratum_point(cell: usize, jitter: f64, strata: usize) -> f64 {
+    ((cell as f64 + jitter) / strata as f64).min(ONE_MINUS_EPSILON)
+}
+
+fn stratified(count: usize, seed: u64) -> Vec<[f64; 2]> {
+    let mut rng = SplitMix64::new(seed);
+    let k = isqrt(count);
+    if k * k == count {
+        let mut pts = Vec::with_capacity(count);
+        for j in 0..k {
+            for i in 0..k {
+                let u = rng.next_f64();
+                let v = rng.next_f64();
+                pts.push([stratum_point(i, u, k), stratum_point(j, v, k)]);
+            }
+        }
+        pts
+    } else {
+        // Latin hypercube: one random permutation of the rows (Fisher-Yates, Knuth TAOCP 3.4.2).
+        let mut perm: Vec<usize> = (0..count).collect();
+        for i in (1..count).rev() {
+            let j = rng.below(i as u64 + 1) as usize;
+            perm.swap(i, j);
+        }
+        (0..count)
+            .map(|i| {
+                let u = rng.next_f64();
+                let v = rng.next_f64();
+                [stratum_point(i, u, count), stratum_point(perm[i], v, count)]
+            })
+            .collect()
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Sobol
+// ---------------------------------------------------------------------------------------------
+
+/// Generator matrix (as 32 column words, most significant bit = 2^-1) of Sobol's second
+/// dimension: primitive polynomial x + 1 (degree 1), m_1 = 1, recurrence
+/// `m_k = 2 m_{k-1} XOR m_{k-1}` (Bratley and Fox 1988), direction numbers `v_k = m_k / 2^k`.
+/// In 32-bit fixed point `V_k = m_k << (32 - k)`, so `V_1 = 2^31` and
+/// `V_k = V_{k-1} XOR (V_{k-1} >> 1)` (m = 1, 3, 5, 15, 17, 51, ...: Pascal's triangle mod 2).
+const fn sobol_dim1_matrix() -> [u32; 32] {
+    let mut v = [0u32; 32];
+    v[0] = 1 << 31;
+    let mut k = 1;
+    while k < 32 {
+        v[k] = v[k - 1] ^ (v[k - 1] >> 1);
+        k += 1;
+    }
+    v
+}
+
+const SOBOL_DIM1: [u32; 32] = sobol_dim1_matrix();
+
+/// The i-th point of the unscrambled 2D Sobol sequence as 32-bit fractions, in Gray-code order
+/// (Antonov and Saleev 1979): with `g = i XOR (i >> 1)`,
+/// `x = XOR_k g_k 2^(31-k)` (= bit reversal of g: van der Corput base 2) and
+/// `y = XOR_k g_k V_{k+1}` (see `sobol_dim1_matrix`). Gray-code order permutes points only inside
+/// aligned blocks of 2^m, so every such block is the same (0, m, 2)-net as in natural order.
+#[inline]
+pub fn sobol_2d_bits(i: u32) -> [u32; 2] {
+    let g = i ^ (i >> 1);
+    let x = g.reverse_bits();
+    let mut y = 0u32;
+    let mut bits = g;
+    let mut k = 0;
+    while bits != 0 {
+        if bits & 1 != 0 {
+            y ^= SOBOL_DIM1[k];
+        }
+        bits >>= 1;
+        k += 1;
+    }
+    [x, y]
+}
+
+/// The i-th point of the unscrambled 2D Sobol sequence in [0, 1)^2 (seed-free; Gray-code order:
+/// (0, 0), (0.5, 0.5), (0.75, 0.25), (0.25, 0.75), ...).
+#[inline]
+pub fn sobol_2d(i: u32) -> [f64; 2] {
+    let [x, y] = sobol_2d_bits(i);
+    [bits_to_unit(x), bits_to_unit(y)]
+}
+
+/// A 32-bit fraction to [0, 1): `b * 2^-32` (exact).
+#[inline]
+fn bits_to_unit(b: u32) -> f64 {
+    b as f64 * (1.0 / 4_294_967_296.0)
+}
+
+/// Per-dimension 32-bit scramble seeds derived from the user seed (two independent mixes).
+fn sobol_seeds(seed: u64) -> (u32, u32) {
+    let a = mix64(seed ^ 0x534F_424F_4C00_0000);
+    let b = mix64(seed ^ 0x534F_424F_4C00_0001);
+    ((a >> 32) as u32, (b >> 32) as u32)
+}
+
+/// Laine and Karras' hash (EGSR 2011), as given by Burley 2020, listing 2: each output bit
+/// depends only on the input bits below it, so applied to bit-reversed values it is a nested
+/// (Owen) permutation:
+/// `x += seed; x ^= x*0x6c50b47c; x ^= x*0xb82f1e52; x ^= x*0xc7afe638; x ^= x*0x8d22f6e6`.
+#[inline]
+fn laine_karras_permutation(mut x: u32, seed: u32) -> u32 {
+    x = x.wrapping_add(seed);
+    x ^= x.wrapping_mul(0x6c50_b47c);
+    x ^= x.wrapping_mul(0xb82f_1e52);
+    x ^= x.wrapping_mul(0xc7af_e638);
+    x ^= x.wrapping_mul(0x8d22_f6e6);
+    x
+}
+
+/// Burley 2020, listing 3: `reverse_bits(laine_karras(reverse_bits(x), seed))` — a hash-based
+/// nested uniform (Owen) scramble of a 32-bit fraction.
+#[inline]
+pub fn nested_uniform_scramble(x: u32, seed: u32) -> u32 {
+    laine_karras_permutation(x.reverse_bits(), seed).reverse_bits()
+}
+
+// ---------------------------------------------------------------------------------------------
+// Halton
+// ---------------------------------------------------------------------------------------------
+
+/// Digits used per base: enough that base^-digits < 2^-53 (2^-53 and 3^-34 ~ 6e-17).
+const HALTON_DIGITS_BASE2: usize = 53;
+const HALTON_DIGITS_BASE3: usize = 34;
+
+/// One random permutation of {0, .., base-1} per digit position (Fisher-Yates).
+fn digit_permutations(base: u64, digits: usize, seed: u64) -> Vec<Vec<u8>> {
+    let mut rng = SplitMix64::new(seed);
+    (0..digits)
+        .map(|_| {
+            let mut p: Vec<u8> = (0..base as u8).collect();
+            for i in (1..p.len()).rev() {
+                let j = rng.below(i as u64 + 1) as usize;
+                p.swap(i, j);
+            }
+            p
+        })
+        .collect()
+}
+
+/// Scrambled radical inverse: `sum_{k>=1} perm_k(d_k(i)) b^-k`, over all `perms.len()` digit
+/// positions (the index's leading zeros are permuted too, as in pbrt-v3 — otherwise the points
+/// would not be a permutation of the strata), clamped below 1.
+fn scrambled_radical_inverse(mut index: u64, base: u64, perms: &[Vec<u8>]) -> f64 {
+    let inv_base = 1.0 / base as f64;
+    let mut scale = inv_base;
+    let mut v = 0.0f64;
+    for perm in perms {
+        let digit = (index % base) as usize;
+        index /= base;
+        v += perm[digit] as f64 * scale;
+        scale *= inv_base;
+    }
+    v.min(ONE_MINUS_EPSILON)
+}
+
+/// Unscrambled radical inverse `phi_b(i) = sum_k d_k(i) b^-k` (van der Corput for b = 2).
+pub fn radical_inverse(mut index: u64, base: u64) -> f64 {
+    let inv_base = 1.0 / base as f64;
+    let mut scale = inv_base;
+    let mut v = 0.0f64;
+    while index > 0 {
+        v += (index % base) as f64 * scale;
+        index /= base;
+        scale *= inv_base;
+    }
+    v.min(ONE_MINUS_EPSILON)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const SEQS: [Sequence; 4] = Sequence::ALL;
+
+    #[test]
+    fn names_round_trip() {
+        assert_eq!(NAMES.len(), Sequence::ALL.len());
+        for (s, n) in Sequence::ALL.iter().zip(NAMES) {
+            assert_eq!(s.name(), *n);
+            assert_eq!(from_name(n), Some(*s));
+            assert_eq!(from_name(&n.to_lowercase()), Some(*s));
+        }
+        assert_eq!(from_name("nope"), None);
+    }
+
+    #[test]
+    fn in_unit_square() {
+        for seq in SEQS {
+            for &n in &[0usize, 1, 2, 3, 4, 7, 16, 17, 100, 1000, 4096] {
+                let pts = generate(seq, n, 42);
+                assert_eq!(pts.len(), n);
+                for p in &pts {
+                    for &c in p {
+                        assert!((0.0..1.0).contains(&c), "{seq:?} {n}: {p:?}");
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn deterministic_and_seeded() {
+        for seq in SEQS {
+            let a = generate(seq, 777, 5);
+            let b = generate(seq, 777, 5);
+            assert_eq!(a, b);
+            let c = generate(seq, 777, 6);
+            assert_ne!(a, c, "{seq:?} ignores its seed");
+        }
+    }
+
+    #[test]
+    fn independent_of_thread_count() {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+        for seq in SEQS {
+            let one = pool.install(|| generate(seq, 5000, 9));
+            let many = generate(seq, 5000, 9);
+            assert_eq!(one, many, "{seq:?}");
+        }
+    }
+
+    #[test]
+    fn stratified_square_one_point_per_cell() {
+        for &k in &[1usize, 2, 4, 16] {
+            let pts = generate(Sequence::Stratified, k * k, 3);
+            let mut hits = vec![0u32; k * k];
+            for p in &pts {
+                let i = (p[0] * k as f64) as usize;
+                let j = (p[1] * k as f64) as usize;
+                hits[j * k + i] += 1;
+            }
+            assert!(hits.iter().all(|&h| h == 1), "k = {k}: {hits:?}");
+        }
+    }
+
+    #[test]
+    fn stratified_latin_hypercube_one_point_per_row_and_column() {
+        for &n in &[2usize, 3, 10, 99] {
+            let pts = generate(Sequence::Stratified, n, 11);
+            let mut cols = vec![0u32; n];
+            let mut rows = vec![0u32; n];
+            for p in &pts {
+                cols[(p[0] * n as f64) as usize] += 1;
+                rows[(p[1] * n as f64) as usize] += 1;
+            }
+            assert!(cols.iter().all(|&h| h == 1), "n = {n}");
+            assert!(rows.iter().all(|&h| h == 1), "n = {n}");
+        }
+    }
+
+    #[test]
+    fn sobol_first_points() {
+        let expect = [[0.0, 0.0], [0.5, 0.5], [0.75, 0.25], [0.25, 0.75]];
+        for (i, e) in expect.iter().enumerate() {
+            assert_eq!(sobol_2d(i as u32), *e, "point {i}");
+        }
+        assert_eq!(&SOBOL_DIM1[..4], &[0x8000_0000, 0xC000_0000, 0xA000_0000, 0xF000_0000]);
+    }
+
+    /// Every aligned block of 2^m points is a (0, m, 2)-net: one point in every elementary
+    /// interval [a/2^p, (a+1)/2^p) x [b/2^q, (b+1)/2^q) with p + q = m. Owen scrambling keeps it.
+    #[test]
+    fn sobol_is_a_02_net_scrambled_and_not() {
+        let m = 8u32;
+        let n = 1usize << m;
+        let scrambled = generate(Sequence::Sobol, 2 * n, 1234);
+        let plain: Vec<[f64; 2]> = (0..2 * n as u32).map(sobol_2d).collect();
+        for pts in [&scrambled[..n], &scrambled[n..], &plain[..n], &plain[n..]] {
+            for p in 0..=m {
+                let q = m - p;
+                let mut hits = vec![0u32; n];
+                for pt in pts {
+                    let a = (pt[0] * (1u64 << p) as f64) as usize;
+                    let b = (pt[1] * (1u64 << q) as f64) as usize;
+                    hits[(a << q) | b] += 1;
+                }
+                assert!(hits.iter().all(|&h| h == 1), "p = {p}, q = {q}");
+            }
+        }
+    }
+
+    #[test]
+    fn nested_scramble_is_a_bijection_on_prefixes() {
+        // A nested permutation maps the top-k-bit prefix consistently: equal prefixes in,
+        // equal prefixes out.
+        let s = 0xDEAD_BEEF;
+        for x in 0u32..1000 {
+            let a = nested_uniform_scramble(x << 20, s);
+            let b = nested_uniform_scramble((x << 20) | 0xFFFF, s);
+            assert_eq!(a >> 20, b >> 20);
+        }
+    }
+
+    #[test]
+    fn halton_unscrambled_matches_radical_inverse() {
+        assert_eq!(radical_inverse(1, 2), 0.5);
+        assert_eq!(radical_inverse(6, 2), 0.375);
+        assert!((radical_inverse(1, 3) - 1.0 / 3.0).abs() < 1e-15);
+        assert!((radical_inverse(5, 3) - (2.0 / 3.0 + 1.0 / 9.0)).abs() < 1e-15);
+    }
+
+    #[test]
+    fn halton_scrambled_stratifies() {
+        // 2^3 * 3^2 = 72 points: one per cell of an 8 x 9 grid.
+        let pts = generate(Sequence::Halton, 72, 77);
+        let mut hits = vec![0u32; 72];
+        for p in &pts {
+            let i = (p[0] * 8.0) as usize;
+            let j = (p[1] * 9.0) as usize;
+            hits[j * 8 + i] += 1;
+        }
+        assert!(hits.iter().all(|&h| h == 1), "{hits:?}");
+    }
+
+    /// Discrepancy proxy: the mean of x*y over [0,1]^2 is 1/4; quasi-random points get closer.
+    #[test]
+    fn sobol_integrates_xy_better_than_random() {
+        let n = 4096;
+        let err = |seq: Sequence| {
+            let pts = generate(seq, n, 2024);
+            let mean = pts.iter().map(|p| p[0] * p[1]).sum::<f64>() / n as f64;
+            (mean - 0.25).abs()
+        };
+        let sobol = err(Sequence::Sobol);
+        let random = err(Sequence::Random);
+        assert!(sobol < random, "sobol {sobol} vs random {random}");
+        assert!(sobol < 1e-3, "{sobol}");
+        let halton = err(Sequence::Halton);
+        assert!(halton < 2e-3, "{halton}");
+    }
+
+    #[test]
+    fn splitmix_reference_values() {
+        // Vigna's splitmix64.c seeded with 0: first output 0xE220A8397B1DCDAF.
+        let mut r = SplitMix64::new(0);
+        assert_eq!(r.next_u64(), 0xE220_A839_7B1D_CDAF);
+        let mut r = SplitMix64::new(1);
+        for _ in 0..10_000 {
+            assert!(r.below(7) < 7);
+            let f = r.next_f64();
+            assert!((0.0..1.0).contains(&f));
+        }
+    }
+
+    #[test]
+    fn isqrt_exact() {
+        for n in 0..10_000usize {
+            let k = isqrt(n);
+            assert!(k * k <= n && (k + 1) * (k + 1) > n, "{n}");
+        }
+    }
+}

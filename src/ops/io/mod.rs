@@ -1,0 +1,11 @@
+//! Reading and writing files.
+
+pub mod load_hdr;
+pub mod save;
+
+use crate::engine::registry::Registry;
+
+pub fn register(r: &mut Registry) {
+    r.register(&load_hdr::SPEC);
+    r.register(&save::SPEC);
+}

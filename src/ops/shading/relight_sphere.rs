@@ -1,0 +1,124 @@
+//! `RelightSphere(env, samples, size, albedo, view, estimator: Unbiased)`: a diffuse sphere seen
+//! orthographically from `view` = (theta, phi) in degrees, its silhouette inscribed in the
+//! `size` x `size` image, black background, lit by the environment through the given samples,
+//! shared by every pixel as in the seed.
+//!
+//! - `Unbiased`: Lo(n) = (albedo/pi) * (1/N) * sum_j L(w_j) max(n.w_j, 0) / pdf(w_j), the Monte
+//!   Carlo estimate of (albedo/pi) * integral of L(w) max(n.w, 0) dw. Its expectation is the
+//!   exact sum over texels that `ReferenceSphere` computes.
+//! - `Seed`: the seed's formula exactly, L = (integral of L dw / N) * sum_j (1/pi) max(cos, 0) V_j
+//!   with V_j = rgb_j / |rgb_j| (times albedo). The integral is that of the map's Rec. 709
+//!   luminance over the sphere. Against `Unbiased` with a luminance-proportional pdf (where
+//!   L/pdf = rgb/Y * integral), it replaces rgb/Y by rgb/|rgb|: for grey light |rgb| = sqrt(3) Y,
+//!   so the seed is sqrt(3) = 1.73x too dark, and its hue shifts towards the dominant channel.
+//!
+//! Samples that land on one texel are merged into one light of summed weight (exact: every
+//! pixel sees the same direction), pixels off the disc cost nothing, and samples behind a
+//! pixel's surface add nothing (max(cos, 0)).
+
+use std::f64::consts::PI;
+
+use crate::engine::op::{Default, FieldKind, FieldSpec, OpContext, OpError, OpSpec, OutputType};
+use crate::engine::value::{Value, ValueType};
+use crate::maths::latlong;
+use crate::maths::relight::{merge_duplicates, relight, LightSample, SphereView};
+
+pub static SPEC: OpSpec = OpSpec {
+    name: "RelightSphere",
+    category: "shading",
+    version: 1,
+    doc: "Relight a diffuse sphere with an environment through shared light samples",
+    fields: &[
+        FieldSpec::input("env", &[ValueType::Image], "the lat-long environment (linear RGB)"),
+        FieldSpec::input("samples", &[ValueType::Samples], "light samples (Sample), shared by every pixel"),
+        FieldSpec { name: "size", kind: FieldKind::Int { min: 1, max: 1 << 14 }, default: Default::Int(256), doc: "image width and height" },
+        FieldSpec {
+            name: "albedo",
+            kind: FieldKind::Tuple { len: 3, min: 0.0, max: 1.0 },
+            default: Default::Tuple(&[1.0, 1.0, 1.0]),
+            doc: "diffuse albedo (RGB)",
+        },
+        FieldSpec {
+            name: "view",
+            kind: FieldKind::Tuple { len: 2, min: -360.0, max: 360.0 },
+            default: Default::Tuple(&[90.0, 90.0]),
+            doc: "camera direction (theta, phi) in degrees, lat-long convention; the seed's is (90, 90)",
+        },
+        FieldSpec {
+            name: "estimator",
+            kind: FieldKind::Choice(&["Unbiased", "Seed"]),
+            default: Default::Choice("Unbiased"),
+            doc: "Unbiased: (albedo/pi) mean(L cos / pdf); Seed: the seed's formula exactly",
+        },
+    ],
+    output: OutputType::Fixed(ValueType::Image),
+    eval,
+    content_key: None,
+    check: None,
+};
+
+/// The integral of the map's Rec. 709 luminance over the sphere: sum of Y * texel solid angle.
+pub fn luminance_integral(env: &crate::data::Image) -> f64 {
+    (0..env.height)
+        .map(|y| {
+            let d_omega = latlong::texel_solid_angle(y, env.width, env.height);
+            let row: f64 = (0..env.width)
+                .map(|x| {
+                    let [r, g, b] = env.rgb(x, y);
+                    0.2126 * r as f64 + 0.7152 * g as f64 + 0.0722 * b as f64
+                })
+                .filter(|v| v.is_finite())
+                .sum();
+            row * d_omega
+        })
+        .sum()
+}
+
+fn eval(ctx: &OpContext) -> Result<Value, OpError> {
+    let env = ctx.image("env");
+    let set = ctx.samples("samples");
+    let size = ctx.params.usize("size");
+    let albedo = ctx.params.vec3("albedo");
+    let [vt, vp] = ctx.params.vec2("view");
+    let seed_estimator = ctx.params.text("estimator") == "Seed";
+    let same_grid = set.width as usize == env.width && set.height as usize == env.height;
+
+    let mut lights: Vec<(u32, LightSample)> = Vec::with_capacity(set.samples.len());
+    for s in &set.samples {
+        let (x, y) = if same_grid {
+            (s.x as usize, s.y as usize)
+        } else {
+            latlong::texel_of_direction([s.dir[0] as f64, s.dir[1] as f64, s.dir[2] as f64], env.width, env.height)
+        };
+        let rgb = env.rgb(x, y);
+        let weight = if seed_estimator {
+            let m = (rgb[0] as f64).hypot(rgb[1] as f64).hypot(rgb[2] as f64);
+            if m > 0.0 && m.is_finite() {
+                rgb.map(|c| (c as f64 / m) as f32)
+            } else {
+                [0.0; 3]
+            }
+        } else if s.pdf > 0.0 && s.pdf.is_finite() {
+            rgb.map(|c| (c as f64 / s.pdf as f64) as f32)
+        } else {
+            [0.0; 3]
+        };
+        if weight.iter().any(|w| !w.is_finite()) {
+            return Err(OpError::Invalid(format!(
+                "texel ({x}, {y}) gives a non-finite light weight {weight:?} (radiance {rgb:?}, pdf {})",
+                s.pdf
+            )));
+        }
+        lights.push(((y * env.width + x) as u32, LightSample { dir: s.dir, weight }));
+    }
+    let n = set.samples.len().max(1) as f64;
+    let merged = merge_duplicates(&lights);
+    let scale = if seed_estimator {
+        let integral = luminance_integral(env);
+        albedo.map(|a| (a * integral / (n * PI)) as f32)
+    } else {
+        albedo.map(|a| (a / (PI * n)) as f32)
+    };
+    let view = SphereView::new(size, latlong::direction_deg(vt, vp));
+    Ok(Value::image(relight(&view, &merged, scale)))
+}

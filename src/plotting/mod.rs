@@ -1,0 +1,3 @@
+//! Rendering data values to pictures (PNG and SVG plots).
+
+pub mod curves_plot;
