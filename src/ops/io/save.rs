@@ -51,6 +51,12 @@ pub static SPEC: OpSpec = OpSpec {
             doc: "exposure in stops applied before the sRGB transfer (.png only)",
         },
         FieldSpec {
+            name: "auto_exposure",
+            kind: FieldKind::Bool,
+            default: Default::Bool(false),
+            doc: "(.png) first scale so the 99.5th percentile of lit pixels' max channel maps to 1",
+        },
+        FieldSpec {
             name: "plot_size",
             kind: FieldKind::Tuple { len: 2, min: 64.0, max: 8192.0 },
             default: Default::Tuple(&[800.0, 500.0]),
@@ -102,8 +108,11 @@ fn eval(ctx: &OpContext) -> Result<Value, OpError> {
     let ext = extension(&rel_path);
     let fail = |m: String| OpError::Invalid(format!("encoding {rel_path}: {m}"));
     let bytes = match ctx.input("input") {
-        Value::Image(img) => encode_image(img, &ext, ctx.params.f64("exposure")).map_err(fail)?,
-        Value::Distribution(d) => encode_image(&pdf_image(d), &ext, ctx.params.f64("exposure")).map_err(fail)?,
+        Value::Image(img) => encode_image(img, &ext, exposure(ctx, img)).map_err(fail)?,
+        Value::Distribution(d) => {
+            let img = pdf_image(d);
+            encode_image(&img, &ext, exposure(ctx, &img)).map_err(fail)?
+        }
         Value::Samples(s) => match ext.as_str() {
             "csv" => samples_csv(s).into_bytes(),
             _ => samples_json(s).into_bytes(),
@@ -124,6 +133,25 @@ fn eval(ctx: &OpContext) -> Result<Value, OpError> {
         Value::File(_) => return Err(OpError::Invalid("cannot save a file value".into())),
     };
     Ok(Value::File(std::sync::Arc::new(FileBlob { rel_path, bytes })))
+}
+
+/// The exposure in stops for a PNG: the `exposure` field, plus with `auto_exposure` the stops
+/// that bring the 99.5th percentile of the non-black pixels' max channel to 1.0.
+fn exposure(ctx: &OpContext, img: &Image) -> f64 {
+    let mut stops = ctx.params.f64("exposure");
+    if ctx.params.bool("auto_exposure") {
+        let mut lit: Vec<f32> = (0..img.height)
+            .flat_map(|y| (0..img.width).map(move |x| (x, y)))
+            .map(|(x, y)| img.rgb(x, y).into_iter().fold(0.0f32, f32::max))
+            .filter(|v| *v > 0.0 && v.is_finite())
+            .collect();
+        if !lit.is_empty() {
+            let k = ((lit.len() - 1) as f64 * 0.995) as usize;
+            let (_, p, _) = lit.select_nth_unstable_by(k, f32::total_cmp);
+            stops -= (*p as f64).log2();
+        }
+    }
+    stops
 }
 
 fn encode_image(img: &Image, ext: &str, exposure: f64) -> Result<Vec<u8>, String> {
