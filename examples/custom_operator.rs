@@ -63,7 +63,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let image = hdrflow::formats::pfm::decode(&written)?;
     println!("Invert(white: 2.0) of (0.25, 0.5, 1.0) = {:?}", image.rgb(0, 0));
     assert_eq!(image.rgb(0, 0), [1.75, 1.5, 1.0]);
-    println!("ran {} nodes in {:.2} ms; wrote {}", outcome.report.nodes.len(), outcome.report.total_ms, out_dir.join("inverted.pfm").display());
+    println!(
+        "ran {} nodes in {:.2} ms; wrote {}",
+        outcome.report.nodes.len(),
+        outcome.report.total_ms,
+        out_dir.join("inverted.pfm").display()
+    );
     std::fs::remove_dir_all(&out_dir)?;
     Ok(())
 }

@@ -109,7 +109,12 @@ fn load(registry: &Registry, args: &GraphArgs) -> Result<Pipeline, ExitCode> {
         for e in &errors.0 {
             eprintln!("error: {e}");
         }
-        eprintln!("{} error{} in {}; nothing was run", errors.0.len(), if errors.0.len() == 1 { "" } else { "s" }, args.graph.display());
+        eprintln!(
+            "{} error{} in {}; nothing was run",
+            errors.0.len(),
+            if errors.0.len() == 1 { "" } else { "s" },
+            args.graph.display()
+        );
         ExitCode::from(2)
     })
 }
@@ -135,7 +140,8 @@ fn plan(registry: &Registry, args: &RunArgs) -> ExitCode {
                     NodeStatus::Cached => "cached",
                     NodeStatus::Skipped => "not needed",
                 };
-                let key = plan.keys[i].map(|k| hdrflow::engine::cache::key_hex(&k)[..16].to_string()).unwrap_or_default();
+                let key =
+                    plan.keys[i].map(|k| hdrflow::engine::cache::key_hex(&k)[..16].to_string()).unwrap_or_default();
                 println!("{:<24} {:<18} {:<10} {key}", n.name, n.spec.name, what);
             }
             ExitCode::SUCCESS
@@ -194,7 +200,12 @@ fn run(registry: &Registry, args: &RunArgs) -> ExitCode {
     if let Some(cache) = &options.cache {
         match cache.evict() {
             Ok(r) if r.removed > 0 && !args.quiet => {
-                eprintln!("cache: evicted {} entries ({} MiB -> {} MiB)", r.removed, r.bytes_before >> 20, r.bytes_after >> 20)
+                eprintln!(
+                    "cache: evicted {} entries ({} MiB -> {} MiB)",
+                    r.removed,
+                    r.bytes_before >> 20,
+                    r.bytes_after >> 20
+                )
             }
             Ok(_) => {}
             Err(e) => eprintln!("warning: cache eviction: {e}"),
@@ -223,10 +234,15 @@ fn ops(registry: &Registry, name: Option<&str>) -> ExitCode {
             category = spec.category;
             println!("== {category} ==");
         }
-        println!("{} (v{}) -> {}", spec.name, spec.version, match spec.output {
-            hdrflow::engine::op::OutputType::Fixed(t) => t.to_string(),
-            hdrflow::engine::op::OutputType::SameAsInput(f) => format!("same type as `{f}`"),
-        });
+        println!(
+            "{} (v{}) -> {}",
+            spec.name,
+            spec.version,
+            match spec.output {
+                hdrflow::engine::op::OutputType::Fixed(t) => t.to_string(),
+                hdrflow::engine::op::OutputType::SameAsInput(f) => format!("same type as `{f}`"),
+            }
+        );
         println!("    {}", spec.doc);
         for f in spec.fields {
             let default = match f.default {
@@ -236,7 +252,9 @@ fn ops(registry: &Registry, name: Option<&str>) -> ExitCode {
                 Default::Bool(v) => format!("default {v}"),
                 Default::Text(v) => format!("default {v:?}"),
                 Default::Choice(v) => format!("default {v}"),
-                Default::Tuple(v) => format!("default ({})", v.iter().map(|x| format!("{x:?}")).collect::<Vec<_>>().join(", ")),
+                Default::Tuple(v) => {
+                    format!("default ({})", v.iter().map(|x| format!("{x:?}")).collect::<Vec<_>>().join(", "))
+                }
             };
             println!("    {:<14} {:<40} {:<22} {}", f.name, f.kind.describe(), default, f.doc);
         }

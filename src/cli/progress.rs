@@ -75,7 +75,13 @@ impl Observer for Progress {
                 self.with_bar(|b| b.inc(1));
             }
         } else if r.status == NodeStatus::Computed {
-            eprintln!("[{:>8.1} ms] computed {} ({}) in {:.1} ms", self.start.elapsed().as_secs_f64() * 1e3, r.name, r.op, r.ms);
+            eprintln!(
+                "[{:>8.1} ms] computed {} ({}) in {:.1} ms",
+                self.start.elapsed().as_secs_f64() * 1e3,
+                r.name,
+                r.op,
+                r.ms
+            );
         }
     }
 

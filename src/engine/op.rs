@@ -19,9 +19,15 @@ pub enum FieldKind {
     /// The name of another node, whose output must have one of these types.
     Input(&'static [ValueType]),
     /// A number (integer literals are accepted), inclusive range.
-    Float { min: f64, max: f64 },
+    Float {
+        min: f64,
+        max: f64,
+    },
     /// An integer, inclusive range.
-    Int { min: i64, max: i64 },
+    Int {
+        min: i64,
+        max: i64,
+    },
     Bool,
     /// Free text.
     Text,
@@ -30,7 +36,11 @@ pub enum FieldKind {
     /// One of these bare identifiers, e.g. `Rec709`.
     Choice(&'static [&'static str]),
     /// A tuple of N numbers, each in the inclusive range, e.g. `(0.0, 1.0, 0.0)`.
-    Tuple { len: usize, min: f64, max: f64 },
+    Tuple {
+        len: usize,
+        min: f64,
+        max: f64,
+    },
 }
 
 impl FieldKind {
@@ -119,9 +129,7 @@ pub struct Params {
 
 impl Params {
     fn get(&self, name: &str) -> &ParamValue {
-        self.values
-            .get(name)
-            .unwrap_or_else(|| panic!("parameter {name:?} missing after validation"))
+        self.values.get(name).unwrap_or_else(|| panic!("parameter {name:?} missing after validation"))
     }
     pub fn f64(&self, name: &str) -> f64 {
         match self.get(name) {
@@ -195,13 +203,14 @@ pub struct OpContext<'a> {
     pub inputs: &'a BTreeMap<&'static str, Value>,
     /// The pipeline file's folder: relative paths are resolved against it.
     pub base_dir: &'a Path,
+    /// What `OpSpec::content_key` returned when the key was made (a loader checks that the
+    /// file it decodes is still the one its key names).
+    pub content_key: Option<&'a [u8]>,
 }
 
 impl<'a> OpContext<'a> {
     pub fn input(&self, field: &str) -> &Value {
-        self.inputs
-            .get(field)
-            .unwrap_or_else(|| panic!("input {field:?} missing after validation"))
+        self.inputs.get(field).unwrap_or_else(|| panic!("input {field:?} missing after validation"))
     }
     /// An `Image` or `ScalarField` input.
     pub fn image(&self, field: &str) -> &Arc<Image> {

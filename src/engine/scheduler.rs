@@ -109,10 +109,7 @@ fn resolve_targets(p: &Pipeline, targets: &[String]) -> Result<Vec<usize>, RunEr
     if targets.is_empty() {
         return Ok(p.default_targets());
     }
-    targets
-        .iter()
-        .map(|t| p.index_of(t).ok_or_else(|| RunError::UnknownTarget(t.clone())))
-        .collect()
+    targets.iter().map(|t| p.index_of(t).ok_or_else(|| RunError::UnknownTarget(t.clone()))).collect()
 }
 
 /// Marks every ancestor of `targets` (inclusive).
@@ -130,6 +127,15 @@ fn ancestors(p: &Pipeline, targets: &[usize]) -> Vec<bool> {
 
 /// Cache keys for every ancestor of the targets.
 pub fn compute_keys(p: &Pipeline, targets: &[usize]) -> Result<Vec<Option<Key>>, RunError> {
+    Ok(compute_keys_and_content(p, targets)?.0)
+}
+
+/// Cache keys for every ancestor of the targets, and the content-key bytes of loaders.
+#[allow(clippy::type_complexity)]
+fn compute_keys_and_content(
+    p: &Pipeline,
+    targets: &[usize],
+) -> Result<(Vec<Option<Key>>, Vec<Option<Vec<u8>>>), RunError> {
     let wanted = ancestors(p, targets);
     // Content keys (file hashes) first, in parallel.
     let content: Vec<Option<Vec<u8>>> = (0..p.nodes.len())
@@ -137,9 +143,11 @@ pub fn compute_keys(p: &Pipeline, targets: &[usize]) -> Result<Vec<Option<Key>>,
         .map(|i| {
             let node = &p.nodes[i];
             match (wanted[i], node.spec.content_key) {
-                (true, Some(f)) => f(&node.params, &p.base_dir)
-                    .map(Some)
-                    .map_err(|source| RunError::Op { node: node.name.clone(), op: node.spec.name, source }),
+                (true, Some(f)) => f(&node.params, &p.base_dir).map(Some).map_err(|source| RunError::Op {
+                    node: node.name.clone(),
+                    op: node.spec.name,
+                    source,
+                }),
                 _ => Ok(None),
             }
         })
@@ -154,7 +162,7 @@ pub fn compute_keys(p: &Pipeline, targets: &[usize]) -> Result<Vec<Option<Key>>,
             node.inputs.iter().map(|(f, &j)| (*f, keys[j].expect("inputs are keyed first"))).collect();
         keys[i] = Some(node_key(node, &input_keys, content[i].as_deref()));
     }
-    Ok(keys)
+    Ok((keys, content))
 }
 
 /// Plans a run: which nodes compute, which come from the cache, which are not needed.
@@ -233,7 +241,7 @@ fn run_in_pool(p: &Pipeline, options: &RunOptions) -> Result<RunOutcome, RunErro
     let obs = options.observer;
     let cache = options.cache.as_ref();
     let targets = resolve_targets(p, &options.targets)?;
-    let keys = compute_keys(p, &targets)?;
+    let (keys, content) = compute_keys_and_content(p, &targets)?;
     let n = p.nodes.len();
 
     let values: Vec<OnceLock<Value>> = (0..n).map(|_| OnceLock::new()).collect();
@@ -291,9 +299,8 @@ fn run_in_pool(p: &Pipeline, options: &RunOptions) -> Result<RunOutcome, RunErro
 
     // Dependency counts among the nodes to compute.
     let is_compute: Vec<bool> = (0..n).map(|i| status[i] == NodeStatus::Computed).collect();
-    let pending: Vec<AtomicUsize> = (0..n)
-        .map(|i| AtomicUsize::new(p.nodes[i].inputs.values().filter(|&&j| is_compute[j]).count()))
-        .collect();
+    let pending: Vec<AtomicUsize> =
+        (0..n).map(|i| AtomicUsize::new(p.nodes[i].inputs.values().filter(|&&j| is_compute[j]).count())).collect();
     let consumers: Vec<Vec<usize>> =
         (0..n).map(|i| p.consumers(i).into_iter().filter(|&c| is_compute[c]).collect()).collect();
     let abort = AtomicBool::new(false);
@@ -303,6 +310,7 @@ fn run_in_pool(p: &Pipeline, options: &RunOptions) -> Result<RunOutcome, RunErro
         p: &'s Pipeline,
         options: &'s RunOptions<'s>,
         keys: &'s [Option<Key>],
+        content: &'s [Option<Vec<u8>>],
         values: &'s [OnceLock<Value>],
         ms: &'s [Mutex<f64>],
         pending: &'s [AtomicUsize],
@@ -325,7 +333,13 @@ fn run_in_pool(p: &Pipeline, options: &RunOptions) -> Result<RunOutcome, RunErro
             .iter()
             .map(|(f, &j)| (*f, s.values[j].get().expect("inputs finish before consumers").clone()))
             .collect();
-        let ctx = OpContext { node: &node.name, params: &node.params, inputs: &inputs, base_dir: &s.p.base_dir };
+        let ctx = OpContext {
+            node: &node.name,
+            params: &node.params,
+            inputs: &inputs,
+            base_dir: &s.p.base_dir,
+            content_key: s.content[i].as_deref(),
+        };
         let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| (node.spec.eval)(&ctx)));
         let outcome = match result {
             Ok(Ok(v)) => Ok(v),
@@ -374,6 +388,7 @@ fn run_in_pool(p: &Pipeline, options: &RunOptions) -> Result<RunOutcome, RunErro
         p,
         options,
         keys: &keys,
+        content: &content,
         values: &values,
         ms: &ms,
         pending: &pending,
@@ -395,10 +410,8 @@ fn run_in_pool(p: &Pipeline, options: &RunOptions) -> Result<RunOutcome, RunErro
     }
 
     let nodes = (0..n).map(|i| node_report(p, i, status[i], *ms[i].lock().expect("timing lock"), &keys)).collect();
-    let target_values = targets
-        .iter()
-        .filter_map(|&t| values[t].get().map(|v| (p.nodes[t].name.clone(), v.clone())))
-        .collect();
+    let target_values =
+        targets.iter().filter_map(|&t| values[t].get().map(|v| (p.nodes[t].name.clone(), v.clone()))).collect();
     let mut written = written.into_inner().expect("written lock");
     written.sort();
     Ok(RunOutcome {

@@ -181,7 +181,13 @@ mod tests {
 
     #[test]
     fn all_builtins_exist_with_sizes_and_sane_values() {
-        let sizes = [("sky", 512, 256), ("constant", 64, 32), ("hemisphere", 64, 32), ("linear", 128, 64), ("studio", 512, 256)];
+        let sizes = [
+            ("sky", 512, 256),
+            ("constant", 64, 32),
+            ("hemisphere", 64, 32),
+            ("linear", 128, 64),
+            ("studio", 512, 256),
+        ];
         assert_eq!(BUILTINS.len(), sizes.len());
         for (name, w, h) in sizes {
             assert!(BUILTINS.iter().any(|(n, _)| *n == name));

@@ -102,9 +102,8 @@ fn decode_inner(bytes: &[u8]) -> Result<Image, FormatError> {
     if largest < PARALLEL_MIN_PIXELS {
         reader = reader.non_parallel();
     }
-    let image = reader
-        .from_buffered(Cursor::new(bytes))
-        .map_err(|e| FormatError(format!("EXR decoding failed: {e}")))?;
+    let image =
+        reader.from_buffered(Cursor::new(bytes)).map_err(|e| FormatError(format!("EXR decoding failed: {e}")))?;
 
     let layer = image.layer_data;
     let (w, h) = (layer.size.0, layer.size.1);
@@ -171,10 +170,7 @@ pub fn encode(image: &Image) -> Result<Vec<u8>, FormatError> {
     }
     let pixels = w * h;
     if image.data.len() != pixels * c {
-        return Err(FormatError(format!(
-            "image buffer has {} samples, expected {w}x{h}x{c}",
-            image.data.len()
-        )));
+        return Err(FormatError(format!("image buffer has {} samples, expected {w}x{h}x{c}", image.data.len())));
     }
     match catch_unwind(AssertUnwindSafe(|| encode_inner(image))) {
         Ok(result) => result,
@@ -201,9 +197,7 @@ fn encode_inner(image: &Image) -> Result<Vec<u8>, FormatError> {
     let mut out: Vec<u8> = Vec::new();
     let writer = exr_image.write();
     let writer = if w * h < PARALLEL_MIN_PIXELS { writer.non_parallel() } else { writer };
-    writer
-        .to_buffered(Cursor::new(&mut out))
-        .map_err(|e| FormatError(format!("EXR encoding failed: {e}")))?;
+    writer.to_buffered(Cursor::new(&mut out)).map_err(|e| FormatError(format!("EXR encoding failed: {e}")))?;
     Ok(out)
 }
 

@@ -50,9 +50,10 @@ fn token<'a>(bytes: &'a [u8], pos: &mut usize) -> Option<&'a [u8]> {
 
 fn parse_token<T: std::str::FromStr>(tok: Option<&[u8]>, what: &str) -> Result<T, FormatError> {
     let tok = tok.ok_or_else(|| err(format!("truncated PFM header (no {what})")))?;
-    std::str::from_utf8(tok).ok().and_then(|s| s.parse().ok()).ok_or_else(|| {
-        err(format!("bad PFM {what} {:?}", String::from_utf8_lossy(&tok[..tok.len().min(40)])))
-    })
+    std::str::from_utf8(tok)
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .ok_or_else(|| err(format!("bad PFM {what} {:?}", String::from_utf8_lossy(&tok[..tok.len().min(40)]))))
 }
 
 /// Decodes a PFM file: 3 channels for `PF`, 1 for `Pf`, row 0 at the top (the file's last row),
@@ -85,18 +86,13 @@ pub fn decode(bytes: &[u8]) -> Result<Image, FormatError> {
         .ok_or_else(|| err(format!("image too large: {width}x{height} pixels (limit {MAX_PIXELS})")))?;
     // pixels <= 2^28, so pixels * 3 * 4 fits in usize on 64-bit; checked for 32-bit targets.
     let samples = pixels * channels;
-    let need = samples
-        .checked_mul(4)
-        .ok_or_else(|| err(format!("image too large: {width}x{height} pixels")))?;
+    let need = samples.checked_mul(4).ok_or_else(|| err(format!("image too large: {width}x{height} pixels")))?;
     // Exactly one whitespace byte after the scale (or "\r\n", see the module docs).
     match bytes.get(pos) {
         Some(b) if b.is_ascii_whitespace() => pos += 1,
         _ => return Err(err("truncated PFM header (no whitespace byte after the scale)")),
     }
-    if bytes.get(pos - 1) == Some(&b'\r')
-        && bytes.get(pos) == Some(&b'\n')
-        && bytes.len() - pos == need + 1
-    {
+    if bytes.get(pos - 1) == Some(&b'\r') && bytes.get(pos) == Some(&b'\n') && bytes.len() - pos == need + 1 {
         pos += 1;
     }
     let payload = bytes.get(pos..).unwrap_or(&[]);

@@ -49,10 +49,7 @@ pub fn encode(image: &Image, exposure_stops: f64) -> Result<Vec<u8>, FormatError
     };
     let n = w.checked_mul(h).and_then(|p| p.checked_mul(c));
     if n != Some(image.data.len()) {
-        return Err(FormatError(format!(
-            "image buffer has {} samples, expected {w}x{h}x{c}",
-            image.data.len()
-        )));
+        return Err(FormatError(format!("image buffer has {} samples, expected {w}x{h}x{c}", image.data.len())));
     }
     let gain = exposure_stops.exp2();
     let mut bytes = vec![0u8; image.data.len()];
@@ -88,14 +85,31 @@ mod tests {
 
     #[test]
     fn encodes_and_decodes_back() {
-        let img = Image::from_vec(3, 2, 3, vec![
-            0.5, 0.0, f32::NAN, //
-            0.25, 1.0, 100.0, //
-            -1.0, f32::INFINITY, 0.0, //
-            0.0, 0.0, 0.0, //
-            1.0, 1.0, 1.0, //
-            0.5, 0.5, 0.5,
-        ]);
+        let img = Image::from_vec(
+            3,
+            2,
+            3,
+            vec![
+                0.5,
+                0.0,
+                f32::NAN, //
+                0.25,
+                1.0,
+                100.0, //
+                -1.0,
+                f32::INFINITY,
+                0.0, //
+                0.0,
+                0.0,
+                0.0, //
+                1.0,
+                1.0,
+                1.0, //
+                0.5,
+                0.5,
+                0.5,
+            ],
+        );
         let png = encode(&img, 0.0).unwrap();
         let back = image::load_from_memory(&png).unwrap().to_rgb8();
         assert_eq!(back.dimensions(), (3, 2));

@@ -165,11 +165,10 @@ fn parse_header(bytes: &[u8]) -> Result<Header, FormatError> {
     let mut exposure = 1.0f64;
     let resolution_line;
     loop {
-        let line = next_line(bytes, &mut pos)
-            .ok_or_else(|| err("truncated header (no empty line and resolution line)"))?;
+        let line =
+            next_line(bytes, &mut pos).ok_or_else(|| err("truncated header (no empty line and resolution line)"))?;
         if line.is_empty() {
-            resolution_line = next_line(bytes, &mut pos)
-                .ok_or_else(|| err("truncated header (no resolution line)"))?;
+            resolution_line = next_line(bytes, &mut pos).ok_or_else(|| err("truncated header (no resolution line)"))?;
             break;
         }
         // Leniency: a few writers omit the empty line before the resolution line.
@@ -224,13 +223,7 @@ fn truncated(y: usize) -> FormatError {
 }
 
 /// Decodes the four channel planes of a new-style RLE scanline into `planes` (4 * w bytes).
-fn decode_rle_planes(
-    data: &[u8],
-    pos: &mut usize,
-    planes: &mut [u8],
-    w: usize,
-    y: usize,
-) -> Result<(), FormatError> {
+fn decode_rle_planes(data: &[u8], pos: &mut usize, planes: &mut [u8], w: usize, y: usize) -> Result<(), FormatError> {
     const NAMES: [&str; 4] = ["R", "G", "B", "E"];
     for (c, plane) in planes.chunks_exact_mut(w).take(4).enumerate() {
         let mut x = 0usize;
@@ -378,10 +371,7 @@ pub fn decode(bytes: &[u8]) -> Result<Image, FormatError> {
     // bytes; old style: one pixel + one repeat code) at least 8. w, h <= 2^28: no overflow.
     let min_bytes = h * (4 * w).min(8);
     if data.len() < min_bytes {
-        return Err(err(format!(
-            "truncated: header claims {w}x{h} pixels but only {} bytes follow",
-            data.len()
-        )));
+        return Err(err(format!("truncated: header claims {w}x{h} pixels but only {} bytes follow", data.len())));
     }
     let table = exponent_table(hd.exposure);
     let rle_width = (8..=32767).contains(&w);
@@ -489,11 +479,7 @@ fn rle_plane(p: &[u8], out: &mut Vec<u8>) {
 
 fn encode_row(image: &Image, y: usize, rle: bool, max_value: f64) -> Vec<u8> {
     let (w, c) = (image.width, image.channels);
-    let row: &[f32] = if c == 0 {
-        &[]
-    } else {
-        image.data.get(y * w * c..(y + 1) * w * c).unwrap_or(&[])
-    };
+    let row: &[f32] = if c == 0 { &[] } else { image.data.get(y * w * c..(y + 1) * w * c).unwrap_or(&[]) };
     if rle {
         let mut planes = vec![0u8; 4 * w];
         for x in 0..w {
@@ -522,14 +508,10 @@ fn encode_row(image: &Image, y: usize, rle: bool, max_value: f64) -> Vec<u8> {
 /// Rows are encoded in parallel (rayon) and concatenated.
 pub fn encode(image: &Image) -> Vec<u8> {
     let (w, h) = (image.width, image.height);
-    let mut out = format!(
-        "#?RADIANCE\n# Written by hdrflow\nFORMAT=32-bit_rle_rgbe\n\n-Y {h} +X {w}\n"
-    )
-    .into_bytes();
+    let mut out = format!("#?RADIANCE\n# Written by hdrflow\nFORMAT=32-bit_rle_rgbe\n\n-Y {h} +X {w}\n").into_bytes();
     let rle = (8..=32767).contains(&w);
     let max_value = max_rgbe_value();
-    let rows: Vec<Vec<u8>> =
-        (0..h).into_par_iter().map(|y| encode_row(image, y, rle, max_value)).collect();
+    let rows: Vec<Vec<u8>> = (0..h).into_par_iter().map(|y| encode_row(image, y, rle, max_value)).collect();
     out.reserve(rows.iter().map(Vec::len).sum());
     for r in rows {
         out.extend_from_slice(&r);
@@ -557,15 +539,16 @@ mod tests {
 
     fn random_image(w: usize, h: usize, seed: u64) -> Image {
         let mut rng = Rng(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1);
-        let data = (0..w * h * 3)
-            .map(|_| {
-                if rng.unit() < 0.1 {
-                    0.0
-                } else {
-                    (2f64.powf(rng.unit() * 60.0 - 30.0) * (0.5 + rng.unit())) as f32
-                }
-            })
-            .collect();
+        let data =
+            (0..w * h * 3)
+                .map(|_| {
+                    if rng.unit() < 0.1 {
+                        0.0
+                    } else {
+                        (2f64.powf(rng.unit() * 60.0 - 30.0) * (0.5 + rng.unit())) as f32
+                    }
+                })
+                .collect();
         Image::from_vec(w, h, 3, data)
     }
 
@@ -618,12 +601,25 @@ mod tests {
 
     #[test]
     fn special_values_and_grey() {
-        let img = Image::from_vec(4, 1, 3, vec![
-            f32::NAN, -1.0, 1.0, //
-            f32::INFINITY, 0.0, 0.0, //
-            1e-40, 0.0, 0.0, //
-            -0.0, 2.0, 4.0,
-        ]);
+        let img = Image::from_vec(
+            4,
+            1,
+            3,
+            vec![
+                f32::NAN,
+                -1.0,
+                1.0, //
+                f32::INFINITY,
+                0.0,
+                0.0, //
+                1e-40,
+                0.0,
+                0.0, //
+                -0.0,
+                2.0,
+                4.0,
+            ],
+        );
         let back = decode(&encode(&img)).unwrap();
         assert_eq!(&back.data[0..3], &[0.0, 0.0, 1.0]);
         assert_eq!(back.data[3] as f64, max_rgbe_value());
@@ -837,9 +833,7 @@ EXPOSURE=2\nFORMAT=32-bit_rle_rgbe\n\n-Y 1 +X 2\n"
                 continue;
             };
             let ours = decode(&bytes).unwrap_or_else(|e| panic!("{name}: {e}"));
-            let theirs = image::load_from_memory_with_format(&bytes, image::ImageFormat::Hdr)
-                .unwrap()
-                .to_rgb32f();
+            let theirs = image::load_from_memory_with_format(&bytes, image::ImageFormat::Hdr).unwrap().to_rgb32f();
             assert_eq!((ours.width, ours.height), (theirs.width() as usize, theirs.height() as usize));
             let raw = theirs.into_raw();
             assert_eq!(ours.data.len(), raw.len());

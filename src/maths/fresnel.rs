@@ -42,11 +42,7 @@ pub fn reflectance(cos_i: f64, eta_i: f64, eta_t: f64) -> (f64, f64) {
     if eta_i == eta_t {
         return (0.0, 0.0);
     }
-    let cos_i = if cos_i.is_nan() {
-        0.0
-    } else {
-        cos_i.clamp(0.0, 1.0)
-    };
+    let cos_i = if cos_i.is_nan() { 0.0 } else { cos_i.clamp(0.0, 1.0) };
     let sin2_i = (1.0 - cos_i * cos_i).max(0.0);
     // Snell's law: sin_t = (eta_i / eta_t) sin_i.
     let ratio = eta_i / eta_t;
@@ -129,15 +125,7 @@ fn fmt_eta(eta: f64) -> String {
 pub fn fresnel_curves(eta_i: f64, eta_t: f64, steps: usize) -> Curves {
     let steps = steps.max(2);
     let last = (steps - 1) as f64;
-    let x: Vec<f64> = (0..steps)
-        .map(|k| {
-            if k == steps - 1 {
-                90.0
-            } else {
-                90.0 * k as f64 / last
-            }
-        })
-        .collect();
+    let x: Vec<f64> = (0..steps).map(|k| if k == steps - 1 { 90.0 } else { 90.0 * k as f64 / last }).collect();
     let mut rs = Vec::with_capacity(steps);
     let mut rp = Vec::with_capacity(steps);
     let mut r = Vec::with_capacity(steps);
@@ -154,20 +142,12 @@ pub fn fresnel_curves(eta_i: f64, eta_t: f64, steps: usize) -> Curves {
         markers.push((format!("critical {c:.2}°"), c));
     }
     Curves {
-        title: format!(
-            "Fresnel reflectance, eta {} -> {}",
-            fmt_eta(eta_i),
-            fmt_eta(eta_t)
-        ),
+        title: format!("Fresnel reflectance, eta {} -> {}", fmt_eta(eta_i), fmt_eta(eta_t)),
         x_name: "angles_deg".to_string(),
         x_label: "angle of incidence (degrees)".to_string(),
         y_label: "reflectance".to_string(),
         x,
-        series: vec![
-            ("rs".to_string(), rs),
-            ("rp".to_string(), rp),
-            ("r".to_string(), r),
-        ],
+        series: vec![("rs".to_string(), rs), ("rp".to_string(), rp), ("r".to_string(), r)],
         scalars: vec![
             ("eta_i".to_string(), Some(eta_i)),
             ("eta_t".to_string(), Some(eta_t)),
@@ -233,13 +213,7 @@ mod tests {
     /// eta_i cos_t), T = (eta_t cos_t) / (eta_i cos_i) t^2; R + T = 1 for each polarisation.
     #[test]
     fn energy_conservation_with_transmittance() {
-        for &(ei, et) in &[
-            (1.0, 1.5),
-            (1.5, 1.0),
-            (1.0, 2.4),
-            (1.33, 1.0),
-            (1.0, 1.000001),
-        ] {
+        for &(ei, et) in &[(1.0, 1.5), (1.5, 1.0), (1.0, 2.4), (1.33, 1.0), (1.0, 1.000001)] {
             let crit = critical_deg(ei, et).unwrap_or(90.0);
             for k in 0..400 {
                 let deg = crit * k as f64 / 400.0;
@@ -250,14 +224,8 @@ mod tests {
                 let tp = 2.0 * ei * ci / (et * ci + ei * ct);
                 let factor = (et * ct) / (ei * ci);
                 let (rs, rp) = reflectance(ci, ei, et);
-                assert!(
-                    (rs + factor * ts * ts - 1.0).abs() < 1e-12,
-                    "s {ei}->{et} {deg}"
-                );
-                assert!(
-                    (rp + factor * tp * tp - 1.0).abs() < 1e-12,
-                    "p {ei}->{et} {deg}"
-                );
+                assert!((rs + factor * ts * ts - 1.0).abs() < 1e-12, "s {ei}->{et} {deg}");
+                assert!((rp + factor * tp * tp - 1.0).abs() < 1e-12, "p {ei}->{et} {deg}");
             }
         }
     }
@@ -304,10 +272,7 @@ mod tests {
     fn huge_eta_is_a_mirror() {
         for k in 0..=90 {
             let (s, p) = r_at(k as f64, 1.0, 1e6);
-            assert!(
-                (0.0..=1.0).contains(&s) && (0.0..=1.0).contains(&p),
-                "{k} {s} {p}"
-            );
+            assert!((0.0..=1.0).contains(&s) && (0.0..=1.0).contains(&p), "{k} {s} {p}");
             assert!(s > 0.99999, "{k} {s}");
             if k < 89 {
                 assert!(p > 0.999, "{k} {p}");

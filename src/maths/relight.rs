@@ -49,11 +49,7 @@ fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
 
 #[inline]
 fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
+    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
 }
 
 #[inline]
@@ -86,12 +82,7 @@ impl SphereView {
         let right = normalised(cross(forward, up_hint)).unwrap_or([1.0, 0.0, 0.0]);
         // Re-orthogonalise so (right, up, view_dir) is orthonormal to rounding.
         let up = normalised(cross(right, forward)).unwrap_or(up_hint);
-        SphereView {
-            size,
-            forward,
-            right,
-            up,
-        }
+        SphereView { size, forward, right, up }
     }
 
     /// Unit direction from the sphere's centre towards the camera.
@@ -135,11 +126,7 @@ impl SphereView {
         let sz = (1.0 - r2).max(0.0).sqrt();
         let v = self.view_dir();
         let (r, u) = (self.right, self.up);
-        Some([
-            sx * r[0] + sy * u[0] + sz * v[0],
-            sx * r[1] + sy * u[1] + sz * v[1],
-            sx * r[2] + sy * u[2] + sz * v[2],
-        ])
+        Some([sx * r[0] + sy * u[0] + sz * v[0], sx * r[1] + sy * u[1] + sz * v[1], sx * r[2] + sy * u[2] + sz * v[2]])
     }
 }
 
@@ -171,11 +158,7 @@ impl Estimator {
             Estimator::Unbiased => 1.0 / (std::f64::consts::PI * n),
             Estimator::Seed => integral / (n * std::f64::consts::PI),
         };
-        [
-            (albedo[0] * k) as f32,
-            (albedo[1] * k) as f32,
-            (albedo[2] * k) as f32,
-        ]
+        [(albedo[0] * k) as f32, (albedo[1] * k) as f32, (albedo[2] * k) as f32]
     }
 }
 
@@ -193,11 +176,7 @@ impl LightSample {
     pub fn unbiased(dir: [f32; 3], radiance: [f32; 3], pdf: f32) -> LightSample {
         let weight = if pdf.is_finite() && pdf > 0.0 {
             let p = pdf as f64;
-            [
-                (radiance[0] as f64 / p) as f32,
-                (radiance[1] as f64 / p) as f32,
-                (radiance[2] as f64 / p) as f32,
-            ]
+            [(radiance[0] as f64 / p) as f32, (radiance[1] as f64 / p) as f32, (radiance[2] as f64 / p) as f32]
         } else {
             [0.0; 3]
         };
@@ -209,11 +188,7 @@ impl LightSample {
     pub fn seed(dir: [f32; 3], rgb: [f32; 3]) -> LightSample {
         let (r, g, b) = (rgb[0] as f64, rgb[1] as f64, rgb[2] as f64);
         let m = (r * r + g * g + b * b).sqrt();
-        let weight = if m > 0.0 && m.is_finite() {
-            [(r / m) as f32, (g / m) as f32, (b / m) as f32]
-        } else {
-            [0.0; 3]
-        };
+        let weight = if m > 0.0 && m.is_finite() { [(r / m) as f32, (g / m) as f32, (b / m) as f32] } else { [0.0; 3] };
         LightSample { dir, weight }
     }
 }
@@ -246,13 +221,7 @@ pub fn merge_duplicates(samples: &[(u32, LightSample)]) -> Vec<LightSample> {
             }
         }
     }
-    merged
-        .into_iter()
-        .map(|(dir, w)| LightSample {
-            dir,
-            weight: [w[0] as f32, w[1] as f32, w[2] as f32],
-        })
-        .collect()
+    merged.into_iter().map(|(dir, w)| LightSample { dir, weight: [w[0] as f32, w[1] as f32, w[2] as f32] }).collect()
 }
 
 /// Lights per block of the structure-of-arrays layout (one AVX or two SSE registers of f32).
@@ -298,11 +267,7 @@ struct LiveLights {
 
 impl LiveLights {
     fn new(lights: &[LightSample]) -> LiveLights {
-        let mut live = LiveLights {
-            dir: Vec::new(),
-            inv_len: Vec::new(),
-            weight: Vec::new(),
-        };
+        let mut live = LiveLights { dir: Vec::new(), inv_len: Vec::new(), weight: Vec::new() };
         for l in lights {
             let d = [l.dir[0] as f64, l.dir[1] as f64, l.dir[2] as f64];
             let len = dot(d, d).sqrt();
@@ -334,10 +299,7 @@ impl LiveLights {
         }
         let threshold = match normalised(sum) {
             Some(c) => {
-                let cos_t = normals
-                    .iter()
-                    .map(|(_, _, n)| dot(*n, c))
-                    .fold(1.0f64, f64::min);
+                let cos_t = normals.iter().map(|(_, _, n)| dot(*n, c)).fold(1.0f64, f64::min);
                 if cos_t > 0.0 {
                     Some((c, -((1.0 - cos_t * cos_t).max(0.0).sqrt() + CULL_MARGIN)))
                 } else {
@@ -351,8 +313,7 @@ impl LiveLights {
         for j in 0..self.dir.len() {
             let d = self.dir[j];
             if let Some((c, thr)) = threshold {
-                let dc = (d[0] as f64 * c[0] + d[1] as f64 * c[1] + d[2] as f64 * c[2])
-                    * self.inv_len[j];
+                let dc = (d[0] as f64 * c[0] + d[1] as f64 * c[1] + d[2] as f64 * c[2]) * self.inv_len[j];
                 if dc <= thr {
                     continue;
                 }
@@ -494,16 +455,9 @@ mod x86 {
                     _mm_mul_ps(nz, _mm_loadu_ps(b.dz.as_ptr().add(o))),
                 );
                 let c = _mm_max_ps(d, zero);
-                acc[half] =
-                    _mm_add_ps(acc[half], _mm_mul_ps(c, _mm_loadu_ps(b.wr.as_ptr().add(o))));
-                acc[2 + half] = _mm_add_ps(
-                    acc[2 + half],
-                    _mm_mul_ps(c, _mm_loadu_ps(b.wg.as_ptr().add(o))),
-                );
-                acc[4 + half] = _mm_add_ps(
-                    acc[4 + half],
-                    _mm_mul_ps(c, _mm_loadu_ps(b.wb.as_ptr().add(o))),
-                );
+                acc[half] = _mm_add_ps(acc[half], _mm_mul_ps(c, _mm_loadu_ps(b.wr.as_ptr().add(o))));
+                acc[2 + half] = _mm_add_ps(acc[2 + half], _mm_mul_ps(c, _mm_loadu_ps(b.wg.as_ptr().add(o))));
+                acc[4 + half] = _mm_add_ps(acc[4 + half], _mm_mul_ps(c, _mm_loadu_ps(b.wb.as_ptr().add(o))));
             }
         }
         let mut lanes = [[0.0f32; LANES]; 3];
@@ -534,12 +488,7 @@ pub fn relight(view: &SphereView, lights: &[LightSample], scale: [f32; 3]) -> Im
     relight_with(Kernel::detect(), view, lights, scale)
 }
 
-fn relight_with(
-    kernel: Kernel,
-    view: &SphereView,
-    lights: &[LightSample],
-    scale: [f32; 3],
-) -> Image {
+fn relight_with(kernel: Kernel, view: &SphereView, lights: &[LightSample], scale: [f32; 3]) -> Image {
     let size = view.size;
     let mut image = Image::new(size, size, 3);
     if size == 0 {
@@ -549,41 +498,37 @@ fn relight_with(
     if live.is_empty() {
         return image;
     }
-    image
-        .data
-        .par_chunks_mut(size * 3 * TILE)
-        .enumerate()
-        .for_each(|(band, rows)| {
-            let y0 = band * TILE;
-            let y1 = (y0 + TILE).min(size);
-            let mut normals: Vec<(usize, usize, [f64; 3])> = Vec::with_capacity(TILE * TILE);
-            let mut blocks: Vec<Block> = Vec::with_capacity(live.dir.len().div_ceil(LANES));
-            for x0 in (0..size).step_by(TILE) {
-                let x1 = (x0 + TILE).min(size);
-                normals.clear();
-                for py in y0..y1 {
-                    for px in x0..x1 {
-                        if let Some(n) = view.normal_at(px, py) {
-                            normals.push((px, py, n));
-                        }
+    image.data.par_chunks_mut(size * 3 * TILE).enumerate().for_each(|(band, rows)| {
+        let y0 = band * TILE;
+        let y1 = (y0 + TILE).min(size);
+        let mut normals: Vec<(usize, usize, [f64; 3])> = Vec::with_capacity(TILE * TILE);
+        let mut blocks: Vec<Block> = Vec::with_capacity(live.dir.len().div_ceil(LANES));
+        for x0 in (0..size).step_by(TILE) {
+            let x1 = (x0 + TILE).min(size);
+            normals.clear();
+            for py in y0..y1 {
+                for px in x0..x1 {
+                    if let Some(n) = view.normal_at(px, py) {
+                        normals.push((px, py, n));
                     }
                 }
-                if normals.is_empty() {
-                    continue;
-                }
-                live.pack_visible(&normals, &mut blocks);
-                if blocks.is_empty() {
-                    continue;
-                }
-                for &(px, py, n) in &normals {
-                    let c = accumulate(kernel, &blocks, [n[0] as f32, n[1] as f32, n[2] as f32]);
-                    let i = ((py - y0) * size + px) * 3;
-                    rows[i] = scale[0] * c[0];
-                    rows[i + 1] = scale[1] * c[1];
-                    rows[i + 2] = scale[2] * c[2];
-                }
             }
-        });
+            if normals.is_empty() {
+                continue;
+            }
+            live.pack_visible(&normals, &mut blocks);
+            if blocks.is_empty() {
+                continue;
+            }
+            for &(px, py, n) in &normals {
+                let c = accumulate(kernel, &blocks, [n[0] as f32, n[1] as f32, n[2] as f32]);
+                let i = ((py - y0) * size + px) * 3;
+                rows[i] = scale[0] * c[0];
+                rows[i + 1] = scale[1] * c[1];
+                rows[i + 2] = scale[2] * c[2];
+            }
+        }
+    });
     image
 }
 
@@ -620,15 +565,7 @@ mod tests {
     /// Pixels spread over the disc: centre, near the rim, off-axis.
     fn probe_pixels(size: usize) -> Vec<(usize, usize)> {
         let m = size / 2;
-        vec![
-            (m, m),
-            (m, 1),
-            (1, m),
-            (size - 2, m),
-            (m, size - 2),
-            (size / 4, size / 3),
-            (3 * size / 4, 2 * size / 3),
-        ]
+        vec![(m, m), (m, 1), (1, m), (size - 2, m), (m, size - 2), (size / 4, size / 3), (3 * size / 4, 2 * size / 3)]
     }
 
     #[test]
@@ -638,31 +575,16 @@ mod tests {
         let albedo = [0.8, 0.5, 0.3];
         let pdf = (1.0 / (4.0 * PI)) as f32;
         let dirs = fibonacci(1024);
-        let lights: Vec<LightSample> = dirs
-            .iter()
-            .map(|&d| LightSample::unbiased(d, radiance, pdf))
-            .collect();
-        for view_dir in [
-            latlong::direction_deg(90.0, 90.0),
-            [0.0, 0.0, 1.0],
-            [0.3, 0.8, -0.52],
-        ] {
+        let lights: Vec<LightSample> = dirs.iter().map(|&d| LightSample::unbiased(d, radiance, pdf)).collect();
+        for view_dir in [latlong::direction_deg(90.0, 90.0), [0.0, 0.0, 1.0], [0.3, 0.8, -0.52]] {
             let view = SphereView::new(size, view_dir);
-            let img = relight(
-                &view,
-                &lights,
-                Estimator::Unbiased.scale(albedo, lights.len(), 0.0),
-            );
+            let img = relight(&view, &lights, Estimator::Unbiased.scale(albedo, lights.len(), 0.0));
             for (px, py) in probe_pixels(size) {
                 assert!(view.normal_at(px, py).is_some());
                 let p = img.pixel(px, py);
                 for c in 0..3 {
                     let want = albedo[c] * radiance[c] as f64;
-                    assert!(
-                        ((p[c] as f64) - want).abs() < 0.01 * want,
-                        "({px},{py}) c{c}: {} vs {want}",
-                        p[c]
-                    );
+                    assert!(((p[c] as f64) - want).abs() < 0.01 * want, "({px},{py}) c{c}: {} vs {want}", p[c]);
                 }
             }
         }
@@ -675,25 +597,14 @@ mod tests {
         let m = (1.0f64 + 0.25 + 4.0).sqrt();
         let integral = 4.0 * PI * m; // int |rgb| dw over the sphere
         let albedo = [0.8, 0.5, 0.3];
-        let lights: Vec<LightSample> = fibonacci(1024)
-            .iter()
-            .map(|&d| LightSample::seed(d, rgb))
-            .collect();
+        let lights: Vec<LightSample> = fibonacci(1024).iter().map(|&d| LightSample::seed(d, rgb)).collect();
         let view = SphereView::new(size, latlong::direction_deg(90.0, 90.0));
-        let img = relight(
-            &view,
-            &lights,
-            Estimator::Seed.scale(albedo, lights.len(), integral),
-        );
+        let img = relight(&view, &lights, Estimator::Seed.scale(albedo, lights.len(), integral));
         for (px, py) in probe_pixels(size) {
             let p = img.pixel(px, py);
             for c in 0..3 {
                 let want = albedo[c] * rgb[c] as f64;
-                assert!(
-                    ((p[c] as f64) - want).abs() < 0.01 * want,
-                    "({px},{py}) c{c}: {} vs {want}",
-                    p[c]
-                );
+                assert!(((p[c] as f64) - want).abs() < 0.01 * want, "({px},{py}) c{c}: {} vs {want}", p[c]);
             }
         }
     }
@@ -709,11 +620,7 @@ mod tests {
             .map(|&d| LightSample::unbiased(d, if d[1] > 0.0 { [1.0; 3] } else { [0.0; 3] }, pdf))
             .collect();
         let view = SphereView::new(size, latlong::direction_deg(60.0, 30.0));
-        let img = relight(
-            &view,
-            &lights,
-            Estimator::Unbiased.scale([a; 3], lights.len(), 0.0),
-        );
+        let img = relight(&view, &lights, Estimator::Unbiased.scale([a; 3], lights.len(), 0.0));
         for py in 0..size {
             for px in 0..size {
                 if let Some(n) = view.normal_at(px, py) {
@@ -742,11 +649,7 @@ mod tests {
         assert!(close3(view.forward(), [0.0, 0.0, -1.0], 1e-15));
         // The camera at -X (theta = phi = 90 degrees) sees +Z on its right.
         let side = SphereView::new(16, latlong::direction_deg(90.0, 90.0));
-        assert!(
-            close3(side.right(), [0.0, 0.0, 1.0], 1e-12),
-            "{:?}",
-            side.right()
-        );
+        assert!(close3(side.right(), [0.0, 0.0, 1.0], 1e-12), "{:?}", side.right());
     }
 
     #[test]
@@ -764,10 +667,7 @@ mod tests {
             for a in [r, u, w] {
                 assert!((len(a) - 1.0).abs() < 1e-12, "{v:?}");
             }
-            assert!(
-                dot(r, u).abs() < 1e-12 && dot(r, w).abs() < 1e-12 && dot(u, w).abs() < 1e-12,
-                "{v:?}"
-            );
+            assert!(dot(r, u).abs() < 1e-12 && dot(r, w).abs() < 1e-12 && dot(u, w).abs() < 1e-12, "{v:?}");
             // right = forward x up
             assert!(close3(cross(view.forward(), u), r, 1e-12), "{v:?}");
         }
@@ -796,9 +696,7 @@ mod tests {
         let frac = on as f64 / (32.0 * 32.0);
         assert!((frac - PI / 4.0).abs() < 0.03, "{frac}");
         assert!(view.normal_at(0, 0).is_none());
-        assert!(SphereView::new(0, [0.0, 0.0, 1.0])
-            .normal_at(0, 0)
-            .is_none());
+        assert!(SphereView::new(0, [0.0, 0.0, 1.0]).normal_at(0, 0).is_none());
     }
 
     #[test]
@@ -816,13 +714,8 @@ mod tests {
     #[test]
     fn off_disc_pixels_are_exactly_zero() {
         let size = 48;
-        let lights: Vec<LightSample> = fibonacci(100)
-            .iter()
-            .map(|&d| LightSample {
-                dir: d,
-                weight: [5.0, 6.0, 7.0],
-            })
-            .collect();
+        let lights: Vec<LightSample> =
+            fibonacci(100).iter().map(|&d| LightSample { dir: d, weight: [5.0, 6.0, 7.0] }).collect();
         let view = SphereView::new(size, [0.2, 0.3, 0.9]);
         let img = relight(&view, &lights, [1.0, 1.0, 1.0]);
         assert_eq!((img.width, img.height, img.channels), (size, size, 3));
@@ -845,17 +738,11 @@ mod tests {
     fn back_facing_light_adds_nothing_front_light_is_cosine() {
         let size = 65;
         let view = SphereView::new(size, [0.0, 0.0, 1.0]);
-        let behind = [LightSample {
-            dir: [0.0, 0.0, -1.0],
-            weight: [1.0; 3],
-        }];
+        let behind = [LightSample { dir: [0.0, 0.0, -1.0], weight: [1.0; 3] }];
         let img = relight(&view, &behind, [1.0; 3]);
         assert!(img.data.iter().all(|&v| v == 0.0));
 
-        let front = [LightSample {
-            dir: [0.0, 0.0, 1.0],
-            weight: [2.0, 3.0, 4.0],
-        }];
+        let front = [LightSample { dir: [0.0, 0.0, 1.0], weight: [2.0, 3.0, 4.0] }];
         let img = relight(&view, &front, [0.5, 0.5, 0.5]);
         assert_eq!(img.pixel(32, 32), &[1.0f32, 1.5, 2.0][..]);
         for py in 0..size {
@@ -871,23 +758,8 @@ mod tests {
     #[test]
     fn merged_duplicates_render_the_same() {
         let dirs = fibonacci(10);
-        let mk = |i: usize, w: f32| {
-            (
-                i as u32,
-                LightSample {
-                    dir: dirs[i],
-                    weight: [w, 2.0 * w, 0.5],
-                },
-            )
-        };
-        let samples = vec![
-            mk(3, 1.0),
-            mk(7, 2.0),
-            mk(3, 1.0),
-            mk(3, 1.0),
-            mk(1, 0.25),
-            mk(7, 2.0),
-        ];
+        let mk = |i: usize, w: f32| (i as u32, LightSample { dir: dirs[i], weight: [w, 2.0 * w, 0.5] });
+        let samples = vec![mk(3, 1.0), mk(7, 2.0), mk(3, 1.0), mk(3, 1.0), mk(1, 0.25), mk(7, 2.0)];
         let merged = merge_duplicates(&samples);
         assert_eq!(merged.len(), 3);
         assert_eq!(merged[0].dir, dirs[3]);
@@ -909,20 +781,11 @@ mod tests {
     fn light_constructors() {
         let l = LightSample::unbiased([0.0, 1.0, 0.0], [1.0, 2.0, 3.0], 0.5);
         assert_eq!(l.weight, [2.0, 4.0, 6.0]);
-        assert_eq!(
-            LightSample::unbiased([0.0, 1.0, 0.0], [1.0; 3], 0.0).weight,
-            [0.0; 3]
-        );
-        assert_eq!(
-            LightSample::unbiased([0.0, 1.0, 0.0], [1.0; 3], f32::NAN).weight,
-            [0.0; 3]
-        );
+        assert_eq!(LightSample::unbiased([0.0, 1.0, 0.0], [1.0; 3], 0.0).weight, [0.0; 3]);
+        assert_eq!(LightSample::unbiased([0.0, 1.0, 0.0], [1.0; 3], f32::NAN).weight, [0.0; 3]);
         let s = LightSample::seed([0.0, 1.0, 0.0], [3.0, 0.0, 4.0]);
         assert_eq!(s.weight, [0.6, 0.0, 0.8]);
-        assert_eq!(
-            LightSample::seed([0.0, 1.0, 0.0], [0.0; 3]).weight,
-            [0.0; 3]
-        );
+        assert_eq!(LightSample::seed([0.0, 1.0, 0.0], [0.0; 3]).weight, [0.0; 3]);
         assert_eq!(Estimator::Unbiased.scale([1.0; 3], 0, 1.0), [0.0; 3]);
         let k = Estimator::Seed.scale([PI; 3], 4, 8.0);
         assert!((k[0] - 2.0).abs() < 1e-6);
@@ -964,12 +827,7 @@ mod tests {
             .map(|i| {
                 let d = if i % 3 == 0 {
                     let j = rng.dir();
-                    normalised([
-                        sun[0] + 0.02 * j[0],
-                        sun[1] + 0.02 * j[1],
-                        sun[2] + 0.02 * j[2],
-                    ])
-                    .unwrap()
+                    normalised([sun[0] + 0.02 * j[0], sun[1] + 0.02 * j[1], sun[2] + 0.02 * j[2]]).unwrap()
                 } else {
                     rng.dir()
                 };
@@ -992,18 +850,10 @@ mod tests {
         #[cfg(target_arch = "x86_64")]
         {
             let sse = relight_with(Kernel::Sse2, &view, &lights, scale);
-            assert!(sse
-                .data
-                .iter()
-                .zip(&reference.data)
-                .all(|(a, b)| a.to_bits() == b.to_bits()));
+            assert!(sse.data.iter().zip(&reference.data).all(|(a, b)| a.to_bits() == b.to_bits()));
             if is_x86_feature_detected!("avx") {
                 let avx = relight_with(Kernel::Avx, &view, &lights, scale);
-                assert!(avx
-                    .data
-                    .iter()
-                    .zip(&reference.data)
-                    .all(|(a, b)| a.to_bits() == b.to_bits()));
+                assert!(avx.data.iter().zip(&reference.data).all(|(a, b)| a.to_bits() == b.to_bits()));
             }
         }
         assert_eq!(relight(&view, &lights, scale).data, reference.data);
@@ -1015,12 +865,7 @@ mod tests {
     fn culled_render_matches_f64_brute_force() {
         let lights = mixed_lights(600);
         let scale = [1.0f32, 1.0, 1.0];
-        for view_dir in [
-            [0.4, 0.7, -0.6],
-            [-0.4, -0.7, 0.6],
-            [0.6, 0.0, 0.4],
-            [0.0, 0.0, 1.0],
-        ] {
+        for view_dir in [[0.4, 0.7, -0.6], [-0.4, -0.7, 0.6], [0.6, 0.0, 0.4], [0.0, 0.0, 1.0]] {
             let view = SphereView::new(70, view_dir);
             let img = relight(&view, &lights, scale);
             for py in 0..70 {
@@ -1058,13 +903,8 @@ mod tests {
     #[test]
     #[ignore]
     fn relight_timing() {
-        let lights: Vec<LightSample> = fibonacci(1024)
-            .iter()
-            .map(|&d| LightSample {
-                dir: d,
-                weight: [1.0, 0.9, 0.8],
-            })
-            .collect();
+        let lights: Vec<LightSample> =
+            fibonacci(1024).iter().map(|&d| LightSample { dir: d, weight: [1.0, 0.9, 0.8] }).collect();
         let view = SphereView::new(512, latlong::direction_deg(90.0, 90.0));
         let _ = relight(&view, &lights, [1.0; 3]);
         let runs = 10;
@@ -1072,9 +912,6 @@ mod tests {
         for _ in 0..runs {
             std::hint::black_box(relight(&view, &lights, [1.0; 3]));
         }
-        eprintln!(
-            "relight 512x512 x 1024 lights: {:.2} ms",
-            t.elapsed().as_secs_f64() * 1e3 / runs as f64
-        );
+        eprintln!("relight 512x512 x 1024 lights: {:.2} ms", t.elapsed().as_secs_f64() * 1e3 / runs as f64);
     }
 }

@@ -48,8 +48,7 @@ pub fn from_name(name: &str) -> Option<Sequence> {
 impl Sequence {
     /// Same as the module-level [`NAMES`].
     pub const NAMES: &'static [&'static str] = NAMES;
-    pub const ALL: [Sequence; 4] =
-        [Sequence::Random, Sequence::Stratified, Sequence::Sobol, Sequence::Halton];
+    pub const ALL: [Sequence; 4] = [Sequence::Random, Sequence::Stratified, Sequence::Sobol, Sequence::Halton];
 
     /// The sequence called `name` (case-insensitive), or `None`.
     pub fn from_name(name: &str) -> Option<Sequence> {
@@ -165,10 +164,7 @@ pub fn generate(seq: Sequence, count: usize, seed: u64) -> Vec<[f64; 2]> {
                 .into_par_iter()
                 .map(|i| {
                     let [x, y] = sobol_2d_bits(i as u32);
-                    [
-                        bits_to_unit(nested_uniform_scramble(x, s0)),
-                        bits_to_unit(nested_uniform_scramble(y, s1)),
-                    ]
+                    [bits_to_unit(nested_uniform_scramble(x, s0)), bits_to_unit(nested_uniform_scramble(y, s1))]
                 })
                 .collect()
         }
@@ -178,10 +174,7 @@ pub fn generate(seq: Sequence, count: usize, seed: u64) -> Vec<[f64; 2]> {
             (0..count)
                 .into_par_iter()
                 .map(|i| {
-                    [
-                        scrambled_radical_inverse(i as u64, 2, &perms2),
-                        scrambled_radical_inverse(i as u64, 3, &perms3),
-                    ]
+                    [scrambled_radical_inverse(i as u64, 2, &perms2), scrambled_radical_inverse(i as u64, 3, &perms3)]
                 })
                 .collect()
         }

@@ -22,10 +22,7 @@ use crate::data::curves::Curves;
 const FONT: &str = "sans-serif";
 
 /// DejaVu Sans (licence in `assets/fonts/DejaVuSans-LICENSE.txt`).
-static FONT_BYTES: &[u8] = include_bytes!(concat!(
-    env!("CARGO_MANIFEST_DIR"),
-    "/assets/fonts/DejaVuSans.ttf"
-));
+static FONT_BYTES: &[u8] = include_bytes!(concat!(env!("CARGO_MANIFEST_DIR"), "/assets/fonts/DejaVuSans.ttf"));
 
 /// Largest accepted width or height, and pixel count, of a plot.
 const MAX_SIDE: u32 = 16384;
@@ -59,14 +56,10 @@ fn ensure_font() -> Result<(), String> {
 
 fn check_size(width: u32, height: u32) -> Result<(), String> {
     if width == 0 || height == 0 || width > MAX_SIDE || height > MAX_SIDE {
-        return Err(format!(
-            "plot size {width}x{height}: each side must be in 1..={MAX_SIDE}"
-        ));
+        return Err(format!("plot size {width}x{height}: each side must be in 1..={MAX_SIDE}"));
     }
     if width as u64 * height as u64 > MAX_PIXELS {
-        return Err(format!(
-            "plot size {width}x{height}: more than {MAX_PIXELS} pixels"
-        ));
+        return Err(format!("plot size {width}x{height}: more than {MAX_PIXELS} pixels"));
     }
     Ok(())
 }
@@ -126,12 +119,10 @@ fn y_range(curves: &Curves) -> (f64, f64) {
 }
 
 fn finite_min_max(values: impl Iterator<Item = f64>) -> Option<(f64, f64)> {
-    values
-        .filter(|v| v.is_finite())
-        .fold(None, |acc, v| match acc {
-            None => Some((v, v)),
-            Some((lo, hi)) => Some((lo.min(v), hi.max(v))),
-        })
+    values.filter(|v| v.is_finite()).fold(None, |acc, v| match acc {
+        None => Some((v, v)),
+        Some((lo, hi)) => Some((lo.min(v), hi.max(v))),
+    })
 }
 
 fn widen(range: Option<(f64, f64)>, fallback: (f64, f64)) -> (f64, f64) {
@@ -139,11 +130,7 @@ fn widen(range: Option<(f64, f64)>, fallback: (f64, f64)) -> (f64, f64) {
         None => fallback,
         Some((lo, hi)) if hi > lo && (hi - lo).is_finite() => (lo, hi),
         Some((lo, _)) => {
-            let half = if lo == 0.0 {
-                0.5
-            } else {
-                0.5 * lo.abs().max(1e-300)
-            };
+            let half = if lo == 0.0 { 0.5 } else { 0.5 * lo.abs().max(1e-300) };
             (lo - half, lo + half)
         }
     }
@@ -174,16 +161,11 @@ fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, curves: &Curves) -> R
     let (y0, y1) = y_range(curves);
 
     let mut builder = ChartBuilder::on(root);
-    builder
-        .margin(15)
-        .x_label_area_size(45)
-        .y_label_area_size(60);
+    builder.margin(15).x_label_area_size(45).y_label_area_size(60);
     if !curves.title.is_empty() {
         builder.caption(curves.title.as_str(), (FONT, 20));
     }
-    let mut chart = builder
-        .build_cartesian_2d(x0..x1, y0..y1)
-        .map_err(area_err)?;
+    let mut chart = builder.build_cartesian_2d(x0..x1, y0..y1).map_err(area_err)?;
 
     chart
         .configure_mesh()
@@ -201,15 +183,10 @@ fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, curves: &Curves) -> R
         let style = color.stroke_width(2);
         let runs = finite_runs(&curves.x, ys);
         chart
-            .draw_series(
-                runs.into_iter()
-                    .map(move |run| PathElement::new(run, style)),
-            )
+            .draw_series(runs.into_iter().map(move |run| PathElement::new(run, style)))
             .map_err(area_err)?
             .label(name.as_str())
-            .legend(move |(x, y)| {
-                PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2))
-            });
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2)));
     }
 
     // Markers: dashed vertical lines, labels staggered downwards so neighbours do not overlap,
@@ -221,27 +198,14 @@ fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, curves: &Curves) -> R
             continue;
         }
         chart
-            .draw_series(DashedLineSeries::new(
-                vec![(mx, y0), (mx, y1)],
-                6,
-                4,
-                marker_color.stroke_width(1),
-            ))
+            .draw_series(DashedLineSeries::new(vec![(mx, y0), (mx, y1)], 6, 4, marker_color.stroke_width(1)))
             .map_err(area_err)?;
         let right_side = mx > x0 + 0.75 * (x1 - x0);
-        let (dx, h_pos) = if right_side {
-            (-5, HPos::Right)
-        } else {
-            (5, HPos::Left)
-        };
+        let (dx, h_pos) = if right_side { (-5, HPos::Right) } else { (5, HPos::Left) };
         let dy = 5 + 18 * (k as i32 % 4);
-        let text_style = TextStyle::from((FONT, 13).into_font())
-            .color(&BLACK)
-            .pos(Pos::new(h_pos, VPos::Top));
+        let text_style = TextStyle::from((FONT, 13).into_font()).color(&BLACK).pos(Pos::new(h_pos, VPos::Top));
         chart
-            .draw_series(std::iter::once(
-                EmptyElement::at((mx, y1)) + Text::new(label.clone(), (dx, dy), text_style),
-            ))
+            .draw_series(std::iter::once(EmptyElement::at((mx, y1)) + Text::new(label.clone(), (dx, dy), text_style)))
             .map_err(area_err)?;
     }
 
@@ -270,10 +234,7 @@ mod tests {
             x_label: "x label".into(),
             y_label: "y label".into(),
             x: vec![0.0, 1.0, 2.0, 3.0],
-            series: vec![
-                ("a".into(), vec![0.0, 0.5, 0.25, 1.0]),
-                ("b".into(), vec![1.0, f64::NAN, 0.5, 0.0]),
-            ],
+            series: vec![("a".into(), vec![0.0, 0.5, 0.25, 1.0]), ("b".into(), vec![1.0, f64::NAN, 0.5, 0.0])],
             scalars: vec![],
             markers: vec![("mark one".into(), 1.5), ("outside".into(), 10.0)],
         }
@@ -282,9 +243,7 @@ mod tests {
     #[test]
     fn png_decodes_to_size_and_is_not_blank() {
         let png = plot_png(&fresnel_curves(1.0, 1.5, 91), 640, 480).unwrap();
-        let img = image::load_from_memory_with_format(&png, image::ImageFormat::Png)
-            .unwrap()
-            .to_rgb8();
+        let img = image::load_from_memory_with_format(&png, image::ImageFormat::Png).unwrap().to_rgb8();
         assert_eq!(img.dimensions(), (640, 480));
         let white = img.pixels().filter(|p| p.0 == [255, 255, 255]).count();
         let total = 640 * 480;
@@ -327,10 +286,7 @@ mod tests {
         let png = plot_png(&c, 400, 300).unwrap();
         assert!(!png.is_empty());
         let (lo, hi) = y_range(&c);
-        assert!(
-            (lo + 0.375).abs() < 1e-12 && (hi - 7.875).abs() < 1e-12,
-            "{lo} {hi}"
-        );
+        assert!((lo + 0.375).abs() < 1e-12 && (hi - 7.875).abs() < 1e-12, "{lo} {hi}");
     }
 
     #[test]
@@ -343,10 +299,7 @@ mod tests {
         assert_eq!(y_range(&c), (0.0, 1.0));
         c.series.clear();
         assert_eq!(y_range(&c), (0.0, 1.0));
-        assert_eq!(
-            finite_runs(&[0.0, 1.0, 2.0, 3.0], &[1.0, f64::NAN, 2.0, 3.0]).len(),
-            2
-        );
+        assert_eq!(finite_runs(&[0.0, 1.0, 2.0, 3.0], &[1.0, f64::NAN, 2.0, 3.0]).len(), 2);
     }
 
     #[test]

@@ -107,7 +107,9 @@ pub fn decode(bytes: &[u8]) -> Result<Value, String> {
             let height = r.usize()?;
             let channels = r.usize()?;
             let data = r.f32s()?;
-            if !(channels == 1 || channels == 3) || width.checked_mul(height).and_then(|p| p.checked_mul(channels)) != Some(data.len()) {
+            if !(channels == 1 || channels == 3)
+                || width.checked_mul(height).and_then(|p| p.checked_mul(channels)) != Some(data.len())
+            {
                 return Err("image dimensions do not match its data".into());
             }
             Value::Image(Arc::new(Image { width, height, channels, data }))

@@ -107,7 +107,9 @@ impl CacheStore {
         entry.extend_from_slice(&(payload.len() as u64).to_le_bytes());
         entry.extend_from_slice(blake3::hash(&payload).as_bytes());
         entry.extend_from_slice(&payload);
-        write_atomic(&path, &entry).map_err(|source| CacheError::Io { path, source })
+        // No fsync: a process kill cannot tear a renamed file, and the checksum catches what a
+        // power loss might; fsync per entry cost ~1 ms a node (see BENCHMARKS.md).
+        write_atomic_with(&path, &entry, false).map_err(|source| CacheError::Io { path, source })
     }
 
     /// Removes least-recently-used entries until the store is under its limit.
@@ -182,21 +184,26 @@ fn check_entry(bytes: &[u8]) -> Result<&[u8], String> {
 static TMP_COUNTER: AtomicU64 = AtomicU64::new(0);
 
 /// Writes `bytes` to `path` atomically: a uniquely named temporary file in the same folder,
-/// flushed, then renamed over `path`. A killed process leaves at most a `.tmp-` file behind.
+/// flushed to disk, then renamed over `path`. A killed process leaves at most a `.tmp-` file
+/// behind, never a torn `path`.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    write_atomic_with(path, bytes, true)
+}
+
+/// `write_atomic`, with the flush to disk (fsync) optional.
+pub fn write_atomic_with(path: &Path, bytes: &[u8], sync: bool) -> std::io::Result<()> {
     let dir = path.parent().unwrap_or_else(|| Path::new("."));
     fs::create_dir_all(dir)?;
     let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
     let nanos = SystemTime::now().duration_since(SystemTime::UNIX_EPOCH).map(|d| d.as_nanos()).unwrap_or(0);
-    let tmp = dir.join(format!(
-        ".{name}.tmp-{}-{}-{nanos}",
-        std::process::id(),
-        TMP_COUNTER.fetch_add(1, Ordering::Relaxed)
-    ));
+    let tmp =
+        dir.join(format!(".{name}.tmp-{}-{}-{nanos}", std::process::id(), TMP_COUNTER.fetch_add(1, Ordering::Relaxed)));
     let result = (|| {
         let mut f = fs::File::create(&tmp)?;
         f.write_all(bytes)?;
-        f.sync_data()?;
+        if sync {
+            f.sync_data()?;
+        }
         drop(f);
         fs::rename(&tmp, path)
     })();

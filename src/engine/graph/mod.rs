@@ -35,12 +35,8 @@ pub struct Override {
 impl Override {
     /// Parses `NODE.FIELD=VALUE`.
     pub fn parse(s: &str) -> Result<Override, String> {
-        let (lhs, value) = s
-            .split_once('=')
-            .ok_or_else(|| format!("--set {s:?}: expected NODE.FIELD=VALUE"))?;
-        let (node, field) = lhs
-            .rsplit_once('.')
-            .ok_or_else(|| format!("--set {s:?}: expected NODE.FIELD=VALUE"))?;
+        let (lhs, value) = s.split_once('=').ok_or_else(|| format!("--set {s:?}: expected NODE.FIELD=VALUE"))?;
+        let (node, field) = lhs.rsplit_once('.').ok_or_else(|| format!("--set {s:?}: expected NODE.FIELD=VALUE"))?;
         if node.is_empty() || field.is_empty() {
             return Err(format!("--set {s:?}: expected NODE.FIELD=VALUE"));
         }
@@ -80,7 +76,12 @@ impl Pipeline {
     pub fn load(path: &Path, registry: &Registry, overrides: &[Override]) -> Result<Pipeline, PipelineErrors> {
         let source = path.display().to_string();
         let text = std::fs::read_to_string(path).map_err(|e| {
-            PipelineErrors(vec![PipelineError { source: source.clone(), pos: None, node: None, message: e.to_string() }])
+            PipelineErrors(vec![PipelineError {
+                source: source.clone(),
+                pos: None,
+                node: None,
+                message: e.to_string(),
+            }])
         })?;
         let base_dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
         Pipeline::parse(&text, &source, &base_dir, registry, overrides)
@@ -109,37 +110,48 @@ impl Pipeline {
                 consumed[i] = true;
             }
         }
-        (0..self.nodes.len())
-            .filter(|&i| !consumed[i] || self.nodes[i].output_type == ValueType::File)
-            .collect()
+        (0..self.nodes.len()).filter(|&i| !consumed[i] || self.nodes[i].output_type == ValueType::File).collect()
     }
 
     /// Indices of nodes that consume node `i`.
     pub fn consumers(&self, i: usize) -> Vec<usize> {
-        self.graph
-            .neighbors_directed(NodeIndex::new(i), petgraph::Direction::Outgoing)
-            .map(|n| self.graph[n])
-            .collect()
+        self.graph.neighbors_directed(NodeIndex::new(i), petgraph::Direction::Outgoing).map(|n| self.graph[n]).collect()
     }
 
     /// Graphviz DOT: one box per node (name and operator), edges labelled with input fields.
     pub fn to_dot(&self) -> String {
         let mut s = String::from("digraph pipeline {\n  rankdir=LR;\n  node [shape=box, fontname=\"sans-serif\"];\n");
         for n in &self.nodes {
-            s.push_str(&format!(
-                "  {:?} [label=\"{}\\n{} -> {}\"];\n",
-                n.name,
-                n.name.replace('"', "\\\""),
-                n.spec.name,
-                n.output_type
-            ));
+            let label = format!("{}\n{} -> {}", n.name, n.spec.name, n.output_type);
+            s.push_str(&format!("  {} [label={}];\n", dot_quote(&n.name), dot_quote(&label)));
         }
         for n in &self.nodes {
             for (field, &i) in &n.inputs {
-                s.push_str(&format!("  {:?} -> {:?} [label={:?}];\n", self.nodes[i].name, n.name, field));
+                s.push_str(&format!(
+                    "  {} -> {} [label={}];\n",
+                    dot_quote(&self.nodes[i].name),
+                    dot_quote(&n.name),
+                    dot_quote(field)
+                ));
             }
         }
         s.push_str("}\n");
         s
     }
+}
+
+/// A DOT quoted string: backslashes and quotes escaped, newlines as DOT's `\n`.
+fn dot_quote(s: &str) -> String {
+    let mut out = String::with_capacity(s.len() + 2);
+    out.push('"');
+    for c in s.chars() {
+        match c {
+            '"' => out.push_str("\\\""),
+            '\\' => out.push_str("\\\\"),
+            '\n' => out.push_str("\\n"),
+            c => out.push(c),
+        }
+    }
+    out.push('"');
+    out
 }

@@ -116,10 +116,7 @@ pub fn parse(text: &str) -> Result<Spanned<Ron>, SyntaxError> {
 const MAX_DEPTH: u32 = 128;
 
 fn err(pos: Pos, message: impl Into<String>) -> SyntaxError {
-    SyntaxError {
-        pos,
-        message: message.into(),
-    }
+    SyntaxError { pos, message: message.into() }
 }
 
 fn describe(c: Option<char>) -> String {
@@ -153,14 +150,7 @@ struct Parser {
 
 impl Parser {
     fn new(text: &str) -> Self {
-        Parser {
-            chars: text.chars().collect(),
-            cur: Cursor {
-                i: 0,
-                pos: Pos { line: 1, col: 1 },
-            },
-            depth: 0,
-        }
+        Parser { chars: text.chars().collect(), cur: Cursor { i: 0, pos: Pos { line: 1, col: 1 } }, depth: 0 }
     }
 
     fn peek(&self) -> Option<char> {
@@ -218,10 +208,7 @@ impl Parser {
     fn unexpected_in(&self, expected: &str, open: char, open_pos: Pos) -> SyntaxError {
         let mut e = self.unexpected(expected);
         if self.peek().is_none() {
-            e.message.push_str(&format!(
-                " (unclosed `{open}` at line {}, column {})",
-                open_pos.line, open_pos.col
-            ));
+            e.message.push_str(&format!(" (unclosed `{open}` at line {}, column {})", open_pos.line, open_pos.col));
         }
         e
     }
@@ -294,19 +281,13 @@ impl Parser {
 
     fn value(&mut self) -> Result<Spanned<Ron>, SyntaxError> {
         if self.depth >= MAX_DEPTH {
-            return Err(err(
-                self.pos(),
-                format!("values nested more than {MAX_DEPTH} deep"),
-            ));
+            return Err(err(self.pos(), format!("values nested more than {MAX_DEPTH} deep")));
         }
         self.depth += 1;
         let pos = self.pos();
         let result = self.value_inner(pos);
         self.depth -= 1;
-        Ok(Spanned {
-            value: result?,
-            pos,
-        })
+        Ok(Spanned { value: result?, pos })
     }
 
     fn value_inner(&mut self, pos: Pos) -> Result<Ron, SyntaxError> {
@@ -388,11 +369,7 @@ impl Parser {
             if self.eat(close) {
                 return Ok(());
             }
-            return Err(self.unexpected_in(
-                &format!("`,` or `{close}` after {what}"),
-                open,
-                open_pos,
-            ));
+            return Err(self.unexpected_in(&format!("`,` or `{close}` after {what}"), open, open_pos));
         }
     }
 
@@ -417,13 +394,7 @@ impl Parser {
                     return Err(p.unexpected_in(&format!("`:` after field `{fname}`"), '(', open));
                 }
                 p.skip_ws()?;
-                fields.push((
-                    Spanned {
-                        value: fname,
-                        pos: fpos,
-                    },
-                    p.value()?,
-                ));
+                fields.push((Spanned { value: fname, pos: fpos }, p.value()?));
                 Ok(())
             })?;
             Ok(Ron::Struct { name, fields })
@@ -451,10 +422,7 @@ impl Parser {
 
     /// An identifier, or a raw identifier `r#name` (returned without `r#`).
     fn ident(&mut self) -> Result<String, SyntaxError> {
-        if self.peek() == Some('r')
-            && self.peek_at(1) == Some('#')
-            && self.peek_at(2).is_some_and(is_ident_start)
-        {
+        if self.peek() == Some('r') && self.peek_at(1) == Some('#') && self.peek_at(2).is_some_and(is_ident_start) {
             self.bump();
             self.bump();
         }
@@ -563,9 +531,7 @@ impl Parser {
                     return Err(self.unexpected("`}` to close the unicode escape"));
                 }
                 let code = u32::from_str_radix(&digits, 16).unwrap_or(u32::MAX);
-                char::from_u32(code).ok_or_else(|| {
-                    err(start, format!("invalid unicode escape `\\u{{{digits}}}`"))
-                })?
+                char::from_u32(code).ok_or_else(|| err(start, format!("invalid unicode escape `\\u{{{digits}}}`")))?
             }
             other => return Err(err(start, format!("unknown escape `\\{other}`"))),
         })
@@ -645,32 +611,18 @@ impl Parser {
             }
         }
         if let Some(c) = self.peek().filter(|&c| is_ident_char(c) || c == '.') {
-            return Err(err(
-                self.pos(),
-                format!("unexpected character `{c}` in number"),
-            ));
+            return Err(err(self.pos(), format!("unexpected character `{c}` in number")));
         }
 
         let literal: String = self.chars[start.i..self.cur.i].iter().collect();
         let cleaned: String = text.chars().filter(|&c| c != '_').collect();
         if is_float {
-            let v: f64 = cleaned
-                .parse()
-                .map_err(|_| err(start.pos, format!("invalid float literal `{literal}`")))?;
+            let v: f64 = cleaned.parse().map_err(|_| err(start.pos, format!("invalid float literal `{literal}`")))?;
             return Ok(Ron::Float(if negative { -v } else { v }));
         }
-        let overflow = || {
-            err(
-                start.pos,
-                format!("integer overflow: `{literal}` does not fit in i64"),
-            )
-        };
+        let overflow = || err(start.pos, format!("integer overflow: `{literal}` does not fit in i64"));
         let magnitude = u64::from_str_radix(&cleaned, radix).map_err(|_| overflow())?;
-        let signed = if negative {
-            -(magnitude as i128)
-        } else {
-            magnitude as i128
-        };
+        let signed = if negative { -(magnitude as i128) } else { magnitude as i128 };
         i64::try_from(signed).map(Ron::Int).map_err(|_| overflow())
     }
 }
@@ -724,74 +676,30 @@ mod tests {
         assert_eq!(top[0].0.value, "nodes");
         assert_eq!(top[0].0.pos, p(3, 5));
         assert_eq!(top[0].1.pos, p(3, 12));
-        let Ron::Map(nodes) = &top[0].1.value else {
-            panic!("nodes is not a map")
-        };
+        let Ron::Map(nodes) = &top[0].1.value else { panic!("nodes is not a map") };
         assert_eq!(nodes.len(), 3);
 
         let (key, node) = &nodes[0];
         assert_eq!(key.value, Ron::Str("env".into()));
         assert_eq!(key.pos, p(4, 9));
         assert_eq!(node.pos, p(4, 17));
-        assert_eq!(
-            name_of(&node.value).unwrap(),
-            &Spanned {
-                value: "LoadHdr".to_string(),
-                pos: p(4, 17)
-            }
-        );
+        assert_eq!(name_of(&node.value).unwrap(), &Spanned { value: "LoadHdr".to_string(), pos: p(4, 17) });
         let f = fields(&node.value);
-        assert_eq!(
-            f[0].0,
-            Spanned {
-                value: "path".to_string(),
-                pos: p(4, 25)
-            }
-        );
-        assert_eq!(
-            f[0].1,
-            Spanned {
-                value: Ron::Str("builtin:sky".into()),
-                pos: p(4, 31)
-            }
-        );
+        assert_eq!(f[0].0, Spanned { value: "path".to_string(), pos: p(4, 25) });
+        assert_eq!(f[0].1, Spanned { value: Ron::Str("builtin:sky".into()), pos: p(4, 31) });
 
         let (key, node) = &nodes[1];
         assert_eq!(key.pos, p(5, 9));
         assert_eq!(name_of(&node.value).unwrap().value, "Luminance");
         let f = fields(&node.value);
         assert_eq!(f[0].0.pos, p(5, 27));
-        assert_eq!(
-            f[0].1,
-            Spanned {
-                value: Ron::Str("env".into()),
-                pos: p(5, 34)
-            }
-        );
+        assert_eq!(f[0].1, Spanned { value: Ron::Str("env".into()), pos: p(5, 34) });
 
         let (key, node) = &nodes[2];
-        assert_eq!(
-            key,
-            &Spanned {
-                value: Ron::Str("save".into()),
-                pos: p(6, 9)
-            }
-        );
+        assert_eq!(key, &Spanned { value: Ron::Str("save".into()), pos: p(6, 9) });
         let f = fields(&node.value);
-        assert_eq!(
-            f[0].0,
-            Spanned {
-                value: "input".to_string(),
-                pos: p(6, 22)
-            }
-        );
-        assert_eq!(
-            f[1].0,
-            Spanned {
-                value: "path".to_string(),
-                pos: p(6, 36)
-            }
-        );
+        assert_eq!(f[0].0, Spanned { value: "input".to_string(), pos: p(6, 22) });
+        assert_eq!(f[1].0, Spanned { value: "path".to_string(), pos: p(6, 36) });
         assert_eq!(f[1].1.pos, p(6, 42));
     }
 
@@ -799,13 +707,7 @@ mod tests {
     fn comments_and_attributes() {
         let v = ok("#![enable(implicit_some)]\n/* a /* nested */ comment */ // line\n(a: /* x */ 1, // c\n)");
         let f = fields(&v.value);
-        assert_eq!(
-            f[0].1,
-            Spanned {
-                value: Ron::Int(1),
-                pos: p(3, 13)
-            }
-        );
+        assert_eq!(f[0].1, Spanned { value: Ron::Int(1), pos: p(3, 13) });
     }
 
     #[test]
@@ -818,43 +720,28 @@ mod tests {
             Ron::Tuple {
                 name: None,
                 items: vec![
-                    Spanned {
-                        value: Ron::Float(0.0),
-                        pos: p(1, 30)
-                    },
-                    Spanned {
-                        value: Ron::Float(1.0),
-                        pos: p(1, 35)
-                    },
-                    Spanned {
-                        value: Ron::Float(0.0),
-                        pos: p(1, 40)
-                    },
+                    Spanned { value: Ron::Float(0.0), pos: p(1, 30) },
+                    Spanned { value: Ron::Float(1.0), pos: p(1, 35) },
+                    Spanned { value: Ron::Float(0.0), pos: p(1, 40) },
                 ],
             }
         );
-        let Ron::List(list) = &f[1].1.value else {
-            panic!()
-        };
+        let Ron::List(list) = &f[1].1.value else { panic!() };
         assert_eq!(list[0].value, Ron::Ident("A".into()));
         assert_eq!(list[1].value.kind_name(), "struct");
         assert_eq!(list[2].value.kind_name(), "tuple");
         assert_eq!(name_of(&list[2].value).unwrap().value, "Some");
         assert_eq!(f[2].1.value, Ron::Ident("Rec709".into()));
-        assert_eq!(
-            f[3].1.value,
-            Ron::Tuple {
-                name: None,
-                items: vec![]
-            }
-        );
+        assert_eq!(f[3].1.value, Ron::Tuple { name: None, items: vec![] });
         assert_eq!(fields(&f[4].1.value).len(), 0);
         assert_eq!(name_of(&f[4].1.value).unwrap().value, "Empty");
     }
 
     #[test]
     fn numbers() {
-        let v = ok("[-2, +3, 1.5, -1.5e-3, 1e10, 1., .5, 0xff, 0b1010, 0o17, 1_000, -inf, inf, -9223372036854775808, true]");
+        let v = ok(
+            "[-2, +3, 1.5, -1.5e-3, 1e10, 1., .5, 0xff, 0b1010, 0o17, 1_000, -inf, inf, -9223372036854775808, true]",
+        );
         let Ron::List(items) = v.value else { panic!() };
         let got: Vec<Ron> = items.into_iter().map(|s| s.value).collect();
         assert_eq!(
@@ -887,26 +774,14 @@ mod tests {
 
     #[test]
     fn strings() {
-        assert_eq!(
-            ok(r##"r#"a "quoted" \n"#"##).value,
-            Ron::Str(r#"a "quoted" \n"#.into())
-        );
+        assert_eq!(ok(r##"r#"a "quoted" \n"#"##).value, Ron::Str(r#"a "quoted" \n"#.into()));
         assert_eq!(ok(r#"r"x""#).value, Ron::Str("x".into()));
-        assert_eq!(
-            ok(r#""a\"b\\c\n\u{e9}""#).value,
-            Ron::Str("a\"b\\c\n\u{e9}".into())
-        );
+        assert_eq!(ok(r#""a\"b\\c\n\u{e9}""#).value, Ron::Str("a\"b\\c\n\u{e9}".into()));
         assert_eq!(
             ok("['c', '\\n']").value,
             Ron::List(vec![
-                Spanned {
-                    value: Ron::Str("c".into()),
-                    pos: p(1, 2)
-                },
-                Spanned {
-                    value: Ron::Str("\n".into()),
-                    pos: p(1, 7)
-                },
+                Spanned { value: Ron::Str("c".into()), pos: p(1, 2) },
+                Spanned { value: Ron::Str("\n".into()), pos: p(1, 7) },
             ])
         );
         let v = ok("(r#type: 1)");
@@ -917,9 +792,7 @@ mod tests {
     #[test]
     fn multibyte_columns() {
         assert_eq!(ok("/* é€😀 */ 42").pos, p(1, 11));
-        let Ron::List(items) = ok("[\"héllo\", x]").value else {
-            panic!()
-        };
+        let Ron::List(items) = ok("[\"héllo\", x]").value else { panic!() };
         assert_eq!(items[1].pos, p(1, 11));
     }
 
@@ -927,10 +800,7 @@ mod tests {
     fn error_missing_comma() {
         let e = fail("(\n    a: 1\n    b: 2,\n)");
         assert_eq!(e.pos, p(3, 5));
-        assert_eq!(
-            e.message,
-            "expected `,` or `)` after struct field, found `b`"
-        );
+        assert_eq!(e.message, "expected `,` or `)` after struct field, found `b`");
         let e = fail("[1 2]");
         assert_eq!(e.pos, p(1, 4));
     }
@@ -962,16 +832,8 @@ mod tests {
     fn error_eof() {
         let e = fail("{ \"a\": 1,\n");
         assert_eq!(e.pos, p(2, 1));
-        assert!(
-            e.message.starts_with("unexpected end of file"),
-            "{}",
-            e.message
-        );
-        assert!(
-            e.message.contains("unclosed `{` at line 1, column 1"),
-            "{}",
-            e.message
-        );
+        assert!(e.message.starts_with("unexpected end of file"), "{}", e.message);
+        assert!(e.message.contains("unclosed `{` at line 1, column 1"), "{}", e.message);
         let e = fail("");
         assert_eq!(e.message, "unexpected end of file, expected a value");
         assert!(fail(&"[".repeat(10_000)).message.contains("nested"));

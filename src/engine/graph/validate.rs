@@ -35,7 +35,9 @@ impl Collector<'_> {
             message: message.into(),
         });
     }
+    /// Like `push`, for a problem from `source` (the file or a `--set`); line 0 means no position.
     fn push_from(&mut self, source: &str, pos: Option<Pos>, node: Option<&str>, message: impl Into<String>) {
+        let pos = pos.filter(|p| p.line > 0);
         self.errors.push(PipelineError {
             source: source.to_string(),
             pos,
@@ -70,13 +72,24 @@ pub(super) fn validate(
                 if name.value == "nodes" {
                     nodes = Some(value);
                 } else {
-                    errs.push(Some(name.pos), None, format!("unknown top-level field {:?} (expected: nodes)", name.value));
+                    errs.push(
+                        Some(name.pos),
+                        None,
+                        format!("unknown top-level field {:?} (expected: nodes)", name.value),
+                    );
                 }
             }
             match nodes {
                 Some(Spanned { value: Ron::Map(entries), .. }) => entries,
                 Some(other) => {
-                    errs.push(Some(other.pos), None, format!("`nodes` must be a map {{ \"name\": Operator(...) }}, found {}", other.value.kind_name()));
+                    errs.push(
+                        Some(other.pos),
+                        None,
+                        format!(
+                            "`nodes` must be a map {{ \"name\": Operator(...) }}, found {}",
+                            other.value.kind_name()
+                        ),
+                    );
                     return Err(PipelineErrors(errs.errors));
                 }
                 None => {
@@ -86,7 +99,11 @@ pub(super) fn validate(
             }
         }
         other => {
-            errs.push(Some(root.pos), None, format!("a pipeline file is `( nodes: {{ ... }} )`, found {}", other.kind_name()));
+            errs.push(
+                Some(root.pos),
+                None,
+                format!("a pipeline file is `( nodes: {{ ... }} )`, found {}", other.kind_name()),
+            );
             return Err(PipelineErrors(errs.errors));
         }
     };
@@ -107,7 +124,11 @@ pub(super) fn validate(
             continue;
         }
         if let Some(first) = seen.get(&name) {
-            errs.push(Some(key.pos), Some(&name), format!("duplicate node name (first defined at line {}:{})", first.line, first.col));
+            errs.push(
+                Some(key.pos),
+                Some(&name),
+                format!("duplicate node name (first defined at line {}:{})", first.line, first.col),
+            );
             continue;
         }
         seen.insert(name.clone(), key.pos);
@@ -116,11 +137,19 @@ pub(super) fn validate(
             Ron::Tuple { name: Some(op), items } if items.is_empty() => (op, Vec::new()),
             Ron::Ident(op) => (Spanned { value: op, pos: value.pos }, Vec::new()),
             Ron::Tuple { name: Some(op), .. } => {
-                errs.push(Some(op.pos), Some(&name), format!("{} takes named fields, e.g. {}(field: value)", op.value, op.value));
+                errs.push(
+                    Some(op.pos),
+                    Some(&name),
+                    format!("{} takes named fields, e.g. {}(field: value)", op.value, op.value),
+                );
                 continue;
             }
             other => {
-                errs.push(Some(value.pos), Some(&name), format!("expected an operator such as `LoadHdr(path: \"...\")`, found {}", other.kind_name()));
+                errs.push(
+                    Some(value.pos),
+                    Some(&name),
+                    format!("expected an operator such as `LoadHdr(path: \"...\")`, found {}", other.kind_name()),
+                );
                 continue;
             }
         };
@@ -150,7 +179,8 @@ pub(super) fn validate(
                 continue;
             }
         };
-        let field = Spanned { value: o.field.clone(), pos: Pos { line: 1, col: 1 } };
+        // A `--set` field name has no position in any file (line 0 = none).
+        let field = Spanned { value: o.field.clone(), pos: Pos { line: 0, col: 0 } };
         node.fields.retain(|(k, _, _)| k.value != o.field);
         node.fields.push((field, value, origin));
     }
@@ -168,18 +198,23 @@ pub(super) fn validate(
         for (fname, fvalue, origin) in &n.fields {
             let Some(field) = n.spec.field(&fname.value) else {
                 let names: Vec<&str> = n.spec.fields.iter().map(|f| f.name).collect();
-                errs.push_from(origin, Some(fname.pos), Some(&n.name), format!(
-                    "{} has no field {:?} (fields: {})",
-                    n.spec.name,
-                    fname.value,
-                    names.join(", ")
-                ));
+                errs.push_from(
+                    origin,
+                    Some(fname.pos),
+                    Some(&n.name),
+                    format!("{} has no field {:?} (fields: {})", n.spec.name, fname.value, names.join(", ")),
+                );
                 structural_ok = false;
                 continue;
             };
             if let Some(first) = given.insert(field.name, fname.pos) {
                 if origin == source {
-                    errs.push_from(origin, Some(fname.pos), Some(&n.name), format!("field {:?} given twice (first at {}:{})", field.name, first.line, first.col));
+                    errs.push_from(
+                        origin,
+                        Some(fname.pos),
+                        Some(&n.name),
+                        format!("field {:?} given twice (first at {}:{})", field.name, first.line, first.col),
+                    );
                     structural_ok = false;
                     continue;
                 }
@@ -191,23 +226,35 @@ pub(super) fn validate(
                             inputs.insert(field.name, i);
                             positions.insert(field.name, (fvalue.pos, origin.clone()));
                         }
+                        // A node that exists but is itself in error was reported already.
+                        None if seen.contains_key(target.as_str()) => structural_ok = false,
                         None => {
                             let names: Vec<&str> = raw.iter().map(|n| n.name.as_str()).collect();
-                            errs.push_from(origin, Some(fvalue.pos), Some(&n.name), format!(
-                                "field {:?} names node {:?}, which does not exist (nodes: {})",
-                                field.name,
-                                target,
-                                names.join(", ")
-                            ));
+                            errs.push_from(
+                                origin,
+                                Some(fvalue.pos),
+                                Some(&n.name),
+                                format!(
+                                    "field {:?} names node {:?}, which does not exist (nodes: {})",
+                                    field.name,
+                                    target,
+                                    names.join(", ")
+                                ),
+                            );
                             structural_ok = false;
                         }
                     },
                     other => {
-                        errs.push_from(origin, Some(fvalue.pos), Some(&n.name), format!(
-                            "field {:?} is an input: give the name of a node as a string, found {}",
-                            field.name,
-                            other.kind_name()
-                        ));
+                        errs.push_from(
+                            origin,
+                            Some(fvalue.pos),
+                            Some(&n.name),
+                            format!(
+                                "field {:?} is an input: give the name of a node as a string, found {}",
+                                field.name,
+                                other.kind_name()
+                            ),
+                        );
                         structural_ok = false;
                     }
                 },
@@ -216,7 +263,12 @@ pub(super) fn validate(
                         params.values.insert(field.name.to_string(), v);
                     }
                     Err(msg) => {
-                        errs.push_from(origin, Some(fvalue.pos), Some(&n.name), format!("field {:?}: {msg}", field.name));
+                        errs.push_from(
+                            origin,
+                            Some(fvalue.pos),
+                            Some(&n.name),
+                            format!("field {:?}: {msg}", field.name),
+                        );
                         structural_ok = false;
                     }
                 },
@@ -231,13 +283,17 @@ pub(super) fn validate(
                     params.values.insert(field.name.to_string(), v);
                 }
                 None => {
-                    errs.push(Some(n.op_pos), Some(&n.name), format!(
-                        "{} is missing field {:?} ({}: {})",
-                        n.spec.name,
-                        field.name,
-                        field.kind.describe(),
-                        field.doc
-                    ));
+                    errs.push(
+                        Some(n.op_pos),
+                        Some(&n.name),
+                        format!(
+                            "{} is missing field {:?} ({}: {})",
+                            n.spec.name,
+                            field.name,
+                            field.kind.describe(),
+                            field.doc
+                        ),
+                    );
                     structural_ok = false;
                 }
             }
@@ -288,14 +344,19 @@ pub(super) fn validate(
             if !accepted.contains(&got) {
                 let (pos, origin) = input_pos[i][field.name].clone();
                 let want: Vec<&str> = accepted.iter().map(|t| t.name()).collect();
-                errs.push_from(&origin, Some(pos), Some(&nodes[i].name), format!(
-                    "field {:?} expects {}, but node {:?} ({}) gives {}",
-                    field.name,
-                    want.join(" | "),
-                    nodes[j].name,
-                    nodes[j].spec.name,
-                    got
-                ));
+                errs.push_from(
+                    &origin,
+                    Some(pos),
+                    Some(&nodes[i].name),
+                    format!(
+                        "field {:?} expects {}, but node {:?} ({}) gives {}",
+                        field.name,
+                        want.join(" | "),
+                        nodes[j].name,
+                        nodes[j].spec.name,
+                        got
+                    ),
+                );
             }
         }
         nodes[i].output_type = match spec.output {
@@ -449,7 +510,13 @@ fn find_cycles(nodes: &[Node]) -> Vec<Vec<usize>> {
     let mut mark = vec![Mark::New; nodes.len()];
     let mut cycles = Vec::new();
     let mut stack: Vec<usize> = Vec::new();
-    fn dfs(v: usize, consumers: &[Vec<usize>], mark: &mut [Mark], stack: &mut Vec<usize>, cycles: &mut Vec<Vec<usize>>) {
+    fn dfs(
+        v: usize,
+        consumers: &[Vec<usize>],
+        mark: &mut [Mark],
+        stack: &mut Vec<usize>,
+        cycles: &mut Vec<Vec<usize>>,
+    ) {
         mark[v] = Mark::Active;
         stack.push(v);
         for &w in &consumers[v] {

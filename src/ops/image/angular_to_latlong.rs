@@ -23,8 +23,18 @@ pub static SPEC: OpSpec = OpSpec {
     doc: "Convert a Debevec angular light probe to a lat-long map (outside the disc masked)",
     fields: &[
         FieldSpec::input("image", &[ValueType::Image, ValueType::ScalarField], "the angular probe (square)"),
-        FieldSpec { name: "width", kind: FieldKind::Int { min: 1, max: 1 << 15 }, default: Default::Int(1024), doc: "output width" },
-        FieldSpec { name: "height", kind: FieldKind::Int { min: 1, max: 1 << 15 }, default: Default::Int(512), doc: "output height" },
+        FieldSpec {
+            name: "width",
+            kind: FieldKind::Int { min: 1, max: 1 << 15 },
+            default: Default::Int(1024),
+            doc: "output width",
+        },
+        FieldSpec {
+            name: "height",
+            kind: FieldKind::Int { min: 1, max: 1 << 15 },
+            default: Default::Int(512),
+            doc: "output height",
+        },
     ],
     output: OutputType::SameAsInput("image"),
     eval,
@@ -66,7 +76,9 @@ pub fn angular_to_latlong(probe: &Image, width: usize, height: usize) -> Image {
             let (tx, ty) = (fx - x0, fy - y0);
             let mut acc = [0.0f64; 3];
             let mut wsum = 0.0;
-            for (dx, dy, w) in [(0, 0, (1.0 - tx) * (1.0 - ty)), (1, 0, tx * (1.0 - ty)), (0, 1, (1.0 - tx) * ty), (1, 1, tx * ty)] {
+            for (dx, dy, w) in
+                [(0, 0, (1.0 - tx) * (1.0 - ty)), (1, 0, tx * (1.0 - ty)), (0, 1, (1.0 - tx) * ty), (1, 1, tx * ty)]
+            {
                 let (sx, sy) = (x0 as isize + dx, y0 as isize + dy);
                 if w > 0.0 && inside(sx, sy) {
                     let p = probe.pixel(sx as usize, sy as usize);

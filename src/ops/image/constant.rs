@@ -11,8 +11,18 @@ pub static SPEC: OpSpec = OpSpec {
     version: 1,
     doc: "An image of a single colour (canvas, or a constant environment)",
     fields: &[
-        FieldSpec { name: "width", kind: FieldKind::Int { min: 1, max: 1 << 15 }, default: Default::Int(512), doc: "width in pixels" },
-        FieldSpec { name: "height", kind: FieldKind::Int { min: 1, max: 1 << 15 }, default: Default::Int(256), doc: "height in pixels" },
+        FieldSpec {
+            name: "width",
+            kind: FieldKind::Int { min: 1, max: 1 << 15 },
+            default: Default::Int(512),
+            doc: "width in pixels",
+        },
+        FieldSpec {
+            name: "height",
+            kind: FieldKind::Int { min: 1, max: 1 << 15 },
+            default: Default::Int(256),
+            doc: "height in pixels",
+        },
         FieldSpec {
             name: "color",
             kind: FieldKind::Tuple { len: 3, min: -3.0e38, max: 3.0e38 },

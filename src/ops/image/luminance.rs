@@ -46,8 +46,7 @@ fn eval(ctx: &OpContext) -> Result<Value, OpError> {
         return Ok(Value::Image(img.clone()));
     }
     let weights = ctx.params.text("weights");
-    let data: Vec<f32> =
-        img.data.par_chunks_exact(3).map(|p| luminance([p[0], p[1], p[2]], weights)).collect();
+    let data: Vec<f32> = img.data.par_chunks_exact(3).map(|p| luminance([p[0], p[1], p[2]], weights)).collect();
     Ok(Value::image(Image::from_vec(img.width, img.height, 1, data)))
 }
 

@@ -16,7 +16,12 @@ pub static SPEC: OpSpec = OpSpec {
     fields: &[
         FieldSpec::input("image", &[ValueType::Image, ValueType::ScalarField], "the lat-long map or canvas"),
         FieldSpec::input("samples", &[ValueType::Samples], "the samples to draw"),
-        FieldSpec { name: "size", kind: FieldKind::Int { min: 1, max: 255 }, default: Default::Int(5), doc: "side of each square in pixels" },
+        FieldSpec {
+            name: "size",
+            kind: FieldKind::Int { min: 1, max: 255 },
+            default: Default::Int(5),
+            doc: "side of each square in pixels",
+        },
         FieldSpec {
             name: "color",
             kind: FieldKind::Tuple { len: 3, min: 0.0, max: 1.0 },
@@ -49,7 +54,11 @@ fn eval(ctx: &OpContext) -> Result<Value, OpError> {
     // A square of odd size is centred on the texel; an even one extends one more to the left/top.
     let before = size / 2;
     for s in &samples.samples {
-        let (cx, cy) = if s.x < samples.width && s.y < samples.height && samples.width as usize == w && samples.height as usize == h {
+        let (cx, cy) = if s.x < samples.width
+            && s.y < samples.height
+            && samples.width as usize == w
+            && samples.height as usize == h
+        {
             (s.x as usize, s.y as usize)
         } else {
             latlong::texel_of_direction([s.dir[0] as f64, s.dir[1] as f64, s.dir[2] as f64], w, h)

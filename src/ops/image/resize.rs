@@ -19,8 +19,18 @@ pub static SPEC: OpSpec = OpSpec {
     doc: "Area-averaging, energy-preserving resize",
     fields: &[
         FieldSpec::input("image", &[ValueType::Image, ValueType::ScalarField], "the image to resize"),
-        FieldSpec { name: "width", kind: FieldKind::Int { min: 1, max: 1 << 16 }, default: Default::Required, doc: "output width" },
-        FieldSpec { name: "height", kind: FieldKind::Int { min: 1, max: 1 << 16 }, default: Default::Required, doc: "output height" },
+        FieldSpec {
+            name: "width",
+            kind: FieldKind::Int { min: 1, max: 1 << 16 },
+            default: Default::Required,
+            doc: "output width",
+        },
+        FieldSpec {
+            name: "height",
+            kind: FieldKind::Int { min: 1, max: 1 << 16 },
+            default: Default::Required,
+            doc: "output height",
+        },
     ],
     output: OutputType::SameAsInput("image"),
     eval,

@@ -65,6 +65,16 @@ fn eval(ctx: &OpContext) -> Result<Value, OpError> {
     } else {
         let full = ctx.path("path");
         let bytes = std::fs::read(&full).map_err(|source| OpError::Io { path: full.clone(), source })?;
+        // The key was made from the file's hash before the run; decoding other bytes would
+        // cache them under that key.
+        if let Some(key) = ctx.content_key {
+            if !key.ends_with(blake3::hash(&bytes).as_bytes()) {
+                return Err(OpError::Invalid(format!(
+                    "{} changed while hdrflow was running; run again",
+                    full.display()
+                )));
+            }
+        }
         formats::decode_by_extension(&bytes, &extension(&full))
             .map_err(|e| OpError::Format { path: full.clone(), message: e.0 })?
     };

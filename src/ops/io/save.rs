@@ -15,7 +15,9 @@
 use std::fmt::Write as _;
 
 use crate::data::{Curves, Distribution2D, Image, Metrics, SampleSet};
-use crate::engine::op::{CheckContext, CheckProblem, Default, FieldKind, FieldSpec, OpContext, OpError, OpSpec, OutputType};
+use crate::engine::op::{
+    CheckContext, CheckProblem, Default, FieldKind, FieldSpec, OpContext, OpError, OpSpec, OutputType,
+};
 use crate::engine::scheduler::check_output_path;
 use crate::engine::value::{FileBlob, Value, ValueType};
 use crate::formats;
@@ -184,11 +186,8 @@ fn samples_csv(s: &SampleSet) -> String {
     let mut out = String::with_capacity(s.samples.len() * 96);
     out.push_str("index,x,y,theta,phi,dx,dy,dz,pdf\n");
     for (i, p) in s.samples.iter().enumerate() {
-        let _ = writeln!(
-            out,
-            "{i},{},{},{},{},{},{},{},{}",
-            p.x, p.y, p.theta, p.phi, p.dir[0], p.dir[1], p.dir[2], p.pdf
-        );
+        let _ =
+            writeln!(out, "{i},{},{},{},{},{},{},{},{}", p.x, p.y, p.theta, p.phi, p.dir[0], p.dir[1], p.dir[2], p.pdf);
     }
     out
 }

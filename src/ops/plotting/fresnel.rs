@@ -12,9 +12,24 @@ pub static SPEC: OpSpec = OpSpec {
     version: 1,
     doc: "Dielectric Fresnel reflectance curves (Rs, Rp, R) with exact Brewster and critical angles",
     fields: &[
-        FieldSpec { name: "eta_i", kind: FieldKind::Float { min: 1e-6, max: 1e6 }, default: Default::Float(1.0), doc: "refractive index of the incident medium" },
-        FieldSpec { name: "eta_t", kind: FieldKind::Float { min: 1e-6, max: 1e6 }, default: Default::Float(1.5), doc: "refractive index of the transmitting medium" },
-        FieldSpec { name: "steps", kind: FieldKind::Int { min: 2, max: 1_000_000 }, default: Default::Int(901), doc: "number of angles from 0 to 90 degrees inclusive" },
+        FieldSpec {
+            name: "eta_i",
+            kind: FieldKind::Float { min: 1e-6, max: 1e6 },
+            default: Default::Float(1.0),
+            doc: "refractive index of the incident medium",
+        },
+        FieldSpec {
+            name: "eta_t",
+            kind: FieldKind::Float { min: 1e-6, max: 1e6 },
+            default: Default::Float(1.5),
+            doc: "refractive index of the transmitting medium",
+        },
+        FieldSpec {
+            name: "steps",
+            kind: FieldKind::Int { min: 2, max: 1_000_000 },
+            default: Default::Int(901),
+            doc: "number of angles from 0 to 90 degrees inclusive",
+        },
     ],
     output: OutputType::Fixed(ValueType::Curves),
     eval,

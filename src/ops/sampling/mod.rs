@@ -16,7 +16,12 @@ use crate::engine::op::{Default, FieldKind, FieldSpec};
 
 /// The fields every sampler shares: how many, which seed, which sequence.
 pub(crate) const fn count_field(default: i64) -> FieldSpec {
-    FieldSpec { name: "count", kind: FieldKind::Int { min: 1, max: 1 << 24 }, default: Default::Int(default), doc: "number of samples" }
+    FieldSpec {
+        name: "count",
+        kind: FieldKind::Int { min: 1, max: 1 << 24 },
+        default: Default::Int(default),
+        doc: "number of samples",
+    }
 }
 pub(crate) const SEED_FIELD: FieldSpec = FieldSpec {
     name: "seed",

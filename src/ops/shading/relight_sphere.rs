@@ -31,7 +31,12 @@ pub static SPEC: OpSpec = OpSpec {
     fields: &[
         FieldSpec::input("env", &[ValueType::Image], "the lat-long environment (linear RGB)"),
         FieldSpec::input("samples", &[ValueType::Samples], "light samples (Sample), shared by every pixel"),
-        FieldSpec { name: "size", kind: FieldKind::Int { min: 1, max: 1 << 14 }, default: Default::Int(256), doc: "image width and height" },
+        FieldSpec {
+            name: "size",
+            kind: FieldKind::Int { min: 1, max: 1 << 14 },
+            default: Default::Int(256),
+            doc: "image width and height",
+        },
         FieldSpec {
             name: "albedo",
             kind: FieldKind::Tuple { len: 3, min: 0.0, max: 1.0 },
