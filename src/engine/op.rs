@@ -257,6 +257,12 @@ pub struct CheckProblem {
     pub message: String,
 }
 
+/// Returns a loader's content bytes for its key (e.g. the hash of the file it will read).
+pub type ContentKeyFn = fn(&Params, &Path) -> Result<Vec<u8>, OpError>;
+
+/// Cross-field validation of one node before anything runs.
+pub type CheckFn = fn(&CheckContext) -> Result<(), CheckProblem>;
+
 /// The static description of an operator.
 pub struct OpSpec {
     /// The name used in pipeline files, e.g. `LoadHdr`.
@@ -272,10 +278,10 @@ pub struct OpSpec {
     pub eval: fn(&OpContext) -> Result<Value, OpError>,
     /// Extra bytes for the cache key computed before evaluation, e.g. a loader's file content
     /// hash. When set, `Path` fields are left out of the key (keys never hold paths).
-    pub content_key: Option<fn(&Params, &Path) -> Result<Vec<u8>, OpError>>,
+    pub content_key: Option<ContentKeyFn>,
     /// Cross-field validation run before anything is evaluated (e.g. a file extension that
     /// must suit the input's type).
-    pub check: Option<fn(&CheckContext) -> Result<(), CheckProblem>>,
+    pub check: Option<CheckFn>,
 }
 
 impl OpSpec {

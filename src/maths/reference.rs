@@ -29,27 +29,34 @@
 //! - culling per block and per chunk of normals: when every texel of a block is behind every
 //!   normal of the chunk (bounding cones, with a margin far above f32 rounding), the block's
 //!   terms are all exactly `+0`, so skipping it changes no bit of the result;
-//! - an inner loop without branches (`max(dot, 0) * w`, 8 lanes), compiled for AVX when the CPU
-//!   has it and SSE2 otherwise: every lane performs the same f32 operations in the same order
-//!   (no FMA), so the result is identical on every x86_64 CPU and whatever the number of threads;
+//! - an inner loop without branches (`max(dot, 0) * w`, 8 lanes): AVX intrinsics (two normals
+//!   per pass, sharing the texel loads) when the CPU has AVX, SSE2 otherwise, a portable loop
+//!   elsewhere. Every lane performs the same f32 operations in the same order (no FMA), so the
+//!   result is identical on every CPU and whatever the number of threads;
 //! - rayon over chunks of normals; within a chunk, blocks outer and normals inner, so a block
 //!   (6 KiB) stays in L1 while the chunk's normals use it.
 //!
 //! # Accuracy
 //!
 //! Each block's sum is formed in f32 (8 lanes of 32 sequential additions, then a fixed pairwise
-//! sum of the lanes) and added into f64 accumulators. With `u = 2^-24`, the standard bound for
-//! recursive summation (Higham, *Accuracy and Stability of Numerical Algorithms*, 2nd ed., 2002,
-//! section 4.2: `|error| <= gamma_{n-1} sum |t_i|`, `gamma_k = k u / (1 - k u)`) gives, per block,
-//! `|S_f32 - S| <= ~35 u sum_block |t_i| + ~7 u sum_{block, |n.d_i| < 5u} |w_i|`: 31 additions
-//! per lane plus 3 for the lanes, one rounding each for `w_i` and the product, and ~5 u on the
-//! cosine (f32 inputs and the 3-term dot product) which only matters where `n.d` is within 5u of
-//! 0. The f64 sum of the (W H / 256) block sums adds `~(W H / 256) 2^-53` relative, negligible.
-//! So for non-negative radiance the relative error is at most ~2.1e-6 (worst case, all roundings
-//! aligned); rounding errors being independent, a typical error is ~1e-7 (the tests compare with
-//! a naive f64 loop to 1e-6). Radiance times solid angle must stay within f32 range
-//! (|L| below ~1e37), and texels must be finite: a NaN or infinite texel makes non-finite (at
-//! least) the normals that face it (see [`first_non_finite`]).
+//! sum of the lanes) and added into f64 accumulators. With `u = 2^-24`:
+//! - the inputs: `n`, `d_i` and `w_i = L_i dOmega_i` rounded to f32 (relative `u` each) and the
+//!   3-term dot product make each cosine wrong by at most ~5u = 3e-7 absolute (`|n| = |d| = 1`);
+//!   this only matters for texels that face `n` (or nearly: `n.d > -3e-7`);
+//! - the summation: recursive summation of k terms errs by at most `gamma_{k-1} sum |t_i|`,
+//!   `gamma_k = k u / (1 - k u)` (Higham, *Accuracy and Stability of Numerical Algorithms*, 2nd
+//!   ed., 2002, section 4.2): 31 additions per lane, 3 for the lanes, one rounding for the
+//!   product: ~35 u = 2.1e-6 of `sum_block |t_i|`;
+//! - the f64 sum of the `W H / 256` block sums adds `~(W H / 256) 2^-53` relative: negligible.
+//!
+//! So `|E_computed - E| <= ~2.1e-6 E_abs + ~3e-7 sum_{i facing n} |L_i| dOmega_i`, where `E_abs`
+//! is the same sum with `|L|`. For non-negative radiance that is a few 1e-6 relative in the
+//! worst case (all roundings aligned; the second term is ~2 x 3e-7 E for light spread over the
+//! hemisphere, but large relative to E when only grazing texels light `n`). Roundings being
+//! independent, typical errors are ~1e-7 (the tests compare with a naive f64 loop to 1e-6).
+//! Radiance times solid angle must stay within f32 range (|L| below ~1e37), and texels must be
+//! finite: a NaN or infinite texel makes non-finite (at least) the normals that face it (see
+//! [`first_non_finite`]).
 
 use std::f64::consts::PI;
 
@@ -67,11 +74,10 @@ const LANES: usize = 8;
 const GROUPS_PER_BLOCK: usize = BLOCK / LANES;
 /// Side of the map tiles that blocks are filled from (TILE^2 = BLOCK).
 const TILE: usize = 16;
-/// Normals per parallel task (and per culling cone).
-const NORMAL_CHUNK: usize = 128;
-/// Normals processed together against one group of texels (register blocking: the texel loads
-/// are shared; each normal's arithmetic is unchanged, so results do not depend on it).
-const NORMALS_AT_ONCE: usize = 4;
+/// Normals per parallel task and per culling cone (with `reference_sphere`, one 16 x 16 tile of
+/// pixels). Larger chunks cull less; smaller ones stream the packed map from memory more often.
+/// 256 and 512 were the fastest of 64..1024 on 2 cores (on a busy machine: timings varied 2x).
+const NORMAL_CHUNK: usize = 256;
 /// Extra angle (radians) a block must lie beyond the horizon of a chunk of normals to be
 /// culled: it guarantees `n.d < -sin(1e-3)` in exact arithmetic, far beyond the ~1e-6 error of
 /// the f32 dot product, so a culled block's terms are all exactly +0.
@@ -215,69 +221,99 @@ fn hsum(a: &[f32; LANES]) -> f32 {
     ((a[0] + a[4]) + (a[1] + a[5])) + ((a[2] + a[6]) + (a[3] + a[7]))
 }
 
-/// `sum_j max(n_k . d_j, 0) * w_j` over one block for `K` normals at once (f32, lanes).
-/// `max` is written `if d > 0 { d } else { 0 }`, which compiles to MAXPS (NaN, -0 -> +0).
-#[inline(always)]
-fn block_sums<const K: usize>(groups: &[Group], n: &[[f32; 3]; K]) -> [[f32; 3]; K] {
-    let mut acc = [[[0.0f32; LANES]; 3]; K];
+/// Portable inner loop (the reference for the SIMD ones): `sum_j max(n . d_j, 0) * w_j` over
+/// one block, in f32, per lane `(nx dx + ny dy) + nz dz`, then `max`, then `acc += c * w`.
+/// `max` is `if d > 0 { d } else { 0 }`: the semantics of MAXPS(d, 0) (NaN and -0 give +0).
+fn block_sum_portable(groups: &[Group], n: [f32; 3]) -> [f32; 3] {
+    let mut acc = [[0.0f32; LANES]; 3];
     for g in groups {
-        for k in 0..K {
-            for l in 0..LANES {
-                let d = n[k][0] * g.dx[l] + n[k][1] * g.dy[l] + n[k][2] * g.dz[l];
-                let c = if d > 0.0 { d } else { 0.0 };
-                acc[k][0][l] += c * g.wr[l];
-                acc[k][1][l] += c * g.wg[l];
-                acc[k][2][l] += c * g.wb[l];
-            }
+        for l in 0..LANES {
+            let d = n[0] * g.dx[l] + n[1] * g.dy[l] + n[2] * g.dz[l];
+            let c = if d > 0.0 { d } else { 0.0 };
+            acc[0][l] += c * g.wr[l];
+            acc[1][l] += c * g.wg[l];
+            acc[2][l] += c * g.wb[l];
         }
     }
-    let mut out = [[0.0f32; 3]; K];
-    for k in 0..K {
-        for ch in 0..3 {
-            out[k][ch] = hsum(&acc[k][ch]);
-        }
-    }
-    out
-}
-
-/// One chunk of normals: for every non-culled block, every normal's block sum (f32) added into
-/// its f64 accumulator, blocks in increasing order.
-#[inline(always)]
-fn chunk_generic(packed: &Packed, active: &[usize], normals: &[[f32; 3]], out: &mut [[f64; 3]]) {
-    for &b in active {
-        let groups = &packed.groups[b * GROUPS_PER_BLOCK..(b + 1) * GROUPS_PER_BLOCK];
-        let mut i = 0;
-        while i + NORMALS_AT_ONCE <= normals.len() {
-            let n: &[[f32; 3]; NORMALS_AT_ONCE] =
-                normals[i..i + NORMALS_AT_ONCE].try_into().expect("slice of NORMALS_AT_ONCE");
-            let s = block_sums::<NORMALS_AT_ONCE>(groups, n);
-            for k in 0..NORMALS_AT_ONCE {
-                for ch in 0..3 {
-                    out[i + k][ch] += s[k][ch] as f64;
-                }
-            }
-            i += NORMALS_AT_ONCE;
-        }
-        while i < normals.len() {
-            let s = block_sums::<1>(groups, &[normals[i]]);
-            for ch in 0..3 {
-                out[i][ch] += s[0][ch] as f64;
-            }
-            i += 1;
-        }
-    }
+    [hsum(&acc[0]), hsum(&acc[1]), hsum(&acc[2])]
 }
 
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx")]
-unsafe fn chunk_avx(packed: &Packed, active: &[usize], normals: &[[f32; 3]], out: &mut [[f64; 3]]) {
-    chunk_generic(packed, active, normals, out)
+mod x86 {
+    use super::{hsum, Group, LANES};
+    use std::arch::x86_64::*;
+
+    /// AVX version of `block_sum_portable` for two normals at once (the texel loads are shared;
+    /// each normal's lane arithmetic is exactly the portable one).
+    #[target_feature(enable = "avx")]
+    pub(super) unsafe fn block_sums2_avx(groups: &[Group], a: [f32; 3], b: [f32; 3]) -> [[f32; 3]; 2] {
+        let (ax, ay, az) = (_mm256_set1_ps(a[0]), _mm256_set1_ps(a[1]), _mm256_set1_ps(a[2]));
+        let (bx, by, bz) = (_mm256_set1_ps(b[0]), _mm256_set1_ps(b[1]), _mm256_set1_ps(b[2]));
+        let zero = _mm256_setzero_ps();
+        let mut acc = [zero; 6];
+        for g in groups {
+            let dx = _mm256_load_ps(g.dx.as_ptr());
+            let dy = _mm256_load_ps(g.dy.as_ptr());
+            let dz = _mm256_load_ps(g.dz.as_ptr());
+            let wr = _mm256_load_ps(g.wr.as_ptr());
+            let wg = _mm256_load_ps(g.wg.as_ptr());
+            let wb = _mm256_load_ps(g.wb.as_ptr());
+            let da = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(ax, dx), _mm256_mul_ps(ay, dy)), _mm256_mul_ps(az, dz));
+            let db = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(bx, dx), _mm256_mul_ps(by, dy)), _mm256_mul_ps(bz, dz));
+            // MAXPS returns the second operand when the first is not greater (NaN, -0 -> +0).
+            let ca = _mm256_max_ps(da, zero);
+            let cb = _mm256_max_ps(db, zero);
+            acc[0] = _mm256_add_ps(acc[0], _mm256_mul_ps(ca, wr));
+            acc[1] = _mm256_add_ps(acc[1], _mm256_mul_ps(ca, wg));
+            acc[2] = _mm256_add_ps(acc[2], _mm256_mul_ps(ca, wb));
+            acc[3] = _mm256_add_ps(acc[3], _mm256_mul_ps(cb, wr));
+            acc[4] = _mm256_add_ps(acc[4], _mm256_mul_ps(cb, wg));
+            acc[5] = _mm256_add_ps(acc[5], _mm256_mul_ps(cb, wb));
+        }
+        let mut lanes = [[0.0f32; LANES]; 6];
+        for k in 0..6 {
+            _mm256_storeu_ps(lanes[k].as_mut_ptr(), acc[k]);
+        }
+        [
+            [hsum(&lanes[0]), hsum(&lanes[1]), hsum(&lanes[2])],
+            [hsum(&lanes[3]), hsum(&lanes[4]), hsum(&lanes[5])],
+        ]
+    }
+
+    /// SSE2 version of `block_sum_portable` (lanes 0-3 and 4-7 in two registers).
+    pub(super) unsafe fn block_sum_sse2(groups: &[Group], n: [f32; 3]) -> [f32; 3] {
+        let (nx, ny, nz) = (_mm_set1_ps(n[0]), _mm_set1_ps(n[1]), _mm_set1_ps(n[2]));
+        let zero = _mm_setzero_ps();
+        let mut acc = [zero; 6]; // r lo, r hi, g lo, g hi, b lo, b hi
+        for g in groups {
+            for half in 0..2 {
+                let o = 4 * half;
+                let d = _mm_add_ps(
+                    _mm_add_ps(_mm_mul_ps(nx, _mm_load_ps(g.dx.as_ptr().add(o))), _mm_mul_ps(ny, _mm_load_ps(g.dy.as_ptr().add(o)))),
+                    _mm_mul_ps(nz, _mm_load_ps(g.dz.as_ptr().add(o))),
+                );
+                let c = _mm_max_ps(d, zero);
+                acc[half] = _mm_add_ps(acc[half], _mm_mul_ps(c, _mm_load_ps(g.wr.as_ptr().add(o))));
+                acc[2 + half] = _mm_add_ps(acc[2 + half], _mm_mul_ps(c, _mm_load_ps(g.wg.as_ptr().add(o))));
+                acc[4 + half] = _mm_add_ps(acc[4 + half], _mm_mul_ps(c, _mm_load_ps(g.wb.as_ptr().add(o))));
+            }
+        }
+        let mut lanes = [[0.0f32; LANES]; 3];
+        for ch in 0..3 {
+            _mm_storeu_ps(lanes[ch].as_mut_ptr(), acc[2 * ch]);
+            _mm_storeu_ps(lanes[ch].as_mut_ptr().add(4), acc[2 * ch + 1]);
+        }
+        [hsum(&lanes[0]), hsum(&lanes[1]), hsum(&lanes[2])]
+    }
 }
 
-/// Which compilation of the inner loop runs (all give bit-identical results).
+/// Which implementation of the inner loop runs. All give bit-identical results: each lane does
+/// the same f32 operations in the same order (no FMA contraction), lanes summed in one order.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Kernel {
     Portable,
+    #[cfg(target_arch = "x86_64")]
+    Sse2,
     #[cfg(target_arch = "x86_64")]
     Avx,
 }
@@ -285,10 +321,57 @@ enum Kernel {
 impl Kernel {
     fn detect() -> Kernel {
         #[cfg(target_arch = "x86_64")]
-        if is_x86_feature_detected!("avx") {
-            return Kernel::Avx;
+        {
+            if is_x86_feature_detected!("avx") {
+                Kernel::Avx
+            } else {
+                Kernel::Sse2
+            }
         }
+        #[cfg(not(target_arch = "x86_64"))]
         Kernel::Portable
+    }
+
+    /// One chunk of normals: for every non-culled block (in increasing order), each normal's
+    /// f32 block sum added into its f64 accumulator.
+    fn run(self, packed: &Packed, active: &[usize], normals: &[[f32; 3]], out: &mut [[f64; 3]]) {
+        let add = |acc: &mut [f64; 3], s: [f32; 3]| {
+            for ch in 0..3 {
+                acc[ch] += s[ch] as f64;
+            }
+        };
+        for &b in active {
+            let groups = &packed.groups[b * GROUPS_PER_BLOCK..(b + 1) * GROUPS_PER_BLOCK];
+            match self {
+                Kernel::Portable => {
+                    for (n, acc) in normals.iter().zip(out.iter_mut()) {
+                        add(acc, block_sum_portable(groups, *n));
+                    }
+                }
+                // SAFETY: SSE2 is part of the x86_64 baseline.
+                #[cfg(target_arch = "x86_64")]
+                Kernel::Sse2 => {
+                    for (n, acc) in normals.iter().zip(out.iter_mut()) {
+                        add(acc, unsafe { x86::block_sum_sse2(groups, *n) });
+                    }
+                }
+                // SAFETY: `Kernel::Avx` is only chosen when `is_x86_feature_detected!("avx")`.
+                #[cfg(target_arch = "x86_64")]
+                Kernel::Avx => {
+                    let pairs = normals.len() / 2;
+                    for i in 0..pairs {
+                        let s = unsafe { x86::block_sums2_avx(groups, normals[2 * i], normals[2 * i + 1]) };
+                        add(&mut out[2 * i], s[0]);
+                        add(&mut out[2 * i + 1], s[1]);
+                    }
+                    if normals.len() % 2 == 1 {
+                        let i = normals.len() - 1;
+                        let s = unsafe { x86::block_sums2_avx(groups, normals[i], normals[i]) };
+                        add(&mut out[i], s[0]);
+                    }
+                }
+            }
+        }
     }
 }
 
@@ -317,12 +400,7 @@ fn irradiance_exact_with(env: &Image, normals: &[[f64; 3]], kernel: Kernel, cull
         let cone = if cull { bounding_cone(ns.iter().copied()) } else { ANY_DIRECTION };
         let active: Vec<usize> = (0..packed.cones.len()).filter(|&b| !behind(&cone, &packed.cones[b])).collect();
         let nf: Vec<[f32; 3]> = ns.iter().map(|n| n.map(|c| c as f32)).collect();
-        match kernel {
-            Kernel::Portable => chunk_generic(&packed, &active, &nf, acc),
-            // SAFETY: `Kernel::Avx` is only chosen when `is_x86_feature_detected!("avx")`.
-            #[cfg(target_arch = "x86_64")]
-            Kernel::Avx => unsafe { chunk_avx(&packed, &active, &nf, acc) },
-        }
+        kernel.run(&packed, &active, &nf, acc);
     });
     out
 }
@@ -430,8 +508,11 @@ pub(crate) mod tests {
             }
         }
         eprintln!("constant 256x128: worst relative error {worst:.2e}");
-        // The clamped cosine's kink makes the midpoint rule err by up to ~1e-4 at this size.
-        assert!(worst < 1e-4, "{worst}");
+        // The midpoint rule in theta: at the poles E = 2 pi sum sin cos dtheta, whose midpoint
+        // error is (h^2 / 24) int f'' = -(h^2 / 6) E relative (f = sin(2 theta) / 2, h = pi / H):
+        // 1.004e-4 for H = 128, the worst case over normals.
+        let pole = (PI / h as f64).powi(2) / 6.0;
+        assert!(worst < 1.05 * pole, "{worst} vs {pole}");
 
         // Through reference_sphere: albedo * L on the whole disc.
         let view = SphereView::new(32, [0.3, 0.4, 0.8]);
@@ -485,7 +566,9 @@ pub(crate) mod tests {
             }
         }
         eprintln!("linear 256x128: worst relative error {worst:.2e}");
-        assert!(worst < 1e-4, "{worst}");
+        // Midpoint rule, as for the constant map (~(pi/H)^2 / 6 = 1e-4, a little more for the
+        // linear term).
+        assert!(worst < 1.5e-4, "{worst}");
     }
 
     /// A random map: one texel in five black (skipped by the packing), a few very bright.
@@ -506,9 +589,13 @@ pub(crate) mod tests {
         Image::from_vec(w, h, 3, data)
     }
 
+    /// Against the plain f64 sum: 1e-6 relative on random maps. On degenerate maps (3 x 1,
+    /// 1 x 2) a normal can see a single texel at grazing incidence, where the ~3e-7 absolute
+    /// error of an f32 cosine is large relative to the cosine: there the documented bound
+    /// `2.1e-6 E + 3e-7 sum_front |L| dOmega` is checked instead.
     #[test]
     fn matches_naive_f64_sum_to_1e6() {
-        for &(w, h, seed) in &[(48usize, 24usize, 1u64), (100, 37, 2), (3, 1, 3), (1, 2, 4)] {
+        for &(w, h, seed, relative) in &[(48usize, 24usize, 1u64, true), (100, 37, 2, true), (3, 1, 3, false), (1, 2, 4, false)] {
             let env = random_map(w, h, seed);
             let mut ns = normals_for_tests();
             ns.push([0.6, 0.0, 0.8]);
@@ -516,18 +603,36 @@ pub(crate) mod tests {
             let mut worst = 0.0f64;
             for (n, f) in ns.iter().zip(&fast) {
                 let want = naive(&env, *n);
+                // sum over texels facing n (within rounding) of |L| dOmega
+                let front = {
+                    let mut s = [0.0f64; 3];
+                    for y in 0..h {
+                        for x in 0..w {
+                            if dot(*n, latlong::texel_direction(x, y, w, h)) > -1e-6 {
+                                let l = env.rgb(x, y);
+                                for ch in 0..3 {
+                                    s[ch] += (l[ch] as f64).abs() * latlong::texel_solid_angle(y, w, h);
+                                }
+                            }
+                        }
+                    }
+                    s
+                };
                 for ch in 0..3 {
                     let err = (f[ch] - want[ch]).abs();
-                    let scale = want[ch].abs().max(1e-300);
                     if want[ch] == 0.0 {
                         assert_eq!(f[ch], 0.0, "{w}x{h} n {n:?}");
+                    } else if relative {
+                        worst = worst.max(err / want[ch].abs());
                     } else {
-                        worst = worst.max(err / scale);
+                        assert!(err <= 2.1e-6 * want[ch].abs() + 3e-7 * front[ch], "{w}x{h} n {n:?}: {} vs {}", f[ch], want[ch]);
                     }
                 }
             }
-            eprintln!("random {w}x{h}: worst relative difference to naive f64 {worst:.2e}");
-            assert!(worst < 1e-6, "{w}x{h}: {worst}");
+            if relative {
+                eprintln!("random {w}x{h}: worst relative difference to naive f64 {worst:.2e}");
+                assert!(worst < 1e-6, "{w}x{h}: {worst}");
+            }
         }
     }
 
@@ -536,11 +641,24 @@ pub(crate) mod tests {
         let env = random_map(200, 100, 7);
         let view = SphereView::new(40, [0.2, 0.5, -0.8]);
         let ns: Vec<[f64; 3]> = disc_pixels_tiled(&view).iter().map(|p| p.1).collect();
-        let culled = irradiance_exact_with(&env, &ns, Kernel::Portable, true);
+        let same = |a: &[[f64; 3]], b: &[[f64; 3]]| {
+            a.len() == b.len() && a.iter().zip(b).all(|(a, b)| (0..3).all(|c| a[c].to_bits() == b[c].to_bits()))
+        };
         let plain = irradiance_exact_with(&env, &ns, Kernel::Portable, false);
-        assert!(culled.iter().zip(&plain).all(|(a, b)| (0..3).all(|c| a[c].to_bits() == b[c].to_bits())));
+        assert!(same(&plain, &irradiance_exact_with(&env, &ns, Kernel::Portable, true)));
+        #[cfg(target_arch = "x86_64")]
+        {
+            assert!(same(&plain, &irradiance_exact_with(&env, &ns, Kernel::Sse2, true)));
+            assert!(same(&plain, &irradiance_exact_with(&env, &ns, Kernel::Sse2, false)));
+            if is_x86_feature_detected!("avx") {
+                assert!(same(&plain, &irradiance_exact_with(&env, &ns, Kernel::Avx, true)));
+                // An odd count exercises the unpaired last normal.
+                let odd = &ns[..ns.len() - 1 + ns.len() % 2];
+                assert!(same(&plain[..odd.len()], &irradiance_exact_with(&env, odd, Kernel::Avx, true)));
+            }
+        }
         let fast = irradiance_exact(&env, &ns);
-        assert!(fast.iter().zip(&plain).all(|(a, b)| (0..3).all(|c| a[c].to_bits() == b[c].to_bits())));
+        assert!(same(&fast, &plain));
         // Order and thread count do not matter either.
         let rev: Vec<[f64; 3]> = ns.iter().rev().copied().collect();
         let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
@@ -592,6 +710,17 @@ pub(crate) mod tests {
             rayon::current_num_threads()
         );
         std::hint::black_box(img);
+        // How much culling saves: the fraction of blocks kept, over the sphere's chunks.
+        let packed = pack(&env);
+        let ns: Vec<[f64; 3]> = disc_pixels_tiled(&view).iter().map(|p| p.1).collect();
+        let kept: usize = ns
+            .chunks(NORMAL_CHUNK)
+            .map(|c| {
+                let cone = bounding_cone(c.iter().copied());
+                packed.cones.iter().filter(|b| !behind(&cone, b)).count() * c.len()
+            })
+            .sum();
+        eprintln!("blocks kept after culling: {:.1}%", 100.0 * kept as f64 / (packed.cones.len() * ns.len()) as f64);
         let sky = crate::formats::builtin::builtin("sky").unwrap();
         let big = crate::ops::image::resize::resize(&sky, 1024, 512);
         let t = std::time::Instant::now();

@@ -880,17 +880,16 @@ mod tests {
                     for l in &lights {
                         let d = [l.dir[0] as f64, l.dir[1] as f64, l.dir[2] as f64];
                         let c = dot(nf, d).max(0.0);
-                        for ch in 0..3 {
-                            want[ch] += c * l.weight[ch] as f64;
+                        for (w, lw) in want.iter_mut().zip(l.weight) {
+                            *w += c * lw as f64;
                         }
                         mag += dot(nf, d).abs() * l.weight[0] as f64;
                     }
-                    for ch in 0..3 {
+                    for (ch, want_ch) in want.iter().enumerate() {
                         let got = img.pixel(px, py)[ch] as f64;
                         assert!(
-                            (got - want[ch]).abs() <= 1e-5 * mag + 1e-9,
-                            "{view_dir:?} ({px},{py}) ch{ch}: {got} vs {}",
-                            want[ch]
+                            (got - want_ch).abs() <= 1e-5 * mag + 1e-9,
+                            "{view_dir:?} ({px},{py}) ch{ch}: {got} vs {want_ch}"
                         );
                     }
                 }

@@ -184,7 +184,7 @@ pub fn generate(seq: Sequence, count: usize, seed: u64) -> Vec<[f64; 2]> {
 /// Integer square root (floor), exact for all usize.
 fn isqrt(n: usize) -> usize {
     let mut k = (n as f64).sqrt() as usize;
-    while k > 0 && k.checked_mul(k).map_or(true, |s| s > n) {
+    while k > 0 && k.checked_mul(k).is_none_or(|s| s > n) {
         k -= 1;
     }
     while (k + 1).checked_mul(k + 1).is_some_and(|s| s <= n) {

@@ -32,7 +32,7 @@ pub fn node_key(node: &Node, input_keys: &BTreeMap<&'static str, Key>, content: 
     for field in spec.fields {
         if let FieldKind::Input(_) = field.kind {
             put_str(&mut h, field.name);
-            h.update(&[b'I']);
+            h.update(b"I");
             h.update(&input_keys[field.name]);
             continue;
         }
@@ -43,26 +43,26 @@ pub fn node_key(node: &Node, input_keys: &BTreeMap<&'static str, Key>, content: 
         put_str(&mut h, field.name);
         match value {
             ParamValue::Float(v) => {
-                h.update(&[b'f']);
+                h.update(b"f");
                 h.update(&v.to_bits().to_le_bytes());
             }
             ParamValue::Int(v) => {
-                h.update(&[b'i']);
+                h.update(b"i");
                 h.update(&v.to_le_bytes());
             }
             ParamValue::Bool(v) => {
                 h.update(&[b'b', u8::from(*v)]);
             }
             ParamValue::Text(s) => {
-                h.update(&[b's']);
+                h.update(b"s");
                 put_str(&mut h, s);
             }
             ParamValue::Choice(s) => {
-                h.update(&[b'c']);
+                h.update(b"c");
                 put_str(&mut h, s);
             }
             ParamValue::Tuple(v) => {
-                h.update(&[b't']);
+                h.update(b"t");
                 h.update(&(v.len() as u64).to_le_bytes());
                 for x in v {
                     h.update(&x.to_bits().to_le_bytes());
@@ -71,7 +71,7 @@ pub fn node_key(node: &Node, input_keys: &BTreeMap<&'static str, Key>, content: 
         }
     }
     if let Some(bytes) = content {
-        h.update(&[b'C']);
+        h.update(b"C");
         h.update(&(bytes.len() as u64).to_le_bytes());
         h.update(bytes);
     }

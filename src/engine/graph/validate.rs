@@ -172,12 +172,28 @@ pub(super) fn validate(
             errs.push_from(&origin, None, None, format!("no node named {:?} (nodes: {})", o.node, names.join(", ")));
             continue;
         };
+        let kind = node.spec.field(&o.field).map(|f| f.kind);
+        let is_text = matches!(kind, Some(FieldKind::Text | FieldKind::Path));
         let value = match syntax::parse(&o.value) {
+            Ok(v) if !is_text || matches!(v.value, Ron::Str(_)) => v,
+            // A shell strips quotes: `--set env.path=../x.exr` means the string.
+            _ if is_text => Spanned { value: Ron::Str(o.value.clone()), pos: Pos { line: 1, col: 1 } },
             Ok(v) => v,
             Err(e) => {
                 errs.push_from(&origin, Some(e.pos), Some(&o.node), format!("bad value {:?}: {}", o.value, e.message));
                 continue;
             }
+        };
+        // A relative path typed on the command line is relative to the working folder, not to
+        // the pipeline file's (keys hold file contents, never paths, so this costs no cache hit).
+        let value = match (kind, value) {
+            (Some(FieldKind::Path), Spanned { value: Ron::Str(path), pos })
+                if !path.starts_with("builtin:") && std::path::Path::new(&path).is_relative() =>
+            {
+                let abs = std::env::current_dir().map(|d| d.join(&path)).unwrap_or_else(|_| path.clone().into());
+                Spanned { value: Ron::Str(abs.to_string_lossy().into_owned()), pos }
+            }
+            (_, v) => v,
         };
         // A `--set` field name has no position in any file (line 0 = none).
         let field = Spanned { value: o.field.clone(), pos: Pos { line: 0, col: 0 } };
