@@ -75,8 +75,15 @@ enum MapKind {
     Plain,
 }
 
-const KINDS: [MapKind; 7] =
-    [MapKind::Mixed, MapKind::HotTexel, MapKind::SunOverSky, MapKind::HotPoles, MapKind::Black, MapKind::Sparse, MapKind::Plain];
+const KINDS: [MapKind; 7] = [
+    MapKind::Mixed,
+    MapKind::HotTexel,
+    MapKind::SunOverSky,
+    MapKind::HotPoles,
+    MapKind::Black,
+    MapKind::Sparse,
+    MapKind::Plain,
+];
 
 fn log_uniform(r: &mut SplitMix64, lo_exp: f64, hi_exp: f64) -> f32 {
     10f64.powf(lo_exp + (hi_exp - lo_exp) * r.next_f64()) as f32
@@ -313,7 +320,10 @@ fn distribution_chi_square_on_random_maps() {
             }
             let exp: Vec<f64> = (0..w * h).map(|i| n as f64 * d.texel_probability(i % w, i / w)).collect();
             let r = chi_square_test(&obs, &exp, 5.0);
-            assert_eq!(r.impossible_cells, 0, "{kind:?} {w}x{h} sin {sin_theta}: samples on zero-probability texels: {r:?}");
+            assert_eq!(
+                r.impossible_cells, 0,
+                "{kind:?} {w}x{h} sin {sin_theta}: samples on zero-probability texels: {r:?}"
+            );
             assert!(r.passed(1e-4), "{kind:?} {w}x{h} sin {sin_theta}: {r:?}");
         }
     }
@@ -449,7 +459,15 @@ fn u_value() -> impl Strategy<Value = f64> {
 
 fn axis() -> impl Strategy<Value = [f64; 3]> {
     prop_oneof![
-        prop::sample::select(vec![[0.0, 1.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, 1.0], [0.0, 0.0, -1.0], [1.0, 0.0, 0.0], [1e-9, 0.0, -1.0], [0.0, 1e-300, -1.0]]),
+        prop::sample::select(vec![
+            [0.0, 1.0, 0.0],
+            [0.0, -1.0, 0.0],
+            [0.0, 0.0, 1.0],
+            [0.0, 0.0, -1.0],
+            [1.0, 0.0, 0.0],
+            [1e-9, 0.0, -1.0],
+            [0.0, 1e-300, -1.0]
+        ]),
         (-1.0f64..=1.0, 0.0..2.0 * PI).prop_map(|(z, p)| {
             let r = (1.0 - z * z).max(0.0).sqrt();
             [r * p.cos(), r * p.sin(), z]
@@ -524,7 +542,9 @@ fn phong_chi_square_over_the_lobe() {
     for (ai, axis) in [[0.0, 1.0, 0.0], [0.0, -1.0, 0.0], unit([0.3, -0.5, 0.8])].into_iter().enumerate() {
         // A frame around the axis: any two orthonormal vectors will do for binning phi.
         let helper = if axis[0].abs() < 0.9 { [1.0, 0.0, 0.0] } else { [0.0, 1.0, 0.0] };
-        let cross = |a: [f64; 3], b: [f64; 3]| [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
+        let cross = |a: [f64; 3], b: [f64; 3]| {
+            [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+        };
         let t1 = unit(cross(axis, helper));
         let t2 = cross(axis, t1);
         for &s in &[1.0f64, 200.0, 1e4] {
@@ -586,7 +606,10 @@ fn cos_of_degrees(deg: f64) -> f64 {
 
 fn check_fresnel(cos_i: f64, eta_i: f64, eta_t: f64) {
     let (rs, rp) = fresnel::reflectance(cos_i, eta_i, eta_t);
-    assert!((0.0..=1.0).contains(&rs) && (0.0..=1.0).contains(&rp), "cos {cos_i:e} eta {eta_i:e} -> {eta_t:e}: R_s {rs}, R_p {rp}");
+    assert!(
+        (0.0..=1.0).contains(&rs) && (0.0..=1.0).contains(&rp),
+        "cos {cos_i:e} eta {eta_i:e} -> {eta_t:e}: R_s {rs}, R_p {rp}"
+    );
     if eta_i == eta_t {
         assert_eq!((rs, rp), (0.0, 0.0), "equal indices reflect nothing (cos {cos_i:e})");
     }
@@ -616,12 +639,22 @@ fn fresnel_every_angle_and_the_critical_angle() {
             assert!(ei > et && crit.is_finite() && (0.0..=90.0).contains(&crit), "{ei} -> {et}: critical {crit}");
             let ratio = et / ei;
             let c_exact = (1.0 - ratio * ratio).max(0.0).sqrt();
-            for c in [cos_of_degrees(crit), c_exact, f64::from_bits(c_exact.to_bits() + 1), f64::from_bits(c_exact.to_bits().saturating_sub(1)), (crit + 1e-9).to_radians().cos()] {
+            for c in [
+                cos_of_degrees(crit),
+                c_exact,
+                f64::from_bits(c_exact.to_bits() + 1),
+                f64::from_bits(c_exact.to_bits().saturating_sub(1)),
+                (crit + 1e-9).to_radians().cos(),
+            ] {
                 check_fresnel(c.clamp(0.0, 1.0), ei, et);
             }
             // Beyond the critical angle: total internal reflection.
             let beyond = cos_of_degrees((crit + 90.0) / 2.0);
-            assert_eq!(fresnel::reflectance(beyond, ei, et), (1.0, 1.0), "{ei} -> {et}: no TIR past the critical angle");
+            assert_eq!(
+                fresnel::reflectance(beyond, ei, et),
+                (1.0, 1.0),
+                "{ei} -> {et}: no TIR past the critical angle"
+            );
         } else {
             assert!(ei <= et || !(et > 0.0), "{ei} -> {et} has a critical angle");
         }
@@ -757,7 +790,12 @@ fn regression_relight_infinite_weight_gives_nan_behind_the_light() {
             }
         }
     }
-    assert!(bad.is_empty(), "{} pixels facing away from the infinite light are non-finite, e.g. {:?}", bad.len(), &bad[..bad.len().min(3)]);
+    assert!(
+        bad.is_empty(),
+        "{} pixels facing away from the infinite light are non-finite, e.g. {:?}",
+        bad.len(),
+        &bad[..bad.len().min(3)]
+    );
 }
 
 // -------------------------------------------------------------------------------------------------
@@ -802,7 +840,10 @@ fn assert_finite_or_clear_error(result: Result<Image, String>, what: &str) {
         Ok(img) => {
             let nan = img.data.iter().filter(|v| v.is_nan()).count();
             let inf = img.data.iter().filter(|v| v.is_infinite()).count();
-            assert!(nan == 0 && inf == 0, "{what}: RelightSphere returned an image with {nan} NaN and {inf} infinite samples and no error");
+            assert!(
+                nan == 0 && inf == 0,
+                "{what}: RelightSphere returned an image with {nan} NaN and {inf} infinite samples and no error"
+            );
         }
         Err(msg) => assert!(msg.contains("RelightSphere") || msg.contains("BuildCdf"), "{what}: unclear error {msg}"),
     }
@@ -823,8 +864,12 @@ fn relight_sphere_real_captures_are_finite() {
     for (name, env) in [("1x1 thumbnail", &thumb), ("black", &black), ("65000x sun", &sun), ("1e30 sun", &hot)] {
         for estimator in ["Unbiased", "Seed"] {
             for count in [1usize, 256] {
-                let img = run_relight_pipeline(env, count, estimator, false).unwrap_or_else(|e| panic!("{name} {estimator} {count}: {e}"));
-                assert!(img.data.iter().all(|v| v.is_finite() && *v >= 0.0), "{name} {estimator} {count}: non-finite or negative output");
+                let img = run_relight_pipeline(env, count, estimator, false)
+                    .unwrap_or_else(|e| panic!("{name} {estimator} {count}: {e}"));
+                assert!(
+                    img.data.iter().all(|v| v.is_finite() && *v >= 0.0),
+                    "{name} {estimator} {count}: non-finite or negative output"
+                );
                 if name == "black" {
                     assert!(img.data.iter().all(|&v| v == 0.0), "a black map lights nothing");
                 } else {
