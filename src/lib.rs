@@ -23,6 +23,7 @@
 // `!(x > 0.0)` is written on purpose throughout: it is true for NaN, which is the point.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+pub mod bench;
 pub mod data;
 pub mod engine;
 pub mod formats;

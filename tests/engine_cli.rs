@@ -247,7 +247,9 @@ fn moving_an_input_file_keeps_its_key() {
 
     std::fs::create_dir_all(sb.join("b")).expect("mkdir b");
     std::fs::rename(sb.join("a/in.pfm"), sb.join("b/moved.pfm")).expect("move the input");
-    let set = r#"env.path="b/moved.pfm""#;
+    // A path given with --set is relative to the working folder: give it absolute.
+    let set = format!("env.path={}", sb.join("b/moved.pfm").display());
+    let set = set.as_str();
 
     let (out, r2) = sb.run_ok(&graph, &["--set", set]);
     assert_eq!(r2.key_of("env"), key, "moving the file changed LoadHdr's key\n{}", out.describe());

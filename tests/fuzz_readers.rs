@@ -106,14 +106,20 @@ fn largest_allocation_of<T>(f: impl FnOnce() -> T) -> (T, usize) {
 /// Known bug, kept visible by `regression_rgbe_truncated_wide_row_allocates_the_whole_row`: a
 /// Radiance header claiming a very wide row makes `rgbe::decode` allocate (and zero) the whole
 /// row, up to 3 GiB, before it finds the data truncated. The properties skip such headers (width
-/// above 2^22) so that one unlucky case cannot cost seconds and gigabytes in CI; remove this
-/// filter once the decoder allocates rows as it decodes them.
+/// above 2^22 and at most 2^28 pixels in all) so that one unlucky case cannot cost seconds and
+/// gigabytes in CI; remove this filter once the decoder allocates rows as it decodes them.
 fn rgbe_claims_huge_row(bytes: &[u8]) -> bool {
     let head = &bytes[..bytes.len().min(4096)];
     head.split(|&b| b == b'\n').any(|line| {
         let Ok(text) = std::str::from_utf8(line) else { return false };
         let t: Vec<&str> = text.split_ascii_whitespace().collect();
-        t.len() == 4 && t[3].parse::<u64>().is_ok_and(|w| w > 1 << 22)
+        if t.len() != 4 {
+            return false;
+        }
+        match (t[1].parse::<u64>(), t[3].parse::<u64>()) {
+            (Ok(h), Ok(w)) => w > 1 << 22 && h.checked_mul(w).is_some_and(|p| p <= 1 << 28),
+            _ => false,
+        }
     })
 }
 
@@ -478,7 +484,7 @@ fn pfm_structured() -> impl Strategy<Value = Vec<u8>> {
     )
         .prop_map(|(m, s1, w, s2, h, s3, scale, s4, payload_len, fill)| {
             let mut bytes = format!("{m}{s1}{w}{s2}{h}{s3}{scale}{s4}").into_bytes();
-            bytes.extend(std::iter::repeat(fill).take(payload_len));
+            bytes.resize(bytes.len() + payload_len, fill);
             bytes
         })
 }
@@ -587,7 +593,7 @@ fn apply_exr(bytes: &mut [u8], e: &ExrEdit) {
 // -------------------------------------------------------------------------------------------------
 
 proptest! {
-    #![proptest_config(config(600))]
+    #![proptest_config(config(4000))]
 
     #[test]
     fn rgbe_arbitrary_bytes(bytes in prop::collection::vec(any::<u8>(), 0..1024)) {
@@ -595,7 +601,9 @@ proptest! {
         // The same bytes behind a valid magic line, so that the header parser is exercised.
         let mut with_magic = b"#?RADIANCE\n".to_vec();
         with_magic.extend_from_slice(&bytes);
-        prop_assume!(!rgbe_claims_huge_row(&with_magic));
+        if rgbe_claims_huge_row(&with_magic) {
+            return Ok(());
+        }
         let _ = decode_no_panic("rgbe::decode", rgbe::decode, &with_magic)?;
     }
 
@@ -618,7 +626,9 @@ proptest! {
 
     #[test]
     fn rgbe_structured_headers(bytes in rgbe_structured()) {
-        prop_assume!(!rgbe_claims_huge_row(&bytes));
+        if rgbe_claims_huge_row(&bytes) {
+            return Ok(());
+        }
         if let Ok(img) = decode_no_panic("rgbe::decode", rgbe::decode, &bytes)? {
             if !rgbe_has_exposure(&bytes) {
                 check_rgbe_values(&img, &bytes)?;
@@ -633,7 +643,7 @@ proptest! {
 }
 
 proptest! {
-    #![proptest_config(config(400))]
+    #![proptest_config(config(3000))]
 
     #[test]
     fn rgbe_mutated_valid_files(img in small_image(), ms in mutations(), number in interesting_number(), k in any::<usize>(), edit_header in any::<bool>()) {
@@ -648,7 +658,9 @@ proptest! {
         for m in &ms {
             apply(&mut bytes, m);
         }
-        prop_assume!(!rgbe_claims_huge_row(&bytes));
+        if rgbe_claims_huge_row(&bytes) {
+            return Ok(());
+        }
         if let Ok(img) = decode_no_panic("rgbe::decode", rgbe::decode, &bytes)? {
             if !rgbe_has_exposure(&bytes) {
                 check_rgbe_values(&img, &bytes)?;
@@ -820,7 +832,7 @@ fn override_text() -> impl Strategy<Value = String> {
 }
 
 proptest! {
-    #![proptest_config(config(600))]
+    #![proptest_config(config(4000))]
 
     #[test]
     fn pipeline_arbitrary_strings(text in "\\PC{0,400}") {

@@ -214,3 +214,32 @@ fn two_concurrent_runs_share_a_cache_and_an_output_folder() {
         assert_same_output(&dirs.out, &clean, &format!("two concurrent runs, {round}"));
     }
 }
+
+/// BUG (found by `killed_runs_then_completed_match_a_clean_run`, which failed in 47 of 50
+/// scratch runs): `engine::cache::store::write_atomic` writes each output as
+/// `OUT/.NAME.tmp-PID-COUNTER-NANOS`, fsyncs it and renames it over `OUT/NAME`. A run killed
+/// between the create and the rename (the fsync makes that window wide) leaves the temporary
+/// file behind, and nothing ever removes it from the output folder: a later complete run
+/// (`scheduler::write_output`) neither cleans it up nor ignores it (the cache folder has a
+/// one-hour cleanup in `CacheStore::evict`, the output folder none). Observed leftovers, e.g.
+/// `.em_64.png.tmp-23325-29-1795487431671077957` after a kill at 40 ms.
+///
+/// Deterministic form: plant the leftover of a dead process (its pid, an mtime two hours old),
+/// run to completion, and expect it gone.
+#[test]
+fn regression_stale_temporary_file_in_output_folder_is_removed() {
+    let (clean, _) = clean_run();
+    let dirs = Dirs::new();
+    // A pid that belonged to a process that has exited.
+    let mut dead = Command::new("true").spawn().expect("spawning `true`");
+    let pid = dead.id();
+    dead.wait().unwrap();
+    std::fs::create_dir_all(&dirs.out).unwrap();
+    let stale = dirs.out.join(format!(".em_64.png.tmp-{pid}-0-1700000000000000000"));
+    std::fs::write(&stale, b"half of a PNG").unwrap();
+    let two_hours_ago = std::time::SystemTime::now() - Duration::from_secs(2 * 3600);
+    File::options().write(true).open(&stale).unwrap().set_modified(two_hours_ago).unwrap();
+
+    run_to_completion(&dirs.out, &dirs.cache, &dirs.logs.join("run.log"), "run over a stale temporary file");
+    assert_same_output(&dirs.out, &clean, "a complete run over the leftover of a killed run");
+}

@@ -205,7 +205,7 @@ fn check_distribution(d: &Distribution2D, img: &Image, extra_us: &[f64]) -> Resu
 }
 
 proptest! {
-    #![proptest_config(config(256))]
+    #![proptest_config(config(3000))]
 
     /// Sizes 1x1 .. 64x32, every kind of map, both weightings.
     #[test]
@@ -249,7 +249,7 @@ impl Bad {
 }
 
 proptest! {
-    #![proptest_config(config(256))]
+    #![proptest_config(config(2000))]
 
     /// NaN / +-Inf / negative texels: `BadTexel` naming the first one in row-major order unless
     /// `sanitize`; with `sanitize`, a normalised distribution with no NaN anywhere.
@@ -332,11 +332,12 @@ fn distribution_chi_square_on_random_maps() {
 /// f32 versus f64 accumulation on a 2048 x 1024 map with a sun 1e6 times the sky.
 ///
 /// The f64 build integrates to 1 within 1e-12 and its conditional CDFs reproduce every texel's
-/// probability. The naive f32 accumulation (written out below, as a renderer in f32 would do)
-/// keeps bright texels' pdf within 1e-3 relative, but its CDFs lose the sky texels that follow
-/// the sun in the sun's rows: a running sum of ~1e7 has an f32 spacing of 1, the sky weights are
-/// ~1, so their CDF intervals are rounded to whole units (tens of percent wrong, some texels
-/// lost outright). This test documents that loss and checks that f64 does not have it.
+/// probability (measured: 2e-9 relative, asserted < 1e-6). The naive f32 accumulation (written
+/// out below, as a renderer in f32 would do) keeps the marginal CDF within ~2e-6 and the bright
+/// texels' pdf within ~1e-5 relative (asserted < 1e-4 and < 1e-3), but its conditional CDFs
+/// garble the sky texels that follow the sun in the sun's rows: there the running sum is ~7e6,
+/// whose f32 spacing is 0.5, while the sky weights are ~0.5, so the probabilities their CDF
+/// intervals imply are off by up to ~20% (asserted > 1e-2, documenting the loss).
 #[test]
 fn f64_distribution_versus_naive_f32_on_a_bright_sun() {
     let (w, h) = (2048usize, 1024usize);
@@ -486,10 +487,17 @@ fn axis() -> impl Strategy<Value = [f64; 3]> {
 const COS_EPS: f64 = 1e-15;
 
 proptest! {
-    #![proptest_config(config(2000))]
+    #![proptest_config(config(20000))]
 
     /// Exponents 0, 1, 200, 1e4, 1e6; u in [0, 1] including both ends; axes at the poles, the
     /// horizon and anywhere: unit finite directions, finite pdf >= 0 that agrees with `lobe_pdf`.
+    ///
+    /// The agreement is relative 1e-6 except within ~1e-15 of the horizon. A literal "relative
+    /// 1e-6 wherever pdf > 1e-300" does not hold there, and cannot: for s = 0 a u1 below ~1e-16
+    /// puts the sample on the horizon, where `lobe_pdf` (from the direction) may round to the
+    /// other side and give 0 instead of 1/(2 pi); for s = 1, u1 = 7.9e-33 gives pdf 3.5e-17 from
+    /// the sampler and 1.4e-16 from the direction, whose cos(alpha) = 5.5e-17 is below the
+    /// absolute precision of a unit f64 vector. Neither function is wrong.
     #[test]
     fn phong_samples_are_unit_finite_and_consistent(
         s in prop::sample::select(vec![0.0, 1.0, 200.0, 1e4, 1e6]),
@@ -656,7 +664,7 @@ fn fresnel_every_angle_and_the_critical_angle() {
                 "{ei} -> {et}: no TIR past the critical angle"
             );
         } else {
-            assert!(ei <= et || !(et > 0.0), "{ei} -> {et} has a critical angle");
+            assert!(ei <= et, "{ei} -> {et} has no critical angle");
         }
         let b = fresnel::brewster_deg(ei, et);
         assert!(b.is_finite() && b > 0.0 && b < 90.0, "{ei} -> {et}: Brewster {b}");
@@ -669,7 +677,9 @@ fn fresnel_every_angle_and_the_critical_angle() {
             assert!(ys.iter().all(|v| (0.0..=1.0).contains(v)), "{ei} -> {et}: series {name} outside [0, 1]");
         }
         for (name, v) in &curves.scalars {
-            assert!(v.map_or(true, |v| v.is_finite()), "{ei} -> {et}: scalar {name} = {v:?}");
+            if let Some(v) = v {
+                assert!(v.is_finite(), "{ei} -> {et}: scalar {name} = {v}");
+            }
         }
     }
 }
@@ -682,7 +692,7 @@ fn eta() -> impl Strategy<Value = f64> {
 }
 
 proptest! {
-    #![proptest_config(config(3000))]
+    #![proptest_config(config(20000))]
 
     #[test]
     fn fresnel_in_unit_interval_never_nan(

@@ -30,11 +30,45 @@ enum Command {
     Plan(RunArgs),
     /// Print the pipeline as a Graphviz DOT graph.
     Dot(GraphArgs),
+    /// Benchmark run time against error for every relighting strategy and the peers.
+    Bench(BenchArgs),
     /// List every operator with its fields, types, defaults and docs.
     Ops {
         /// Show only this operator.
         name: Option<String>,
     },
+}
+
+#[derive(Args)]
+struct BenchArgs {
+    /// Output folder for results.csv, summary.md and the charts.
+    #[arg(long, default_value = "bench/out")]
+    out: PathBuf,
+    /// Folder of real environment maps (Grace Cathedral, the park, the two interiors); maps
+    /// that are missing are skipped with a message.
+    #[arg(long, default_value = "../shared/data/envmaps")]
+    data: PathBuf,
+    /// Sample counts (per image for shared samples, per pixel for per-pixel strategies).
+    #[arg(long, value_delimiter = ',', default_value = "16,64,256,1024,4096")]
+    counts: Vec<usize>,
+    /// Sphere image size in pixels.
+    #[arg(long, default_value_t = 128)]
+    size: usize,
+    /// Timed repetitions per point (after one warm-up run); the median is reported.
+    #[arg(long, default_value_t = 5)]
+    repeats: usize,
+    /// Only these maps (names: sky, grace, park, fagans, studio).
+    #[arg(long, value_delimiter = ',')]
+    maps: Vec<String>,
+    /// Folder with the peers' scripts; they run when their Python dependencies are present.
+    #[arg(long, default_value = "bench/peers")]
+    peers: PathBuf,
+    /// Do not run the peers.
+    #[arg(long)]
+    no_peers: bool,
+    /// A quick run: counts 16,64,256, 3 repeats, 64x64 sphere, no peers.
+    #[arg(long)]
+    quick: bool,
 }
 
 #[derive(Args)]
@@ -90,6 +124,7 @@ pub fn main() -> ExitCode {
             Err(code) => code,
         },
         Command::Plan(args) => plan(&registry, &args),
+        Command::Bench(args) => bench(&args),
         Command::Run(args) => run(&registry, &args),
     }
 }
@@ -267,4 +302,56 @@ fn ops(registry: &Registry, name: Option<&str>) -> ExitCode {
         println!();
     }
     ExitCode::SUCCESS
+}
+
+fn bench(args: &BenchArgs) -> ExitCode {
+    use hdrflow::bench::{BenchConfig, MapSpec};
+    let candidates = [
+        ("sky", "builtin:sky".to_string(), false),
+        ("grace", args.data.join("grace_latlong.exr").display().to_string(), true),
+        ("park", args.data.join("rooitou_park_1k.hdr").display().to_string(), false),
+        ("fagans", args.data.join("st_fagans_interior_1k.hdr").display().to_string(), false),
+        ("studio", args.data.join("studio_small_03_1k.hdr").display().to_string(), false),
+    ];
+    let mut maps = Vec::new();
+    for (name, source, flip) in candidates {
+        if !args.maps.is_empty() && !args.maps.iter().any(|m| m == name) {
+            continue;
+        }
+        if !source.starts_with("builtin:") && !std::path::Path::new(&source).is_file() {
+            eprintln!("SKIPPED map {name}: {source} not found");
+            continue;
+        }
+        maps.push(MapSpec { name: name.to_string(), source, flip_vertical: flip });
+    }
+    if maps.is_empty() {
+        eprintln!("error: no map to benchmark");
+        return ExitCode::from(2);
+    }
+    let config = BenchConfig {
+        maps,
+        counts: if args.quick { vec![16, 64, 256] } else { args.counts.clone() },
+        size: if args.quick { 64 } else { args.size },
+        repeats: if args.quick { 3 } else { args.repeats },
+        albedo: 0.8,
+        view: (90.0, 90.0),
+        seed: 1,
+        out_dir: args.out.clone(),
+        peers_dir: (!args.no_peers && !args.quick).then(|| args.peers.clone()),
+    };
+    eprintln!("hdrflow bench on {} threads", rayon::current_num_threads());
+    match hdrflow::bench::run(&config, &|line| eprintln!("{line}")) {
+        Ok(rows) => {
+            println!(
+                "{} points; wrote {}/results.csv, summary.md and time_error_*.png/.svg",
+                rows.len(),
+                args.out.display()
+            );
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::from(1)
+        }
+    }
 }

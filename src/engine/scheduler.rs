@@ -21,7 +21,8 @@ use std::time::Instant;
 
 use rayon::prelude::*;
 
-use crate::engine::cache::{key_hex, node_key, store::write_atomic, CacheStore, Key};
+use crate::engine::cache::store::{remove_stale_temporaries, write_atomic};
+use crate::engine::cache::{key_hex, node_key, CacheStore, Key};
 use crate::engine::error::RunError;
 use crate::engine::graph::Pipeline;
 use crate::engine::op::OpContext;
@@ -434,6 +435,7 @@ fn node_report(p: &Pipeline, i: usize, status: NodeStatus, ms: f64, keys: &[Opti
 fn write_output(out_dir: &Path, rel: &str, bytes: &[u8]) -> Result<Option<PathBuf>, RunError> {
     check_output_path(rel).map_err(|_| RunError::PathEscape(rel.to_string()))?;
     let path = out_dir.join(rel);
+    remove_stale_temporaries(&path);
     if let Ok(existing) = std::fs::metadata(&path) {
         if existing.len() == bytes.len() as u64 && std::fs::read(&path).map(|b| b == bytes).unwrap_or(false) {
             return Ok(None);

@@ -82,7 +82,9 @@ fn exponent_table(exposure: f64) -> [f32; 256] {
     let mut t = [0f32; 256];
     for (e, slot) in t.iter_mut().enumerate().skip(1) {
         let p = 2f64.powi(e as i32 - 136);
-        *slot = if exposure == 1.0 { p as f32 } else { (p / exposure) as f32 };
+        // Clamped so that 255 * table[e] stays a finite f32 whatever EXPOSURE says (a tiny
+        // EXPOSURE would otherwise give +Inf, and 0 * Inf = NaN for zero mantissas).
+        *slot = if exposure == 1.0 { p as f32 } else { (p / exposure).min(f32::MAX as f64 / 256.0) as f32 };
     }
     t
 }
@@ -382,6 +384,13 @@ pub fn decode(bytes: &[u8]) -> Result<Image, FormatError> {
     let mut pos = 0usize;
     let row_len = 3 * w;
     for y in 0..h {
+        // A row is allocated only once the data could hold it. New-style RLE rows (widths
+        // 8..=32767) are small; a wider or flat row needs 4 bytes a pixel, and even the old
+        // `1 1 1 n` repeat code cannot plausibly expand a few bytes into a 2^28-pixel row: rows
+        // claiming more than 256 pixels per remaining byte are refused as truncated.
+        if !rle_width && (data.len() - pos.min(data.len())).saturating_mul(256) < w {
+            return Err(truncated(y));
+        }
         let first = read4(data, &mut pos).ok_or_else(|| truncated(y))?;
         let base = out.len();
         out.resize(base + row_len, 0.0);

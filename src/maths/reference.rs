@@ -9,8 +9,8 @@
 //! E(n) = sum_i L_i dOmega_i max(n . d_i, 0)
 //! ```
 //!
-//! the midpoint-rule value of `int L(w) max(n.w, 0) dw` (Lambert's cosine law; pbrt-v4 section
-//! 4.1.3, "irradiance"). It is exactly the expectation of the light-sampling estimators that draw
+//! the midpoint-rule value of `int L(w) max(n.w, 0) dw` (irradiance from radiance: pbrt-v4
+//! section 4.2, "Working with Radiometric Integrals"). It is exactly the expectation of the light-sampling estimators that draw
 //! texel centres with the `Distribution2D` pdf (`Sample` + `RelightSphere` with `Unbiased`,
 //! `per_pixel` with `Environment`): `E[L cos / pdf] = sum_i P_i L_i cos_i dOmega_i / P_i`. The
 //! integral of the piecewise-constant map over exact directions differs from it by the midpoint
@@ -182,14 +182,12 @@ fn pack(env: &Image) -> Packed {
     let mut weights: Vec<[f64; 3]> = Vec::new();
     for ty in (0..h).step_by(TILE) {
         for tx in (0..w).step_by(TILE) {
-            for y in ty..(ty + TILE).min(h) {
-                let (st, ct, d_omega) = rows[y];
-                for x in tx..(tx + TILE).min(w) {
+            for (y, &(st, ct, d_omega)) in rows.iter().enumerate().skip(ty).take(TILE) {
+                for (x, &(sp, cp)) in cols.iter().enumerate().skip(tx).take(TILE) {
                     let l = env.rgb(x, y);
                     if l == [0.0f32; 3] {
                         continue;
                     }
-                    let (sp, cp) = cols[x];
                     dirs.push([-st * sp, ct, st * cp]);
                     weights.push(l.map(|c| c as f64 * d_omega));
                 }
@@ -224,6 +222,7 @@ fn hsum(a: &[f32; LANES]) -> f32 {
 /// Portable inner loop (the reference for the SIMD ones): `sum_j max(n . d_j, 0) * w_j` over
 /// one block, in f32, per lane `(nx dx + ny dy) + nz dz`, then `max`, then `acc += c * w`.
 /// `max` is `if d > 0 { d } else { 0 }`: the semantics of MAXPS(d, 0) (NaN and -0 give +0).
+#[allow(clippy::needless_range_loop)] // lane l of every array: the SIMD layout, written out
 fn block_sum_portable(groups: &[Group], n: [f32; 3]) -> [f32; 3] {
     let mut acc = [[0.0f32; LANES]; 3];
     for g in groups {
@@ -274,10 +273,7 @@ mod x86 {
         for k in 0..6 {
             _mm256_storeu_ps(lanes[k].as_mut_ptr(), acc[k]);
         }
-        [
-            [hsum(&lanes[0]), hsum(&lanes[1]), hsum(&lanes[2])],
-            [hsum(&lanes[3]), hsum(&lanes[4]), hsum(&lanes[5])],
-        ]
+        [[hsum(&lanes[0]), hsum(&lanes[1]), hsum(&lanes[2])], [hsum(&lanes[3]), hsum(&lanes[4]), hsum(&lanes[5])]]
     }
 
     /// SSE2 version of `block_sum_portable` (lanes 0-3 and 4-7 in two registers).
@@ -289,7 +285,10 @@ mod x86 {
             for half in 0..2 {
                 let o = 4 * half;
                 let d = _mm_add_ps(
-                    _mm_add_ps(_mm_mul_ps(nx, _mm_load_ps(g.dx.as_ptr().add(o))), _mm_mul_ps(ny, _mm_load_ps(g.dy.as_ptr().add(o)))),
+                    _mm_add_ps(
+                        _mm_mul_ps(nx, _mm_load_ps(g.dx.as_ptr().add(o))),
+                        _mm_mul_ps(ny, _mm_load_ps(g.dy.as_ptr().add(o))),
+                    ),
                     _mm_mul_ps(nz, _mm_load_ps(g.dz.as_ptr().add(o))),
                 );
                 let c = _mm_max_ps(d, zero);
@@ -311,6 +310,7 @@ mod x86 {
 /// the same f32 operations in the same order (no FMA contraction), lanes summed in one order.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Kernel {
+    #[cfg_attr(target_arch = "x86_64", allow(dead_code))] // the tests use it on x86_64
     Portable,
     #[cfg(target_arch = "x86_64")]
     Sse2,
@@ -595,7 +595,9 @@ pub(crate) mod tests {
     /// `2.1e-6 E + 3e-7 sum_front |L| dOmega` is checked instead.
     #[test]
     fn matches_naive_f64_sum_to_1e6() {
-        for &(w, h, seed, relative) in &[(48usize, 24usize, 1u64, true), (100, 37, 2, true), (3, 1, 3, false), (1, 2, 4, false)] {
+        for &(w, h, seed, relative) in
+            &[(48usize, 24usize, 1u64, true), (100, 37, 2, true), (3, 1, 3, false), (1, 2, 4, false)]
+        {
             let env = random_map(w, h, seed);
             let mut ns = normals_for_tests();
             ns.push([0.6, 0.0, 0.8]);
@@ -625,7 +627,12 @@ pub(crate) mod tests {
                     } else if relative {
                         worst = worst.max(err / want[ch].abs());
                     } else {
-                        assert!(err <= 2.1e-6 * want[ch].abs() + 3e-7 * front[ch], "{w}x{h} n {n:?}: {} vs {}", f[ch], want[ch]);
+                        assert!(
+                            err <= 2.1e-6 * want[ch].abs() + 3e-7 * front[ch],
+                            "{w}x{h} n {n:?}: {} vs {}",
+                            f[ch],
+                            want[ch]
+                        );
                     }
                 }
             }

@@ -271,7 +271,9 @@ impl LiveLights {
         for l in lights {
             let d = [l.dir[0] as f64, l.dir[1] as f64, l.dir[2] as f64];
             let len = dot(d, d).sqrt();
-            if l.weight == [0.0; 3] || !(len > 0.0) {
+            // A non-finite weight would turn max(n.d, 0) * w into NaN for pixels facing away;
+            // callers refuse such lights first (RelightSphere reports them), here they are dropped.
+            if l.weight == [0.0; 3] || !(len > 0.0) || !len.is_finite() || l.weight.iter().any(|w| !w.is_finite()) {
                 continue;
             }
             live.dir.push(l.dir);
@@ -482,8 +484,8 @@ mod x86 {
 /// then runs the inner loop over the remaining lights in f32, laid out as structure of arrays in
 /// blocks of 8, with AVX when the CPU has it and SSE2 otherwise. The result is deterministic and
 /// the same on every x86_64 CPU (no FMA, fixed summation order). Sums are f32: with 1024 lights
-/// the relative rounding is ~1e-6. Lights with a non-finite weight poison only the pixels that
-/// face them.
+/// the relative rounding is ~1e-6. Lights with a non-finite weight or direction are ignored:
+/// callers must refuse them first (`RelightSphere` reports them as an error).
 pub fn relight(view: &SphereView, lights: &[LightSample], scale: [f32; 3]) -> Image {
     relight_with(Kernel::detect(), view, lights, scale)
 }

@@ -19,7 +19,7 @@ use plotters::style::text_anchor::{HPos, Pos, VPos};
 use crate::data::curves::Curves;
 
 /// The single font family used for all text.
-const FONT: &str = "sans-serif";
+pub(crate) const FONT: &str = "sans-serif";
 
 /// DejaVu Sans (licence in `assets/fonts/DejaVuSans-LICENSE.txt`).
 static FONT_BYTES: &[u8] = include_bytes!(concat!(env!("CARGO_MANIFEST_DIR"), "/assets/fonts/DejaVuSans.ttf"));
@@ -29,7 +29,7 @@ const MAX_SIDE: u32 = 16384;
 const MAX_PIXELS: u64 = 64 * 1024 * 1024;
 
 /// Series colours (Tableau 10, cycled when there are more series).
-const PALETTE: [RGBColor; 10] = [
+pub(crate) const PALETTE: [RGBColor; 10] = [
     RGBColor(31, 119, 180),
     RGBColor(214, 39, 40),
     RGBColor(44, 160, 44),
@@ -44,7 +44,7 @@ const PALETTE: [RGBColor; 10] = [
 
 /// Registers the embedded font with plotters exactly once per process (later calls return the
 /// first outcome).
-fn ensure_font() -> Result<(), String> {
+pub(crate) fn ensure_font() -> Result<(), String> {
     static REGISTERED: OnceLock<Result<(), String>> = OnceLock::new();
     REGISTERED
         .get_or_init(|| {
@@ -54,7 +54,7 @@ fn ensure_font() -> Result<(), String> {
         .clone()
 }
 
-fn check_size(width: u32, height: u32) -> Result<(), String> {
+pub(crate) fn check_size(width: u32, height: u32) -> Result<(), String> {
     if width == 0 || height == 0 || width > MAX_SIDE || height > MAX_SIDE {
         return Err(format!("plot size {width}x{height}: each side must be in 1..={MAX_SIDE}"));
     }
@@ -95,7 +95,7 @@ pub fn plot_svg(curves: &Curves, width: u32, height: u32) -> Result<String, Stri
     Ok(svg)
 }
 
-fn area_err<E: std::error::Error + Send + Sync>(e: DrawingAreaErrorKind<E>) -> String {
+pub(crate) fn area_err<E: std::error::Error + Send + Sync>(e: DrawingAreaErrorKind<E>) -> String {
     format!("plotting failed: {e}")
 }
 

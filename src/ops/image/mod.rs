@@ -4,6 +4,7 @@ pub mod angular_to_latlong;
 pub mod constant;
 pub mod exposure;
 pub mod flip_vertical;
+pub mod image_error;
 pub mod luminance;
 pub mod overlay;
 pub mod resize;
@@ -18,4 +19,5 @@ pub fn register(r: &mut Registry) {
     r.register(&constant::SPEC);
     r.register(&angular_to_latlong::SPEC);
     r.register(&overlay::SPEC);
+    r.register(&image_error::SPEC);
 }

@@ -7,7 +7,7 @@
 
 use rayon::prelude::*;
 
-use crate::data::{Sample, SampleSet};
+use crate::data::{Distribution2D, Sample, SampleSet};
 use crate::engine::op::{FieldSpec, OpContext, OpError, OpSpec, OutputType};
 use crate::engine::value::{Value, ValueType};
 use crate::maths::{latlong, sequences};
@@ -32,8 +32,13 @@ pub static SPEC: OpSpec = OpSpec {
 };
 
 fn eval(ctx: &OpContext) -> Result<Value, OpError> {
-    let dist = ctx.distribution("cdf");
-    let points = sequences::generate(sequence_of(ctx), ctx.params.usize("count"), ctx.params.int("seed") as u64);
+    let set = draw(ctx.distribution("cdf"), sequence_of(ctx), ctx.params.usize("count"), ctx.params.int("seed") as u64);
+    Ok(Value::Samples(std::sync::Arc::new(set)))
+}
+
+/// The operator's work, callable from code: `count` texel-centre samples of `dist`.
+pub fn draw(dist: &Distribution2D, sequence: sequences::Sequence, count: usize, seed: u64) -> SampleSet {
+    let points = sequences::generate(sequence, count, seed);
     let (w, h) = (dist.width, dist.height);
     let samples: Vec<Sample> = points
         .par_iter()
@@ -52,5 +57,5 @@ fn eval(ctx: &OpContext) -> Result<Value, OpError> {
             }
         })
         .collect();
-    Ok(Value::Samples(std::sync::Arc::new(SampleSet { width: w as u32, height: h as u32, samples })))
+    SampleSet { width: w as u32, height: h as u32, samples }
 }

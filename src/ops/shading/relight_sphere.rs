@@ -18,10 +18,11 @@
 
 use std::f64::consts::PI;
 
+use crate::data::{Image, SampleSet};
 use crate::engine::op::{Default, FieldKind, FieldSpec, OpContext, OpError, OpSpec, OutputType};
 use crate::engine::value::{Value, ValueType};
 use crate::maths::latlong;
-use crate::maths::relight::{merge_duplicates, relight, LightSample, SphereView};
+use crate::maths::relight::{merge_duplicates, relight, Estimator, LightSample, SphereView};
 
 pub static SPEC: OpSpec = OpSpec {
     name: "RelightSphere",
@@ -63,7 +64,7 @@ pub static SPEC: OpSpec = OpSpec {
 };
 
 /// The integral of the map's Rec. 709 luminance over the sphere: sum of Y * texel solid angle.
-pub fn luminance_integral(env: &crate::data::Image) -> f64 {
+pub fn luminance_integral(env: &Image) -> f64 {
     (0..env.height)
         .map(|y| {
             let d_omega = latlong::texel_solid_angle(y, env.width, env.height);
@@ -80,14 +81,31 @@ pub fn luminance_integral(env: &crate::data::Image) -> f64 {
 }
 
 fn eval(ctx: &OpContext) -> Result<Value, OpError> {
-    let env = ctx.image("env");
-    let set = ctx.samples("samples");
-    let size = ctx.params.usize("size");
-    let albedo = ctx.params.vec3("albedo");
     let [vt, vp] = ctx.params.vec2("view");
-    let seed_estimator = ctx.params.text("estimator") == "Seed";
-    let same_grid = set.width as usize == env.width && set.height as usize == env.height;
+    let estimator = if ctx.params.text("estimator") == "Seed" { Estimator::Seed } else { Estimator::Unbiased };
+    let image = relight_shared(
+        ctx.image("env"),
+        ctx.samples("samples"),
+        ctx.params.usize("size"),
+        ctx.params.vec3("albedo"),
+        latlong::direction_deg(vt, vp),
+        estimator,
+    )?;
+    Ok(Value::image(image))
+}
 
+/// The operator's work, callable from code (the benchmark uses it): relight a `size` x `size`
+/// sphere seen from `view_dir` with `set`'s samples of `env`.
+pub fn relight_shared(
+    env: &Image,
+    set: &SampleSet,
+    size: usize,
+    albedo: [f64; 3],
+    view_dir: [f64; 3],
+    estimator: Estimator,
+) -> Result<Image, OpError> {
+    let seed_estimator = estimator == Estimator::Seed;
+    let same_grid = set.width as usize == env.width && set.height as usize == env.height;
     let mut lights: Vec<(u32, LightSample)> = Vec::with_capacity(set.samples.len());
     for s in &set.samples {
         let (x, y) = if same_grid {
@@ -118,12 +136,29 @@ fn eval(ctx: &OpContext) -> Result<Value, OpError> {
     }
     let n = set.samples.len().max(1) as f64;
     let merged = merge_duplicates(&lights);
-    let scale = if seed_estimator {
+    if let Some(l) = merged.iter().find(|l| l.weight.iter().any(|w| !w.is_finite())) {
+        return Err(OpError::Invalid(format!(
+            "samples merged on one texel (direction {:?}) sum to a weight beyond f32 range: the map's radiance over pdf overflows",
+            l.dir
+        )));
+    }
+    let scale: [f64; 3] = if seed_estimator {
         let integral = luminance_integral(env);
-        albedo.map(|a| (a * integral / (n * PI)) as f32)
+        albedo.map(|a| a * integral / (n * PI))
     } else {
-        albedo.map(|a| (a / (PI * n)) as f32)
+        albedo.map(|a| a / (PI * n))
     };
-    let view = SphereView::new(size, latlong::direction_deg(vt, vp));
-    Ok(Value::image(relight(&view, &merged, scale)))
+    if scale.iter().any(|s| !((*s as f32).is_finite())) {
+        return Err(OpError::Invalid(format!("the estimator's scale {scale:?} is beyond f32 range")));
+    }
+    let image = relight(&SphereView::new(size, view_dir), &merged, scale.map(|s| s as f32));
+    if let Some(i) = image.data.iter().position(|v| !v.is_finite()) {
+        let px = i / 3;
+        return Err(OpError::Invalid(format!(
+            "relit radiance at pixel ({}, {}) overflows f32 (largest 3.4e38): scale the map down with Exposure",
+            px % size,
+            px / size
+        )));
+    }
+    Ok(image)
 }

@@ -1,0 +1,506 @@
+//! `hdrflow bench`: run time against error for every relighting strategy, beside the peers a
+//! user would pick instead (NumPy, Mitsuba 3), plus the point targets.
+//!
+//! For each map: build its distribution and the exact reference sphere (`maths::reference`),
+//! then for each sample count and strategy render the same sphere (same framing), time it (one
+//! warm-up run, then the median of `repeats`), and measure its relative RMSE against the
+//! reference over the inner disc (pixel centres with sx^2 + sy^2 <= 0.9: Mitsuba jitters its
+//! rays inside each pixel, so silhouette pixels would measure coverage, not lighting).
+//! Writes `results.csv`, one log-log chart per map (`time_error_<map>.png` / `.svg`) and
+//! `summary.md` into the output folder.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use crate::data::{Distribution2D, Image};
+use crate::engine::cache::store::write_atomic;
+use crate::maths::error_metrics::image_error;
+use crate::maths::per_pixel::{relight_per_pixel, PerPixelStrategy};
+use crate::maths::reference::reference_sphere;
+use crate::maths::relight::{Estimator, SphereView};
+use crate::maths::sequences::Sequence;
+use crate::maths::{latlong, sh};
+use crate::ops::sampling::sample::draw;
+use crate::ops::shading::relight_sphere::relight_shared;
+use crate::plotting::time_error::{self, Line};
+
+/// An environment to benchmark on.
+#[derive(Clone, Debug)]
+pub struct MapSpec {
+    /// Short name for tables and file names.
+    pub name: String,
+    /// A file path or `builtin:NAME`.
+    pub source: String,
+    pub flip_vertical: bool,
+}
+
+/// What to run.
+#[derive(Clone, Debug)]
+pub struct BenchConfig {
+    pub maps: Vec<MapSpec>,
+    pub counts: Vec<usize>,
+    pub size: usize,
+    pub repeats: usize,
+    pub albedo: f64,
+    /// (theta, phi) in degrees.
+    pub view: (f64, f64),
+    pub seed: u64,
+    pub out_dir: PathBuf,
+    /// Folder with the peers' scripts (`numpy_seed.py`, `mitsuba_sphere.py`); None: no peers.
+    pub peers_dir: Option<PathBuf>,
+}
+
+/// One measured point.
+#[derive(Clone, Debug)]
+pub struct BenchRow {
+    pub map: String,
+    pub strategy: String,
+    /// `shared`, `per-pixel`, `sh`, `reference` or `peer`.
+    pub family: String,
+    pub count: usize,
+    pub ms: f64,
+    pub relative_rmse: f64,
+    pub psnr: f64,
+}
+
+/// Loads a map as the benchmark and `LoadHdr` see it.
+pub fn load_map(spec: &MapSpec) -> Result<Image, String> {
+    let mut img = if let Some(name) = spec.source.strip_prefix("builtin:") {
+        crate::formats::builtin::builtin(name).ok_or_else(|| format!("no built-in map {name:?}"))?
+    } else {
+        let bytes = std::fs::read(&spec.source).map_err(|e| format!("{}: {e}", spec.source))?;
+        let ext = Path::new(&spec.source).extension().map(|e| e.to_string_lossy().to_lowercase()).unwrap_or_default();
+        crate::formats::decode_by_extension(&bytes, &ext).map_err(|e| format!("{}: {}", spec.source, e.0))?
+    };
+    if spec.flip_vertical {
+        img = img.flipped_vertical();
+    }
+    Ok(img)
+}
+
+/// Rec. 709 luminance of an RGB image.
+pub fn luminance(img: &Image) -> Image {
+    let data = img
+        .data
+        .chunks_exact(img.channels)
+        .map(|p| if p.len() >= 3 { 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2] } else { p[0] })
+        .collect();
+    Image::from_vec(img.width, img.height, 1, data)
+}
+
+/// Runs `f` once to warm up, then `repeats` times; returns the median milliseconds and the
+/// last result.
+pub fn time_median<T>(repeats: usize, mut f: impl FnMut() -> T) -> (f64, T) {
+    let mut out = f();
+    let mut times = Vec::with_capacity(repeats.max(1));
+    for _ in 0..repeats.max(1) {
+        let t0 = Instant::now();
+        out = f();
+        times.push(t0.elapsed().as_secs_f64() * 1e3);
+    }
+    times.sort_by(f64::total_cmp);
+    (times[times.len() / 2], out)
+}
+
+/// The inner-disc mask: pixel centres with sx^2 + sy^2 <= 0.9.
+pub fn inner_disc_mask(size: usize) -> Vec<bool> {
+    let mut mask = vec![false; size * size];
+    for py in 0..size {
+        for px in 0..size {
+            let sx = 2.0 * (px as f64 + 0.5) / size as f64 - 1.0;
+            let sy = 1.0 - 2.0 * (py as f64 + 0.5) / size as f64;
+            mask[py * size + px] = sx * sx + sy * sy <= 0.9;
+        }
+    }
+    mask
+}
+
+fn metric(m: &crate::data::Metrics, name: &str) -> f64 {
+    m.get(name).unwrap_or(f64::NAN)
+}
+
+/// Runs the whole sweep; `log` receives one line per measurement (for progress).
+pub fn run(config: &BenchConfig, log: &dyn Fn(&str)) -> Result<Vec<BenchRow>, String> {
+    std::fs::create_dir_all(&config.out_dir).map_err(|e| format!("{}: {e}", config.out_dir.display()))?;
+    let mut rows = Vec::new();
+    let albedo = [config.albedo; 3];
+    let view_dir = latlong::direction_deg(config.view.0, config.view.1);
+    let view = SphereView::new(config.size, view_dir);
+    let mask = inner_disc_mask(config.size);
+    for spec in &config.maps {
+        let env = load_map(spec)?;
+        let lum = luminance(&env);
+        let dist = Distribution2D::build(&lum, true, true).map_err(|e| format!("{}: {e}", spec.name))?;
+        log(&format!(
+            "{}: {}x{} map; computing the exact reference ({}x{} sphere)",
+            spec.name, env.width, env.height, config.size, config.size
+        ));
+        let t0 = Instant::now();
+        let reference = reference_sphere(&env, &view, albedo);
+        let ref_ms = t0.elapsed().as_secs_f64() * 1e3;
+        rows.push(BenchRow {
+            map: spec.name.clone(),
+            strategy: "exact reference".into(),
+            family: "reference".into(),
+            count: env.width * env.height,
+            ms: ref_ms,
+            relative_rmse: 0.0,
+            psnr: f64::INFINITY,
+        });
+        let push = |rows: &mut Vec<BenchRow>, strategy: String, family: &str, count: usize, ms: f64, img: &Image| {
+            let m = image_error(img, &reference, Some(&mask)).unwrap_or_default();
+            let row = BenchRow {
+                map: spec.name.clone(),
+                strategy,
+                family: family.into(),
+                count,
+                ms,
+                relative_rmse: metric(&m, "relative_rmse"),
+                psnr: metric(&m, "psnr"),
+            };
+            log(&format!(
+                "{:<12} {:<34} {:>5}  {:>9.2} ms  rel. RMSE {:.5}",
+                row.map, row.strategy, row.count, row.ms, row.relative_rmse
+            ));
+            rows.push(row);
+        };
+        for &count in &config.counts {
+            for seq in [Sequence::Random, Sequence::Stratified, Sequence::Sobol, Sequence::Halton] {
+                let (ms, img) = time_median(config.repeats, || {
+                    let set = draw(&dist, seq, count, config.seed);
+                    relight_shared(&env, &set, config.size, albedo, view_dir, Estimator::Unbiased)
+                });
+                let img = img.map_err(|e| e.to_string())?;
+                push(&mut rows, format!("shared {}", seq_name(seq)), "shared", count, ms, &img);
+            }
+            let (ms, img) = time_median(config.repeats, || {
+                let set = draw(&dist, Sequence::Random, count, config.seed);
+                relight_shared(&env, &set, config.size, albedo, view_dir, Estimator::Seed)
+            });
+            push(
+                &mut rows,
+                "shared Random, seed's estimator".into(),
+                "shared",
+                count,
+                ms,
+                &img.map_err(|e| e.to_string())?,
+            );
+            for strategy in [
+                PerPixelStrategy::Environment,
+                PerPixelStrategy::Cosine,
+                PerPixelStrategy::Uniform,
+                PerPixelStrategy::Mis,
+            ] {
+                let repeats = if count >= 1024 { config.repeats.min(3) } else { config.repeats };
+                let (ms, img) = time_median(repeats, || {
+                    relight_per_pixel(&env, &dist, &view, albedo, strategy, count, config.seed)
+                });
+                push(&mut rows, format!("per-pixel {}", strategy.name()), "per-pixel", count, ms, &img);
+            }
+        }
+        for order in [2usize, 4] {
+            let (ms, img) = time_median(config.repeats, || sh::sh_sphere(&env, &view, albedo, order));
+            push(&mut rows, format!("SH order {order}"), "sh", sh::sh_count(order), ms, &img);
+        }
+        if let Some(peers) = &config.peers_dir {
+            run_peers(config, spec, &env, &reference, &mask, peers, &mut rows, log)?;
+        }
+        write_chart(config, &spec.name, &rows)?;
+    }
+    write_csv(&config.out_dir.join("results.csv"), &rows)?;
+    write_atomic(&config.out_dir.join("summary.md"), summary(config, &rows).as_bytes())
+        .map_err(|e| format!("summary.md: {e}"))?;
+    Ok(rows)
+}
+
+fn seq_name(seq: Sequence) -> &'static str {
+    match seq {
+        Sequence::Random => "Random",
+        Sequence::Stratified => "Stratified",
+        Sequence::Sobol => "Sobol",
+        Sequence::Halton => "Halton",
+    }
+}
+
+/// Runs the Python peers on the same map (written as PFM), reading back their images.
+#[allow(clippy::too_many_arguments)]
+fn run_peers(
+    config: &BenchConfig,
+    spec: &MapSpec,
+    env: &Image,
+    reference: &Image,
+    mask: &[bool],
+    peers: &Path,
+    rows: &mut Vec<BenchRow>,
+    log: &dyn Fn(&str),
+) -> Result<(), String> {
+    let work = config.out_dir.join("peers").join(&spec.name);
+    std::fs::create_dir_all(&work).map_err(|e| format!("{}: {e}", work.display()))?;
+    let env_path = work.join("env.pfm");
+    write_atomic(&env_path, &crate::formats::pfm::encode(env)).map_err(|e| e.to_string())?;
+    let counts: Vec<String> = config.counts.iter().map(|c| c.to_string()).collect();
+    for script in ["numpy_seed.py", "mitsuba_sphere.py"] {
+        let path = peers.join(script);
+        if !path.is_file() {
+            log(&format!("SKIPPED peer {script}: {} not found", path.display()));
+            continue;
+        }
+        let out = work.join(script.trim_end_matches(".py"));
+        let status = std::process::Command::new("python3")
+            .arg(&path)
+            .arg("--env")
+            .arg(&env_path)
+            .args(["--size", &config.size.to_string(), "--counts", &counts.join(",")])
+            .args(["--view", &format!("{},{}", config.view.0, config.view.1)])
+            .args(["--albedo", &config.albedo.to_string(), "--seed", &config.seed.to_string()])
+            .args(["--repeats", &config.repeats.to_string()])
+            .arg("--out-dir")
+            .arg(&out)
+            .status();
+        match status {
+            Ok(s) if s.success() => {}
+            Ok(s) => {
+                log(&format!("SKIPPED peer {script}: exited with {s} (are its dependencies installed? see bench/peers/README.md)"));
+                continue;
+            }
+            Err(e) => {
+                log(&format!("SKIPPED peer {script}: cannot run python3: {e}"));
+                continue;
+            }
+        }
+        let results: serde_json::Value = std::fs::read(out.join("results.json"))
+            .ok()
+            .and_then(|b| serde_json::from_slice(&b).ok())
+            .ok_or_else(|| format!("peer {script} wrote no readable results.json"))?;
+        for r in results["results"].as_array().into_iter().flatten() {
+            let (Some(strategy), Some(count), Some(ms), Some(image)) =
+                (r["strategy"].as_str(), r["count"].as_u64(), r["ms"].as_f64(), r["image"].as_str())
+            else {
+                continue;
+            };
+            let img = std::fs::read(out.join(image))
+                .map_err(|e| e.to_string())
+                .and_then(|b| crate::formats::pfm::decode(&b).map_err(|e| e.0))
+                .map_err(|e| format!("peer {script} image {image}: {e}"))?;
+            let m = image_error(&img, reference, Some(mask)).map_err(|e| format!("peer {script}: {e}"))?;
+            let row = BenchRow {
+                map: spec.name.clone(),
+                strategy: strategy.to_string(),
+                family: "peer".into(),
+                count: count as usize,
+                ms,
+                relative_rmse: metric(&m, "relative_rmse"),
+                psnr: metric(&m, "psnr"),
+            };
+            log(&format!(
+                "{:<12} {:<34} {:>5}  {:>9.2} ms  rel. RMSE {:.5}",
+                row.map, row.strategy, row.count, row.ms, row.relative_rmse
+            ));
+            rows.push(row);
+        }
+        for s in results["skipped"].as_array().into_iter().flatten() {
+            log(&format!("peer {script}: skipped {}", s));
+        }
+    }
+    Ok(())
+}
+
+fn write_chart(config: &BenchConfig, map: &str, rows: &[BenchRow]) -> Result<(), String> {
+    let mut lines: Vec<Line> = Vec::new();
+    for r in rows.iter().filter(|r| r.map == map && r.family != "reference") {
+        match lines.iter_mut().find(|l| l.name == r.strategy) {
+            Some(l) => l.points.push((r.ms, r.relative_rmse)),
+            None => lines.push(Line { name: r.strategy.clone(), points: vec![(r.ms, r.relative_rmse)] }),
+        }
+    }
+    let title = format!("{map}: time against error, {}x{} sphere, 2 cores", config.size, config.size);
+    let png = time_error::plot_png(&title, &lines, 1000, 680)?;
+    let svg = time_error::plot_svg(&title, &lines, 1000, 680)?;
+    let stem = config.out_dir.join(format!("time_error_{map}"));
+    write_atomic(&stem.with_extension("png"), &png).map_err(|e| e.to_string())?;
+    write_atomic(&stem.with_extension("svg"), svg.as_bytes()).map_err(|e| e.to_string())?;
+    Ok(())
+}
+
+fn write_csv(path: &Path, rows: &[BenchRow]) -> Result<(), String> {
+    let mut s = String::from("map,strategy,family,count,ms,relative_rmse,psnr\n");
+    for r in rows {
+        let _ = writeln!(
+            s,
+            "{},{},{},{},{:.4},{:.6e},{:.3}",
+            r.map, r.strategy, r.family, r.count, r.ms, r.relative_rmse, r.psnr
+        );
+    }
+    write_atomic(path, s.as_bytes()).map_err(|e| format!("{}: {e}", path.display()))
+}
+
+/// The time a strategy needs to reach `error`, interpolated log-log along its measured points
+/// (None if it never gets there).
+pub fn time_to_reach(points: &[(f64, f64)], error: f64) -> Option<f64> {
+    let mut pts: Vec<(f64, f64)> = points.iter().copied().filter(|p| p.0 > 0.0 && p.1 > 0.0).collect();
+    pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+    if let Some(first) = pts.first() {
+        if first.1 <= error {
+            return Some(first.0);
+        }
+    }
+    for w in pts.windows(2) {
+        let ((t0, e0), (t1, e1)) = (w[0], w[1]);
+        if e1 <= error && e0 > error {
+            let f = (error.ln() - e0.ln()) / (e1.ln() - e0.ln());
+            return Some((t0.ln() + f * (t1.ln() - t0.ln())).exp());
+        }
+    }
+    None
+}
+
+/// A markdown summary: per map, each strategy's error and time at each count, and the
+/// speed-up of the best hdrflow strategy over each peer at equal error.
+pub fn summary(config: &BenchConfig, rows: &[BenchRow]) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "Sphere {}x{}, albedo {}, view ({}, {}) deg, seed {}, warm median of {} runs; relative RMSE over the inner disc.\n",
+        config.size, config.size, config.albedo, config.view.0, config.view.1, config.seed, config.repeats
+    );
+    let mut maps: Vec<&str> = rows.iter().map(|r| r.map.as_str()).collect();
+    maps.dedup();
+    for map in maps {
+        let _ = writeln!(s, "### {map}\n");
+        let mine: Vec<&BenchRow> = rows.iter().filter(|r| r.map == map).collect();
+        if let Some(r) = mine.iter().find(|r| r.family == "reference") {
+            let _ = writeln!(s, "Exact reference ({} texels): {:.0} ms.\n", r.count, r.ms);
+        }
+        let _ = writeln!(
+            s,
+            "| strategy | {} |",
+            config.counts.iter().map(|c| format!("N = {c}")).collect::<Vec<_>>().join(" | ")
+        );
+        let _ = writeln!(s, "|---|{}", "---|".repeat(config.counts.len()));
+        let mut strategies: Vec<&str> =
+            mine.iter().filter(|r| r.family != "reference" && r.family != "sh").map(|r| r.strategy.as_str()).collect();
+        strategies.dedup();
+        let mut seen = Vec::new();
+        for st in strategies {
+            if seen.contains(&st) {
+                continue;
+            }
+            seen.push(st);
+            let cells: Vec<String> = config
+                .counts
+                .iter()
+                .map(|&c| {
+                    mine.iter()
+                        .find(|r| r.strategy == st && r.count == c)
+                        .map(|r| format!("{:.4} ({:.1} ms)", r.relative_rmse, r.ms))
+                        .unwrap_or_else(|| "-".into())
+                })
+                .collect();
+            let _ = writeln!(s, "| {st} | {} |", cells.join(" | "));
+        }
+        for r in mine.iter().filter(|r| r.family == "sh") {
+            let _ = writeln!(
+                s,
+                "\n{} ({} coefficients): relative RMSE {:.4} in {:.1} ms.",
+                r.strategy, r.count, r.relative_rmse, r.ms
+            );
+        }
+        // Equal-error comparison against each peer point.
+        let ours: Vec<(&str, Vec<(f64, f64)>)> = {
+            let mut v: Vec<(&str, Vec<(f64, f64)>)> = Vec::new();
+            for r in mine.iter().filter(|r| r.family == "shared" || r.family == "per-pixel") {
+                if r.strategy.contains("seed's") {
+                    continue;
+                }
+                match v.iter_mut().find(|(n, _)| *n == r.strategy) {
+                    Some((_, p)) => p.push((r.ms, r.relative_rmse)),
+                    None => v.push((r.strategy.as_str(), vec![(r.ms, r.relative_rmse)])),
+                }
+            }
+            v
+        };
+        let peers: Vec<&&BenchRow> = mine.iter().filter(|r| r.family == "peer").collect();
+        if !peers.is_empty() {
+            let _ = writeln!(
+                s,
+                "\n| peer point | its time | its error | best hdrflow strategy at that error | its time | speed-up |"
+            );
+            let _ = writeln!(s, "|---|---|---|---|---|---|");
+            for p in peers {
+                let best = ours
+                    .iter()
+                    .filter_map(|(name, pts)| time_to_reach(pts, p.relative_rmse).map(|t| (*name, t)))
+                    .min_by(|a, b| a.1.total_cmp(&b.1));
+                match best {
+                    Some((name, t)) => {
+                        let _ = writeln!(
+                            s,
+                            "| {} N={} | {:.1} ms | {:.4} | {} | {:.2} ms | {:.0}x |",
+                            p.strategy,
+                            p.count,
+                            p.ms,
+                            p.relative_rmse,
+                            name,
+                            t,
+                            p.ms / t
+                        );
+                    }
+                    None => {
+                        let _ = writeln!(
+                            s,
+                            "| {} N={} | {:.1} ms | {:.4} | none reaches it in the sweep | - | - |",
+                            p.strategy, p.count, p.ms, p.relative_rmse
+                        );
+                    }
+                }
+            }
+        }
+        let _ = writeln!(s, "\n![{map}](time_error_{map}.png)\n");
+    }
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn time_to_reach_interpolates_log_log() {
+        let pts = [(1.0, 0.1), (100.0, 0.001)];
+        assert!((time_to_reach(&pts, 0.01).unwrap() - 10.0).abs() < 1e-9);
+        assert_eq!(time_to_reach(&pts, 0.5), Some(1.0));
+        assert_eq!(time_to_reach(&pts, 1e-4), None);
+    }
+
+    #[test]
+    fn a_tiny_sweep_runs_and_writes_its_files() {
+        let dir = tempfile::tempdir().unwrap();
+        let config = BenchConfig {
+            maps: vec![MapSpec { name: "constant".into(), source: "builtin:constant".into(), flip_vertical: false }],
+            counts: vec![16, 64],
+            size: 24,
+            repeats: 1,
+            albedo: 0.8,
+            view: (90.0, 90.0),
+            seed: 1,
+            out_dir: dir.path().into(),
+            peers_dir: None,
+        };
+        let rows = run(&config, &|_| {}).unwrap();
+        assert!(rows.iter().any(|r| r.strategy == "shared Sobol" && r.count == 64));
+        // A constant map: low-discrepancy shared samples are close to exact with 64 samples.
+        for r in
+            rows.iter().filter(|r| (r.strategy == "shared Sobol" || r.strategy == "shared Stratified") && r.count == 64)
+        {
+            assert!(r.relative_rmse < 0.1, "{r:?}");
+        }
+        // The seed's estimator is biased: under grey light it is 1/sqrt(3) of the truth, an
+        // error of at least 1 - 1/sqrt(3) = 0.42 whatever the sample noise adds.
+        let seed = rows.iter().find(|r| r.strategy.contains("seed's") && r.count == 64).unwrap();
+        assert!(seed.relative_rmse > 0.4, "{seed:?}");
+        for f in ["results.csv", "summary.md", "time_error_constant.png", "time_error_constant.svg"] {
+            assert!(dir.path().join(f).is_file(), "{f}");
+        }
+    }
+}

@@ -1,0 +1,123 @@
+//! Log-log plots of run time against error, one line per strategy (the benchmark's chart).
+
+use image::{ExtendedColorType, ImageEncoder};
+use plotters::coord::Shift;
+use plotters::prelude::*;
+
+use super::curves_plot::{area_err, check_size, ensure_font, FONT, PALETTE};
+
+/// One strategy's points: (milliseconds, relative error), in increasing sample count.
+#[derive(Clone, Debug)]
+pub struct Line {
+    pub name: String,
+    pub points: Vec<(f64, f64)>,
+}
+
+/// Renders the chart as PNG.
+pub fn plot_png(title: &str, lines: &[Line], width: u32, height: u32) -> Result<Vec<u8>, String> {
+    check_size(width, height)?;
+    ensure_font()?;
+    let mut buf = vec![0u8; width as usize * height as usize * 3];
+    {
+        let root = BitMapBackend::with_buffer(&mut buf, (width, height)).into_drawing_area();
+        draw(&root, title, lines)?;
+        root.present().map_err(area_err)?;
+    }
+    let mut png = Vec::new();
+    image::codecs::png::PngEncoder::new(&mut png)
+        .write_image(&buf, width, height, ExtendedColorType::Rgb8)
+        .map_err(|e| format!("PNG encoding failed: {e}"))?;
+    Ok(png)
+}
+
+/// Renders the chart as SVG.
+pub fn plot_svg(title: &str, lines: &[Line], width: u32, height: u32) -> Result<String, String> {
+    check_size(width, height)?;
+    ensure_font()?;
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (width, height)).into_drawing_area();
+        draw(&root, title, lines)?;
+        root.present().map_err(area_err)?;
+    }
+    Ok(svg)
+}
+
+/// Powers of ten that enclose the positive finite values.
+fn decade_range(values: impl Iterator<Item = f64>) -> (f64, f64) {
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for v in values.filter(|v| v.is_finite() && *v > 0.0) {
+        lo = lo.min(v);
+        hi = hi.max(v);
+    }
+    if !lo.is_finite() {
+        return (0.1, 10.0);
+    }
+    (10f64.powf(lo.log10().floor()), 10f64.powf(hi.log10().ceil().max(lo.log10().floor() + 1.0)))
+}
+
+fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, title: &str, lines: &[Line]) -> Result<(), String> {
+    root.fill(&WHITE).map_err(area_err)?;
+    let xs = decade_range(lines.iter().flat_map(|l| l.points.iter().map(|p| p.0)));
+    let ys = decade_range(lines.iter().flat_map(|l| l.points.iter().map(|p| p.1)));
+    let mut chart = ChartBuilder::on(root)
+        .caption(title, (FONT, 22))
+        .margin(14)
+        .x_label_area_size(44)
+        .y_label_area_size(64)
+        .build_cartesian_2d((xs.0..xs.1).log_scale(), (ys.0..ys.1).log_scale())
+        .map_err(area_err)?;
+    chart
+        .configure_mesh()
+        .x_desc("wall time per image (ms, warm median)")
+        .y_desc("relative RMSE vs exact reference")
+        .label_style((FONT, 13))
+        .axis_desc_style((FONT, 15))
+        .draw()
+        .map_err(area_err)?;
+    for (i, line) in lines.iter().enumerate() {
+        let color = PALETTE[i % PALETTE.len()];
+        let pts: Vec<(f64, f64)> = line
+            .points
+            .iter()
+            .copied()
+            .filter(|(x, y)| x.is_finite() && y.is_finite() && *x > 0.0 && *y > 0.0)
+            .collect();
+        if pts.is_empty() {
+            continue;
+        }
+        chart
+            .draw_series(LineSeries::new(pts.clone(), color.stroke_width(2)))
+            .map_err(area_err)?
+            .label(line.name.clone())
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2)));
+        chart.draw_series(pts.into_iter().map(|p| Circle::new(p, 3, color.filled()))).map_err(area_err)?;
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .label_font((FONT, 12))
+        .draw()
+        .map_err(area_err)?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn renders_a_log_log_chart() {
+        let lines = vec![
+            Line { name: "a".into(), points: vec![(1.0, 0.1), (4.0, 0.05), (16.0, 0.025)] },
+            Line { name: "b".into(), points: vec![(2.0, 0.2), (8.0, 0.02)] },
+        ];
+        let png = plot_png("t", &lines, 640, 400).unwrap();
+        let img = image::load_from_memory(&png).unwrap();
+        assert_eq!((img.width(), img.height()), (640, 400));
+        assert!(plot_svg("t", &lines, 640, 400).unwrap().contains("relative RMSE"));
+        assert_eq!(decade_range([0.003, 0.2].into_iter()), (0.001, 1.0));
+    }
+}
