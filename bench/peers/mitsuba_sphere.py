@@ -128,6 +128,10 @@ def worker(args):
 
     mi.set_variant(args.worker)
     variant = args.worker
+    if args.threads:
+        import drjit as dr
+
+        dr.set_thread_count(args.threads)
     counts = pc.parse_counts(args.counts)
     view = pc.sphere_view(*pc.parse_pair(args.view))
     albedo = pc.parse_triple(args.albedo)
@@ -261,6 +265,7 @@ def main():
         default=10.0,
         help="no untimed warm-up render when the render is predicted to take longer than this",
     )
+    ap.add_argument("--threads", type=int, help="Dr.Jit worker threads (default: one per core)")
     ap.add_argument("--child-timeout-s", type=float, default=7200.0)
     ap.add_argument("--check", action="store_true", help="compare with the exact reference (small maps)")
     ap.add_argument("--worker", help=argparse.SUPPRESS)

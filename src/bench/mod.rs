@@ -9,6 +9,8 @@
 //! Writes `results.csv`, one log-log chart per map (`time_error_<map>.png` / `.svg`) and
 //! `summary.md` into the output folder.
 
+pub mod targets;
+
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::Instant;

@@ -66,9 +66,12 @@ struct BenchArgs {
     /// Do not run the peers.
     #[arg(long)]
     no_peers: bool,
-    /// A quick run: counts 16,64,256, 3 repeats, 64x64 sphere, no peers.
+    /// A quick run: counts 16,64,256, 3 repeats, 64x64 sphere, no peers, no targets.
     #[arg(long)]
     quick: bool,
+    /// Measure only the point targets (relight speed, BuildCdf, decoding, the seed graph).
+    #[arg(long)]
+    targets_only: bool,
 }
 
 #[derive(Args)]
@@ -340,6 +343,29 @@ fn bench(args: &BenchArgs) -> ExitCode {
         peers_dir: (!args.no_peers && !args.quick).then(|| args.peers.clone()),
     };
     eprintln!("hdrflow bench on {} threads", rayon::current_num_threads());
+    if !args.quick {
+        let peers = (!args.no_peers).then_some(args.peers.as_path());
+        match hdrflow::bench::targets::measure(&args.data, peers, config.repeats, &|line| eprintln!("{line}")) {
+            Ok(targets) => {
+                let md = hdrflow::bench::targets::markdown(&targets);
+                print!("{md}");
+                let path = args.out.join("targets.md");
+                if let Err(e) = std::fs::create_dir_all(&args.out)
+                    .and_then(|_| hdrflow::engine::cache::store::write_atomic(&path, md.as_bytes()))
+                {
+                    eprintln!("error: writing {}: {e}", path.display());
+                    return ExitCode::from(1);
+                }
+            }
+            Err(e) => {
+                eprintln!("error: {e}");
+                return ExitCode::from(1);
+            }
+        }
+        if args.targets_only {
+            return ExitCode::SUCCESS;
+        }
+    }
     match hdrflow::bench::run(&config, &|line| eprintln!("{line}")) {
         Ok(rows) => {
             println!(
