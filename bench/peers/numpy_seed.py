@@ -18,7 +18,9 @@ times slower (seen here: 4096 samples at 512 x 512, 0.6 s with 1 thread, 3.4-5.2
 another process was compiling). Benchmark on an idle machine, or pass --threads 1.
 
 Timing: the map load is timed once (`load_ms`); each count is run once untimed (warm-up), then
-`--repeats` times, and the median of CDF + sampling + relighting is reported (`ms`).
+`--repeats` times, and the median of CDF + sampling + relighting is reported (`ms`), with the
+median of its relighting part alone (`relight_ms`: normals + the chunked products).
+--relight-only times the relighting alone (samples drawn once, untimed): then ms = relight_ms.
 
 --check: also computes the exact reference (sum over every texel; small maps only) and reports
 the relative RMSE of each result over the inner disc (sx^2 + sy^2 <= 0.9) and the full disc.
@@ -109,9 +111,26 @@ def relight(size, view, albedo, dirs, weights, n_draws, chunk=None):
 
 
 def run(env, size, view, albedo, count, seed):
+    """The timed pipeline: (image, total ms, relighting ms)."""
+    t0 = time.perf_counter()
     func, total, marginal, cond = build_cdf(env)
     dirs, weights = sample(env, func, total, marginal, cond, count, seed)
-    return relight(size, view, albedo, dirs, weights, count)
+    t1 = time.perf_counter()
+    img = relight(size, view, albedo, dirs, weights, count)
+    t2 = time.perf_counter()
+    return img, (t2 - t0) * 1e3, (t2 - t1) * 1e3
+
+
+def run_relight_only(env, size, view, albedo, count, seed, samples):
+    """--relight-only: the samples are drawn once (cached in `samples`, untimed)."""
+    if count not in samples:
+        func, total, marginal, cond = build_cdf(env)
+        samples[count] = sample(env, func, total, marginal, cond, count, seed)
+    dirs, weights = samples[count]
+    t0 = time.perf_counter()
+    img = relight(size, view, albedo, dirs, weights, count)
+    ms = (time.perf_counter() - t0) * 1e3
+    return img, ms, ms
 
 
 def main():
@@ -125,6 +144,11 @@ def main():
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--out-dir", required=True)
     ap.add_argument("--check", action="store_true", help="compare with the exact reference (small maps)")
+    ap.add_argument(
+        "--relight-only",
+        action="store_true",
+        help="time the relighting alone (samples drawn once, untimed); ms = relight_ms",
+    )
     ap.add_argument(
         "--threads", type=int, help="BLAS threads (sets OPENBLAS_NUM_THREADS etc.); default: OpenBLAS's own choice"
     )
@@ -153,18 +177,30 @@ def main():
         pc.eprint(f"reference: {(time.perf_counter() - t) * 1e3:.0f} ms")
 
     results = []
+    cache = {}
     for count in counts:
-        run(env, args.size, view, albedo, count, args.seed)  # warm-up, untimed
-        times = []
+        if args.relight_only:
+            go = lambda: run_relight_only(env, args.size, view, albedo, count, args.seed, cache)  # noqa: E731
+        else:
+            go = lambda: run(env, args.size, view, albedo, count, args.seed)  # noqa: E731
+        go()  # warm-up, untimed
+        times, relight_times = [], []
         img = None
         for _ in range(max(args.repeats, 1)):
-            t = time.perf_counter()
-            img = run(env, args.size, view, albedo, count, args.seed)
-            times.append((time.perf_counter() - t) * 1e3)
+            img, ms, relight_ms = go()
+            times.append(ms)
+            relight_times.append(relight_ms)
         name = f"numpy_shared_random_{count}.pfm"
         pc.write_pfm(os.path.join(args.out_dir, name), img)
-        r = {"strategy": "numpy shared random", "count": count, "ms": float(np.median(times)), "image": name}
-        line = f"numpy shared random  N={count:6d}  {r['ms']:9.2f} ms"
+        strategy = "numpy shared random" + (" (relight only)" if args.relight_only else "")
+        r = {
+            "strategy": strategy,
+            "count": count,
+            "ms": float(np.median(times)),
+            "relight_ms": float(np.median(relight_times)),
+            "image": name,
+        }
+        line = f"{strategy}  N={count:6d}  {r['ms']:9.2f} ms (relighting {r['relight_ms']:.2f} ms)"
         if ref is not None:
             r["rel_rmse_inner"] = pc.relative_rmse(img, ref, inner)
             r["rel_rmse_disc"] = pc.relative_rmse(img, ref, disc)
