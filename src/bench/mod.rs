@@ -185,7 +185,7 @@ pub fn run(config: &BenchConfig, log: &dyn Fn(&str)) -> Result<Vec<BenchRow>, St
             });
             push(
                 &mut rows,
-                "shared Random, seed's estimator".into(),
+                "shared Random (seed's estimator)".into(),
                 "shared",
                 count,
                 ms,
@@ -317,6 +317,35 @@ fn run_peers(
     Ok(())
 }
 
+/// Redraws every map's chart from a `results.csv` written by `run` (into the same folder).
+pub fn replot(config: &BenchConfig, csv_path: &Path) -> Result<usize, String> {
+    let text = std::fs::read_to_string(csv_path).map_err(|e| format!("{}: {e}", csv_path.display()))?;
+    let mut rows = Vec::new();
+    for (i, line) in text.lines().enumerate().skip(1) {
+        let fields = split_csv_line(line);
+        let c: Vec<&str> = fields.iter().map(String::as_str).collect();
+        let bad = || format!("{}:{}: expected map,strategy,family,count,ms,relative_rmse,psnr", csv_path.display(), i + 1);
+        if c.len() != 7 {
+            return Err(bad());
+        }
+        rows.push(BenchRow {
+            map: c[0].into(),
+            strategy: c[1].into(),
+            family: c[2].into(),
+            count: c[3].parse().map_err(|_| bad())?,
+            ms: c[4].parse().map_err(|_| bad())?,
+            relative_rmse: c[5].parse().map_err(|_| bad())?,
+            psnr: c[6].parse().unwrap_or(f64::NAN),
+        });
+    }
+    let mut maps: Vec<String> = rows.iter().map(|r| r.map.clone()).collect();
+    maps.dedup();
+    for map in &maps {
+        write_chart(config, map, &rows)?;
+    }
+    Ok(maps.len())
+}
+
 fn write_chart(config: &BenchConfig, map: &str, rows: &[BenchRow]) -> Result<(), String> {
     let mut lines: Vec<Line> = Vec::new();
     for r in rows.iter().filter(|r| r.map == map && r.family != "reference") {
@@ -334,13 +363,47 @@ fn write_chart(config: &BenchConfig, map: &str, rows: &[BenchRow]) -> Result<(),
     Ok(())
 }
 
+/// A CSV field, quoted when it holds a comma or a quote (RFC 4180).
+fn csv_field(s: &str) -> String {
+    if s.contains([',', '"']) {
+        format!("\"{}\"", s.replace('"', "\"\""))
+    } else {
+        s.to_string()
+    }
+}
+
+/// Splits one RFC 4180 CSV line (quoted fields may hold commas and doubled quotes).
+fn split_csv_line(line: &str) -> Vec<String> {
+    let mut fields = vec![String::new()];
+    let mut quoted = false;
+    let mut chars = line.chars().peekable();
+    while let Some(c) = chars.next() {
+        match (c, quoted) {
+            ('"', true) if chars.peek() == Some(&'"') => {
+                chars.next();
+                fields.last_mut().expect("one field").push('"');
+            }
+            ('"', _) => quoted = !quoted,
+            (',', false) => fields.push(String::new()),
+            (c, _) => fields.last_mut().expect("one field").push(c),
+        }
+    }
+    fields
+}
+
 fn write_csv(path: &Path, rows: &[BenchRow]) -> Result<(), String> {
     let mut s = String::from("map,strategy,family,count,ms,relative_rmse,psnr\n");
     for r in rows {
         let _ = writeln!(
             s,
             "{},{},{},{},{:.4},{:.6e},{:.3}",
-            r.map, r.strategy, r.family, r.count, r.ms, r.relative_rmse, r.psnr
+            csv_field(&r.map),
+            csv_field(&r.strategy),
+            r.family,
+            r.count,
+            r.ms,
+            r.relative_rmse,
+            r.psnr
         );
     }
     write_atomic(path, s.as_bytes()).map_err(|e| format!("{}: {e}", path.display()))
@@ -475,6 +538,12 @@ pub fn summary(config: &BenchConfig, rows: &[BenchRow]) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn csv_fields_with_commas_round_trip() {
+        let line = format!("{},{},x", csv_field("a, \"b\""), csv_field("plain"));
+        assert_eq!(split_csv_line(&line), vec!["a, \"b\"".to_string(), "plain".into(), "x".into()]);
+    }
 
     #[test]
     fn time_to_reach_interpolates_log_log() {

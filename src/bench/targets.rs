@@ -59,7 +59,8 @@ pub fn measure(data: &Path, peers: Option<&Path>, repeats: usize, log: &dyn Fn(&
             t.dedup();
             t.len()
         };
-        let (ms, img) = time_median(repeats * 4, || relight_shared(env, &set, 512, [0.8; 3], view, Estimator::Unbiased));
+        let (ms, img) =
+            time_median(repeats * 4, || relight_shared(env, &set, 512, [0.8; 3], view, Estimator::Unbiased));
         img.map_err(|e| e.to_string())?;
         log(&format!("RelightSphere 512x512, 1024 samples ({distinct} distinct texels), {name}: {ms:.2} ms"));
         out.push(Target {
@@ -86,7 +87,11 @@ pub fn measure(data: &Path, peers: Option<&Path>, repeats: usize, log: &dyn Fn(&
 
     // 2. BuildCdf on a 2048x1024 map against one pass over its bytes.
     let big = {
-        let base = if grace_path.is_file() { load(&grace_path)? } else { crate::formats::builtin::builtin("sky").expect("built-in") };
+        let base = if grace_path.is_file() {
+            load(&grace_path)?
+        } else {
+            crate::formats::builtin::builtin("sky").expect("built-in")
+        };
         luminance(&resize(&base, 2048, 1024))
     };
     let (pass_ms, sum) = time_median(repeats * 2, || big.data.iter().map(|&v| v as f64).sum::<f64>());
@@ -116,8 +121,14 @@ pub fn measure(data: &Path, peers: Option<&Path>, repeats: usize, log: &dyn Fn(&
     theirs.map_err(|e| e.to_string())?;
     log(&format!("RGBE decode 1024x512: ours {ours_ms:.2} ms, image crate {theirs_ms:.2} ms"));
     out.push(Target {
-        name: format!("LoadHdr decode of a 1024x512 RLE .hdr ({})", if hdr_path.is_file() { "rooitou_park_1k.hdr" } else { "built-in sky re-encoded" }),
-        measured: format!("{ours_ms:.2} ms vs the image crate's {theirs_ms:.2} ms = {:.1}x faster", theirs_ms / ours_ms),
+        name: format!(
+            "LoadHdr decode of a 1024x512 RLE .hdr ({})",
+            if hdr_path.is_file() { "rooitou_park_1k.hdr" } else { "built-in sky re-encoded" }
+        ),
+        measured: format!(
+            "{ours_ms:.2} ms vs the image crate's {theirs_ms:.2} ms = {:.1}x faster",
+            theirs_ms / ours_ms
+        ),
         goal: "as fast or faster".into(),
         met: Some(ours_ms <= theirs_ms),
     });
@@ -150,8 +161,18 @@ pub fn measure(data: &Path, peers: Option<&Path>, repeats: usize, log: &dyn Fn(&
     cached.sort_by(f64::total_cmp);
     let (c, k) = (cold[cold.len() / 2], cached[cached.len() / 2]);
     log(&format!("graphs/seed.ron: cold {c:.1} ms, cached {k:.2} ms"));
-    out.push(Target { name: "graphs/seed.ron cold (built-in map)".into(), measured: format!("{c:.1} ms"), goal: "< 1 s".into(), met: Some(c < 1000.0) });
-    out.push(Target { name: "graphs/seed.ron fully cached".into(), measured: format!("{k:.2} ms"), goal: "< 100 ms".into(), met: Some(k < 100.0) });
+    out.push(Target {
+        name: "graphs/seed.ron cold (built-in map)".into(),
+        measured: format!("{c:.1} ms"),
+        goal: "< 1 s".into(),
+        met: Some(c < 1000.0),
+    });
+    out.push(Target {
+        name: "graphs/seed.ron fully cached".into(),
+        measured: format!("{k:.2} ms"),
+        goal: "< 100 ms".into(),
+        met: Some(k < 100.0),
+    });
     Ok(out)
 }
 
@@ -178,8 +199,9 @@ fn numpy_relight_ms(peers: &Path, env: &Image, repeats: usize) -> Result<f64, St
     if !status.success() {
         return Err(format!("numpy_seed.py exited with {status} (is numpy installed?)"));
     }
-    let json: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.join("results.json")).map_err(|e| e.to_string())?)
-        .map_err(|e| e.to_string())?;
+    let json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.join("results.json")).map_err(|e| e.to_string())?)
+            .map_err(|e| e.to_string())?;
     let _ = std::fs::remove_dir_all(&dir);
     json["results"][0]["relight_ms"]
         .as_f64()

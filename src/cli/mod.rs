@@ -72,6 +72,9 @@ struct BenchArgs {
     /// Measure only the point targets (relight speed, BuildCdf, decoding, the seed graph).
     #[arg(long)]
     targets_only: bool,
+    /// Redraw the charts from this results.csv (into --out) without measuring anything.
+    #[arg(long, value_name = "RESULTS_CSV")]
+    replot: Option<PathBuf>,
 }
 
 #[derive(Args)]
@@ -342,6 +345,18 @@ fn bench(args: &BenchArgs) -> ExitCode {
         out_dir: args.out.clone(),
         peers_dir: (!args.no_peers && !args.quick).then(|| args.peers.clone()),
     };
+    if let Some(csv) = &args.replot {
+        return match hdrflow::bench::replot(&config, csv) {
+            Ok(n) => {
+                println!("redrew {n} charts into {}", args.out.display());
+                ExitCode::SUCCESS
+            }
+            Err(e) => {
+                eprintln!("error: {e}");
+                ExitCode::from(1)
+            }
+        };
+    }
     eprintln!("hdrflow bench on {} threads", rayon::current_num_threads());
     if !args.quick {
         let peers = (!args.no_peers).then_some(args.peers.as_path());

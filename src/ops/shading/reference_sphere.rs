@@ -8,7 +8,8 @@
 //! Cost: O(pixels x lit texels), a brute-force sum made fast by culling and SIMD (a 256 x 256
 //! sphere under a 1024 x 512 map takes ~1-2 s on 2 cores).
 
-use crate::engine::op::{Default, FieldKind, FieldSpec, OpContext, OpError, OpSpec, OutputType};
+use super::{ALBEDO_FIELD, SIZE_FIELD, VIEW_FIELD};
+use crate::engine::op::{FieldSpec, OpContext, OpError, OpSpec, OutputType};
 use crate::engine::value::{Value, ValueType};
 use crate::maths::latlong;
 use crate::maths::reference::{first_non_finite, reference_sphere};
@@ -21,24 +22,9 @@ pub static SPEC: OpSpec = OpSpec {
     doc: "The exact relit diffuse sphere: (albedo/pi) * sum over every texel of L dOmega max(n.d, 0)",
     fields: &[
         FieldSpec::input("env", &[ValueType::Image], "the lat-long environment (linear RGB)"),
-        FieldSpec {
-            name: "size",
-            kind: FieldKind::Int { min: 1, max: 1 << 14 },
-            default: Default::Int(256),
-            doc: "image width and height",
-        },
-        FieldSpec {
-            name: "albedo",
-            kind: FieldKind::Tuple { len: 3, min: 0.0, max: 1.0 },
-            default: Default::Tuple(&[1.0, 1.0, 1.0]),
-            doc: "diffuse albedo (RGB)",
-        },
-        FieldSpec {
-            name: "view",
-            kind: FieldKind::Tuple { len: 2, min: -360.0, max: 360.0 },
-            default: Default::Tuple(&[90.0, 90.0]),
-            doc: "camera direction (theta, phi) in degrees, lat-long convention; the seed's is (90, 90)",
-        },
+        SIZE_FIELD,
+        ALBEDO_FIELD,
+        VIEW_FIELD,
     ],
     output: OutputType::Fixed(ValueType::Image),
     eval,

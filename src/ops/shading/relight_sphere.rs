@@ -18,6 +18,7 @@
 
 use std::f64::consts::PI;
 
+use super::{ALBEDO_FIELD, SIZE_FIELD, VIEW_FIELD};
 use crate::data::{Image, SampleSet};
 use crate::engine::op::{Default, FieldKind, FieldSpec, OpContext, OpError, OpSpec, OutputType};
 use crate::engine::value::{Value, ValueType};
@@ -32,24 +33,9 @@ pub static SPEC: OpSpec = OpSpec {
     fields: &[
         FieldSpec::input("env", &[ValueType::Image], "the lat-long environment (linear RGB)"),
         FieldSpec::input("samples", &[ValueType::Samples], "light samples (Sample), shared by every pixel"),
-        FieldSpec {
-            name: "size",
-            kind: FieldKind::Int { min: 1, max: 1 << 14 },
-            default: Default::Int(256),
-            doc: "image width and height",
-        },
-        FieldSpec {
-            name: "albedo",
-            kind: FieldKind::Tuple { len: 3, min: 0.0, max: 1.0 },
-            default: Default::Tuple(&[1.0, 1.0, 1.0]),
-            doc: "diffuse albedo (RGB)",
-        },
-        FieldSpec {
-            name: "view",
-            kind: FieldKind::Tuple { len: 2, min: -360.0, max: 360.0 },
-            default: Default::Tuple(&[90.0, 90.0]),
-            doc: "camera direction (theta, phi) in degrees, lat-long convention; the seed's is (90, 90)",
-        },
+        SIZE_FIELD,
+        ALBEDO_FIELD,
+        VIEW_FIELD,
         FieldSpec {
             name: "estimator",
             kind: FieldKind::Choice(&["Unbiased", "Seed"]),

@@ -6,6 +6,7 @@
 //! with `ReferenceSphere`. Accurate (~1%) for smooth lighting at order 2; a small sun gives large
 //! errors and rings, even negative values, which are kept (not clamped) so they can be measured.
 
+use super::{ALBEDO_FIELD, SIZE_FIELD, VIEW_FIELD};
 use crate::engine::op::{Default, FieldKind, FieldSpec, OpContext, OpError, OpSpec, OutputType};
 use crate::engine::value::{Value, ValueType};
 use crate::maths::latlong;
@@ -21,24 +22,9 @@ pub static SPEC: OpSpec = OpSpec {
     doc: "Relight a diffuse sphere with the spherical-harmonic irradiance map (Ramamoorthi-Hanrahan)",
     fields: &[
         FieldSpec::input("env", &[ValueType::Image], "the lat-long environment (linear RGB)"),
-        FieldSpec {
-            name: "size",
-            kind: FieldKind::Int { min: 1, max: 1 << 14 },
-            default: Default::Int(256),
-            doc: "image width and height",
-        },
-        FieldSpec {
-            name: "albedo",
-            kind: FieldKind::Tuple { len: 3, min: 0.0, max: 1.0 },
-            default: Default::Tuple(&[1.0, 1.0, 1.0]),
-            doc: "diffuse albedo (RGB)",
-        },
-        FieldSpec {
-            name: "view",
-            kind: FieldKind::Tuple { len: 2, min: -360.0, max: 360.0 },
-            default: Default::Tuple(&[90.0, 90.0]),
-            doc: "camera direction (theta, phi) in degrees, lat-long convention; the seed's is (90, 90)",
-        },
+        SIZE_FIELD,
+        ALBEDO_FIELD,
+        VIEW_FIELD,
         FieldSpec {
             name: "order",
             kind: FieldKind::Int { min: 0, max: 32 },
