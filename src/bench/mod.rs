@@ -324,7 +324,8 @@ pub fn replot(config: &BenchConfig, csv_path: &Path) -> Result<usize, String> {
     for (i, line) in text.lines().enumerate().skip(1) {
         let fields = split_csv_line(line);
         let c: Vec<&str> = fields.iter().map(String::as_str).collect();
-        let bad = || format!("{}:{}: expected map,strategy,family,count,ms,relative_rmse,psnr", csv_path.display(), i + 1);
+        let bad =
+            || format!("{}:{}: expected map,strategy,family,count,ms,relative_rmse,psnr", csv_path.display(), i + 1);
         if c.len() != 7 {
             return Err(bad());
         }
