@@ -69,6 +69,16 @@ pub struct BenchRow {
     pub psnr: f64,
 }
 
+impl BenchRow {
+    /// One line of progress output.
+    pub fn describe(&self) -> String {
+        format!(
+            "{:<12} {:<34} {:>5}  {:>9.2} ms  rel. RMSE {:.5}",
+            self.map, self.strategy, self.count, self.ms, self.relative_rmse
+        )
+    }
+}
+
 /// Loads a map as the benchmark and `LoadHdr` see it.
 pub fn load_map(spec: &MapSpec) -> Result<Image, String> {
     let mut img = if let Some(name) = spec.source.strip_prefix("builtin:") {
@@ -164,10 +174,7 @@ pub fn run(config: &BenchConfig, log: &dyn Fn(&str)) -> Result<Vec<BenchRow>, St
                 relative_rmse: metric(&m, "relative_rmse"),
                 psnr: metric(&m, "psnr"),
             };
-            log(&format!(
-                "{:<12} {:<34} {:>5}  {:>9.2} ms  rel. RMSE {:.5}",
-                row.map, row.strategy, row.count, row.ms, row.relative_rmse
-            ));
+            log(&row.describe());
             rows.push(row);
         };
         for &count in &config.counts {
@@ -304,10 +311,7 @@ fn run_peers(
                 relative_rmse: metric(&m, "relative_rmse"),
                 psnr: metric(&m, "psnr"),
             };
-            log(&format!(
-                "{:<12} {:<34} {:>5}  {:>9.2} ms  rel. RMSE {:.5}",
-                row.map, row.strategy, row.count, row.ms, row.relative_rmse
-            ));
+            log(&row.describe());
             rows.push(row);
         }
         for s in results["skipped"].as_array().into_iter().flatten() {

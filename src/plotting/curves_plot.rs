@@ -28,8 +28,9 @@ static FONT_BYTES: &[u8] = include_bytes!(concat!(env!("CARGO_MANIFEST_DIR"), "/
 const MAX_SIDE: u32 = 16384;
 const MAX_PIXELS: u64 = 64 * 1024 * 1024;
 
-/// Series colours (Tableau 10, cycled when there are more series).
-pub(crate) const PALETTE: [RGBColor; 10] = [
+/// Eighteen distinguishable colours (Tableau 10, then darker and lighter variants), so a chart
+/// with every strategy and peer of the benchmark never repeats one.
+pub(crate) const PALETTE: [RGBColor; 18] = [
     RGBColor(31, 119, 180),
     RGBColor(214, 39, 40),
     RGBColor(44, 160, 44),
@@ -40,6 +41,14 @@ pub(crate) const PALETTE: [RGBColor; 10] = [
     RGBColor(127, 127, 127),
     RGBColor(188, 189, 34),
     RGBColor(23, 190, 207),
+    RGBColor(0, 0, 0),
+    RGBColor(120, 0, 60),
+    RGBColor(0, 90, 50),
+    RGBColor(170, 110, 0),
+    RGBColor(70, 70, 200),
+    RGBColor(255, 80, 180),
+    RGBColor(0, 150, 150),
+    RGBColor(150, 200, 90),
 ];
 
 /// Registers the embedded font with plotters exactly once per process (later calls return the

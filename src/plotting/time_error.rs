@@ -4,30 +4,7 @@ use image::{ExtendedColorType, ImageEncoder};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use super::curves_plot::{area_err, check_size, ensure_font, FONT};
-
-/// Eighteen distinguishable colours (Tableau 10, then darker and lighter variants), so a chart
-/// with every strategy and peer never repeats one.
-const COLOURS: [RGBColor; 18] = [
-    RGBColor(31, 119, 180),
-    RGBColor(214, 39, 40),
-    RGBColor(44, 160, 44),
-    RGBColor(255, 127, 14),
-    RGBColor(148, 103, 189),
-    RGBColor(140, 86, 75),
-    RGBColor(227, 119, 194),
-    RGBColor(127, 127, 127),
-    RGBColor(188, 189, 34),
-    RGBColor(23, 190, 207),
-    RGBColor(0, 0, 0),
-    RGBColor(120, 0, 60),
-    RGBColor(0, 90, 50),
-    RGBColor(170, 110, 0),
-    RGBColor(70, 70, 200),
-    RGBColor(255, 80, 180),
-    RGBColor(0, 150, 150),
-    RGBColor(150, 200, 90),
-];
+use super::curves_plot::{area_err, check_size, ensure_font, FONT, PALETTE};
 
 /// One strategy's points: (milliseconds, relative error), in increasing sample count.
 #[derive(Clone, Debug)]
@@ -99,7 +76,7 @@ fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, title: &str, lines: &
         .draw()
         .map_err(area_err)?;
     for (i, line) in lines.iter().enumerate() {
-        let color = COLOURS[i % COLOURS.len()];
+        let color = PALETTE[i % PALETTE.len()];
         let pts: Vec<(f64, f64)> = line
             .points
             .iter()
