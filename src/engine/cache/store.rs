@@ -69,8 +69,20 @@ impl CacheStore {
         self.root.join(&hex[..2]).join(format!("{hex}.val"))
     }
 
+    /// Whether an entry for `key` exists and its header is intact: magic, codec version, and a
+    /// payload length that matches the file's size. Reads 52 bytes, so planning stays cheap; a
+    /// flipped bit inside the payload is caught by the checksum when the entry is loaded.
     pub fn contains(&self, key: &Key) -> bool {
-        self.path_for(key).is_file()
+        use std::io::Read;
+        let Ok(mut f) = fs::File::open(self.path_for(key)) else { return false };
+        let Ok(meta) = f.metadata() else { return false };
+        let mut header = [0u8; HEADER_LEN];
+        if f.read_exact(&mut header).is_err() || &header[..8] != MAGIC {
+            return false;
+        }
+        let version = u32::from_le_bytes(header[8..12].try_into().expect("4 bytes"));
+        let len = u64::from_le_bytes(header[12..20].try_into().expect("8 bytes"));
+        version == CODEC_VERSION && meta.len() == HEADER_LEN as u64 + len
     }
 
     /// Reads an entry: `Ok(None)` when absent, `Err(Corrupt)` when it cannot be trusted
@@ -276,6 +288,7 @@ mod tests {
         s.put(&key, &Value::image(Image::new(4, 4, 3))).unwrap();
         let bytes = fs::read(&path).unwrap();
         fs::write(&path, &bytes[..bytes.len() / 2]).unwrap();
+        assert!(!s.contains(&key), "a truncated entry is not planned as cached");
         assert!(matches!(s.get(&key), Err(CacheError::Corrupt { .. })));
     }
 
