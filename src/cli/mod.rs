@@ -1,7 +1,37 @@
 //! Commands: `run`, `plan`, `dot`, `ops`. Exit codes: 0 success, 1 a run error, 2 a usage or
 //! pipeline-file error.
 
+/// `println!` to stdout that ends the process quietly when the reader has gone away
+/// (`hdrflow ops | head`), where `println!` would panic on the broken pipe.
+macro_rules! outln {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        if let Err(e) = writeln!(std::io::stdout().lock(), $($arg)*) {
+            $crate::cli::stdout_failed(e);
+        }
+    }};
+}
+
+/// `print!` with the same broken-pipe handling as `outln!`.
+macro_rules! out {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        if let Err(e) = write!(std::io::stdout().lock(), $($arg)*) {
+            $crate::cli::stdout_failed(e);
+        }
+    }};
+}
+
 mod progress;
+
+/// A closed pipe ends the program successfully; any other write error is reported.
+pub(crate) fn stdout_failed(e: std::io::Error) -> ! {
+    if e.kind() == std::io::ErrorKind::BrokenPipe {
+        std::process::exit(0);
+    }
+    eprintln!("error: writing to stdout: {e}");
+    std::process::exit(1);
+}
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -124,7 +154,7 @@ pub fn main() -> ExitCode {
         Command::Ops { name } => ops(&registry, name.as_deref()),
         Command::Dot(args) => match load(&registry, &args) {
             Ok(p) => {
-                print!("{}", p.to_dot());
+                out!("{}", p.to_dot());
                 ExitCode::SUCCESS
             }
             Err(code) => code,
@@ -174,7 +204,7 @@ fn plan(registry: &Registry, args: &RunArgs) -> ExitCode {
     let cache = cache_of(args);
     match scheduler::plan(&p, &args.targets, cache.as_ref()) {
         Ok(plan) => {
-            println!("{:<24} {:<18} {:<10} key", "node", "operator", "plan");
+            outln!("{:<24} {:<18} {:<10} key", "node", "operator", "plan");
             for (i, n) in p.nodes.iter().enumerate() {
                 let what = match plan.status[i] {
                     NodeStatus::Computed => "compute",
@@ -183,7 +213,7 @@ fn plan(registry: &Registry, args: &RunArgs) -> ExitCode {
                 };
                 let key =
                     plan.keys[i].map(|k| hdrflow::engine::cache::key_hex(&k)[..16].to_string()).unwrap_or_default();
-                println!("{:<24} {:<18} {:<10} {key}", n.name, n.spec.name, what);
+                outln!("{:<24} {:<18} {:<10} {key}", n.name, n.spec.name, what);
             }
             ExitCode::SUCCESS
         }
@@ -226,7 +256,7 @@ fn run(registry: &Registry, args: &RunArgs) -> ExitCode {
     let report = &outcome.report;
     if !args.quiet {
         progress::print_table(report);
-        println!(
+        outln!(
             "{} nodes: {} computed, {} cached, {} not needed; {:.1} ms; {} file{} written to {}",
             report.nodes.len(),
             report.count(NodeStatus::Computed),
@@ -273,9 +303,9 @@ fn ops(registry: &Registry, name: Option<&str>) -> ExitCode {
     for spec in selected {
         if spec.category != category {
             category = spec.category;
-            println!("== {category} ==");
+            outln!("== {category} ==");
         }
-        println!(
+        outln!(
             "{} (v{}) -> {}",
             spec.name,
             spec.version,
@@ -284,7 +314,7 @@ fn ops(registry: &Registry, name: Option<&str>) -> ExitCode {
                 hdrflow::engine::op::OutputType::SameAsInput(f) => format!("same type as `{f}`"),
             }
         );
-        println!("    {}", spec.doc);
+        outln!("    {}", spec.doc);
         for f in spec.fields {
             let default = match f.default {
                 Default::Required => "required".to_string(),
@@ -297,15 +327,15 @@ fn ops(registry: &Registry, name: Option<&str>) -> ExitCode {
                     format!("default ({})", v.iter().map(|x| format!("{x:?}")).collect::<Vec<_>>().join(", "))
                 }
             };
-            println!("    {:<14} {:<40} {:<22} {}", f.name, f.kind.describe(), default, f.doc);
+            outln!("    {:<14} {:<40} {:<22} {}", f.name, f.kind.describe(), default, f.doc);
         }
         if spec.name == "LoadHdr" {
-            println!("    built-in maps (path: \"builtin:NAME\"):");
+            outln!("    built-in maps (path: \"builtin:NAME\"):");
             for (n, doc) in hdrflow::formats::builtin::BUILTINS {
-                println!("      {n:<10} {doc}");
+                outln!("      {n:<10} {doc}");
             }
         }
-        println!();
+        outln!();
     }
     ExitCode::SUCCESS
 }
@@ -348,7 +378,7 @@ fn bench(args: &BenchArgs) -> ExitCode {
     if let Some(csv) = &args.replot {
         return match hdrflow::bench::replot(&config, csv) {
             Ok(n) => {
-                println!("redrew {n} charts into {}", args.out.display());
+                outln!("redrew {n} charts into {}", args.out.display());
                 ExitCode::SUCCESS
             }
             Err(e) => {
@@ -363,7 +393,7 @@ fn bench(args: &BenchArgs) -> ExitCode {
         match hdrflow::bench::targets::measure(&args.data, peers, config.repeats, &|line| eprintln!("{line}")) {
             Ok(targets) => {
                 let md = hdrflow::bench::targets::markdown(&targets);
-                print!("{md}");
+                out!("{md}");
                 let path = args.out.join("targets.md");
                 if let Err(e) = std::fs::create_dir_all(&args.out)
                     .and_then(|_| hdrflow::engine::cache::store::write_atomic(&path, md.as_bytes()))
@@ -383,7 +413,7 @@ fn bench(args: &BenchArgs) -> ExitCode {
     }
     match hdrflow::bench::run(&config, &|line| eprintln!("{line}")) {
         Ok(rows) => {
-            println!(
+            outln!(
                 "{} points; wrote {}/results.csv, summary.md and time_error_*.png/.svg",
                 rows.len(),
                 args.out.display()

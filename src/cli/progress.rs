@@ -96,13 +96,13 @@ impl Observer for Progress {
 
 /// The per-node table printed at the end of a run.
 pub fn print_table(report: &RunReport) {
-    println!("{:<24} {:<18} {:<9} {:>10}", "node", "operator", "status", "ms");
+    outln!("{:<24} {:<18} {:<9} {:>10}", "node", "operator", "status", "ms");
     for n in &report.nodes {
         let status = match n.status {
             NodeStatus::Computed => "computed",
             NodeStatus::Cached => "cached",
             NodeStatus::Skipped => "skipped",
         };
-        println!("{:<24} {:<18} {:<9} {:>10.2}", n.name, n.op, status, n.ms);
+        outln!("{:<24} {:<18} {:<9} {:>10.2}", n.name, n.op, status, n.ms);
     }
 }
