@@ -94,12 +94,11 @@ pub fn load_map(spec: &MapSpec) -> Result<Image, String> {
     Ok(img)
 }
 
-/// Rec. 709 luminance of an RGB image.
+/// Rec. 709 luminance of an RGB image (the `Luminance` operator's weights).
 pub fn luminance(img: &Image) -> Image {
-    let data = img
-        .data
-        .chunks_exact(img.channels)
-        .map(|p| if p.len() >= 3 { 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2] } else { p[0] })
+    let data = (0..img.height)
+        .flat_map(|y| (0..img.width).map(move |x| (x, y)))
+        .map(|(x, y)| crate::ops::image::luminance::luminance(img.rgb(x, y), "Rec709"))
         .collect();
     Image::from_vec(img.width, img.height, 1, data)
 }

@@ -32,9 +32,7 @@ pub struct Target {
 }
 
 fn load(path: &Path) -> Result<Image, String> {
-    let bytes = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
-    let ext = path.extension().map(|e| e.to_string_lossy().to_lowercase()).unwrap_or_default();
-    crate::formats::decode_by_extension(&bytes, &ext).map_err(|e| e.0)
+    super::load_map(&super::MapSpec { name: String::new(), source: path.display().to_string(), flip_vertical: false })
 }
 
 /// Measures every target; `data` is the folder of real maps (those missing are skipped),

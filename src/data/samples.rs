@@ -18,6 +18,21 @@ pub struct Sample {
     pub pdf: f32,
 }
 
+impl Sample {
+    /// A sample from f64 maths: texel (x, y), angles, unit direction and solid-angle pdf, stored
+    /// in f32 (the precision every consumer reads them at).
+    pub fn new(x: usize, y: usize, theta: f64, phi: f64, dir: [f64; 3], pdf: f64) -> Sample {
+        Sample {
+            x: x as u32,
+            y: y as u32,
+            theta: theta as f32,
+            phi: phi as f32,
+            dir: dir.map(|c| c as f32),
+            pdf: pdf as f32,
+        }
+    }
+}
+
 /// An ordered set of samples with the lat-long grid their texel indices refer to.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SampleSet {

@@ -75,12 +75,27 @@ pub(crate) fn check_size(width: u32, height: u32) -> Result<(), String> {
 
 /// Renders `curves` as a `width` x `height` PNG (8-bit RGB).
 pub fn plot_png(curves: &Curves, width: u32, height: u32) -> Result<Vec<u8>, String> {
+    render_png(width, height, |root| draw(root, curves))
+}
+
+/// Renders `curves` as a `width` x `height` SVG document (text stays text, in "sans-serif").
+pub fn plot_svg(curves: &Curves, width: u32, height: u32) -> Result<String, String> {
+    render_svg(width, height, |root| draw(root, curves))
+}
+
+/// Runs `draw` on a `width` x `height` bitmap and encodes it as PNG (8-bit RGB): the size check,
+/// the font registration and the encoding every plot shares.
+pub(crate) fn render_png(
+    width: u32,
+    height: u32,
+    draw: impl FnOnce(&DrawingArea<BitMapBackend<'_>, Shift>) -> Result<(), String>,
+) -> Result<Vec<u8>, String> {
     check_size(width, height)?;
     ensure_font()?;
     let mut buf = vec![0u8; width as usize * height as usize * 3];
     {
         let root = BitMapBackend::with_buffer(&mut buf, (width, height)).into_drawing_area();
-        draw(&root, curves)?;
+        draw(&root)?;
         root.present().map_err(area_err)?;
         // `root` (and the backend borrowing `buf`) is dropped here.
     }
@@ -91,14 +106,18 @@ pub fn plot_png(curves: &Curves, width: u32, height: u32) -> Result<Vec<u8>, Str
     Ok(png)
 }
 
-/// Renders `curves` as a `width` x `height` SVG document (text stays text, in "sans-serif").
-pub fn plot_svg(curves: &Curves, width: u32, height: u32) -> Result<String, String> {
+/// Runs `draw` on a `width` x `height` SVG document.
+pub(crate) fn render_svg(
+    width: u32,
+    height: u32,
+    draw: impl FnOnce(&DrawingArea<SVGBackend<'_>, Shift>) -> Result<(), String>,
+) -> Result<String, String> {
     check_size(width, height)?;
     ensure_font()?;
     let mut svg = String::new();
     {
         let root = SVGBackend::with_string(&mut svg, (width, height)).into_drawing_area();
-        draw(&root, curves)?;
+        draw(&root)?;
         root.present().map_err(area_err)?;
     }
     Ok(svg)

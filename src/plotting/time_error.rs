@@ -1,10 +1,9 @@
 //! Log-log plots of run time against error, one line per strategy (the benchmark's chart).
 
-use image::{ExtendedColorType, ImageEncoder};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use super::curves_plot::{area_err, check_size, ensure_font, FONT, PALETTE};
+use super::curves_plot::{area_err, render_png, render_svg, FONT, PALETTE};
 
 /// One strategy's points: (milliseconds, relative error), in increasing sample count.
 #[derive(Clone, Debug)]
@@ -15,32 +14,12 @@ pub struct Line {
 
 /// Renders the chart as PNG.
 pub fn plot_png(title: &str, lines: &[Line], width: u32, height: u32) -> Result<Vec<u8>, String> {
-    check_size(width, height)?;
-    ensure_font()?;
-    let mut buf = vec![0u8; width as usize * height as usize * 3];
-    {
-        let root = BitMapBackend::with_buffer(&mut buf, (width, height)).into_drawing_area();
-        draw(&root, title, lines)?;
-        root.present().map_err(area_err)?;
-    }
-    let mut png = Vec::new();
-    image::codecs::png::PngEncoder::new(&mut png)
-        .write_image(&buf, width, height, ExtendedColorType::Rgb8)
-        .map_err(|e| format!("PNG encoding failed: {e}"))?;
-    Ok(png)
+    render_png(width, height, |root| draw(root, title, lines))
 }
 
 /// Renders the chart as SVG.
 pub fn plot_svg(title: &str, lines: &[Line], width: u32, height: u32) -> Result<String, String> {
-    check_size(width, height)?;
-    ensure_font()?;
-    let mut svg = String::new();
-    {
-        let root = SVGBackend::with_string(&mut svg, (width, height)).into_drawing_area();
-        draw(&root, title, lines)?;
-        root.present().map_err(area_err)?;
-    }
-    Ok(svg)
+    render_svg(width, height, |root| draw(root, title, lines))
 }
 
 /// Powers of ten that enclose the positive finite values.

@@ -82,14 +82,7 @@ fn eval(ctx: &OpContext) -> Result<Value, OpError> {
             let (d, pdf) = phong::sample_lobe(axis, s, u1, u2);
             let (theta, phi) = latlong::angles(d);
             let (x, y) = latlong::texel_of_direction(d, w, h);
-            Sample {
-                x: x as u32,
-                y: y as u32,
-                theta: theta as f32,
-                phi: phi as f32,
-                dir: [d[0] as f32, d[1] as f32, d[2] as f32],
-                pdf: pdf as f32,
-            }
+            Sample::new(x, y, theta, phi, d, pdf)
         })
         .collect();
     Ok(Value::Samples(std::sync::Arc::new(SampleSet { width: w as u32, height: h as u32, samples })))

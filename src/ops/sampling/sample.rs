@@ -47,14 +47,7 @@ pub fn draw(dist: &Distribution2D, sequence: sequences::Sequence, count: usize, 
             let theta = latlong::theta_of_row(y, h);
             let phi = latlong::phi_of_column(x, w);
             let d = latlong::direction(theta, phi);
-            Sample {
-                x: x as u32,
-                y: y as u32,
-                theta: theta as f32,
-                phi: phi as f32,
-                dir: [d[0] as f32, d[1] as f32, d[2] as f32],
-                pdf: pdf as f32,
-            }
+            Sample::new(x, y, theta, phi, d, pdf)
         })
         .collect();
     SampleSet { width: w as u32, height: h as u32, samples }

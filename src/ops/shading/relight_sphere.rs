@@ -16,8 +16,6 @@
 //! pixel sees the same direction), pixels off the disc cost nothing, and samples behind a
 //! pixel's surface add nothing (max(cos, 0)).
 
-use std::f64::consts::PI;
-
 use super::{ALBEDO_FIELD, SIZE_FIELD, VIEW_FIELD};
 use crate::data::{Image, SampleSet};
 use crate::engine::op::{Default, FieldKind, FieldSpec, OpContext, OpError, OpSpec, OutputType};
@@ -90,7 +88,6 @@ pub fn relight_shared(
     view_dir: [f64; 3],
     estimator: Estimator,
 ) -> Result<Image, OpError> {
-    let seed_estimator = estimator == Estimator::Seed;
     let same_grid = set.width as usize == env.width && set.height as usize == env.height;
     let mut lights: Vec<(u32, LightSample)> = Vec::with_capacity(set.samples.len());
     for s in &set.samples {
@@ -100,27 +97,18 @@ pub fn relight_shared(
             latlong::texel_of_direction([s.dir[0] as f64, s.dir[1] as f64, s.dir[2] as f64], env.width, env.height)
         };
         let rgb = env.rgb(x, y);
-        let weight = if seed_estimator {
-            let m = (rgb[0] as f64).hypot(rgb[1] as f64).hypot(rgb[2] as f64);
-            if m > 0.0 && m.is_finite() {
-                rgb.map(|c| (c as f64 / m) as f32)
-            } else {
-                [0.0; 3]
-            }
-        } else if s.pdf > 0.0 && s.pdf.is_finite() {
-            rgb.map(|c| (c as f64 / s.pdf as f64) as f32)
-        } else {
-            [0.0; 3]
+        let light = match estimator {
+            Estimator::Seed => LightSample::seed(s.dir, rgb),
+            Estimator::Unbiased => LightSample::unbiased(s.dir, rgb, s.pdf),
         };
-        if weight.iter().any(|w| !w.is_finite()) {
+        if light.weight.iter().any(|w| !w.is_finite()) {
             return Err(OpError::Invalid(format!(
-                "texel ({x}, {y}) gives a non-finite light weight {weight:?} (radiance {rgb:?}, pdf {})",
-                s.pdf
+                "texel ({x}, {y}) gives a non-finite light weight {:?} (radiance {rgb:?}, pdf {})",
+                light.weight, s.pdf
             )));
         }
-        lights.push(((y * env.width + x) as u32, LightSample { dir: s.dir, weight }));
+        lights.push(((y * env.width + x) as u32, light));
     }
-    let n = set.samples.len().max(1) as f64;
     let merged = merge_duplicates(&lights);
     if let Some(l) = merged.iter().find(|l| l.weight.iter().any(|w| !w.is_finite())) {
         return Err(OpError::Invalid(format!(
@@ -128,16 +116,13 @@ pub fn relight_shared(
             l.dir
         )));
     }
-    let scale: [f64; 3] = if seed_estimator {
-        let integral = luminance_integral(env);
-        albedo.map(|a| a * integral / (n * PI))
-    } else {
-        albedo.map(|a| a / (PI * n))
-    };
-    if scale.iter().any(|s| !((*s as f32).is_finite())) {
+    // The luminance integral is a full pass over the map: only the seed's formula needs it.
+    let integral = if estimator == Estimator::Seed { luminance_integral(env) } else { 0.0 };
+    let scale = estimator.scale(albedo, set.samples.len(), integral);
+    if scale.iter().any(|s| !s.is_finite()) {
         return Err(OpError::Invalid(format!("the estimator's scale {scale:?} is beyond f32 range")));
     }
-    let image = relight(&SphereView::new(size, view_dir), &merged, scale.map(|s| s as f32));
+    let image = relight(&SphereView::new(size, view_dir), &merged, scale);
     if let Some(i) = image.data.iter().position(|v| !v.is_finite()) {
         let px = i / 3;
         return Err(OpError::Invalid(format!(
