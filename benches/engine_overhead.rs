@@ -35,7 +35,7 @@ fn fan() -> String {
 }
 
 fn bench(c: &mut Criterion) {
-    let registry = Registry::with_builtins();
+    let registry = hdrflow::builtin_registry();
     let out = tempfile::tempdir().expect("tempdir");
     for (name, text) in [("chain", chain()), ("fan", fan())] {
         let mut group = c.benchmark_group(format!("engine_{name}_{NODES}"));

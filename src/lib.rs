@@ -1,13 +1,17 @@
 //! hdrflow: a node-graph engine for HDR image processing.
 //!
-//! - [`engine`]: pipeline files, validation, the parallel demand-driven scheduler, the cache.
-//! - [`ops`]: the built-in operators, one file each, grouped by domain.
-//! - [`data`], [`maths`], [`formats`], [`plotting`]: values, mathematics, file formats, plots.
+//! Layers, each using only those below it:
+//! - [`cli`]: the command line, over any registry (`cli::main_with`).
+//! - [`ops`]: the built-in operators, one file each, grouped by domain; `ops::builtin_registry`.
+//! - [`types`]: the built-in value types (how each data type is named, cached and saved).
+//! - [`engine`]: pipeline files, validation, the parallel demand-driven scheduler, the cache;
+//!   it knows no operator and no data type.
+//! - [`data`], [`maths`], [`formats`], [`plotting`]: data types, mathematics, file formats, plots.
 //!
 //! Running a pipeline from code:
 //! ```no_run
-//! use hdrflow::engine::{graph::Pipeline, registry::Registry, scheduler};
-//! let registry = Registry::with_builtins();
+//! use hdrflow::engine::{graph::Pipeline, scheduler};
+//! let registry = hdrflow::ops::builtin_registry();
 //! let pipeline = Pipeline::load("graphs/example.ron".as_ref(), &registry, &[]).unwrap();
 //! let options = scheduler::RunOptions {
 //!     targets: vec![],
@@ -23,15 +27,19 @@
 // `!(x > 0.0)` is written on purpose throughout: it is true for NaN, which is the point.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
-pub mod bench;
+// The benchmark harness behind `hdrflow bench`: used by the CLI, not a public API.
+mod bench;
+pub mod cli;
 pub mod data;
 pub mod engine;
 pub mod formats;
 pub mod maths;
 pub mod ops;
 pub mod plotting;
+pub mod types;
 
 pub use engine::graph::{Override, Pipeline};
-pub use engine::op::{OpContext, OpError, OpSpec};
+pub use engine::op::{OpContext, OpError, OpSpec, OutputType, Outputs};
 pub use engine::registry::Registry;
 pub use engine::value::{Value, ValueType};
+pub use ops::builtin_registry;

@@ -1,7 +1,5 @@
-//! The `hdrflow` command line: arguments and reporting only; the work is in the library.
-
-mod cli;
+//! The `hdrflow` command line: the library's CLI over the built-in operators.
 
 fn main() -> std::process::ExitCode {
-    cli::main()
+    hdrflow::cli::main()
 }

@@ -168,9 +168,9 @@ fn set_recomputes_exactly_the_changed_node_and_its_dependents() {
         &ctx,
     );
     // `flip` is needed only by `save2`, which comes from the cache: the scheduler reports such a
-    // node as "skipped" (documented in NodeStatus::Skipped). Either way it must not be computed.
+    // node as "not needed" (documented in NodeStatus::Skipped). Either way it must not be computed.
     assert!(
-        matches!(warm.status_of("flip"), "cached" | "skipped"),
+        matches!(warm.status_of("flip"), "cached" | "not needed"),
         "flip was recomputed although nothing it depends on changed: {:#?}\n{ctx}",
         warm.status
     );
@@ -267,7 +267,7 @@ fn target_runs_only_what_the_target_needs() {
     let sb = Sandbox::new();
     let graph = sb.write("chain.ron", CHAIN);
     let (out, r) = sb.run_ok(&graph, &["--target", "lum"]);
-    assert_statuses(&r.status, &[("env", "computed"), ("lum", "computed"), ("save", "skipped")], &out.describe());
+    assert_statuses(&r.status, &[("env", "computed"), ("lum", "computed"), ("save", "not needed")], &out.describe());
     assert_eq!(r.key_of("save"), "", "a node that is not needed has no key in the report");
     let written = files_under(&sb.out());
     assert!(written.is_empty(), "--target lum wrote {written:?}");
@@ -279,9 +279,13 @@ fn plan_shows_compute_cached_and_not_needed_before_and_after_a_run() {
     let graph = sb.write("chain.ron", CHAIN);
 
     let p = sb.plan(&graph, &[]);
-    assert_statuses(&p, &[("env", "compute"), ("lum", "compute"), ("save", "compute")], "plan before");
+    assert_statuses(&p, &[("env", "computed"), ("lum", "computed"), ("save", "computed")], "plan before");
     let p = sb.plan(&graph, &["--target", "lum"]);
-    assert_statuses(&p, &[("env", "compute"), ("lum", "compute"), ("save", "not needed")], "plan --target lum before");
+    assert_statuses(
+        &p,
+        &[("env", "computed"), ("lum", "computed"), ("save", "not needed")],
+        "plan --target lum before",
+    );
     assert!(files_under(&sb.out()).is_empty(), "plan wrote outputs");
     assert!(files_under(&sb.cache()).is_empty(), "plan wrote to the cache");
 
@@ -292,7 +296,7 @@ fn plan_shows_compute_cached_and_not_needed_before_and_after_a_run() {
     let p = sb.plan(&graph, &["--target", "lum"]);
     assert_statuses(&p, &[("lum", "cached"), ("env", "not needed"), ("save", "not needed")], "plan --target lum after");
     let p = sb.plan(&graph, &["--set", "env.width=65"]);
-    assert_statuses(&p, &[("env", "compute"), ("lum", "compute"), ("save", "compute")], "plan after an edit");
+    assert_statuses(&p, &[("env", "computed"), ("lum", "computed"), ("save", "computed")], "plan after an edit");
 }
 
 #[test]

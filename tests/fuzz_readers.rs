@@ -57,7 +57,7 @@ fn config(ci: u32) -> ProptestConfig {
 
 fn registry() -> &'static Registry {
     static R: OnceLock<Registry> = OnceLock::new();
-    R.get_or_init(Registry::with_builtins)
+    R.get_or_init(hdrflow::builtin_registry)
 }
 
 /// Records, per thread, the largest single allocation request, so that a test can check that a

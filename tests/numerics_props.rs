@@ -21,7 +21,7 @@ use hdrflow::maths::latlong::{self, texel_solid_angle, theta_of_row};
 use hdrflow::maths::relight::{merge_duplicates, relight, Estimator, LightSample, SphereView};
 use hdrflow::maths::sequences::SplitMix64;
 use hdrflow::maths::{fresnel, phong};
-use hdrflow::{Pipeline, Registry, Value};
+use hdrflow::Pipeline;
 use proptest::prelude::*;
 
 /// The largest f64 below 1 (1 - 2^-53).
@@ -829,7 +829,7 @@ fn run_relight_pipeline(env: &Image, count: usize, estimator: &str, sanitize: bo
     }},
 )"#
     );
-    let registry = Registry::with_builtins();
+    let registry = hdrflow::builtin_registry();
     let pipeline = Pipeline::parse(&text, "numerics.ron", dir.path(), &registry, &[]).map_err(|e| e.to_string())?;
     let options = RunOptions {
         targets: vec!["sphere".to_string()],
@@ -840,7 +840,7 @@ fn run_relight_pipeline(env: &Image, count: usize, estimator: &str, sanitize: bo
     };
     let outcome = scheduler::run(&pipeline, &options).map_err(|e| e.to_string())?;
     match outcome.values.get("sphere") {
-        Some(Value::Image(img)) => Ok((**img).clone()),
+        Some(v) if v.get::<Image>().is_some() => Ok(v.get::<Image>().unwrap().clone()),
         other => panic!("no sphere image in the outcome: {other:?}"),
     }
 }

@@ -4,9 +4,9 @@ use std::collections::BTreeMap;
 use std::path::Path;
 use std::process::Command;
 
-use hdrflow::data::Image;
+use hdrflow::data::{Image, SampleSet};
 use hdrflow::engine::scheduler::{self, RunOptions, Silent};
-use hdrflow::{Pipeline, Registry, Value};
+use hdrflow::{Pipeline, Value};
 
 const SEED_FILES: &[&str] = &[
     "em_64.png",
@@ -33,7 +33,7 @@ const SEED_FILES: &[&str] = &[
 
 /// Runs pipeline text in-process and returns the values of the named targets.
 fn run_targets(text: &str, targets: &[&str]) -> BTreeMap<String, Value> {
-    let registry = Registry::with_builtins();
+    let registry = hdrflow::builtin_registry();
     let p = Pipeline::parse(text, "test.ron", Path::new("."), &registry, &[]).expect("valid pipeline");
     let out = tempfile::tempdir().unwrap();
     let options = RunOptions {
@@ -47,7 +47,7 @@ fn run_targets(text: &str, targets: &[&str]) -> BTreeMap<String, Value> {
 }
 
 fn image(values: &BTreeMap<String, Value>, name: &str) -> Image {
-    (**values[name].as_image().expect("an image")).clone()
+    values[name].get::<Image>().expect("an image").clone()
 }
 
 /// Pixels on the disc (any non-zero channel).
@@ -183,7 +183,7 @@ fn samples_are_reproducible_for_a_seed_whatever_the_thread_count() {
         "s":   Sample(cdf: "cdf", count: 5000, seed: 11),
         "p":   PhongSample(exponent: 37.0, count: 5000, seed: 11, sequence: Sobol),
     })"#;
-    let registry = Registry::with_builtins();
+    let registry = hdrflow::builtin_registry();
     let p = Pipeline::parse(text, "t.ron", Path::new("."), &registry, &[]).unwrap();
     let mut results = Vec::new();
     for jobs in [1, 2, 4] {
@@ -196,7 +196,10 @@ fn samples_are_reproducible_for_a_seed_whatever_the_thread_count() {
             observer: &Silent,
         };
         let v = scheduler::run(&p, &o).unwrap().values;
-        results.push((v["s"].as_samples().unwrap().samples.clone(), v["p"].as_samples().unwrap().samples.clone()));
+        results.push((
+            v["s"].get::<SampleSet>().unwrap().samples.clone(),
+            v["p"].get::<SampleSet>().unwrap().samples.clone(),
+        ));
     }
     assert_eq!(results[0], results[1]);
     assert_eq!(results[0], results[2]);

@@ -11,7 +11,7 @@ use libfuzzer_sys::fuzz_target;
 
 fn registry() -> &'static Registry {
     static R: OnceLock<Registry> = OnceLock::new();
-    R.get_or_init(Registry::with_builtins)
+    R.get_or_init(hdrflow::builtin_registry)
 }
 
 fuzz_target!(|data: &[u8]| {

@@ -98,7 +98,9 @@ pub fn load_map(spec: &MapSpec) -> Result<Image, String> {
 pub fn luminance(img: &Image) -> Image {
     let data = (0..img.height)
         .flat_map(|y| (0..img.width).map(move |x| (x, y)))
-        .map(|(x, y)| crate::ops::image::luminance::luminance(img.rgb(x, y), "Rec709"))
+        .map(|(x, y)| {
+            crate::ops::image::luminance::luminance(img.rgb(x, y), crate::ops::image::luminance::Weights::Rec709)
+        })
         .collect();
     Image::from_vec(img.width, img.height, 1, data)
 }

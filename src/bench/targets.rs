@@ -18,7 +18,7 @@ use crate::maths::sequences::Sequence;
 use crate::ops::image::resize::resize;
 use crate::ops::sampling::sample::draw;
 use crate::ops::shading::relight_sphere::relight_shared;
-use crate::{Pipeline, Registry};
+use crate::Pipeline;
 
 use super::{luminance, time_median};
 
@@ -132,7 +132,7 @@ pub fn measure(data: &Path, peers: Option<&Path>, repeats: usize, log: &dyn Fn(&
     });
 
     // 4. The seed graph, cold and cached.
-    let registry = Registry::with_builtins();
+    let registry = crate::ops::builtin_registry();
     let seed = Path::new(env!("CARGO_MANIFEST_DIR")).join("graphs/seed.ron");
     let p = Pipeline::load(&seed, &registry, &[]).map_err(|e| e.to_string())?;
     let tmp = std::env::temp_dir().join(format!("hdrflow-bench-seed-{}", std::process::id()));

@@ -1,5 +1,8 @@
-//! Commands: `run`, `plan`, `dot`, `ops`. Exit codes: 0 success, 1 a run error, 2 a usage or
-//! pipeline-file error.
+//! The command line, as a library: [`main_with`] runs the whole `hdrflow` command line (`run`,
+//! `plan`, `dot`, `ops`, `bench`, every option) over any registry, so a crate that adds its own
+//! operators gets the complete tool with one call (see `examples/custom_operator.rs`).
+//! Arguments and reporting only; the work is in the library. Exit codes: 0 success, 1 a run
+//! error, 2 a usage or pipeline-file error.
 
 /// `println!` to stdout that ends the process quietly when the reader has gone away
 /// (`hdrflow ops | head`), where `println!` would panic on the broken pipe.
@@ -38,12 +41,11 @@ use std::process::ExitCode;
 
 use clap::{Args, Parser, Subcommand};
 
-use hdrflow::engine::cache::store::DEFAULT_LIMIT_BYTES;
-use hdrflow::engine::cache::CacheStore;
-use hdrflow::engine::graph::{Override, Pipeline};
-use hdrflow::engine::op::Default;
-use hdrflow::engine::registry::Registry;
-use hdrflow::engine::scheduler::{self, NodeStatus, RunOptions};
+use crate::engine::cache::store::DEFAULT_LIMIT_BYTES;
+use crate::engine::cache::CacheStore;
+use crate::engine::graph::{Override, Pipeline};
+use crate::engine::registry::Registry;
+use crate::engine::scheduler::{self, NodeStatus, RunOptions};
 
 #[derive(Parser)]
 #[command(name = "hdrflow", version, about = "A node-graph engine for HDR image processing", long_about = None)]
@@ -147,9 +149,30 @@ struct RunArgs {
     quiet: bool,
 }
 
+/// The `hdrflow` command line over the built-in operators.
 pub fn main() -> ExitCode {
-    let cli = Cli::parse();
-    let registry = Registry::with_builtins();
+    main_with(crate::ops::builtin_registry())
+}
+
+/// The complete `hdrflow` command line over `registry` (the built-ins plus a user's operators
+/// and value types), reading the process's arguments.
+pub fn main_with(registry: Registry) -> ExitCode {
+    main_from(registry, std::env::args_os())
+}
+
+/// [`main_with`] with explicit arguments (the first is the program name).
+pub fn main_from<I, T>(registry: Registry, args: I) -> ExitCode
+where
+    I: IntoIterator<Item = T>,
+    T: Into<std::ffi::OsString> + Clone,
+{
+    let cli = match Cli::try_parse_from(args) {
+        Ok(c) => c,
+        Err(e) => {
+            let _ = e.print();
+            return ExitCode::from(if e.use_stderr() { 2 } else { 0 });
+        }
+    };
     match cli.command {
         Command::Ops { name } => ops(&registry, name.as_deref()),
         Command::Dot(args) => match load(&registry, &args) {
@@ -204,17 +227,19 @@ fn plan(registry: &Registry, args: &RunArgs) -> ExitCode {
     let cache = cache_of(args);
     match scheduler::plan(&p, &args.targets, cache.as_ref()) {
         Ok(plan) => {
-            outln!("{:<24} {:<18} {:<10} key", "node", "operator", "plan");
+            outln!("{:<24} {:<18} {:<11} key", "node", "operator", "plan");
             for (i, n) in p.nodes.iter().enumerate() {
-                let what = match plan.status[i] {
-                    NodeStatus::Computed => "compute",
-                    NodeStatus::Cached => "cached",
-                    NodeStatus::Skipped => "not needed",
-                };
-                let key =
-                    plan.keys[i].map(|k| hdrflow::engine::cache::key_hex(&k)[..16].to_string()).unwrap_or_default();
-                outln!("{:<24} {:<18} {:<10} {key}", n.name, n.spec.name, what);
+                let key = plan.keys[i].map(|k| crate::engine::cache::key_hex(&k)[..16].to_string()).unwrap_or_default();
+                outln!("{:<24} {:<18} {:<11} {key}", n.name, n.spec.name, plan.status[i].word());
             }
+            let count = |st: NodeStatus| plan.status.iter().filter(|s| **s == st).count();
+            outln!(
+                "{} nodes: {} to compute, {} cached, {} not needed",
+                p.nodes.len(),
+                count(NodeStatus::Computed),
+                count(NodeStatus::Cached),
+                count(NodeStatus::NotNeeded)
+            );
             ExitCode::SUCCESS
         }
         Err(e) => {
@@ -224,9 +249,9 @@ fn plan(registry: &Registry, args: &RunArgs) -> ExitCode {
     }
 }
 
-fn run_error_code(e: &hdrflow::engine::error::RunError) -> u8 {
+fn run_error_code(e: &crate::engine::error::RunError) -> u8 {
     match e {
-        hdrflow::engine::error::RunError::UnknownTarget(_) => 2,
+        crate::engine::error::RunError::UnknownTarget(..) => 2,
         _ => 1,
     }
 }
@@ -261,7 +286,7 @@ fn run(registry: &Registry, args: &RunArgs) -> ExitCode {
             report.nodes.len(),
             report.count(NodeStatus::Computed),
             report.count(NodeStatus::Cached),
-            report.count(NodeStatus::Skipped),
+            report.count(NodeStatus::NotNeeded),
             report.total_ms,
             report.written.len(),
             if report.written.len() == 1 { "" } else { "s" },
@@ -284,7 +309,7 @@ fn run(registry: &Registry, args: &RunArgs) -> ExitCode {
     }
     if let Some(path) = &args.report {
         let json = serde_json::to_string_pretty(report).expect("report serialises");
-        if let Err(e) = hdrflow::engine::cache::store::write_atomic(path, json.as_bytes()) {
+        if let Err(e) = crate::engine::cache::store::write_atomic(path, json.as_bytes()) {
             eprintln!("error: writing report {}: {e}", path.display());
             return ExitCode::from(1);
         }
@@ -305,43 +330,42 @@ fn ops(registry: &Registry, name: Option<&str>) -> ExitCode {
             category = spec.category;
             outln!("== {category} ==");
         }
-        outln!(
-            "{} (v{}) -> {}",
-            spec.name,
-            spec.version,
-            match spec.output {
-                hdrflow::engine::op::OutputType::Fixed(t) => t.to_string(),
-                hdrflow::engine::op::OutputType::SameAsInput(f) => format!("same type as `{f}`"),
-            }
-        );
+        outln!("{} (v{})", spec.name, spec.version);
         outln!("    {}", spec.doc);
-        for f in spec.fields {
-            let default = match f.default {
-                Default::Required => "required".to_string(),
-                Default::Float(v) => format!("default {v:?}"),
-                Default::Int(v) => format!("default {v}"),
-                Default::Bool(v) => format!("default {v}"),
-                Default::Text(v) => format!("default {v:?}"),
-                Default::Choice(v) => format!("default {v}"),
-                Default::Tuple(v) => {
-                    format!("default ({})", v.iter().map(|x| format!("{x:?}")).collect::<Vec<_>>().join(", "))
-                }
-            };
-            outln!("    {:<14} {:<40} {:<22} {}", f.name, f.kind.describe(), default, f.doc);
+        for port in &spec.outputs {
+            outln!("    -> {:<11} {:<40} {}", port.name, port.ty.describe(), port.doc);
+        }
+        if let Some(open) = &spec.open_ports {
+            outln!("    -> {:<11} {:<40} {}", "<any>", open.ty.to_string(), open.doc);
+        }
+        for f in &spec.fields {
+            outln!("    {:<14} {:<40} {:<22} {}", f.name, f.kind.describe(), f.describe_default(), f.doc);
         }
         if spec.name == "LoadHdr" {
             outln!("    built-in maps (path: \"builtin:NAME\"):");
-            for (n, doc) in hdrflow::formats::builtin::BUILTINS {
+            for (n, doc) in crate::formats::builtin::BUILTINS {
                 outln!("      {n:<10} {doc}");
             }
         }
         outln!();
     }
+    if name.is_none() {
+        outln!("== value types ==");
+        for t in registry.value_types() {
+            let saves = t.spec().save_extensions;
+            let saved = if saves.is_empty() {
+                String::new()
+            } else {
+                format!(" (Save: {})", saves.iter().map(|e| format!(".{e}")).collect::<Vec<_>>().join(" "))
+            };
+            outln!("    {:<14} {}{saved}", t.name(), t.spec().doc);
+        }
+    }
     ExitCode::SUCCESS
 }
 
 fn bench(args: &BenchArgs) -> ExitCode {
-    use hdrflow::bench::{BenchConfig, MapSpec};
+    use crate::bench::{BenchConfig, MapSpec};
     let candidates = [
         ("sky", "builtin:sky".to_string(), false),
         ("grace", args.data.join("grace_latlong.exr").display().to_string(), true),
@@ -376,7 +400,7 @@ fn bench(args: &BenchArgs) -> ExitCode {
         peers_dir: (!args.no_peers && !args.quick).then(|| args.peers.clone()),
     };
     if let Some(csv) = &args.replot {
-        return match hdrflow::bench::replot(&config, csv) {
+        return match crate::bench::replot(&config, csv) {
             Ok(n) => {
                 outln!("redrew {n} charts into {}", args.out.display());
                 ExitCode::SUCCESS
@@ -390,13 +414,13 @@ fn bench(args: &BenchArgs) -> ExitCode {
     eprintln!("hdrflow bench on {} threads", rayon::current_num_threads());
     if !args.quick {
         let peers = (!args.no_peers).then_some(args.peers.as_path());
-        match hdrflow::bench::targets::measure(&args.data, peers, config.repeats, &|line| eprintln!("{line}")) {
+        match crate::bench::targets::measure(&args.data, peers, config.repeats, &|line| eprintln!("{line}")) {
             Ok(targets) => {
-                let md = hdrflow::bench::targets::markdown(&targets);
+                let md = crate::bench::targets::markdown(&targets);
                 out!("{md}");
                 let path = args.out.join("targets.md");
                 if let Err(e) = std::fs::create_dir_all(&args.out)
-                    .and_then(|_| hdrflow::engine::cache::store::write_atomic(&path, md.as_bytes()))
+                    .and_then(|_| crate::engine::cache::store::write_atomic(&path, md.as_bytes()))
                 {
                     eprintln!("error: writing {}: {e}", path.display());
                     return ExitCode::from(1);
@@ -411,7 +435,7 @@ fn bench(args: &BenchArgs) -> ExitCode {
             return ExitCode::SUCCESS;
         }
     }
-    match hdrflow::bench::run(&config, &|line| eprintln!("{line}")) {
+    match crate::bench::run(&config, &|line| eprintln!("{line}")) {
         Ok(rows) => {
             outln!(
                 "{} points; wrote {}/results.csv, summary.md and time_error_*.png/.svg",

@@ -7,7 +7,7 @@ use std::time::{Duration, Instant};
 
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
-use hdrflow::engine::scheduler::{NodeReport, NodeStatus, Observer, RunReport};
+use crate::engine::scheduler::{NodeReport, NodeStatus, Observer, RunReport};
 
 /// How long a run may last before a bar appears.
 const BAR_DELAY: Duration = Duration::from_millis(300);
@@ -96,13 +96,8 @@ impl Observer for Progress {
 
 /// The per-node table printed at the end of a run.
 pub fn print_table(report: &RunReport) {
-    outln!("{:<24} {:<18} {:<9} {:>10}", "node", "operator", "status", "ms");
+    outln!("{:<24} {:<18} {:<10} {:>10}", "node", "operator", "status", "ms");
     for n in &report.nodes {
-        let status = match n.status {
-            NodeStatus::Computed => "computed",
-            NodeStatus::Cached => "cached",
-            NodeStatus::Skipped => "skipped",
-        };
-        outln!("{:<24} {:<18} {:<9} {:>10.2}", n.name, n.op, status, n.ms);
+        outln!("{:<24} {:<18} {:<10} {:>10.2}", n.name, n.op, n.status.word(), n.ms);
     }
 }

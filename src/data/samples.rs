@@ -39,4 +39,8 @@ pub struct SampleSet {
     pub width: u32,
     pub height: u32,
     pub samples: Vec<Sample>,
+    /// The integral over the sphere of the luminance these samples were drawn in proportion to
+    /// (`Distribution2D::luminance_integral` of their distribution); `None` for samples not
+    /// drawn from a map (a Phong lobe). The seed's estimator scales by it.
+    pub luminance_integral: Option<f64>,
 }

@@ -56,8 +56,16 @@ pub enum RunError {
         #[source]
         source: OpError,
     },
-    #[error("unknown target node {0:?}")]
-    UnknownTarget(String),
+    /// An unknown `--target`, with a "did you mean" hint.
+    #[error("unknown target node {0:?}{1}")]
+    UnknownTarget(String, String),
+    /// An operator broke its declaration (a missing port, a value of another type than
+    /// declared): a bug in that operator.
+    #[error("node {node:?} ({op}): {message} (a bug in the operator {op})")]
+    Contract { node: String, op: &'static str, message: String },
+    /// The output folder cannot receive files.
+    #[error("output folder {}: {reason}", path.display())]
+    OutputDir { path: PathBuf, reason: String },
     #[error("writing {}: {source}", path.display())]
     Output {
         path: PathBuf,

@@ -1,179 +1,104 @@
-//! What an operator is: a static `OpSpec` (name, version, typed fields with defaults and docs,
-//! output type) and an evaluation function.
+//! What an operator is: an [`OpSpec`] (name, version, typed fields, output ports, evaluation).
 //!
-//! An operator file declares one `pub static SPEC: OpSpec` and its `eval` function; its domain's
-//! `mod.rs` registers it with one line. The engine validates a node's fields against `fields`
-//! before anything runs, so `eval` may read its parameters with the typed getters of
-//! `OpContext` without checking them again (a wrong type there is a broken invariant).
+//! An operator file declares its parameters as a struct with `params!`, and a `spec()` function
+//! that builds the spec; its domain's `mod.rs` registers it with one line. The smallest one:
+//!
+//! ```ignore
+//! params! { pub struct ExposureParams {
+//!     /// exposure change in stops (+1 doubles)
+//!     #[range(-126.0, 126.0)]
+//!     pub stops: f64,
+//! } }
+//!
+//! pub fn spec() -> OpSpec {
+//!     OpSpec::new("Exposure", "image", 1, "Scale an image by 2^stops")
+//!         .input("image", &[IMAGE, SCALAR_FIELD], "the image to scale")
+//!         .output("image", OutputType::SameAsInput("image"), "the scaled image")
+//!         .code(crate::this_file!())
+//!         .eval(|ctx, p: ExposureParams| { ... })
+//! }
+//! ```
+//!
+//! The engine validates a node's fields against the spec before anything runs, so `eval`
+//! receives typed parameters and inputs of the declared types; it never checks them again.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use crate::data::{Curves, Distribution2D, Image, Metrics, SampleSet};
-use crate::engine::value::{Value, ValueType};
+use crate::engine::params::{Arity, FieldKind, FieldSpec, ParamSet, Params};
+use crate::engine::value::{Value, ValueData, ValueType};
 
-/// The type and accepted range of one field.
-#[derive(Clone, Copy, Debug)]
-pub enum FieldKind {
-    /// The name of another node, whose output must have one of these types.
-    Input(&'static [ValueType]),
-    /// A number (integer literals are accepted), inclusive range.
-    Float {
-        min: f64,
-        max: f64,
-    },
-    /// An integer, inclusive range.
-    Int {
-        min: i64,
-        max: i64,
-    },
-    Bool,
-    /// Free text.
-    Text,
-    /// A file path or `builtin:NAME`. A loader's path is not part of its cache key: its content is.
-    Path,
-    /// One of these bare identifiers, e.g. `Rec709`.
-    Choice(&'static [&'static str]),
-    /// A tuple of N numbers, each in the inclusive range, e.g. `(0.0, 1.0, 0.0)`.
-    Tuple {
-        len: usize,
-        min: f64,
-        max: f64,
-    },
+/// The engine's image size limit, in pixels: the same 2^28 (268 M) the file readers enforce.
+/// A node whose output would be larger is a pipeline error at validation.
+pub const MAX_PIXELS: u64 = 1 << 28;
+
+/// Checks a `width x height` output against [`MAX_PIXELS`]; the message names the sizes.
+pub fn check_pixels(width: u64, height: u64) -> Result<(), String> {
+    match width.checked_mul(height) {
+        Some(n) if n <= MAX_PIXELS => Ok(()),
+        _ => Err(format!(
+            "a {width} x {height} image exceeds the engine's limit of {MAX_PIXELS} pixels (2^28, e.g. 16384 x 16384)"
+        )),
+    }
 }
 
-impl FieldKind {
-    /// How the kind reads in `hdrflow ops` and in error messages.
+/// How an output port's type is known before anything runs.
+#[derive(Clone, Copy)]
+pub enum OutputType {
+    Fixed(ValueType),
+    /// The type of the value wired into this input field (the first, for a list).
+    SameAsInput(&'static str),
+    /// A function of the node's parameters and input types.
+    Computed(fn(&CheckContext) -> Result<ValueType, String>),
+}
+
+impl OutputType {
     pub fn describe(&self) -> String {
         match self {
-            FieldKind::Input(types) => {
-                let names: Vec<&str> = types.iter().map(|t| t.name()).collect();
-                format!("input<{}>", names.join(" | "))
-            }
-            FieldKind::Float { min, max } => format!("float in [{}, {}]", fmt_bound(*min), fmt_bound(*max)),
-            FieldKind::Int { min, max } => format!("integer in [{min}, {max}]"),
-            FieldKind::Bool => "bool".into(),
-            FieldKind::Text => "string".into(),
-            FieldKind::Path => "path".into(),
-            FieldKind::Choice(options) => options.join(" | "),
-            FieldKind::Tuple { len, .. } => format!("({})", vec!["float"; *len].join(", ")),
+            OutputType::Fixed(t) => t.to_string(),
+            OutputType::SameAsInput(f) => format!("same type as `{f}`"),
+            OutputType::Computed(_) => "depends on inputs and parameters".into(),
         }
     }
 }
 
-fn fmt_bound(v: f64) -> String {
-    if v == f64::INFINITY {
-        "inf".into()
-    } else if v == f64::NEG_INFINITY {
-        "-inf".into()
-    } else {
-        format!("{v}")
-    }
-}
-
-/// A field's default; `Required` means the field must be given.
-#[derive(Clone, Copy, Debug)]
-pub enum Default {
-    Required,
-    Float(f64),
-    Int(i64),
-    Bool(bool),
-    Text(&'static str),
-    Choice(&'static str),
-    Tuple(&'static [f64]),
-}
-
-/// One field of an operator.
-#[derive(Clone, Copy, Debug)]
-pub struct FieldSpec {
+/// One named output of an operator. The first declared port is the default: a field that
+/// names the node without a port (`"env"`) takes it; `"node.port"` takes a named one.
+#[derive(Clone)]
+pub struct PortSpec {
     pub name: &'static str,
-    pub kind: FieldKind,
-    pub default: Default,
+    pub ty: OutputType,
     pub doc: &'static str,
 }
 
-impl FieldSpec {
-    pub const fn input(name: &'static str, types: &'static [ValueType], doc: &'static str) -> Self {
-        FieldSpec { name, kind: FieldKind::Input(types), default: Default::Required, doc }
+/// Ports an operator accepts under any name, resolved when it runs (e.g. `SplitChannels` has
+/// one per channel of its input, whose names are known only once the image is read).
+#[derive(Clone)]
+pub struct OpenPorts {
+    pub ty: ValueType,
+    pub doc: &'static str,
+}
+
+/// An operator's results: one value per port it produced. A single value is the default port.
+#[derive(Debug, Default)]
+pub struct Outputs(pub Vec<(String, Value)>);
+
+impl Outputs {
+    pub fn new() -> Self {
+        Outputs(Vec::new())
     }
-    pub fn is_input(&self) -> bool {
-        matches!(self.kind, FieldKind::Input(_))
+    /// Adds the value of port `name`.
+    pub fn with(mut self, name: impl Into<String>, value: Value) -> Self {
+        self.0.push((name.into(), value));
+        self
     }
 }
 
-/// How an operator's output type is known before it runs.
-#[derive(Clone, Copy, Debug)]
-pub enum OutputType {
-    Fixed(ValueType),
-    /// The same type as the value wired into this input field.
-    SameAsInput(&'static str),
-}
-
-/// A validated parameter value (inputs are not parameters: they are edges).
-#[derive(Clone, Debug, PartialEq)]
-pub enum ParamValue {
-    Float(f64),
-    Int(i64),
-    Bool(bool),
-    Text(String),
-    Choice(String),
-    Tuple(Vec<f64>),
-}
-
-/// A node's parameters after validation: every non-input field, given or defaulted.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct Params {
-    pub values: BTreeMap<String, ParamValue>,
-}
-
-impl Params {
-    fn get(&self, name: &str) -> &ParamValue {
-        self.values.get(name).unwrap_or_else(|| panic!("parameter {name:?} missing after validation"))
-    }
-    pub fn f64(&self, name: &str) -> f64 {
-        match self.get(name) {
-            ParamValue::Float(v) => *v,
-            ParamValue::Int(v) => *v as f64,
-            other => panic!("parameter {name:?} is not a number: {other:?}"),
-        }
-    }
-    pub fn int(&self, name: &str) -> i64 {
-        match self.get(name) {
-            ParamValue::Int(v) => *v,
-            other => panic!("parameter {name:?} is not an integer: {other:?}"),
-        }
-    }
-    /// An integer field whose declared range is non-negative.
-    pub fn usize(&self, name: &str) -> usize {
-        self.int(name).max(0) as usize
-    }
-    pub fn bool(&self, name: &str) -> bool {
-        match self.get(name) {
-            ParamValue::Bool(v) => *v,
-            other => panic!("parameter {name:?} is not a bool: {other:?}"),
-        }
-    }
-    /// A `Text`, `Path` or `Choice` field.
-    pub fn text(&self, name: &str) -> &str {
-        match self.get(name) {
-            ParamValue::Text(v) | ParamValue::Choice(v) => v,
-            other => panic!("parameter {name:?} is not text: {other:?}"),
-        }
-    }
-    pub fn tuple(&self, name: &str) -> &[f64] {
-        match self.get(name) {
-            ParamValue::Tuple(v) => v,
-            other => panic!("parameter {name:?} is not a tuple: {other:?}"),
-        }
-    }
-    pub fn vec2(&self, name: &str) -> [f64; 2] {
-        let t = self.tuple(name);
-        [t[0], t[1]]
-    }
-    pub fn vec3(&self, name: &str) -> [f64; 3] {
-        let t = self.tuple(name);
-        [t[0], t[1], t[2]]
+impl From<Value> for Outputs {
+    /// The default port's value.
+    fn from(v: Value) -> Self {
+        Outputs(vec![(String::new(), v)])
     }
 }
 
@@ -194,43 +119,87 @@ pub enum OpError {
     Invalid(String),
 }
 
-/// What an operator's `eval` sees: its parameters, its inputs' values, and where paths resolve.
+/// What an operator's `eval` sees: its inputs' values, and where paths resolve.
 pub struct OpContext<'a> {
     /// The node's name in the pipeline file.
     pub node: &'a str,
+    /// The validated parameters (the typed struct is built from these).
     pub params: &'a Params,
-    /// Input field name -> value of the node wired into it.
-    pub inputs: &'a BTreeMap<&'static str, Value>,
+    /// Input field -> values wired into it, in order (one for `One`, zero or one for
+    /// `Optional`, any number for `List`).
+    pub inputs: Vec<(&'static str, Vec<Value>)>,
     /// The pipeline file's folder: relative paths are resolved against it.
     pub base_dir: &'a Path,
     /// What `OpSpec::content_key` returned when the key was made (a loader checks that the
     /// file it decodes is still the one its key names).
     pub content_key: Option<&'a [u8]>,
+    /// The names of this node's open ports that consumers use (see [`OpenPorts`]).
+    pub wanted_ports: &'a [String],
 }
 
 impl<'a> OpContext<'a> {
+    fn values(&self, field: &str) -> &[Value] {
+        self.inputs
+            .iter()
+            .find(|(f, _)| *f == field)
+            .map(|(_, v)| v.as_slice())
+            .unwrap_or_else(|| panic!("input {field:?} is not declared"))
+    }
+    fn values_mut(&mut self, field: &str) -> &mut Vec<Value> {
+        self.inputs
+            .iter_mut()
+            .find(|(f, _)| *f == field)
+            .map(|(_, v)| v)
+            .unwrap_or_else(|| panic!("input {field:?} is not declared"))
+    }
+
+    /// The value of a single input.
     pub fn input(&self, field: &str) -> &Value {
-        self.inputs.get(field).unwrap_or_else(|| panic!("input {field:?} missing after validation"))
+        self.values(field).first().unwrap_or_else(|| panic!("input {field:?} missing after validation"))
     }
-    /// An `Image` or `ScalarField` input.
-    pub fn image(&self, field: &str) -> &Arc<Image> {
-        self.input(field).as_image().expect("input type checked by validation")
+
+    /// The value of an optional input, if it is wired.
+    pub fn optional(&self, field: &str) -> Option<&Value> {
+        self.values(field).first()
     }
-    pub fn distribution(&self, field: &str) -> &Arc<Distribution2D> {
-        self.input(field).as_distribution().expect("input type checked by validation")
+
+    /// The values of a list input, in order.
+    pub fn list(&self, field: &str) -> &[Value] {
+        self.values(field)
     }
-    pub fn samples(&self, field: &str) -> &Arc<SampleSet> {
-        self.input(field).as_samples().expect("input type checked by validation")
+
+    /// A single input as `T` (its type was checked by validation).
+    pub fn get<T: ValueData>(&self, field: &str) -> &T {
+        let v = self.input(field);
+        v.get::<T>().unwrap_or_else(|| panic!("input {field:?} is a {}, not the type eval expects", v.value_type()))
     }
-    pub fn curves(&self, field: &str) -> &Arc<Curves> {
-        self.input(field).as_curves().expect("input type checked by validation")
+
+    /// An optional input as `T`.
+    pub fn get_optional<T: ValueData>(&self, field: &str) -> Option<&T> {
+        self.optional(field).map(|v| {
+            v.get::<T>().unwrap_or_else(|| panic!("input {field:?} is a {}, not the type eval expects", v.value_type()))
+        })
     }
-    pub fn metrics(&self, field: &str) -> &Arc<Metrics> {
-        self.input(field).as_metrics().expect("input type checked by validation")
+
+    /// A single input as a shared `Arc<T>`.
+    pub fn arc<T: ValueData>(&self, field: &str) -> Arc<T> {
+        let v = self.input(field);
+        v.arc::<T>().unwrap_or_else(|| panic!("input {field:?} is a {}, not the type eval expects", v.value_type()))
     }
-    /// A path field resolved against the pipeline file's folder (`builtin:` names unchanged).
-    pub fn path(&self, field: &str) -> PathBuf {
-        resolve_path(self.base_dir, self.params.text(field))
+
+    /// A single input by value: its buffer is moved out when this node is its last consumer
+    /// (nothing else holds it), and copied otherwise. The input is gone from the context after.
+    pub fn take<T: ValueData + Clone>(&mut self, field: &str) -> T {
+        let values = self.values_mut(field);
+        assert!(!values.is_empty(), "input {field:?} missing after validation");
+        let v = values.remove(0);
+        let ty = v.value_type();
+        v.take::<T>().unwrap_or_else(|| panic!("input {field:?} is a {ty}, not the type eval expects"))
+    }
+
+    /// A path parameter resolved against the pipeline file's folder (`builtin:` names unchanged).
+    pub fn path(&self, path: &str) -> PathBuf {
+        resolve_path(self.base_dir, path)
     }
 }
 
@@ -244,10 +213,23 @@ pub fn resolve_path(base_dir: &Path, path: &str) -> PathBuf {
     }
 }
 
-/// What `OpSpec::check` sees: a node's parameters and the types of its inputs.
+/// What `OpSpec::check` and computed output types see: a node's parameters and the types of
+/// its inputs.
 pub struct CheckContext<'a> {
     pub params: &'a Params,
-    pub input_types: &'a BTreeMap<&'static str, ValueType>,
+    /// Input field -> types of the values wired in, in order (empty when not wired).
+    pub input_types: &'a BTreeMap<&'static str, Vec<ValueType>>,
+}
+
+impl CheckContext<'_> {
+    /// The type of a single input (None when not wired).
+    pub fn input_type(&self, field: &str) -> Option<ValueType> {
+        self.input_types.get(field).and_then(|v| v.first().copied())
+    }
+    /// The typed parameters.
+    pub fn typed<P: ParamSet>(&self) -> P {
+        P::from_params(self.params)
+    }
 }
 
 /// A problem found by `OpSpec::check`, optionally tied to one field (for its position).
@@ -257,44 +239,164 @@ pub struct CheckProblem {
     pub message: String,
 }
 
+impl CheckProblem {
+    pub fn at(field: &'static str, message: impl Into<String>) -> Self {
+        CheckProblem { field: Some(field), message: message.into() }
+    }
+}
+
 /// Returns a loader's content bytes for its key (e.g. the hash of the file it will read).
 pub type ContentKeyFn = fn(&Params, &Path) -> Result<Vec<u8>, OpError>;
-
 /// Cross-field validation of one node before anything runs.
-pub type CheckFn = fn(&CheckContext) -> Result<(), CheckProblem>;
+pub type CheckFn = Arc<dyn Fn(&CheckContext) -> Result<(), CheckProblem> + Send + Sync>;
+/// An operator's evaluation.
+pub type EvalFn = Arc<dyn Fn(&mut OpContext) -> Result<Outputs, OpError> + Send + Sync>;
 
-/// The static description of an operator.
+/// The description of an operator. Build one with [`OpSpec::new`] and its builder methods.
+#[derive(Clone)]
 pub struct OpSpec {
     /// The name used in pipeline files, e.g. `LoadHdr`.
     pub name: &'static str,
     /// Domain for `hdrflow ops`: io, image, sampling, shading, plotting, ...
     pub category: &'static str,
-    /// Bump whenever the output for the same parameters and inputs may change: it is in the key.
+    /// Bump whenever the output for the same parameters and inputs may change: it is in the
+    /// key (so is a hash of the operator's source, see [`OpSpec::code`]).
     pub version: u32,
     /// One line for `hdrflow ops`.
     pub doc: &'static str,
-    pub fields: &'static [FieldSpec],
-    pub output: OutputType,
-    pub eval: fn(&OpContext) -> Result<Value, OpError>,
+    /// Inputs and parameters, in declaration order.
+    pub fields: Vec<FieldSpec>,
+    /// Output ports; the first is the default.
+    pub outputs: Vec<PortSpec>,
+    /// Ports under any other name, resolved at run time.
+    pub open_ports: Option<OpenPorts>,
+    pub eval: EvalFn,
     /// Extra bytes for the cache key computed before evaluation, e.g. a loader's file content
     /// hash. When set, `Path` fields are left out of the key (keys never hold paths).
     pub content_key: Option<ContentKeyFn>,
-    /// Cross-field validation run before anything is evaluated (e.g. a file extension that
-    /// must suit the input's type).
+    /// Cross-field validation run before anything is evaluated.
     pub check: Option<CheckFn>,
-}
-
-impl OpSpec {
-    pub fn field(&self, name: &str) -> Option<&FieldSpec> {
-        self.fields.iter().find(|f| f.name == name)
-    }
-    pub fn input_fields(&self) -> impl Iterator<Item = &FieldSpec> {
-        self.fields.iter().filter(|f| f.is_input())
-    }
+    /// BLAKE3 of the operator's source with comments and blank space removed (see `code`);
+    /// zero when not given. It is in the cache key.
+    pub code_hash: [u8; 32],
 }
 
 impl std::fmt::Debug for OpSpec {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("OpSpec").field("name", &self.name).field("version", &self.version).finish()
     }
+}
+
+impl OpSpec {
+    /// A spec with no fields, no outputs and an evaluation that fails; add them with the
+    /// builder methods.
+    pub fn new(name: &'static str, category: &'static str, version: u32, doc: &'static str) -> Self {
+        OpSpec {
+            name,
+            category,
+            version,
+            doc,
+            fields: Vec::new(),
+            outputs: Vec::new(),
+            open_ports: None,
+            eval: Arc::new(move |_| Err(OpError::Invalid(format!("{name} has no evaluation")))),
+            content_key: None,
+            check: None,
+            code_hash: [0; 32],
+        }
+    }
+
+    /// Adds a required single input.
+    pub fn input(self, name: &'static str, types: &[ValueType], doc: &str) -> Self {
+        self.input_with(name, types, Arity::One, doc)
+    }
+
+    /// Adds an optional input (absent: not wired).
+    pub fn optional_input(self, name: &'static str, types: &[ValueType], doc: &str) -> Self {
+        self.input_with(name, types, Arity::Optional, doc)
+    }
+
+    /// Adds a list input of `min..=max` nodes.
+    pub fn list_input(self, name: &'static str, types: &[ValueType], min: usize, max: usize, doc: &str) -> Self {
+        self.input_with(name, types, Arity::List { min, max }, doc)
+    }
+
+    fn input_with(mut self, name: &'static str, types: &[ValueType], arity: Arity, doc: &str) -> Self {
+        self.fields.push(FieldSpec {
+            name,
+            kind: FieldKind::Input { types: types.to_vec(), arity },
+            default: None,
+            doc: doc.to_string(),
+        });
+        self
+    }
+
+    /// Adds an output port (the first added is the default).
+    pub fn output(mut self, name: &'static str, ty: OutputType, doc: &'static str) -> Self {
+        self.outputs.push(PortSpec { name, ty, doc });
+        self
+    }
+
+    /// Accepts ports under any name, of type `ty`, resolved when the node runs.
+    pub fn open_ports(mut self, ty: ValueType, doc: &'static str) -> Self {
+        self.open_ports = Some(OpenPorts { ty, doc });
+        self
+    }
+
+    /// The evaluation, with typed parameters: `P`'s fields are appended to the spec's fields
+    /// (after the inputs declared so far), so the struct is the one declaration of them.
+    pub fn eval<P, R>(mut self, f: fn(&mut OpContext, P) -> Result<R, OpError>) -> Self
+    where
+        P: ParamSet + 'static,
+        R: Into<Outputs> + 'static,
+    {
+        self.fields.extend(P::fields());
+        self.eval = Arc::new(move |ctx: &mut OpContext| {
+            let p = P::from_params(ctx.params);
+            f(ctx, p).map(Into::into)
+        });
+        self
+    }
+
+    /// Cross-field validation with typed parameters.
+    pub fn check<P: ParamSet + 'static>(mut self, f: fn(&CheckContext, P) -> Result<(), CheckProblem>) -> Self {
+        self.check = Some(Arc::new(move |ctx: &CheckContext| f(ctx, P::from_params(ctx.params))));
+        self
+    }
+
+    /// The loader's content key (see the field).
+    pub fn content_key(mut self, f: ContentKeyFn) -> Self {
+        self.content_key = Some(f);
+        self
+    }
+
+    /// The operator's source text (`hdrflow::this_file!()`): its hash, with comments and
+    /// blank space removed, goes into every cache key of this operator, so a code change that
+    /// may alter results never serves a stale entry even if nobody bumped the version.
+    pub fn code(mut self, source: &str) -> Self {
+        self.code_hash = *blake3::hash(normalise_source(source).as_bytes()).as_bytes();
+        self
+    }
+
+    pub fn field(&self, name: &str) -> Option<&FieldSpec> {
+        self.fields.iter().find(|f| f.name == name)
+    }
+
+    pub fn input_fields(&self) -> impl Iterator<Item = &FieldSpec> {
+        self.fields.iter().filter(|f| f.is_input())
+    }
+
+    pub fn port(&self, name: &str) -> Option<&PortSpec> {
+        self.outputs.iter().find(|p| p.name == name)
+    }
+}
+
+pub use crate::engine::normalise::normalise_source;
+
+/// The text of the file this macro is written in, for [`OpSpec::code`].
+#[macro_export]
+macro_rules! this_file {
+    () => {
+        include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/", file!()))
+    };
 }

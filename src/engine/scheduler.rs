@@ -3,20 +3,28 @@
 //! 1. **Keys.** Every ancestor of the targets gets its cache key, inputs first (loaders hash
 //!    their file's content, in parallel).
 //! 2. **Plan** (demand-driven, from the targets back): a needed node whose key is in the cache
-//!    is `Cached` and its inputs are not needed for its sake; otherwise it is `Compute` and its
-//!    inputs are needed. Everything else is `Skipped` (not needed by the targets).
+//!    is `Cached` and its inputs are not needed for its sake; otherwise it is `Computed` and its
+//!    inputs are needed. Everything else is `NotNeeded`.
 //! 3. **Load** the cached values. An entry that turns out corrupt is reported, dropped, and the
 //!    plan is made again without it, so that node and whatever it needs are computed.
-//! 4. **Run** the `Compute` nodes on a rayon pool: a node starts as soon as its inputs are
+//! 4. **Run** the `Computed` nodes on a rayon pool: a node starts as soon as its inputs are
 //!    ready, so independent nodes run at once, and operators use the same pool for their own
-//!    data parallelism. Each result is stored in the cache as soon as it exists.
-//! 5. **Outputs.** File values (from `Save`) are written into the output folder atomically, and
-//!    only when their bytes differ from what is already there.
+//!    data parallelism. Each result is checked against its declared type and stored in the cache
+//!    as soon as it exists.
+//! 5. **Memory.** Every output port counts the consumers still to start (plus one if its node
+//!    is a target). A consumer takes a clone of the value, and the last one takes the value
+//!    itself, so the engine's reference is gone as soon as the last consumer has started and
+//!    the value is freed when that consumer finishes with it; an operator that is the last
+//!    consumer of an input can reuse its buffer (`OpContext::take`). Ports nothing consumes are
+//!    dropped as soon as they are produced (after the cache has stored them).
+//! 6. **Outputs.** File values (from `Save`) are written into the output folder atomically, and
+//!    only when their bytes differ from what is already there. The folder is checked (created,
+//!    a folder, writable) before anything is computed.
 
 use std::collections::{BTreeMap, BTreeSet};
-use std::path::{Component, Path, PathBuf};
+use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
-use std::sync::{Mutex, OnceLock};
+use std::sync::Mutex;
 use std::time::Instant;
 
 use rayon::prelude::*;
@@ -25,17 +33,30 @@ use crate::engine::cache::store::{remove_stale_temporaries, write_atomic};
 use crate::engine::cache::{key_hex, node_key, CacheStore, Key};
 use crate::engine::error::RunError;
 use crate::engine::graph::Pipeline;
-use crate::engine::op::OpContext;
-use crate::engine::value::Value;
+use crate::engine::op::{OpContext, Outputs};
+use crate::engine::value::{FileBlob, Value};
 
-/// What happens to a node in a run.
+/// What happens to a node in a run. The same three words everywhere: the table, the summary,
+/// `plan`, the JSON report.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
-#[serde(rename_all = "lowercase")]
 pub enum NodeStatus {
+    #[serde(rename = "computed")]
     Computed,
+    #[serde(rename = "cached")]
     Cached,
     /// Not needed by the targets (or only needed by a node served from the cache).
-    Skipped,
+    #[serde(rename = "not needed")]
+    NotNeeded,
+}
+
+impl NodeStatus {
+    pub fn word(self) -> &'static str {
+        match self {
+            NodeStatus::Computed => "computed",
+            NodeStatus::Cached => "cached",
+            NodeStatus::NotNeeded => "not needed",
+        }
+    }
 }
 
 /// Receives progress events. The library never prints; the CLI implements this.
@@ -58,6 +79,10 @@ pub struct NodeReport {
     pub op: &'static str,
     pub status: NodeStatus,
     pub ms: f64,
+    /// When the node started, in ms since the run started (0 for nodes not computed).
+    pub start_ms: f64,
+    /// The worker thread that ran it (None for nodes not computed).
+    pub thread: Option<usize>,
     /// Hex cache key ("" when the node was not needed at all).
     pub key: String,
 }
@@ -92,7 +117,8 @@ pub struct RunOptions<'a> {
     pub observer: &'a dyn Observer,
 }
 
-/// A finished run: its report and the targets' values.
+/// A finished run: its report and the targets' values, by `node` (the default port) and
+/// `node.port` (the others).
 pub struct RunOutcome {
     pub report: RunReport,
     pub values: BTreeMap<String, Value>,
@@ -110,7 +136,15 @@ fn resolve_targets(p: &Pipeline, targets: &[String]) -> Result<Vec<usize>, RunEr
     if targets.is_empty() {
         return Ok(p.default_targets());
     }
-    targets.iter().map(|t| p.index_of(t).ok_or_else(|| RunError::UnknownTarget(t.clone()))).collect()
+    targets
+        .iter()
+        .map(|t| {
+            p.index_of(t).ok_or_else(|| {
+                let names: Vec<&str> = p.nodes.iter().map(|n| n.name.as_str()).collect();
+                RunError::UnknownTarget(t.clone(), crate::engine::graph::suggest(t, &names, "nodes"))
+            })
+        })
+        .collect()
 }
 
 /// Marks every ancestor of `targets` (inclusive).
@@ -120,7 +154,7 @@ fn ancestors(p: &Pipeline, targets: &[usize]) -> Vec<bool> {
     while let Some(i) = stack.pop() {
         if !needed[i] {
             needed[i] = true;
-            stack.extend(p.nodes[i].inputs.values().copied());
+            stack.extend(p.nodes[i].sources().map(|s| s.node));
         }
     }
     needed
@@ -159,9 +193,20 @@ fn compute_keys_and_content(
             continue;
         }
         let node = &p.nodes[i];
-        let input_keys: BTreeMap<&'static str, Key> =
-            node.inputs.iter().map(|(f, &j)| (*f, keys[j].expect("inputs are keyed first"))).collect();
-        keys[i] = Some(node_key(node, &input_keys, content[i].as_deref()));
+        let inputs: Vec<Vec<(Key, &str)>> = node
+            .inputs
+            .iter()
+            .map(|w| {
+                w.sources
+                    .iter()
+                    .map(|s| {
+                        let key = keys[s.node].expect("inputs are keyed first");
+                        (key, p.nodes[s.node].ports[s.port].name.as_str())
+                    })
+                    .collect()
+            })
+            .collect();
+        keys[i] = Some(node_key(node, &inputs, content[i].as_deref()));
     }
     Ok((keys, content))
 }
@@ -185,7 +230,7 @@ fn plan_status(
     for &t in targets {
         needed[t] = true;
     }
-    let mut status = vec![NodeStatus::Skipped; p.nodes.len()];
+    let mut status = vec![NodeStatus::NotNeeded; p.nodes.len()];
     for &i in p.topo_order.iter().rev() {
         if !needed[i] {
             continue;
@@ -199,29 +244,24 @@ fn plan_status(
             status[i] = NodeStatus::Cached;
         } else {
             status[i] = NodeStatus::Computed;
-            for &j in p.nodes[i].inputs.values() {
-                needed[j] = true;
+            for s in p.nodes[i].sources() {
+                needed[s.node] = true;
             }
         }
     }
     status
 }
 
-/// Checks that an output path is relative and stays inside the output folder.
-pub fn check_output_path(rel: &str) -> Result<(), String> {
-    let path = Path::new(rel);
-    if rel.is_empty() {
-        return Err("empty output path".into());
+/// Makes sure `dir` can receive output files: created if missing, a folder, writable.
+pub fn check_output_dir(dir: &Path) -> Result<(), RunError> {
+    let fail = |reason: String| RunError::OutputDir { path: dir.to_path_buf(), reason };
+    if dir.exists() && !dir.is_dir() {
+        return Err(fail("it exists and is not a folder".into()));
     }
-    for c in path.components() {
-        match c {
-            Component::Normal(_) | Component::CurDir => {}
-            Component::ParentDir => return Err(format!("output path {rel:?} leaves the output folder (`..`)")),
-            Component::RootDir | Component::Prefix(_) => {
-                return Err(format!("output path {rel:?} is absolute: output paths are relative to --out"))
-            }
-        }
-    }
+    std::fs::create_dir_all(dir).map_err(|e| fail(format!("cannot create it: {e}")))?;
+    let probe = dir.join(format!(".hdrflow-write-test-{}", std::process::id()));
+    std::fs::write(&probe, b"").map_err(|e| fail(format!("cannot write into it: {e}")))?;
+    let _ = std::fs::remove_file(&probe);
     Ok(())
 }
 
@@ -237,167 +277,201 @@ pub fn run(p: &Pipeline, options: &RunOptions) -> Result<RunOutcome, RunError> {
     pool.install(|| run_in_pool(p, options))
 }
 
+/// One output port's value while the run holds it, and how many consumers it still waits for.
+struct Slot {
+    value: Mutex<Option<Value>>,
+    remaining: AtomicUsize,
+}
+
+/// Per-node timing for the report.
+#[derive(Clone, Copy, Default)]
+struct Timing {
+    ms: f64,
+    start_ms: f64,
+    thread: Option<usize>,
+}
+
+/// Everything the workers share.
+struct Shared<'s> {
+    p: &'s Pipeline,
+    options: &'s RunOptions<'s>,
+    cache: Option<&'s CacheStore>,
+    cache_failed: &'s AtomicBool,
+    start: Instant,
+    keys: &'s [Option<Key>],
+    content: &'s [Option<Vec<u8>>],
+    slots: &'s [Vec<Slot>],
+    timing: &'s [Mutex<Timing>],
+    pending: &'s [AtomicUsize],
+    consumers: &'s [Vec<usize>],
+    abort: &'s AtomicBool,
+    first_error: &'s Mutex<Option<RunError>>,
+    written: &'s Mutex<Vec<PathBuf>>,
+}
+
+impl Shared<'_> {
+    fn fail(&self, e: RunError) {
+        self.abort.store(true, Ordering::SeqCst);
+        self.first_error.lock().expect("error lock").get_or_insert(e);
+    }
+
+    /// Stores a node's outputs in its port slots (ports nothing waits for are dropped), after
+    /// writing its files into the output folder.
+    fn store(&self, i: usize, outputs: Vec<Value>) -> Result<(), RunError> {
+        for (port, value) in outputs.into_iter().enumerate() {
+            if let Some(f) = value.get::<FileBlob>() {
+                if let Some(path) = write_output(&self.options.out_dir, &f.rel_path, &f.bytes)? {
+                    self.written.lock().expect("written lock").push(path);
+                }
+            }
+            let slot = &self.slots[i][port];
+            if slot.remaining.load(Ordering::SeqCst) > 0 {
+                *slot.value.lock().expect("slot lock") = Some(value);
+            }
+        }
+        Ok(())
+    }
+
+    /// A consumer's copy of port `port` of node `j`: the value itself for the last consumer.
+    fn acquire(&self, j: usize, port: usize) -> Value {
+        let slot = &self.slots[j][port];
+        let mut guard = slot.value.lock().expect("slot lock");
+        let left = slot.remaining.fetch_sub(1, Ordering::SeqCst) - 1;
+        if left == 0 {
+            guard.take().expect("a port's value stays until its last consumer")
+        } else {
+            guard.clone().expect("a port's value stays until its last consumer")
+        }
+    }
+}
+
 fn run_in_pool(p: &Pipeline, options: &RunOptions) -> Result<RunOutcome, RunError> {
     let start = Instant::now();
     let obs = options.observer;
-    let cache = options.cache.as_ref();
     let targets = resolve_targets(p, &options.targets)?;
     let (keys, content) = compute_keys_and_content(p, &targets)?;
     let n = p.nodes.len();
 
-    let values: Vec<OnceLock<Value>> = (0..n).map(|_| OnceLock::new()).collect();
-    let ms: Vec<Mutex<f64>> = (0..n).map(|_| Mutex::new(0.0)).collect();
+    // An unusable cache folder is one warning, then the run goes on without the cache.
+    let cache = options.cache.as_ref().filter(|c| match c.ensure_writable() {
+        Ok(()) => true,
+        Err(e) => {
+            obs.warning(&format!("{e}; running without the cache"));
+            false
+        }
+    });
+    let cache_failed = AtomicBool::new(false);
+
+    let slots: Vec<Vec<Slot>> = p
+        .nodes
+        .iter()
+        .map(|node| {
+            node.ports.iter().map(|_| Slot { value: Mutex::new(None), remaining: AtomicUsize::new(0) }).collect()
+        })
+        .collect();
+    let timing: Vec<Mutex<Timing>> = (0..n).map(|_| Mutex::new(Timing::default())).collect();
     let written: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
 
     // Plan, then load cached values; a corrupt entry sends its node back to `Computed`.
     let mut distrust = BTreeSet::new();
+    let mut loaded: Vec<Option<Vec<Value>>> = (0..n).map(|_| None).collect();
     let status = loop {
         let status = plan_status(p, &targets, &keys, cache, &distrust);
-        let to_load: Vec<usize> =
-            (0..n).filter(|&i| status[i] == NodeStatus::Cached && values[i].get().is_none()).collect();
-        let failed: Vec<usize> = to_load
+        let to_load: Vec<usize> = (0..n).filter(|&i| status[i] == NodeStatus::Cached && loaded[i].is_none()).collect();
+        let results: Vec<(usize, Result<Vec<Value>, String>, f64)> = to_load
             .par_iter()
-            .filter_map(|&i| {
+            .map(|&i| {
                 let t0 = Instant::now();
                 let key = keys[i].expect("needed nodes are keyed");
-                match cache.expect("cached implies a cache").get(&key) {
-                    Ok(Some(v)) => {
-                        let _ = values[i].set(v);
-                        *ms[i].lock().expect("timing lock") = t0.elapsed().as_secs_f64() * 1e3;
-                        None
-                    }
-                    Ok(None) => Some(i),
-                    Err(e) => {
-                        obs.warning(&format!("node {:?}: {e}; recomputing", p.nodes[i].name));
-                        Some(i)
-                    }
-                }
+                let r = match cache.expect("cached implies a cache").get(&key, &p.registry) {
+                    Ok(Some(outputs)) => match_ports(p, i, Outputs(outputs)),
+                    Ok(None) => Err(String::new()),
+                    Err(e) => Err(e.to_string()),
+                };
+                (i, r, t0.elapsed().as_secs_f64() * 1e3)
             })
             .collect();
+        let mut failed = Vec::new();
+        for (i, r, ms) in results {
+            match r {
+                Ok(values) => {
+                    loaded[i] = Some(values);
+                    timing[i].lock().expect("timing lock").ms = ms;
+                }
+                Err(e) => {
+                    if !e.is_empty() {
+                        obs.warning(&format!("node {:?}: {e}; recomputing", p.nodes[i].name));
+                    }
+                    failed.push(i);
+                }
+            }
+        }
         if failed.is_empty() {
             break status;
         }
         distrust.extend(failed);
     };
-    let compute: Vec<usize> = (0..n).filter(|&i| status[i] == NodeStatus::Computed).collect();
+    let is_compute: Vec<bool> = (0..n).map(|i| status[i] == NodeStatus::Computed).collect();
+    let compute: Vec<usize> = (0..n).filter(|&i| is_compute[i]).collect();
     obs.planned(compute.len(), status.iter().filter(|s| **s == NodeStatus::Cached).count());
 
-    // Cached file values still have to exist in the output folder.
+    if (0..n).any(|i| status[i] != NodeStatus::NotNeeded && p.nodes[i].writes_file()) {
+        check_output_dir(&options.out_dir)?;
+    }
+
+    // Consumers still to start, per port: compute nodes' input edges, plus one for targets.
+    let is_target: Vec<bool> = {
+        let mut t = vec![false; n];
+        for &i in &targets {
+            t[i] = true;
+        }
+        t
+    };
     for i in 0..n {
-        if status[i] == NodeStatus::Cached {
-            if let Some(Value::File(f)) = values[i].get() {
-                if let Some(path) = write_output(&options.out_dir, &f.rel_path, &f.bytes)? {
-                    written.lock().expect("written lock").push(path);
-                }
+        if is_target[i] {
+            for slot in &slots[i] {
+                slot.remaining.fetch_add(1, Ordering::SeqCst);
+            }
+        }
+        if is_compute[i] {
+            for s in p.nodes[i].sources() {
+                slots[s.node][s.port].remaining.fetch_add(1, Ordering::SeqCst);
             }
         }
     }
-    for i in 0..n {
-        if status[i] == NodeStatus::Cached {
-            obs.node_finished(&node_report(p, i, NodeStatus::Cached, *ms[i].lock().expect("timing lock"), &keys));
-        }
-    }
 
-    // Dependency counts among the nodes to compute.
-    let is_compute: Vec<bool> = (0..n).map(|i| status[i] == NodeStatus::Computed).collect();
     let pending: Vec<AtomicUsize> =
-        (0..n).map(|i| AtomicUsize::new(p.nodes[i].inputs.values().filter(|&&j| is_compute[j]).count())).collect();
+        (0..n).map(|i| AtomicUsize::new(p.nodes[i].sources().filter(|s| is_compute[s.node]).count())).collect();
     let consumers: Vec<Vec<usize>> =
         (0..n).map(|i| p.consumers(i).into_iter().filter(|&c| is_compute[c]).collect()).collect();
     let abort = AtomicBool::new(false);
     let first_error: Mutex<Option<RunError>> = Mutex::new(None);
-
-    struct Shared<'s> {
-        p: &'s Pipeline,
-        options: &'s RunOptions<'s>,
-        keys: &'s [Option<Key>],
-        content: &'s [Option<Vec<u8>>],
-        values: &'s [OnceLock<Value>],
-        ms: &'s [Mutex<f64>],
-        pending: &'s [AtomicUsize],
-        consumers: &'s [Vec<usize>],
-        abort: &'s AtomicBool,
-        first_error: &'s Mutex<Option<RunError>>,
-        written: &'s Mutex<Vec<PathBuf>>,
-    }
-
-    fn execute<'s>(s: &'s Shared<'s>, scope: &rayon::Scope<'s>, i: usize) {
-        if s.abort.load(Ordering::SeqCst) {
-            return;
-        }
-        let node = &s.p.nodes[i];
-        let obs = s.options.observer;
-        obs.node_started(&node.name);
-        let t0 = Instant::now();
-        let inputs: BTreeMap<&'static str, Value> = node
-            .inputs
-            .iter()
-            .map(|(f, &j)| (*f, s.values[j].get().expect("inputs finish before consumers").clone()))
-            .collect();
-        let ctx = OpContext {
-            node: &node.name,
-            params: &node.params,
-            inputs: &inputs,
-            base_dir: &s.p.base_dir,
-            content_key: s.content[i].as_deref(),
-        };
-        let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| (node.spec.eval)(&ctx)));
-        let outcome = match result {
-            Ok(Ok(v)) => Ok(v),
-            Ok(Err(source)) => Err(RunError::Op { node: node.name.clone(), op: node.spec.name, source }),
-            Err(panic) => {
-                let msg = panic
-                    .downcast_ref::<String>()
-                    .cloned()
-                    .or_else(|| panic.downcast_ref::<&str>().map(|s| s.to_string()))
-                    .unwrap_or_else(|| "unknown panic".into());
-                Err(RunError::Panic(format!("node {:?} ({}): {msg}", node.name, node.spec.name)))
-            }
-        };
-        let value = match outcome.and_then(|v| {
-            if let Value::File(f) = &v {
-                if let Some(path) = write_output(&s.options.out_dir, &f.rel_path, &f.bytes)? {
-                    s.written.lock().expect("written lock").push(path);
-                }
-            }
-            Ok(v)
-        }) {
-            Ok(v) => v,
-            Err(e) => {
-                s.abort.store(true, Ordering::SeqCst);
-                s.first_error.lock().expect("error lock").get_or_insert(e);
-                return;
-            }
-        };
-        if let (Some(cache), Some(key)) = (&s.options.cache, s.keys[i]) {
-            if let Err(e) = cache.put(&key, &value) {
-                obs.warning(&format!("node {:?}: could not store its result in the cache: {e}", node.name));
-            }
-        }
-        let _ = s.values[i].set(value);
-        let elapsed = t0.elapsed().as_secs_f64() * 1e3;
-        *s.ms[i].lock().expect("timing lock") = elapsed;
-        obs.node_finished(&node_report(s.p, i, NodeStatus::Computed, elapsed, s.keys));
-        for &c in &s.consumers[i] {
-            if s.pending[c].fetch_sub(1, Ordering::SeqCst) == 1 {
-                scope.spawn(move |scope| execute(s, scope, c));
-            }
-        }
-    }
-
     let shared = Shared {
         p,
         options,
+        cache,
+        cache_failed: &cache_failed,
+        start,
         keys: &keys,
         content: &content,
-        values: &values,
-        ms: &ms,
+        slots: &slots,
+        timing: &timing,
         pending: &pending,
         consumers: &consumers,
         abort: &abort,
         first_error: &first_error,
         written: &written,
     };
+
+    // Cached values go into their slots (their files into the output folder).
+    for (i, values) in loaded.into_iter().enumerate() {
+        if let Some(values) = values {
+            shared.store(i, values)?;
+            let t = *timing[i].lock().expect("timing lock");
+            obs.node_finished(&node_report(p, i, NodeStatus::Cached, t, &keys));
+        }
+    }
+
     rayon::scope(|scope| {
         for &i in &compute {
             if pending[i].load(Ordering::SeqCst) == 0 {
@@ -410,30 +484,150 @@ fn run_in_pool(p: &Pipeline, options: &RunOptions) -> Result<RunOutcome, RunErro
         return Err(e);
     }
 
-    let nodes = (0..n).map(|i| node_report(p, i, status[i], *ms[i].lock().expect("timing lock"), &keys)).collect();
-    let target_values =
-        targets.iter().filter_map(|&t| values[t].get().map(|v| (p.nodes[t].name.clone(), v.clone()))).collect();
+    let nodes = (0..n).map(|i| node_report(p, i, status[i], *timing[i].lock().expect("timing lock"), &keys)).collect();
+    let mut values = BTreeMap::new();
+    for &t in &targets {
+        for (port, slot) in slots[t].iter().enumerate() {
+            if let Some(v) = slot.value.lock().expect("slot lock").take() {
+                let name = if port == 0 {
+                    p.nodes[t].name.clone()
+                } else {
+                    format!("{}.{}", p.nodes[t].name, p.nodes[t].ports[port].name)
+                };
+                values.insert(name, v);
+            }
+        }
+    }
     let mut written = written.into_inner().expect("written lock");
     written.sort();
-    Ok(RunOutcome {
-        report: RunReport { total_ms: start.elapsed().as_secs_f64() * 1e3, nodes, written },
-        values: target_values,
-    })
+    Ok(RunOutcome { report: RunReport { total_ms: start.elapsed().as_secs_f64() * 1e3, nodes, written }, values })
 }
 
-fn node_report(p: &Pipeline, i: usize, status: NodeStatus, ms: f64, keys: &[Option<Key>]) -> NodeReport {
+/// Orders an operator's (or a cache entry's) outputs by the node's ports and checks each
+/// against its declared type. The unnamed output is the default port.
+fn match_ports(p: &Pipeline, i: usize, outputs: Outputs) -> Result<Vec<Value>, String> {
+    let node = &p.nodes[i];
+    let mut by_name: BTreeMap<String, Value> = BTreeMap::new();
+    for (name, value) in outputs.0 {
+        let name = if name.is_empty() {
+            node.spec.outputs.first().map(|p| p.name.to_string()).unwrap_or_default()
+        } else {
+            name
+        };
+        by_name.insert(name, value);
+    }
+    let mut values = Vec::with_capacity(node.ports.len());
+    for port in &node.ports {
+        let Some(value) = by_name.remove(&port.name) else {
+            let produced: Vec<&str> = by_name.keys().map(String::as_str).collect();
+            return Err(format!(
+                "no output {:?} was produced (it produced: {})",
+                port.name,
+                if produced.is_empty() { "nothing else".to_string() } else { produced.join(", ") }
+            ));
+        };
+        if value.value_type() != port.ty {
+            return Err(format!(
+                "output {:?} is a {}, but {} declares {}",
+                port.name,
+                value.value_type(),
+                node.spec.name,
+                port.ty
+            ));
+        }
+        values.push(value);
+    }
+    Ok(values)
+}
+
+fn execute<'s>(s: &'s Shared<'s>, scope: &rayon::Scope<'s>, i: usize) {
+    if s.abort.load(Ordering::SeqCst) {
+        return;
+    }
+    let node = &s.p.nodes[i];
+    let obs = s.options.observer;
+    obs.node_started(&node.name);
+    let t0 = Instant::now();
+    let start_ms = t0.duration_since(s.start).as_secs_f64() * 1e3;
+    let inputs: Vec<(&'static str, Vec<Value>)> = node
+        .inputs
+        .iter()
+        .map(|w| (w.field, w.sources.iter().map(|src| s.acquire(src.node, src.port)).collect()))
+        .collect();
+    let open_ports: Vec<String> =
+        node.ports.iter().filter(|p| node.spec.port(&p.name).is_none()).map(|p| p.name.clone()).collect();
+    let mut ctx = OpContext {
+        node: &node.name,
+        params: &node.params,
+        inputs,
+        base_dir: &s.p.base_dir,
+        content_key: s.content[i].as_deref(),
+        wanted_ports: &open_ports,
+    };
+    let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| (node.spec.eval)(&mut ctx)));
+    drop(ctx); // the inputs: a value whose last consumer this was is freed here
+    let outcome = match result {
+        Ok(Ok(outputs)) => match_ports(s.p, i, outputs).map_err(|m| RunError::Contract {
+            node: node.name.clone(),
+            op: node.spec.name,
+            message: m,
+        }),
+        Ok(Err(source)) => Err(RunError::Op { node: node.name.clone(), op: node.spec.name, source }),
+        Err(panic) => {
+            let msg = panic
+                .downcast_ref::<String>()
+                .cloned()
+                .or_else(|| panic.downcast_ref::<&str>().map(|s| s.to_string()))
+                .unwrap_or_else(|| "unknown panic".into());
+            Err(RunError::Panic(format!("node {:?} ({}): {msg}", node.name, node.spec.name)))
+        }
+    };
+    let values = match outcome {
+        Ok(v) => v,
+        Err(e) => return s.fail(e),
+    };
+    if let (Some(cache), Some(key)) = (s.cache, s.keys[i]) {
+        if !s.cache_failed.load(Ordering::Relaxed) {
+            let named: Vec<(String, Value)> =
+                node.ports.iter().zip(&values).map(|(p, v)| (p.name.clone(), v.clone())).collect();
+            if let Err(e) = cache.put(&key, &named) {
+                // One warning for the run, not one per node.
+                if !s.cache_failed.swap(true, Ordering::SeqCst) {
+                    obs.warning(&format!("could not store results in the cache ({e}); going on without storing"));
+                }
+            }
+        }
+    }
+    if let Err(e) = s.store(i, values) {
+        return s.fail(e);
+    }
+    let elapsed = t0.elapsed().as_secs_f64() * 1e3;
+    let t = Timing { ms: elapsed, start_ms, thread: rayon::current_thread_index() };
+    *s.timing[i].lock().expect("timing lock") = t;
+    obs.node_finished(&node_report(s.p, i, NodeStatus::Computed, t, s.keys));
+    for &c in &s.consumers[i] {
+        let waits = s.p.nodes[c].sources().filter(|src| src.node == i).count();
+        if s.pending[c].fetch_sub(waits, Ordering::SeqCst) == waits {
+            scope.spawn(move |scope| execute(s, scope, c));
+        }
+    }
+}
+
+fn node_report(p: &Pipeline, i: usize, status: NodeStatus, t: Timing, keys: &[Option<Key>]) -> NodeReport {
     NodeReport {
         name: p.nodes[i].name.clone(),
         op: p.nodes[i].spec.name,
         status,
-        ms,
+        ms: t.ms,
+        start_ms: t.start_ms,
+        thread: t.thread,
         key: keys[i].map(|k| key_hex(&k)).unwrap_or_default(),
     }
 }
 
 /// Writes one output file unless identical bytes are already there. Returns the path if written.
 fn write_output(out_dir: &Path, rel: &str, bytes: &[u8]) -> Result<Option<PathBuf>, RunError> {
-    check_output_path(rel).map_err(|_| RunError::PathEscape(rel.to_string()))?;
+    crate::engine::graph::check_output_path(rel).map_err(|_| RunError::PathEscape(rel.to_string()))?;
     let path = out_dir.join(rel);
     remove_stale_temporaries(&path);
     if let Ok(existing) = std::fs::metadata(&path) {
@@ -443,19 +637,4 @@ fn write_output(out_dir: &Path, rel: &str, bytes: &[u8]) -> Result<Option<PathBu
     }
     write_atomic(&path, bytes).map_err(|source| RunError::Output { path: path.clone(), source })?;
     Ok(Some(path))
-}
-
-#[cfg(test)]
-mod tests {
-    use super::check_output_path;
-
-    #[test]
-    fn output_paths_stay_inside() {
-        assert!(check_output_path("a.png").is_ok());
-        assert!(check_output_path("sub/a.png").is_ok());
-        assert!(check_output_path("../a.png").is_err());
-        assert!(check_output_path("sub/../../a.png").is_err());
-        assert!(check_output_path("/etc/passwd").is_err());
-        assert!(check_output_path("").is_err());
-    }
 }

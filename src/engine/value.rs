@@ -1,147 +1,216 @@
-//! Values that flow along the graph's edges, and their types.
+//! Values that flow along the graph's edges, and their open set of types.
 //!
-//! Every value is immutable and shared (`Arc`): a node's output is handed to all its consumers
-//! without copying. The type of every value is known before anything runs (`ValueType`), so a
-//! pipeline file that wires an image into a sample input fails validation, not evaluation.
+//! A value is an immutable `Arc` of any Rust type that implements [`ValueData`]; its type is a
+//! [`ValueType`], a pointer to a static [`TypeSpec`] declared by whoever owns the data type (the
+//! built-in ones in `crate::types`, a user's in their own crate). The spec says how the type is
+//! named in `hdrflow ops` and messages, how the cache encodes and decodes it, and how `Save`
+//! writes it, so adding a value type touches no engine file: declare a `TypeSpec`, implement
+//! `ValueData`, and register the type with `Registry::register_type`.
+//!
+//! The type of every value is known before anything runs (operators declare their output
+//! types), so a pipeline that wires an image into a sample input fails validation, not
+//! evaluation; the scheduler also checks every computed and loaded value against its declared
+//! type.
 
+use std::any::Any;
 use std::fmt;
 use std::sync::Arc;
 
-use crate::data::{Curves, Distribution2D, Image, Metrics, SampleSet};
-
-/// The kinds of value an operator can take or produce.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub enum ValueType {
-    /// An RGB float image (linear radiance).
-    Image,
-    /// A one-channel float image (luminance, weights, masks).
-    ScalarField,
-    /// A 2D piecewise-constant sampling distribution over a lat-long map.
-    Distribution,
-    /// Directions with their solid-angle pdfs.
-    Samples,
-    /// Named series over a shared abscissa.
-    Curves,
-    /// A record of named numbers.
-    Metrics,
-    /// An encoded file, written into the output folder by the engine.
-    File,
+/// Options a `Save` node passes to a type's file encoder.
+#[derive(Clone, Debug)]
+pub struct SaveOptions {
+    /// Lower-case extension of the output path, without the dot.
+    pub ext: String,
+    /// Exposure in stops (PNG only).
+    pub exposure: f64,
+    /// Plot width and height in pixels (curve plots).
+    pub plot_size: (u32, u32),
+    /// Extra, type-specific choices (EXR compression, half floats, ...), as `name -> value`.
+    pub extra: Vec<(String, String)>,
 }
+
+/// Encodes a value as a file's bytes (the extension is in the options).
+pub type SaveFn = fn(&Value, &SaveOptions) -> Result<Vec<u8>, String>;
+/// Decodes a cache payload into a value of this type.
+pub type DecodeFn = fn(&[u8]) -> Result<Value, String>;
+
+/// The declaration of a value type.
+pub struct TypeSpec {
+    /// The name in `hdrflow ops`, messages and cache entries, e.g. `image`. Unique.
+    pub name: &'static str,
+    /// One line for `hdrflow ops`.
+    pub doc: &'static str,
+    /// Reads a cache payload written by `ValueData::encode`; checks every length before
+    /// allocating (a corrupt entry is an error, never a panic or a huge allocation).
+    pub decode: DecodeFn,
+    /// Extensions `Save` accepts for this type (empty: it cannot be saved).
+    pub save_extensions: &'static [&'static str],
+    /// How `Save` writes it.
+    pub save: Option<SaveFn>,
+}
+
+impl fmt::Debug for TypeSpec {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "TypeSpec({})", self.name)
+    }
+}
+
+/// A value type: a handle to its static declaration, compared by name.
+#[derive(Clone, Copy)]
+pub struct ValueType(pub &'static TypeSpec);
 
 impl ValueType {
-    pub const ALL: [ValueType; 7] = [
-        ValueType::Image,
-        ValueType::ScalarField,
-        ValueType::Distribution,
-        ValueType::Samples,
-        ValueType::Curves,
-        ValueType::Metrics,
-        ValueType::File,
-    ];
-
     pub fn name(self) -> &'static str {
-        match self {
-            ValueType::Image => "image",
-            ValueType::ScalarField => "scalar field",
-            ValueType::Distribution => "distribution",
-            ValueType::Samples => "sample set",
-            ValueType::Curves => "curves",
-            ValueType::Metrics => "metrics",
-            ValueType::File => "file",
-        }
+        self.0.name
+    }
+    pub fn spec(self) -> &'static TypeSpec {
+        self.0
     }
 }
 
+impl PartialEq for ValueType {
+    fn eq(&self, other: &Self) -> bool {
+        self.0.name == other.0.name
+    }
+}
+impl Eq for ValueType {}
+impl PartialOrd for ValueType {
+    fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(other))
+    }
+}
+impl Ord for ValueType {
+    fn cmp(&self, other: &Self) -> std::cmp::Ordering {
+        self.0.name.cmp(other.0.name)
+    }
+}
+impl std::hash::Hash for ValueType {
+    fn hash<H: std::hash::Hasher>(&self, state: &mut H) {
+        self.0.name.hash(state)
+    }
+}
+impl fmt::Debug for ValueType {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.0.name)
+    }
+}
 impl fmt::Display for ValueType {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.name())
+        f.write_str(self.0.name)
     }
 }
 
-/// An encoded output file: its path relative to the output folder, and its bytes.
+/// What a Rust type needs to travel on the graph's edges.
+pub trait ValueData: Any + Send + Sync + fmt::Debug {
+    /// The value's type (it may depend on the content: a one-channel image is a scalar field).
+    fn value_type(&self) -> ValueType;
+    /// Approximate heap size in bytes (reports, memory accounting).
+    fn approx_bytes(&self) -> usize;
+    /// The cache payload, read back by the type's `TypeSpec::decode`.
+    fn encode(&self, out: &mut Vec<u8>);
+}
+
+/// A value on an edge of the graph: shared, immutable, of an open set of types.
+#[derive(Clone)]
+pub struct Value {
+    ty: ValueType,
+    data: Arc<dyn Any + Send + Sync>,
+    /// The same allocation seen through the `ValueData` trait.
+    view: Arc<dyn ValueData>,
+}
+
+impl fmt::Debug for Value {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "Value<{}>({:?})", self.ty, self.view)
+    }
+}
+
+impl Value {
+    /// Wraps a value.
+    pub fn new<T: ValueData>(data: T) -> Value {
+        Value::from_arc(Arc::new(data))
+    }
+
+    /// Wraps a shared value without copying it.
+    pub fn from_arc<T: ValueData>(data: Arc<T>) -> Value {
+        let ty = data.value_type();
+        let view: Arc<dyn ValueData> = data.clone();
+        Value { ty, data, view }
+    }
+
+    pub fn value_type(&self) -> ValueType {
+        self.ty
+    }
+
+    /// The data as `T`, if it is one.
+    pub fn get<T: ValueData>(&self) -> Option<&T> {
+        self.data.downcast_ref::<T>()
+    }
+
+    /// The shared data as `Arc<T>`, if it is one.
+    pub fn arc<T: ValueData>(&self) -> Option<Arc<T>> {
+        self.data.clone().downcast::<T>().ok()
+    }
+
+    /// The data by value: moved out when this is the only reference (an operator that is the
+    /// last consumer of its input reuses the buffer), cloned otherwise.
+    pub fn take<T: ValueData + Clone>(self) -> Option<T> {
+        let Value { data, view, .. } = self;
+        drop(view);
+        let arc = data.downcast::<T>().ok()?;
+        Some(Arc::try_unwrap(arc).unwrap_or_else(|shared| (*shared).clone()))
+    }
+
+    pub fn approx_bytes(&self) -> usize {
+        self.view.approx_bytes()
+    }
+
+    /// The cache payload of this value.
+    pub fn encode(&self, out: &mut Vec<u8>) {
+        self.view.encode(out)
+    }
+
+    /// Whether two values share one allocation.
+    pub fn ptr_eq(&self, other: &Value) -> bool {
+        Arc::ptr_eq(&self.data, &other.data)
+    }
+}
+
+/// An encoded output file: its path relative to the output folder, and its bytes. The engine
+/// writes it into the output folder (atomically, only when the bytes differ).
 #[derive(Clone, Debug, PartialEq)]
 pub struct FileBlob {
     pub rel_path: String,
     pub bytes: Vec<u8>,
 }
 
-/// A value on an edge of the graph.
-#[derive(Clone, Debug)]
-pub enum Value {
-    /// RGB (`channels == 3`) or, as `ScalarField`, one channel.
-    Image(Arc<Image>),
-    Distribution(Arc<Distribution2D>),
-    Samples(Arc<SampleSet>),
-    Curves(Arc<Curves>),
-    Metrics(Arc<Metrics>),
-    File(Arc<FileBlob>),
+/// The engine's own value type: a file for the output folder (what `Save` produces).
+pub static FILE: TypeSpec = TypeSpec {
+    name: "file",
+    doc: "an encoded file, written into the output folder by the engine",
+    decode: decode_file,
+    save_extensions: &[],
+    save: None,
+};
+
+impl ValueData for FileBlob {
+    fn value_type(&self) -> ValueType {
+        ValueType(&FILE)
+    }
+    fn approx_bytes(&self) -> usize {
+        self.bytes.len() + self.rel_path.len()
+    }
+    fn encode(&self, out: &mut Vec<u8>) {
+        let mut w = crate::engine::cache::codec::Writer(out);
+        w.str(&self.rel_path);
+        w.bytes(&self.bytes);
+    }
 }
 
-impl Value {
-    /// An image value; its type follows its channel count (1: scalar field, 3: image).
-    pub fn image(image: Image) -> Value {
-        Value::Image(Arc::new(image))
-    }
-
-    pub fn value_type(&self) -> ValueType {
-        match self {
-            Value::Image(img) if img.channels == 1 => ValueType::ScalarField,
-            Value::Image(_) => ValueType::Image,
-            Value::Distribution(_) => ValueType::Distribution,
-            Value::Samples(_) => ValueType::Samples,
-            Value::Curves(_) => ValueType::Curves,
-            Value::Metrics(_) => ValueType::Metrics,
-            Value::File(_) => ValueType::File,
-        }
-    }
-
-    /// The image inside, for `Image` and `ScalarField` values.
-    pub fn as_image(&self) -> Option<&Arc<Image>> {
-        match self {
-            Value::Image(i) => Some(i),
-            _ => None,
-        }
-    }
-    pub fn as_distribution(&self) -> Option<&Arc<Distribution2D>> {
-        match self {
-            Value::Distribution(d) => Some(d),
-            _ => None,
-        }
-    }
-    pub fn as_samples(&self) -> Option<&Arc<SampleSet>> {
-        match self {
-            Value::Samples(s) => Some(s),
-            _ => None,
-        }
-    }
-    pub fn as_curves(&self) -> Option<&Arc<Curves>> {
-        match self {
-            Value::Curves(c) => Some(c),
-            _ => None,
-        }
-    }
-    pub fn as_metrics(&self) -> Option<&Arc<Metrics>> {
-        match self {
-            Value::Metrics(m) => Some(m),
-            _ => None,
-        }
-    }
-    pub fn as_file(&self) -> Option<&Arc<FileBlob>> {
-        match self {
-            Value::File(f) => Some(f),
-            _ => None,
-        }
-    }
-
-    /// Approximate heap size in bytes (for reports and cache accounting).
-    pub fn approx_bytes(&self) -> usize {
-        match self {
-            Value::Image(i) => i.data.len() * 4,
-            Value::Distribution(d) => d.approx_bytes(),
-            Value::Samples(s) => s.samples.len() * std::mem::size_of::<crate::data::Sample>(),
-            Value::Curves(c) => (c.x.len() * (1 + c.series.len())) * 8,
-            Value::Metrics(m) => m.fields.len() * 32,
-            Value::File(f) => f.bytes.len(),
-        }
-    }
+fn decode_file(bytes: &[u8]) -> Result<Value, String> {
+    let mut r = crate::engine::cache::codec::Reader::new(bytes);
+    let rel_path = r.str()?;
+    let data = r.bytes()?.to_vec();
+    r.finish()?;
+    Ok(Value::new(FileBlob { rel_path, bytes: data }))
 }

@@ -11,9 +11,9 @@
 //!    worse (RLE 128:1); 2000 leaves margin, the 1 MiB covers tiny files. Without this check a
 //!    40-byte header could make the decoder allocate gigabytes.
 //! 2. **Pixels.** The first non-deep layer at its largest resolution level, all channels; `R`,
-//!    `G`, `B` are picked by name whatever their stored order (EXR stores channels sorted by
-//!    name, so `grace_latlong.exr` has B, G, R) and whatever their sample type (f16, f32 or u32,
-//!    all converted to f32). `A` and other channels are ignored. With no R/G/B but a `Y` channel
+//!    `G`, `B` (and `A`, kept as a fourth channel) are picked by name whatever their stored order
+//!    (EXR stores channels sorted by name, so `grace_latlong.exr` has B, G, R) and whatever their
+//!    sample type (f16, f32 or u32, all converted to f32). Other channels are ignored. With no R/G/B but a `Y` channel
 //!    the result has 1 channel. A layer-prefixed name (`diffuse.R`) is accepted when there is no
 //!    bare one. If only some of R/G/B exist, the missing ones are 0.
 //! 3. **Orientation.** EXR rows run top to bottom of the data window (y grows downwards), like
@@ -140,17 +140,23 @@ fn decode_inner(bytes: &[u8]) -> Result<Image, FormatError> {
     let (ri, gi, bi) = (find("R"), find("G"), find("B"));
     if ri.is_some() || gi.is_some() || bi.is_some() {
         let (r, g, b) = (plane(ri)?, plane(gi)?, plane(bi)?);
+        // Alpha travels with the colour (named `A`, or `layer.A` beside `layer.R`).
+        let a = plane(find("A"))?;
+        let c = if a.is_some() { 4 } else { 3 };
         let get = |p: &Option<Vec<f32>>, i: usize| p.as_ref().map_or(0.0, |v| v[i]);
-        let mut data = Vec::with_capacity(pixels * 3);
+        let mut data = Vec::with_capacity(pixels * c);
         for i in 0..pixels {
             data.push(get(&r, i));
             data.push(get(&g, i));
             data.push(get(&b, i));
+            if let Some(a) = &a {
+                data.push(a[i]);
+            }
         }
-        return Ok(Image { width: w, height: h, channels: 3, data });
+        return Ok(Image::from_vec(w, h, c, data));
     }
     if let Some(y) = plane(find("Y"))? {
-        return Ok(Image { width: w, height: h, channels: 1, data: y });
+        return Ok(Image::from_vec(w, h, 1, y));
     }
     Err(FormatError(format!(
         "EXR layer has no R, G, B or Y channel (channels: {})",
@@ -158,15 +164,24 @@ fn decode_inner(bytes: &[u8]) -> Result<Image, FormatError> {
     )))
 }
 
-/// Encodes `image` as a ZIP-compressed float32 OpenEXR file: `R`, `G`, `B` for 3 channels, `Y`
-/// for 1 channel.
+/// Encodes `image` as a ZIP-compressed float32 OpenEXR file, one EXR channel per image channel
+/// under the image's channel names (`R G B`, `R G B A`, `Y`, `Z`, ...).
 pub fn encode(image: &Image) -> Result<Vec<u8>, FormatError> {
     let (w, h, c) = (image.width, image.height, image.channels);
     if w == 0 || h == 0 {
         return Err(FormatError(format!("cannot write an empty {w}x{h} image as EXR")));
     }
-    if c != 1 && c != 3 {
-        return Err(FormatError(format!("cannot write a {c}-channel image as EXR (1 or 3)")));
+    if c == 0 || image.names.len() != c {
+        return Err(FormatError(format!(
+            "cannot write an image with {c} channels and {} names as EXR",
+            image.names.len()
+        )));
+    }
+    let mut sorted = image.names.clone();
+    sorted.sort();
+    sorted.dedup();
+    if sorted.len() != c || sorted.iter().any(|n| n.is_empty()) {
+        return Err(FormatError(format!("EXR channel names must be unique and non-empty: {:?}", image.names)));
     }
     let pixels = w * h;
     if image.data.len() != pixels * c {
@@ -181,14 +196,10 @@ pub fn encode(image: &Image) -> Result<Vec<u8>, FormatError> {
 fn encode_inner(image: &Image) -> Result<Vec<u8>, FormatError> {
     let (w, h, c) = (image.width, image.height, image.channels);
     let list: Vec<AnyChannel<FlatSamples>> = if c == 1 {
-        vec![AnyChannel::new("Y", FlatSamples::F32(image.data.clone()))]
+        vec![AnyChannel::new(image.names[0].as_str(), FlatSamples::F32(image.data.clone()))]
     } else {
-        let plane = |k: usize| -> Vec<f32> { image.data.chunks_exact(3).map(|p| p[k]).collect() };
-        vec![
-            AnyChannel::new("R", FlatSamples::F32(plane(0))),
-            AnyChannel::new("G", FlatSamples::F32(plane(1))),
-            AnyChannel::new("B", FlatSamples::F32(plane(2))),
-        ]
+        let plane = |k: usize| -> Vec<f32> { image.data.chunks_exact(c).map(|p| p[k]).collect() };
+        (0..c).map(|k| AnyChannel::new(image.names[k].as_str(), FlatSamples::F32(plane(k)))).collect()
     };
     let channels = AnyChannels::sort(SmallVec::from_vec(list));
     // SMALL_LOSSLESS = ZIP (16 scanlines per block), scanline blocks, increasing Y.

@@ -111,7 +111,7 @@ pub fn decode(bytes: &[u8]) -> Result<Image, FormatError> {
             *d = if little_endian { f32::from_le_bytes(b) } else { f32::from_be_bytes(b) };
         }
     }
-    Ok(Image { width, height, channels, data })
+    Ok(Image::from_vec(width, height, channels, data))
 }
 
 /// Encodes `image` as a little-endian PFM (scale `-1.0`): `Pf` for 1 channel, `PF` otherwise

@@ -33,7 +33,8 @@ pub fn linear_to_srgb8(c: f64) -> u8 {
 }
 
 /// Encodes `image` as an 8-bit sRGB PNG after multiplying by `2^exposure_stops`.
-/// 1 channel -> greyscale (L8), 3 channels -> RGB8; anything else is an error.
+/// 1 channel -> greyscale (L8), 3 channels -> RGB8, 4 channels -> RGBA8 (alpha is coverage:
+/// clamped to [0, 1], neither exposed nor sRGB-encoded); anything else is an error.
 pub fn encode(image: &Image, exposure_stops: f64) -> Result<Vec<u8>, FormatError> {
     let (w, h, c) = (image.width, image.height, image.channels);
     if w == 0 || h == 0 {
@@ -42,7 +43,8 @@ pub fn encode(image: &Image, exposure_stops: f64) -> Result<Vec<u8>, FormatError
     let color = match c {
         1 => ExtendedColorType::L8,
         3 => ExtendedColorType::Rgb8,
-        _ => return Err(FormatError(format!("cannot write a {c}-channel image as PNG (1 or 3)"))),
+        4 => ExtendedColorType::Rgba8,
+        _ => return Err(FormatError(format!("cannot write a {c}-channel image as PNG (1, 3 or 4)"))),
     };
     let (Ok(w32), Ok(h32)) = (u32::try_from(w), u32::try_from(h)) else {
         return Err(FormatError(format!("image too large for PNG: {w}x{h}")));
@@ -55,9 +57,14 @@ pub fn encode(image: &Image, exposure_stops: f64) -> Result<Vec<u8>, FormatError
     let mut bytes = vec![0u8; image.data.len()];
     let row = w * c;
     bytes.par_chunks_mut(row).zip(image.data.par_chunks(row)).for_each(|(dst, src)| {
-        for (d, &s) in dst.iter_mut().zip(src) {
-            // 0 * Inf (a huge exposure on black) is NaN -> 0.
-            *d = linear_to_srgb8(s as f64 * gain);
+        for (k, (d, &s)) in dst.iter_mut().zip(src).enumerate() {
+            *d = if c == 4 && k % 4 == 3 {
+                // NaN alpha -> 0 (`clamp` keeps NaN; the cast maps it to 0).
+                (s.clamp(0.0, 1.0) * 255.0).round() as u8
+            } else {
+                // 0 * Inf (a huge exposure on black) is NaN -> 0.
+                linear_to_srgb8(s as f64 * gain)
+            };
         }
     });
     let mut out = Vec::new();
@@ -127,8 +134,18 @@ mod tests {
 
     #[test]
     fn refuses_bad_shapes() {
-        assert!(encode(&Image { width: 0, height: 0, channels: 3, data: vec![] }, 0.0).is_err());
-        assert!(encode(&Image { width: 1, height: 1, channels: 2, data: vec![0.0; 2] }, 0.0).is_err());
-        assert!(encode(&Image { width: 2, height: 1, channels: 3, data: vec![0.0; 3] }, 0.0).is_err());
+        assert!(encode(&Image::from_vec(0, 0, 3, vec![]), 0.0).is_err());
+        assert!(encode(&Image::from_vec(1, 1, 2, vec![0.0; 2]), 0.0).is_err());
+        assert!(encode(
+            &Image {
+                width: 2,
+                height: 1,
+                channels: 3,
+                names: crate::data::image::default_names(3),
+                data: vec![0.0; 3]
+            },
+            0.0
+        )
+        .is_err());
     }
 }

@@ -414,7 +414,7 @@ pub fn decode(bytes: &[u8]) -> Result<Image, FormatError> {
             top[y * row_len..(y + 1) * row_len].swap_with_slice(&mut bottom[..row_len]);
         }
     }
-    Ok(Image { width: w, height: h, channels: 3, data: out })
+    Ok(Image::from_vec(w, h, 3, out))
 }
 
 /// Standard float -> RGBE conversion (see the module docs). Inputs are cleaned first:

@@ -1,8 +1,10 @@
 //! Built-in operators, one file each, grouped by domain.
 //!
-//! To add an operator: write `src/ops/<domain>/<name>.rs` declaring `pub static SPEC: OpSpec`
-//! and its `eval` (copy `image/exposure.rs`, the smallest), then add one line to that domain's
-//! `register` function in its `mod.rs`.
+//! To add an operator: write `src/ops/<domain>/<name>.rs` with its parameter struct
+//! (`params!`) and a `spec()` function (copy `image/exposure.rs`, the smallest), then add one
+//! line to that domain's `register` function in its `mod.rs`. From outside the crate, register
+//! it on `builtin_registry()` and run the command line over it with `hdrflow::cli::main_with`
+//! (see `examples/custom_operator.rs`).
 
 pub mod image;
 pub mod io;
@@ -19,4 +21,12 @@ pub fn register_all(registry: &mut Registry) {
     sampling::register(registry);
     shading::register(registry);
     plotting::register(registry);
+}
+
+/// A registry with every built-in value type and operator.
+pub fn builtin_registry() -> Registry {
+    let mut r = Registry::empty();
+    crate::types::register_all(&mut r);
+    register_all(&mut r);
+    r
 }

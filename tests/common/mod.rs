@@ -204,7 +204,7 @@ pub fn ron_path(p: &Path) -> String {
 /// A run report (`--report FILE`), by node name.
 #[derive(Debug, Clone)]
 pub struct Report {
-    /// name -> "computed" | "cached" | "skipped"
+    /// name -> "computed" | "cached" | "not needed"
     pub status: BTreeMap<String, String>,
     /// name -> hex cache key ("" when not needed)
     pub key: BTreeMap<String, String>,
@@ -245,7 +245,7 @@ pub fn read_report(path: &Path) -> Report {
         let name = n["name"].as_str().unwrap_or_else(|| panic!("node without a name in report:\n{text}")).to_string();
         let s = n["status"].as_str().unwrap_or_else(|| panic!("node {name} without a status:\n{text}")).to_string();
         assert!(
-            matches!(s.as_str(), "computed" | "cached" | "skipped"),
+            matches!(s.as_str(), "computed" | "cached" | "not needed"),
             "node {name}: unexpected status {s:?}:\n{text}"
         );
         assert!(n["op"].is_string(), "node {name} without an op:\n{text}");
@@ -262,12 +262,12 @@ pub fn read_report_statuses(path: &Path) -> BTreeMap<String, String> {
     read_report(path).status
 }
 
-/// Parses the table `hdrflow plan` prints: name -> "compute" | "cached" | "not needed".
+/// Parses the table `hdrflow plan` prints: name -> "computed" | "cached" | "not needed".
 pub fn parse_plan(stdout: &str) -> BTreeMap<String, String> {
     let mut out = BTreeMap::new();
     for line in stdout.lines().skip(1) {
         let t: Vec<&str> = line.split_whitespace().collect();
-        if t.len() < 3 {
+        if t.len() < 3 || t[1] == "nodes:" {
             continue;
         }
         let what = if t[2] == "not" && t.get(3) == Some(&"needed") { "not needed" } else { t[2] };

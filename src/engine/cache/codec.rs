@@ -1,290 +1,151 @@
-//! Values to bytes and back, for the disk cache.
+//! A node's outputs to bytes and back, for the disk cache.
 //!
-//! Little-endian, a tag byte per value, lengths as u64. Decoding checks every length against
-//! the bytes that remain before allocating, so a corrupt entry is an error, never a huge
-//! allocation or a panic. Integrity as a whole is checked by the store's BLAKE3 checksum.
+//! An entry holds every port of one node: a count, then per port its name, its value type's
+//! name and the payload that type's `ValueData::encode` wrote (decoded by the type's
+//! `TypeSpec::decode`, found in the registry by name). Little-endian, lengths as u64. Every
+//! length is checked against the bytes that remain before anything is allocated, so a corrupt
+//! entry is an error, never a huge allocation or a panic. Integrity as a whole is checked by the
+//! store's BLAKE3 checksum.
+//!
+//! `Writer` and `Reader` are public so that a value type declared outside the engine can write
+//! its payload with the same checked primitives.
 
-use std::sync::Arc;
+use crate::engine::registry::Registry;
+use crate::engine::value::Value;
 
-use crate::data::{Curves, Distribution2D, Image, Metrics, Sample, SampleSet};
-use crate::engine::value::{FileBlob, Value};
+/// Bump when the byte layout of the entry (not of one type's payload) changes.
+pub const CODEC_VERSION: u32 = 2;
 
-/// Bump when the byte layout of any value changes.
-pub const CODEC_VERSION: u32 = 1;
-
-const TAG_IMAGE: u8 = 1;
-const TAG_DISTRIBUTION: u8 = 2;
-const TAG_SAMPLES: u8 = 3;
-const TAG_CURVES: u8 = 4;
-const TAG_METRICS: u8 = 5;
-const TAG_FILE: u8 = 6;
-
-pub fn encode(value: &Value) -> Vec<u8> {
-    let mut w = Writer(Vec::with_capacity(value.approx_bytes() + 64));
-    match value {
-        Value::Image(img) => {
-            w.u8(TAG_IMAGE);
-            w.u64(img.width as u64);
-            w.u64(img.height as u64);
-            w.u64(img.channels as u64);
-            w.f32s(&img.data);
-        }
-        Value::Distribution(d) => {
-            w.u8(TAG_DISTRIBUTION);
-            w.u64(d.width as u64);
-            w.u64(d.height as u64);
-            w.u8(u8::from(d.sin_theta));
-            w.u8(u8::from(d.carries_light));
-            w.f64(d.total);
-            w.f64(d.luminance_integral);
-            w.f64s(&d.func);
-            w.f64s(&d.conditional_cdf);
-            w.f64s(&d.row_sums);
-            w.f64s(&d.marginal_cdf);
-        }
-        Value::Samples(s) => {
-            w.u8(TAG_SAMPLES);
-            w.u64(s.width as u64);
-            w.u64(s.height as u64);
-            w.u64(s.samples.len() as u64);
-            for p in &s.samples {
-                w.u64(p.x as u64);
-                w.u64(p.y as u64);
-                w.f32s_raw(&[p.theta, p.phi, p.dir[0], p.dir[1], p.dir[2], p.pdf]);
-            }
-        }
-        Value::Curves(c) => {
-            w.u8(TAG_CURVES);
-            w.str(&c.title);
-            w.str(&c.x_name);
-            w.str(&c.x_label);
-            w.str(&c.y_label);
-            w.f64s(&c.x);
-            w.u64(c.series.len() as u64);
-            for (name, ys) in &c.series {
-                w.str(name);
-                w.f64s(ys);
-            }
-            w.u64(c.scalars.len() as u64);
-            for (name, v) in &c.scalars {
-                w.str(name);
-                match v {
-                    Some(v) => {
-                        w.u8(1);
-                        w.f64(*v);
-                    }
-                    None => w.u8(0),
-                }
-            }
-            w.u64(c.markers.len() as u64);
-            for (label, x) in &c.markers {
-                w.str(label);
-                w.f64(*x);
-            }
-        }
-        Value::Metrics(m) => {
-            w.u8(TAG_METRICS);
-            w.u64(m.fields.len() as u64);
-            for (name, v) in &m.fields {
-                w.str(name);
-                w.f64(*v);
-            }
-        }
-        Value::File(f) => {
-            w.u8(TAG_FILE);
-            w.str(&f.rel_path);
-            w.bytes(&f.bytes);
-        }
+/// Encodes a node's outputs.
+pub fn encode(outputs: &[(String, Value)]) -> Vec<u8> {
+    let mut buf = Vec::with_capacity(outputs.iter().map(|(_, v)| v.approx_bytes() + 64).sum());
+    let mut w = Writer(&mut buf);
+    w.u64(outputs.len() as u64);
+    for (port, value) in outputs {
+        let mut w = Writer(&mut buf);
+        w.str(port);
+        w.str(value.value_type().name());
+        let mut payload = Vec::with_capacity(value.approx_bytes() + 16);
+        value.encode(&mut payload);
+        Writer(&mut buf).bytes(&payload);
     }
-    w.0
+    buf
 }
 
-pub fn decode(bytes: &[u8]) -> Result<Value, String> {
-    let mut r = Reader { buf: bytes, pos: 0 };
-    let value = match r.u8()? {
-        TAG_IMAGE => {
-            let width = r.usize()?;
-            let height = r.usize()?;
-            let channels = r.usize()?;
-            let data = r.f32s()?;
-            if !(channels == 1 || channels == 3)
-                || width.checked_mul(height).and_then(|p| p.checked_mul(channels)) != Some(data.len())
-            {
-                return Err("image dimensions do not match its data".into());
-            }
-            Value::Image(Arc::new(Image { width, height, channels, data }))
+/// Decodes a node's outputs; value types are looked up in `registry`.
+pub fn decode(bytes: &[u8], registry: &Registry) -> Result<Vec<(String, Value)>, String> {
+    let mut r = Reader::new(bytes);
+    let n = r.usize()?;
+    r.need(n.saturating_mul(24))?;
+    let mut out = Vec::with_capacity(n);
+    for _ in 0..n {
+        let port = r.str()?;
+        let type_name = r.str()?;
+        let ty =
+            registry.value_type(&type_name).ok_or_else(|| format!("value type {type_name:?} is not registered"))?;
+        let payload = r.bytes()?;
+        let value = (ty.spec().decode)(payload)?;
+        if value.value_type() != ty {
+            return Err(format!("a {type_name} entry decoded to a {}", value.value_type()));
         }
-        TAG_DISTRIBUTION => {
-            let width = r.usize()?;
-            let height = r.usize()?;
-            let sin_theta = r.u8()? != 0;
-            let carries_light = r.u8()? != 0;
-            let total = r.f64()?;
-            let luminance_integral = r.f64()?;
-            let func = r.f64s()?;
-            let conditional_cdf = r.f64s()?;
-            let row_sums = r.f64s()?;
-            let marginal_cdf = r.f64s()?;
-            let n = width.checked_mul(height).ok_or("distribution size overflows")?;
-            if func.len() != n
-                || conditional_cdf.len() != height * (width + 1)
-                || row_sums.len() != height
-                || marginal_cdf.len() != height + 1
-            {
-                return Err("distribution arrays do not match its size".into());
-            }
-            Value::Distribution(Arc::new(Distribution2D {
-                width,
-                height,
-                sin_theta,
-                func,
-                conditional_cdf,
-                row_sums,
-                marginal_cdf,
-                total,
-                luminance_integral,
-                carries_light,
-            }))
-        }
-        TAG_SAMPLES => {
-            let width = r.u64()? as u32;
-            let height = r.u64()? as u32;
-            let count = r.usize()?;
-            r.need(count.saturating_mul(16 + 24))?;
-            let mut samples = Vec::with_capacity(count);
-            for _ in 0..count {
-                let x = r.u64()? as u32;
-                let y = r.u64()? as u32;
-                let v = r.f32_array::<6>()?;
-                samples.push(Sample { x, y, theta: v[0], phi: v[1], dir: [v[2], v[3], v[4]], pdf: v[5] });
-            }
-            Value::Samples(Arc::new(SampleSet { width, height, samples }))
-        }
-        TAG_CURVES => {
-            let title = r.str()?;
-            let x_name = r.str()?;
-            let x_label = r.str()?;
-            let y_label = r.str()?;
-            let x = r.f64s()?;
-            let n = r.usize()?;
-            r.need(n.saturating_mul(16))?;
-            let mut series = Vec::with_capacity(n);
-            for _ in 0..n {
-                series.push((r.str()?, r.f64s()?));
-            }
-            let n = r.usize()?;
-            r.need(n.saturating_mul(9))?;
-            let mut scalars = Vec::with_capacity(n);
-            for _ in 0..n {
-                let name = r.str()?;
-                let v = if r.u8()? == 1 { Some(r.f64()?) } else { None };
-                scalars.push((name, v));
-            }
-            let n = r.usize()?;
-            r.need(n.saturating_mul(16))?;
-            let mut markers = Vec::with_capacity(n);
-            for _ in 0..n {
-                markers.push((r.str()?, r.f64()?));
-            }
-            Value::Curves(Arc::new(Curves { title, x_name, x_label, y_label, x, series, scalars, markers }))
-        }
-        TAG_METRICS => {
-            let n = r.usize()?;
-            r.need(n.saturating_mul(16))?;
-            let mut fields = Vec::with_capacity(n);
-            for _ in 0..n {
-                fields.push((r.str()?, r.f64()?));
-            }
-            Value::Metrics(Arc::new(Metrics { fields }))
-        }
-        TAG_FILE => {
-            let rel_path = r.str()?;
-            let bytes = r.bytes()?.to_vec();
-            Value::File(Arc::new(FileBlob { rel_path, bytes }))
-        }
-        t => return Err(format!("unknown value tag {t}")),
-    };
-    if r.pos != bytes.len() {
-        return Err(format!("{} trailing bytes", bytes.len() - r.pos));
+        out.push((port, value));
     }
-    Ok(value)
+    r.finish()?;
+    Ok(out)
 }
 
-struct Writer(Vec<u8>);
+/// Appends little-endian primitives to a buffer.
+pub struct Writer<'a>(pub &'a mut Vec<u8>);
 
-impl Writer {
-    fn u8(&mut self, v: u8) {
+impl Writer<'_> {
+    pub fn u8(&mut self, v: u8) {
         self.0.push(v);
     }
-    fn u64(&mut self, v: u64) {
+    pub fn u64(&mut self, v: u64) {
         self.0.extend_from_slice(&v.to_le_bytes());
     }
-    fn f64(&mut self, v: f64) {
+    pub fn f64(&mut self, v: f64) {
         self.0.extend_from_slice(&v.to_le_bytes());
     }
-    fn bytes(&mut self, b: &[u8]) {
+    /// A length-prefixed byte string.
+    pub fn bytes(&mut self, b: &[u8]) {
         self.u64(b.len() as u64);
         self.0.extend_from_slice(b);
     }
-    fn str(&mut self, s: &str) {
+    pub fn str(&mut self, s: &str) {
         self.bytes(s.as_bytes());
     }
-    fn f32s_raw(&mut self, v: &[f32]) {
+    /// f32s without a length.
+    pub fn f32s_raw(&mut self, v: &[f32]) {
+        self.0.reserve(v.len() * 4);
         for x in v {
             self.0.extend_from_slice(&x.to_le_bytes());
         }
     }
-    fn f32s(&mut self, v: &[f32]) {
+    pub fn f32s(&mut self, v: &[f32]) {
         self.u64(v.len() as u64);
         self.f32s_raw(v);
     }
-    fn f64s(&mut self, v: &[f64]) {
+    pub fn f64s(&mut self, v: &[f64]) {
         self.u64(v.len() as u64);
+        self.0.reserve(v.len() * 8);
         for x in v {
             self.0.extend_from_slice(&x.to_le_bytes());
         }
     }
 }
 
-struct Reader<'a> {
+/// Reads what `Writer` wrote, checking every length first.
+pub struct Reader<'a> {
     buf: &'a [u8],
     pos: usize,
 }
 
 impl<'a> Reader<'a> {
-    fn need(&self, n: usize) -> Result<(), String> {
+    pub fn new(buf: &'a [u8]) -> Self {
+        Reader { buf, pos: 0 }
+    }
+    /// Fails unless `n` more bytes remain.
+    pub fn need(&self, n: usize) -> Result<(), String> {
         if self.buf.len() - self.pos < n {
             Err(format!("truncated: need {n} bytes at offset {}, {} left", self.pos, self.buf.len() - self.pos))
         } else {
             Ok(())
         }
     }
-    fn take(&mut self, n: usize) -> Result<&'a [u8], String> {
+    /// Fails unless every byte was read.
+    pub fn finish(&self) -> Result<(), String> {
+        if self.pos != self.buf.len() {
+            return Err(format!("{} trailing bytes", self.buf.len() - self.pos));
+        }
+        Ok(())
+    }
+    pub fn take(&mut self, n: usize) -> Result<&'a [u8], String> {
         self.need(n)?;
         let s = &self.buf[self.pos..self.pos + n];
         self.pos += n;
         Ok(s)
     }
-    fn u8(&mut self) -> Result<u8, String> {
+    pub fn u8(&mut self) -> Result<u8, String> {
         Ok(self.take(1)?[0])
     }
-    fn u64(&mut self) -> Result<u64, String> {
+    pub fn u64(&mut self) -> Result<u64, String> {
         Ok(u64::from_le_bytes(self.take(8)?.try_into().expect("8 bytes")))
     }
-    fn usize(&mut self) -> Result<usize, String> {
+    pub fn usize(&mut self) -> Result<usize, String> {
         usize::try_from(self.u64()?).map_err(|_| "length does not fit in memory".to_string())
     }
-    fn f64(&mut self) -> Result<f64, String> {
+    pub fn f64(&mut self) -> Result<f64, String> {
         Ok(f64::from_le_bytes(self.take(8)?.try_into().expect("8 bytes")))
     }
-    fn bytes(&mut self) -> Result<&'a [u8], String> {
+    pub fn bytes(&mut self) -> Result<&'a [u8], String> {
         let n = self.usize()?;
         self.take(n)
     }
-    fn str(&mut self) -> Result<String, String> {
+    pub fn str(&mut self) -> Result<String, String> {
         String::from_utf8(self.bytes()?.to_vec()).map_err(|_| "invalid UTF-8 in a string".to_string())
     }
-    fn f32_array<const N: usize>(&mut self) -> Result<[f32; N], String> {
+    pub fn f32_array<const N: usize>(&mut self) -> Result<[f32; N], String> {
         let raw = self.take(4 * N)?;
         let mut out = [0.0f32; N];
         for (o, c) in out.iter_mut().zip(raw.chunks_exact(4)) {
@@ -292,12 +153,12 @@ impl<'a> Reader<'a> {
         }
         Ok(out)
     }
-    fn f32s(&mut self) -> Result<Vec<f32>, String> {
+    pub fn f32s(&mut self) -> Result<Vec<f32>, String> {
         let n = self.usize()?;
         let raw = self.take(n.checked_mul(4).ok_or("length overflows")?)?;
         Ok(raw.chunks_exact(4).map(|c| f32::from_le_bytes(c.try_into().expect("4 bytes"))).collect())
     }
-    fn f64s(&mut self) -> Result<Vec<f64>, String> {
+    pub fn f64s(&mut self) -> Result<Vec<f64>, String> {
         let n = self.usize()?;
         let raw = self.take(n.checked_mul(8).ok_or("length overflows")?)?;
         Ok(raw.chunks_exact(8).map(|c| f64::from_le_bytes(c.try_into().expect("8 bytes"))).collect())
@@ -307,44 +168,42 @@ impl<'a> Reader<'a> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::engine::value::FileBlob;
 
     #[test]
-    fn image_round_trip_and_truncation_is_an_error() {
-        let img = Image::from_vec(3, 2, 3, (0..18).map(|i| i as f32 * 0.5).collect());
-        let bytes = encode(&Value::image(img.clone()));
-        match decode(&bytes).unwrap() {
-            Value::Image(back) => assert_eq!(*back, img),
-            other => panic!("{other:?}"),
-        }
+    fn entry_round_trip_and_truncation_is_an_error() {
+        let registry = Registry::empty();
+        let outputs = vec![
+            ("a".to_string(), Value::new(FileBlob { rel_path: "x.png".into(), bytes: vec![1, 2, 3] })),
+            ("b".to_string(), Value::new(FileBlob { rel_path: "y.png".into(), bytes: vec![] })),
+        ];
+        let bytes = encode(&outputs);
+        let back = decode(&bytes, &registry).unwrap();
+        assert_eq!(back.len(), 2);
+        assert_eq!(back[0].0, "a");
+        assert_eq!(back[0].1.get::<FileBlob>().unwrap().bytes, vec![1, 2, 3]);
         for cut in [0, 1, 9, bytes.len() - 1] {
-            assert!(decode(&bytes[..cut]).is_err(), "cut at {cut}");
+            assert!(decode(&bytes[..cut], &registry).is_err(), "cut at {cut}");
         }
     }
 
     #[test]
     fn huge_claimed_length_is_refused_without_allocating() {
-        let mut bytes = vec![TAG_IMAGE];
-        for v in [1u64 << 40, 1 << 40, 3, u64::MAX / 2] {
+        let mut bytes = Vec::new();
+        for v in [u64::MAX / 2, 1 << 40] {
             bytes.extend_from_slice(&v.to_le_bytes());
         }
-        assert!(decode(&bytes).is_err());
+        assert!(decode(&bytes, &Registry::empty()).is_err());
     }
 
     #[test]
-    fn curves_round_trip() {
-        let c = Curves {
-            title: "t".into(),
-            x_name: "x".into(),
-            x_label: "xl".into(),
-            y_label: "yl".into(),
-            x: vec![0.0, 1.0],
-            series: vec![("a".into(), vec![1.0, 2.0])],
-            scalars: vec![("s".into(), Some(1.5)), ("n".into(), None)],
-            markers: vec![("m".into(), 0.5)],
-        };
-        match decode(&encode(&Value::Curves(Arc::new(c.clone())))).unwrap() {
-            Value::Curves(back) => assert_eq!(*back, c),
-            other => panic!("{other:?}"),
-        }
+    fn unregistered_types_are_errors() {
+        let mut bytes = Vec::new();
+        let mut w = Writer(&mut bytes);
+        w.u64(1);
+        w.str("");
+        w.str("no such type");
+        w.bytes(&[]);
+        assert!(decode(&bytes, &Registry::empty()).unwrap_err().contains("not registered"));
     }
 }

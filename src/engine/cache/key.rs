@@ -1,39 +1,59 @@
-//! Node keys: `BLAKE3(domain, op name, op version, canonical params, input keys, content)`.
+//! Node keys: `BLAKE3(domain, engine salt, op name, op version, op code hash, canonical params,
+//! inputs, content)`.
 //!
-//! Canonical parameter encoding: each field in the operator's declared order, as its name
-//! (length-prefixed) then a tag byte and the value: floats as the 8 bytes of `f64::to_bits`
-//! (integers given to float fields were converted to f64 by validation, so `1` and `1.0` hash
-//! alike), integers as i64, strings length-prefixed. Inputs contribute their field name and the
-//! 32-byte key of the node wired in. A loader (an operator with `content_key`) leaves its `Path`
-//! fields out and adds the bytes its `content_key` returns (the file's BLAKE3 hash) instead.
-
-use std::collections::BTreeMap;
+//! - The **engine salt** is a hash of the engine's and the shared layers' source (computed by
+//!   `build.rs`) and the **op code hash** one of the operator's own file (`OpSpec::code`), both
+//!   with comments and blank space removed: a code change that may alter results changes every
+//!   key it could affect, even when nobody bumped a version, so a cache shared between machines
+//!   and builds never serves a stale value.
+//! - **Parameters**: each field in the operator's declared order, as its name (length-prefixed)
+//!   then a tag byte and the value: floats as the 8 bytes of `f64::to_bits` (integers given to
+//!   float fields were converted to f64 by validation, so `1` and `1.0` hash alike), integers as
+//!   i64, strings length-prefixed.
+//! - **Inputs**: each input field's name, the number of nodes wired into it (0 for an unwired
+//!   optional input), then in order each one's 32-byte key and the name of the port taken.
+//! - A loader (an operator with `content_key`) leaves its `Path` fields out and adds the bytes
+//!   its `content_key` returns (the file's BLAKE3 hash) instead.
+//!
+//! Keys never contain paths, times, thread counts or RON text, so they are portable.
 
 use crate::engine::graph::Node;
-use crate::engine::op::{FieldKind, ParamValue};
+use crate::engine::params::{FieldKind, ParamValue};
+
+include!(concat!(env!("OUT_DIR"), "/engine_salt.rs"));
 
 pub type Key = [u8; 32];
 
 /// Version of the key layout itself: bump it to invalidate every cache entry.
-const DOMAIN: &[u8] = b"hdrflow.node-key.v1\0";
+const DOMAIN: &[u8] = b"hdrflow.node-key.v2\0";
 
 fn put_str(h: &mut blake3::Hasher, s: &str) {
     h.update(&(s.len() as u64).to_le_bytes());
     h.update(s.as_bytes());
 }
 
-/// The key of `node`, given the keys of its inputs and its content bytes (for loaders).
-pub fn node_key(node: &Node, input_keys: &BTreeMap<&'static str, Key>, content: Option<&[u8]>) -> Key {
-    let spec = node.spec;
+/// The key of `node`, given the key and port name of every port wired into it (per input
+/// field, in order) and its content bytes (for loaders).
+pub fn node_key(node: &Node, inputs: &[Vec<(Key, &str)>], content: Option<&[u8]>) -> Key {
+    let spec = &node.spec;
     let mut h = blake3::Hasher::new();
     h.update(DOMAIN);
+    h.update(&ENGINE_SALT);
     put_str(&mut h, spec.name);
     h.update(&spec.version.to_le_bytes());
-    for field in spec.fields {
-        if let FieldKind::Input(_) = field.kind {
+    h.update(&spec.code_hash);
+    let mut next_input = 0;
+    for field in &spec.fields {
+        if let FieldKind::Input { .. } = field.kind {
             put_str(&mut h, field.name);
             h.update(b"I");
-            h.update(&input_keys[field.name]);
+            let wired = &inputs[next_input];
+            next_input += 1;
+            h.update(&(wired.len() as u64).to_le_bytes());
+            for (key, port) in wired {
+                h.update(key);
+                put_str(&mut h, port);
+            }
             continue;
         }
         if matches!(field.kind, FieldKind::Path) && spec.content_key.is_some() {
@@ -41,34 +61,7 @@ pub fn node_key(node: &Node, input_keys: &BTreeMap<&'static str, Key>, content: 
         }
         let Some(value) = node.params.values.get(field.name) else { continue };
         put_str(&mut h, field.name);
-        match value {
-            ParamValue::Float(v) => {
-                h.update(b"f");
-                h.update(&v.to_bits().to_le_bytes());
-            }
-            ParamValue::Int(v) => {
-                h.update(b"i");
-                h.update(&v.to_le_bytes());
-            }
-            ParamValue::Bool(v) => {
-                h.update(&[b'b', u8::from(*v)]);
-            }
-            ParamValue::Text(s) => {
-                h.update(b"s");
-                put_str(&mut h, s);
-            }
-            ParamValue::Choice(s) => {
-                h.update(b"c");
-                put_str(&mut h, s);
-            }
-            ParamValue::Tuple(v) => {
-                h.update(b"t");
-                h.update(&(v.len() as u64).to_le_bytes());
-                for x in v {
-                    h.update(&x.to_bits().to_le_bytes());
-                }
-            }
-        }
+        put_param(&mut h, value);
     }
     if let Some(bytes) = content {
         h.update(b"C");
@@ -76,6 +69,44 @@ pub fn node_key(node: &Node, input_keys: &BTreeMap<&'static str, Key>, content: 
         h.update(bytes);
     }
     *h.finalize().as_bytes()
+}
+
+fn put_param(h: &mut blake3::Hasher, value: &ParamValue) {
+    match value {
+        ParamValue::Float(v) => {
+            h.update(b"f");
+            h.update(&v.to_bits().to_le_bytes());
+        }
+        ParamValue::Int(v) => {
+            h.update(b"i");
+            h.update(&v.to_le_bytes());
+        }
+        ParamValue::Bool(v) => {
+            h.update(&[b'b', u8::from(*v)]);
+        }
+        ParamValue::Text(s) => {
+            h.update(b"s");
+            put_str(h, s);
+        }
+        ParamValue::Choice(s) => {
+            h.update(b"c");
+            put_str(h, s);
+        }
+        ParamValue::TextList(v) => {
+            h.update(b"l");
+            h.update(&(v.len() as u64).to_le_bytes());
+            for s in v {
+                put_str(h, s);
+            }
+        }
+        ParamValue::Tuple(v) => {
+            h.update(b"t");
+            h.update(&(v.len() as u64).to_le_bytes());
+            for x in v {
+                h.update(&x.to_bits().to_le_bytes());
+            }
+        }
+    }
 }
 
 /// Lower-case hex of a key.

@@ -16,6 +16,7 @@ use std::time::SystemTime;
 use super::codec::{self, CODEC_VERSION};
 use super::key::{key_hex, Key};
 use crate::engine::error::CacheError;
+use crate::engine::registry::Registry;
 use crate::engine::value::Value;
 
 const MAGIC: &[u8; 8] = b"HDRFLOWC";
@@ -60,6 +61,16 @@ impl CacheStore {
         PathBuf::from(".hdrflow-cache")
     }
 
+    /// Creates the store's folder if needed and checks that entries can be written there.
+    pub fn ensure_writable(&self) -> Result<(), CacheError> {
+        let io = |source| CacheError::Io { path: self.root.clone(), source };
+        fs::create_dir_all(&self.root).map_err(io)?;
+        let probe = self.root.join(format!(".write-test-{}", std::process::id()));
+        fs::write(&probe, b"").map_err(io)?;
+        let _ = fs::remove_file(&probe);
+        Ok(())
+    }
+
     pub fn root(&self) -> &Path {
         &self.root
     }
@@ -87,14 +98,14 @@ impl CacheStore {
 
     /// Reads an entry: `Ok(None)` when absent, `Err(Corrupt)` when it cannot be trusted
     /// (the corrupt file is removed so the recomputed value can replace it).
-    pub fn get(&self, key: &Key) -> Result<Option<Value>, CacheError> {
+    pub fn get(&self, key: &Key, registry: &Registry) -> Result<Option<Vec<(String, Value)>>, CacheError> {
         let path = self.path_for(key);
         let bytes = match fs::read(&path) {
             Ok(b) => b,
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
             Err(source) => return Err(CacheError::Io { path, source }),
         };
-        match check_entry(&bytes).and_then(codec::decode) {
+        match check_entry(&bytes).and_then(|payload| codec::decode(payload, registry)) {
             Ok(v) => {
                 // Refresh the LRU clock; failure only makes eviction less precise.
                 if let Ok(f) = fs::File::options().write(true).open(&path) {
@@ -109,10 +120,10 @@ impl CacheStore {
         }
     }
 
-    /// Writes an entry atomically.
-    pub fn put(&self, key: &Key, value: &Value) -> Result<(), CacheError> {
+    /// Writes a node's outputs as one entry, atomically.
+    pub fn put(&self, key: &Key, outputs: &[(String, Value)]) -> Result<(), CacheError> {
         let path = self.path_for(key);
-        let payload = codec::encode(value);
+        let payload = codec::encode(outputs);
         let mut entry = Vec::with_capacity(HEADER_LEN + payload.len());
         entry.extend_from_slice(MAGIC);
         entry.extend_from_slice(&CODEC_VERSION.to_le_bytes());
@@ -256,7 +267,11 @@ pub fn remove_stale_temporaries(path: &Path) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::data::Image;
+    use crate::engine::value::FileBlob;
+
+    fn blob(n: usize) -> Vec<(String, Value)> {
+        vec![(String::new(), Value::new(FileBlob { rel_path: "a.bin".into(), bytes: vec![7; n] }))]
+    }
 
     fn store() -> (tempfile::TempDir, CacheStore) {
         let dir = tempfile::tempdir().unwrap();
@@ -268,28 +283,31 @@ mod tests {
     fn put_get_round_trip() {
         let (_d, s) = store();
         let key = [7u8; 32];
-        assert!(s.get(&key).unwrap().is_none());
-        s.put(&key, &Value::image(Image::new(2, 2, 3))).unwrap();
-        assert!(matches!(s.get(&key).unwrap(), Some(Value::Image(_))));
+        let r = Registry::empty();
+        assert!(s.get(&key, &r).unwrap().is_none());
+        s.put(&key, &blob(12)).unwrap();
+        let back = s.get(&key, &r).unwrap().unwrap();
+        assert_eq!(back[0].1.get::<FileBlob>().unwrap().bytes.len(), 12);
     }
 
     #[test]
     fn corrupt_and_truncated_entries_are_errors_and_removed() {
         let (_d, s) = store();
         let key = [9u8; 32];
-        s.put(&key, &Value::image(Image::new(4, 4, 3))).unwrap();
+        let r = Registry::empty();
+        s.put(&key, &blob(48)).unwrap();
         let path = s.path_for(&key);
         let mut bytes = fs::read(&path).unwrap();
         let last = bytes.len() - 1;
         bytes[last] ^= 0xff;
         fs::write(&path, &bytes).unwrap();
-        assert!(matches!(s.get(&key), Err(CacheError::Corrupt { .. })));
+        assert!(matches!(s.get(&key, &r), Err(CacheError::Corrupt { .. })));
         assert!(!path.exists());
-        s.put(&key, &Value::image(Image::new(4, 4, 3))).unwrap();
+        s.put(&key, &blob(48)).unwrap();
         let bytes = fs::read(&path).unwrap();
         fs::write(&path, &bytes[..bytes.len() / 2]).unwrap();
         assert!(!s.contains(&key), "a truncated entry is not planned as cached");
-        assert!(matches!(s.get(&key), Err(CacheError::Corrupt { .. })));
+        assert!(matches!(s.get(&key, &r), Err(CacheError::Corrupt { .. })));
     }
 
     #[test]
@@ -298,10 +316,10 @@ mod tests {
         let s = CacheStore::new(dir.path(), 1);
         let old = [1u8; 32];
         let new = [2u8; 32];
-        s.put(&old, &Value::image(Image::new(8, 8, 3))).unwrap();
+        s.put(&old, &blob(192)).unwrap();
         let f = fs::File::options().write(true).open(s.path_for(&old)).unwrap();
         f.set_modified(SystemTime::UNIX_EPOCH + std::time::Duration::from_secs(1000)).unwrap();
-        s.put(&new, &Value::image(Image::new(8, 8, 3))).unwrap();
+        s.put(&new, &blob(192)).unwrap();
         let size = fs::metadata(s.path_for(&new)).unwrap().len();
         let s = CacheStore::new(dir.path(), size);
         let report = s.evict().unwrap();

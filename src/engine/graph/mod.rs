@@ -12,15 +12,18 @@
 pub mod syntax;
 mod validate;
 
-use std::collections::BTreeMap;
+pub use validate::{check_output_path, suggest};
+
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 use petgraph::graph::{DiGraph, NodeIndex};
 
 use crate::engine::error::{PipelineError, PipelineErrors};
-use crate::engine::op::{OpSpec, Params};
+use crate::engine::op::OpSpec;
+use crate::engine::params::Params;
 use crate::engine::registry::Registry;
-use crate::engine::value::ValueType;
+use crate::engine::value::{ValueType, FILE};
 use syntax::Pos;
 
 /// A `--set NODE.FIELD=RON_VALUE` override, applied before validation.
@@ -44,17 +47,57 @@ impl Override {
     }
 }
 
+/// A reference to one output port of one node.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct PortRef {
+    /// Index into `Pipeline::nodes`.
+    pub node: usize,
+    /// Index into that node's `ports`.
+    pub port: usize,
+}
+
+/// One output port of a validated node: a declared port, or an open port a consumer named.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Port {
+    pub name: String,
+    pub ty: ValueType,
+}
+
+/// The nodes wired into one input field, in order (empty: an optional input left unwired).
+#[derive(Clone, Debug)]
+pub struct InputWire {
+    pub field: &'static str,
+    pub sources: Vec<PortRef>,
+}
+
 /// One validated node.
 #[derive(Debug, Clone)]
 pub struct Node {
     pub name: String,
     /// Position of the node's operator name in the file.
     pub pos: Pos,
-    pub spec: &'static OpSpec,
+    pub spec: Arc<OpSpec>,
     pub params: Params,
-    /// Input field -> index of the node wired into it (into `Pipeline::nodes`).
-    pub inputs: BTreeMap<&'static str, usize>,
-    pub output_type: ValueType,
+    /// Every input field of the operator, in declaration order, with what is wired into it.
+    pub inputs: Vec<InputWire>,
+    /// Output ports: the declared ones, then open ports that consumers named. Port 0 is the
+    /// default output.
+    pub ports: Vec<Port>,
+}
+
+impl Node {
+    /// Every port wired into this node, in field order.
+    pub fn sources(&self) -> impl Iterator<Item = PortRef> + '_ {
+        self.inputs.iter().flat_map(|w| w.sources.iter().copied())
+    }
+    /// The type of the default output (port 0).
+    pub fn output_type(&self) -> Option<ValueType> {
+        self.ports.first().map(|p| p.ty)
+    }
+    /// Whether this node produces a file for the output folder.
+    pub fn writes_file(&self) -> bool {
+        self.ports.iter().any(|p| p.ty == ValueType(&FILE))
+    }
 }
 
 /// A validated pipeline: nodes in file order and the DAG of their dependencies.
@@ -65,10 +108,12 @@ pub struct Pipeline {
     /// Relative paths in parameters resolve against this folder.
     pub base_dir: PathBuf,
     pub nodes: Vec<Node>,
-    /// Edge a -> b: b consumes a's output. Node weights are indices into `nodes`.
+    /// Edge a -> b: b consumes one of a's ports. Node weights are indices into `nodes`.
     pub graph: DiGraph<usize, &'static str>,
     /// Node indices in a topological order (inputs before consumers).
     pub topo_order: Vec<usize>,
+    /// The registry it was validated against (the cache decodes values with its types).
+    pub registry: Registry,
 }
 
 impl Pipeline {
@@ -106,33 +151,62 @@ impl Pipeline {
     pub fn default_targets(&self) -> Vec<usize> {
         let mut consumed = vec![false; self.nodes.len()];
         for n in &self.nodes {
-            for &i in n.inputs.values() {
-                consumed[i] = true;
+            for s in n.sources() {
+                consumed[s.node] = true;
             }
         }
-        (0..self.nodes.len()).filter(|&i| !consumed[i] || self.nodes[i].output_type == ValueType::File).collect()
+        (0..self.nodes.len()).filter(|&i| !consumed[i] || self.nodes[i].writes_file()).collect()
     }
 
-    /// Indices of nodes that consume node `i`.
+    /// Indices of nodes that consume node `i` (once each).
     pub fn consumers(&self, i: usize) -> Vec<usize> {
-        self.graph.neighbors_directed(NodeIndex::new(i), petgraph::Direction::Outgoing).map(|n| self.graph[n]).collect()
+        let mut v: Vec<usize> = self
+            .graph
+            .neighbors_directed(NodeIndex::new(i), petgraph::Direction::Outgoing)
+            .map(|n| self.graph[n])
+            .collect();
+        v.sort_unstable();
+        v.dedup();
+        v
     }
 
-    /// Graphviz DOT: one box per node (name and operator), edges labelled with input fields.
+    /// `node` or `node.port` as a user writes it (the default port has no suffix).
+    pub fn port_label(&self, r: PortRef) -> String {
+        let n = &self.nodes[r.node];
+        if r.port == 0 {
+            n.name.clone()
+        } else {
+            format!("{}.{}", n.name, n.ports[r.port].name)
+        }
+    }
+
+    /// Graphviz DOT: one box per node (name, operator, ports), edges labelled with input
+    /// fields and the port they take.
     pub fn to_dot(&self) -> String {
         let mut s = String::from("digraph pipeline {\n  rankdir=LR;\n  node [shape=box, fontname=\"sans-serif\"];\n");
         for n in &self.nodes {
-            let label = format!("{}\n{} -> {}", n.name, n.spec.name, n.output_type);
+            let ports: Vec<String> = n.ports.iter().map(|p| format!("{}: {}", p.name, p.ty)).collect();
+            let label = format!("{}\n{} -> {}", n.name, n.spec.name, ports.join(", "));
             s.push_str(&format!("  {} [label={}];\n", dot_quote(&n.name), dot_quote(&label)));
         }
         for n in &self.nodes {
-            for (field, &i) in &n.inputs {
-                s.push_str(&format!(
-                    "  {} -> {} [label={}];\n",
-                    dot_quote(&self.nodes[i].name),
-                    dot_quote(&n.name),
-                    dot_quote(field)
-                ));
+            for w in &n.inputs {
+                for (k, src) in w.sources.iter().enumerate() {
+                    let from = &self.nodes[src.node];
+                    let mut label = w.field.to_string();
+                    if w.sources.len() > 1 {
+                        label.push_str(&format!("[{k}]"));
+                    }
+                    if src.port != 0 {
+                        label = format!("{} <- {}", label, from.ports[src.port].name);
+                    }
+                    s.push_str(&format!(
+                        "  {} -> {} [label={}];\n",
+                        dot_quote(&from.name),
+                        dot_quote(&n.name),
+                        dot_quote(&label)
+                    ));
+                }
             }
         }
         s.push_str("}\n");

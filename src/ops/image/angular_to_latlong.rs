@@ -12,35 +12,40 @@
 use rayon::prelude::*;
 
 use crate::data::Image;
-use crate::engine::op::{Default, FieldKind, FieldSpec, OpContext, OpError, OpSpec, OutputType};
-use crate::engine::value::{Value, ValueType};
+use crate::engine::op::{check_pixels, CheckContext, CheckProblem};
+use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
+use crate::engine::value::Value;
 use crate::maths::latlong;
+use crate::types::ty::*;
 
-pub static SPEC: OpSpec = OpSpec {
-    name: "AngularToLatLong",
-    category: "image",
-    version: 1,
-    doc: "Convert a Debevec angular light probe to a lat-long map (outside the disc masked)",
-    fields: &[
-        FieldSpec::input("image", &[ValueType::Image, ValueType::ScalarField], "the angular probe (square)"),
-        FieldSpec {
-            name: "width",
-            kind: FieldKind::Int { min: 1, max: 1 << 15 },
-            default: Default::Int(1024),
-            doc: "output width",
-        },
-        FieldSpec {
-            name: "height",
-            kind: FieldKind::Int { min: 1, max: 1 << 15 },
-            default: Default::Int(512),
-            doc: "output height",
-        },
-    ],
-    output: OutputType::SameAsInput("image"),
-    eval,
-    content_key: None,
-    check: None,
-};
+crate::params! {
+    pub struct AngularParams {
+        /// output width
+        #[range(1, 1 << 28)]
+        pub width: usize = 1024,
+        /// output height
+        #[range(1, 1 << 28)]
+        pub height: usize = 512,
+    }
+}
+
+pub fn spec() -> OpSpec {
+    OpSpec::new(
+        "AngularToLatLong",
+        "image",
+        1,
+        "Convert a Debevec angular light probe to a lat-long map (outside the disc masked)",
+    )
+    .input("image", ANY_IMAGE, "the angular probe (square)")
+    .output("image", OutputType::SameAsInput("image"), "the lat-long map")
+    .code(crate::this_file!())
+    .eval(eval)
+    .check(check)
+}
+
+fn check(_: &CheckContext, p: AngularParams) -> Result<(), CheckProblem> {
+    check_pixels(p.width as u64, p.height as u64).map_err(|m| CheckProblem::at("width", m))
+}
 
 /// Image-plane coordinates (u, v) in [-1, 1] of direction `d` in the angular map.
 pub fn angular_uv(d: [f64; 3]) -> (f64, f64) {
@@ -67,6 +72,7 @@ pub fn angular_to_latlong(probe: &Image, width: usize, height: usize) -> Image {
     };
     let mut out = vec![0.0f32; width * height * c];
     out.par_chunks_mut(width * c).enumerate().for_each(|(y, row)| {
+        let mut acc = vec![0.0f64; c];
         for x in 0..width {
             let (u, v) = angular_uv(latlong::texel_direction(x, y, width, height));
             // Continuous pixel coordinates (centres at +0.5).
@@ -74,7 +80,7 @@ pub fn angular_to_latlong(probe: &Image, width: usize, height: usize) -> Image {
             let fy = (1.0 - v) * 0.5 * ph - 0.5;
             let (x0, y0) = (fx.floor(), fy.floor());
             let (tx, ty) = (fx - x0, fy - y0);
-            let mut acc = [0.0f64; 3];
+            acc.fill(0.0);
             let mut wsum = 0.0;
             for (dx, dy, w) in
                 [(0, 0, (1.0 - tx) * (1.0 - ty)), (1, 0, tx * (1.0 - ty)), (0, 1, (1.0 - tx) * ty), (1, 1, tx * ty)]
@@ -98,9 +104,11 @@ pub fn angular_to_latlong(probe: &Image, width: usize, height: usize) -> Image {
     Image::from_vec(width, height, c, out)
 }
 
-fn eval(ctx: &OpContext) -> Result<Value, OpError> {
-    let probe = ctx.image("image");
-    Ok(Value::image(angular_to_latlong(probe, ctx.params.usize("width"), ctx.params.usize("height"))))
+fn eval(ctx: &mut OpContext, p: AngularParams) -> Result<Value, OpError> {
+    let probe: &Image = ctx.get("image");
+    let mut out = angular_to_latlong(probe, p.width, p.height);
+    out.names = probe.names.clone();
+    Ok(Value::new(out))
 }
 
 #[cfg(test)]

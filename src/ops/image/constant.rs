@@ -2,42 +2,39 @@
 //! constant environment whose relit sphere is exactly albedo * color).
 
 use crate::data::Image;
-use crate::engine::op::{Default, FieldKind, FieldSpec, OpContext, OpError, OpSpec, OutputType};
-use crate::engine::value::{Value, ValueType};
+use crate::engine::op::{check_pixels, CheckContext, CheckProblem};
+use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
+use crate::engine::params::Rgb;
+use crate::engine::value::Value;
+use crate::types::ty::*;
 
-pub static SPEC: OpSpec = OpSpec {
-    name: "Constant",
-    category: "image",
-    version: 1,
-    doc: "An image of a single colour (canvas, or a constant environment)",
-    fields: &[
-        FieldSpec {
-            name: "width",
-            kind: FieldKind::Int { min: 1, max: 1 << 15 },
-            default: Default::Int(512),
-            doc: "width in pixels",
-        },
-        FieldSpec {
-            name: "height",
-            kind: FieldKind::Int { min: 1, max: 1 << 15 },
-            default: Default::Int(256),
-            doc: "height in pixels",
-        },
-        FieldSpec {
-            name: "color",
-            kind: FieldKind::Tuple { len: 3, min: -3.0e38, max: 3.0e38 },
-            default: Default::Tuple(&[0.0, 0.0, 0.0]),
-            doc: "linear RGB value of every pixel",
-        },
-    ],
-    output: OutputType::Fixed(ValueType::Image),
-    eval,
-    content_key: None,
-    check: None,
-};
+crate::params! {
+    pub struct ConstantParams {
+        /// width in pixels
+        #[range(1, 1 << 28)]
+        pub width: usize = 512,
+        /// height in pixels
+        #[range(1, 1 << 28)]
+        pub height: usize = 256,
+        /// linear RGB value of every pixel (a single number means grey)
+        #[range(-3.0e38, 3.0e38)]
+        pub color: Rgb = Rgb([0.0, 0.0, 0.0]),
+    }
+}
 
-fn eval(ctx: &OpContext) -> Result<Value, OpError> {
-    let (w, h) = (ctx.params.usize("width"), ctx.params.usize("height"));
-    let c = ctx.params.vec3("color").map(|v| v as f32);
-    Ok(Value::image(Image::from_fn_rgb(w, h, |_, _| c)))
+pub fn spec() -> OpSpec {
+    OpSpec::new("Constant", "image", 1, "An image of a single colour (canvas, or a constant environment)")
+        .output("image", OutputType::Fixed(IMAGE_T), "the image")
+        .code(crate::this_file!())
+        .eval(eval)
+        .check(check)
+}
+
+fn check(_: &CheckContext, p: ConstantParams) -> Result<(), CheckProblem> {
+    check_pixels(p.width as u64, p.height as u64).map_err(|m| CheckProblem::at("width", m))
+}
+
+fn eval(_: &mut OpContext, p: ConstantParams) -> Result<Value, OpError> {
+    let c = p.color.f32();
+    Ok(Value::new(Image::from_fn_rgb(p.width, p.height, |_, _| c)))
 }

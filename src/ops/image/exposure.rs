@@ -2,32 +2,31 @@
 
 use rayon::prelude::*;
 
-use crate::engine::op::{Default, FieldKind, FieldSpec, OpContext, OpError, OpSpec, OutputType};
-use crate::engine::value::{Value, ValueType};
+use crate::data::Image;
+use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
+use crate::engine::value::Value;
+use crate::types::ty::*;
 
-pub static SPEC: OpSpec = OpSpec {
-    name: "Exposure",
-    category: "image",
-    version: 1,
-    doc: "Scale an image by 2^stops",
-    fields: &[
-        FieldSpec::input("image", &[ValueType::Image, ValueType::ScalarField], "the image to scale"),
-        FieldSpec {
-            name: "stops",
-            kind: FieldKind::Float { min: -126.0, max: 126.0 },
-            default: Default::Required,
-            doc: "exposure change in stops (+1 doubles)",
-        },
-    ],
-    output: OutputType::SameAsInput("image"),
-    eval,
-    content_key: None,
-    check: None,
-};
+crate::params! {
+    pub struct ExposureParams {
+        /// exposure change in stops (+1 doubles)
+        #[range(-126.0, 126.0)]
+        pub stops: f64,
+    }
+}
 
-fn eval(ctx: &OpContext) -> Result<Value, OpError> {
-    let scale = 2f64.powf(ctx.params.f64("stops")) as f32;
-    let mut out = (**ctx.image("image")).clone();
+pub fn spec() -> OpSpec {
+    OpSpec::new("Exposure", "image", 1, "Scale an image by 2^stops")
+        .input("image", ANY_IMAGE, "the image to scale")
+        .output("image", OutputType::SameAsInput("image"), "the scaled image")
+        .code(crate::this_file!())
+        .eval(eval)
+}
+
+fn eval(ctx: &mut OpContext, p: ExposureParams) -> Result<Value, OpError> {
+    let scale = 2f64.powf(p.stops) as f32;
+    // The input's buffer is reused when this node is its last consumer.
+    let mut out: Image = ctx.take("image");
     out.data.par_iter_mut().for_each(|v| *v *= scale);
-    Ok(Value::image(out))
+    Ok(Value::new(out))
 }

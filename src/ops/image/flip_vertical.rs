@@ -1,20 +1,21 @@
 //! `FlipVertical(image)`: reverse the row order (e.g. pbrt's upside-down lat-long maps).
 
-use crate::engine::op::{FieldSpec, OpContext, OpError, OpSpec, OutputType};
-use crate::engine::value::{Value, ValueType};
+use crate::data::Image;
+use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
+use crate::engine::params::NoParams;
+use crate::engine::value::Value;
+use crate::types::ty::*;
 
-pub static SPEC: OpSpec = OpSpec {
-    name: "FlipVertical",
-    category: "image",
-    version: 1,
-    doc: "Flip an image upside down",
-    fields: &[FieldSpec::input("image", &[ValueType::Image, ValueType::ScalarField], "the image to flip")],
-    output: OutputType::SameAsInput("image"),
-    eval,
-    content_key: None,
-    check: None,
-};
+pub fn spec() -> OpSpec {
+    OpSpec::new("FlipVertical", "image", 1, "Flip an image upside down")
+        .input("image", ANY_IMAGE, "the image to flip")
+        .output("image", OutputType::SameAsInput("image"), "the flipped image")
+        .code(crate::this_file!())
+        .eval(eval)
+}
 
-fn eval(ctx: &OpContext) -> Result<Value, OpError> {
-    Ok(Value::image(ctx.image("image").flipped_vertical()))
+fn eval(ctx: &mut OpContext, _: NoParams) -> Result<Value, OpError> {
+    let mut img: Image = ctx.take("image");
+    img.flip_vertical_in_place();
+    Ok(Value::new(img))
 }

@@ -8,37 +8,39 @@
 //! exactly the pixels `SphereView::normal_at` shades (images must be square); `All` keeps every
 //! pixel.
 
-use std::sync::Arc;
+use crate::data::Image;
+use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
+use crate::engine::value::Value;
+use crate::types::ty::*;
 
-use crate::engine::op::{Default, FieldKind, FieldSpec, OpContext, OpError, OpSpec, OutputType};
-use crate::engine::value::{Value, ValueType};
 use crate::maths::error_metrics::image_error;
 use crate::maths::relight::SphereView;
 
-pub static SPEC: OpSpec = OpSpec {
-    name: "ImageError",
-    category: "image",
-    version: 1,
-    doc: "Error metrics (RMSE, relative RMSE, mean/max abs, bias, PSNR) of an image against a reference",
-    fields: &[
-        FieldSpec::input("image", &[ValueType::Image, ValueType::ScalarField], "the image to measure"),
-        FieldSpec::input(
-            "reference",
-            &[ValueType::Image, ValueType::ScalarField],
-            "the reference, same size and channels",
-        ),
-        FieldSpec {
-            name: "mask",
-            kind: FieldKind::Choice(&["Sphere", "All"]),
-            default: Default::Choice("Sphere"),
-            doc: "Sphere: the inscribed disc (the pixels a sphere renderer shades); All: every pixel",
-        },
-    ],
-    output: OutputType::Fixed(ValueType::Metrics),
-    eval,
-    content_key: None,
-    check: None,
-};
+crate::choice! {
+    /// Which pixels count.
+    pub enum Mask { Sphere, All }
+}
+
+crate::params! {
+    pub struct ImageErrorParams {
+        /// Sphere: the inscribed disc (the pixels a sphere renderer shades); All: every pixel
+        pub mask: Mask = Mask::Sphere,
+    }
+}
+
+pub fn spec() -> OpSpec {
+    OpSpec::new(
+        "ImageError",
+        "image",
+        1,
+        "Error metrics (RMSE, relative RMSE, mean/max abs, bias, PSNR) of an image against a reference",
+    )
+    .input("image", ANY_IMAGE, "the image to measure")
+    .input("reference", ANY_IMAGE, "the reference, same size and channels")
+    .output("metrics", OutputType::Fixed(METRICS_T), "the error metrics")
+    .code(crate::this_file!())
+    .eval(eval)
+}
 
 /// The inscribed-disc mask of a `size` x `size` image: true where `SphereView::normal_at` is
 /// `Some` (the view direction does not matter).
@@ -47,11 +49,11 @@ pub fn sphere_mask(size: usize) -> Vec<bool> {
     (0..size * size).map(|i| view.normal_at(i % size, i / size).is_some()).collect()
 }
 
-fn eval(ctx: &OpContext) -> Result<Value, OpError> {
-    let image = ctx.image("image");
-    let reference = ctx.image("reference");
-    let mask = match ctx.params.text("mask") {
-        "Sphere" => {
+fn eval(ctx: &mut OpContext, p: ImageErrorParams) -> Result<Value, OpError> {
+    let image: &Image = ctx.get("image");
+    let reference: &Image = ctx.get("reference");
+    let mask = match p.mask {
+        Mask::Sphere => {
             if image.width != image.height {
                 return Err(OpError::Invalid(format!(
                     "mask Sphere needs a square image, got {}x{} (use mask: All)",
@@ -60,8 +62,8 @@ fn eval(ctx: &OpContext) -> Result<Value, OpError> {
             }
             Some(sphere_mask(image.width))
         }
-        _ => None,
+        Mask::All => None,
     };
     let metrics = image_error(image, reference, mask.as_deref()).map_err(OpError::Invalid)?;
-    Ok(Value::Metrics(Arc::new(metrics)))
+    Ok(Value::new(metrics))
 }

@@ -6,58 +6,68 @@
 use rayon::prelude::*;
 
 use crate::data::Image;
-use crate::engine::op::{Default, FieldKind, FieldSpec, OpContext, OpError, OpSpec, OutputType};
-use crate::engine::value::{Value, ValueType};
+use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
+use crate::engine::value::Value;
+use crate::types::ty::*;
 
-pub static SPEC: OpSpec = OpSpec {
-    name: "Luminance",
-    category: "image",
-    version: 1,
-    doc: "Per-pixel luminance of an RGB image (a scalar field)",
-    fields: &[
-        FieldSpec::input("image", &[ValueType::Image, ValueType::ScalarField], "the RGB image"),
-        FieldSpec {
-            name: "weights",
-            kind: FieldKind::Choice(&["Rec709", "Rec2020", "Mean", "Max"]),
-            default: Default::Choice("Rec709"),
-            doc: "channel weights: Rec709 (0.2126, 0.7152, 0.0722), Rec2020, Mean, Max",
-        },
-    ],
-    output: OutputType::Fixed(ValueType::ScalarField),
-    eval,
-    content_key: None,
-    check: None,
-};
+crate::choice! {
+    /// Channel weights for luminance.
+    pub enum Weights { Rec709, Rec2020, Mean, Max }
+}
 
-/// Luminance of an RGB triple under the named weights.
-pub fn luminance(rgb: [f32; 3], weights: &str) -> f32 {
-    let [r, g, b] = rgb;
-    match weights {
-        "Rec2020" => 0.2627 * r + 0.6780 * g + 0.0593 * b,
-        "Mean" => (r + g + b) / 3.0,
-        "Max" => r.max(g).max(b),
-        _ => 0.2126 * r + 0.7152 * g + 0.0722 * b,
+crate::params! {
+    pub struct LuminanceParams {
+        /// channel weights: Rec709 (0.2126, 0.7152, 0.0722), Rec2020 (0.2627, 0.6780, 0.0593), Mean, Max
+        pub weights: Weights = Weights::Rec709,
     }
 }
 
-fn eval(ctx: &OpContext) -> Result<Value, OpError> {
-    let img = ctx.image("image");
-    if img.channels == 1 {
-        return Ok(Value::Image(img.clone()));
+pub fn spec() -> OpSpec {
+    OpSpec::new("Luminance", "image", 1, "Per-pixel luminance of an RGB image (a scalar field)")
+        .input("image", ANY_IMAGE, "the RGB image (a scalar field passes through)")
+        .output("luminance", OutputType::Fixed(SCALAR_T), "the luminance")
+        .code(crate::this_file!())
+        .eval(eval)
+}
+
+/// Luminance of an RGB triple under the named weights.
+pub fn luminance(rgb: [f32; 3], weights: Weights) -> f32 {
+    let [r, g, b] = rgb;
+    match weights {
+        Weights::Rec709 => 0.2126 * r + 0.7152 * g + 0.0722 * b,
+        Weights::Rec2020 => 0.2627 * r + 0.6780 * g + 0.0593 * b,
+        Weights::Mean => (r + g + b) / 3.0,
+        Weights::Max => r.max(g).max(b),
     }
-    let weights = ctx.params.text("weights");
-    let data: Vec<f32> = img.data.par_chunks_exact(3).map(|p| luminance([p[0], p[1], p[2]], weights)).collect();
-    Ok(Value::image(Image::from_vec(img.width, img.height, 1, data)))
+}
+
+fn eval(ctx: &mut OpContext, p: LuminanceParams) -> Result<Value, OpError> {
+    let v = ctx.input("image");
+    let img: &Image = ctx.get("image");
+    if img.channels == 1 {
+        return Ok(v.clone());
+    }
+    let c = img.channels;
+    let data: Vec<f32> = img
+        .data
+        .par_chunks_exact(c)
+        .map(|px| {
+            // RGB first (then alpha or others); a grey-plus-alpha image is grey.
+            let rgb = if c >= 3 { [px[0], px[1], px[2]] } else { [px[0]; 3] };
+            luminance(rgb, p.weights)
+        })
+        .collect();
+    Ok(Value::new(Image::from_vec(img.width, img.height, 1, data)))
 }
 
 #[cfg(test)]
 mod tests {
-    use super::luminance;
+    use super::{luminance, Weights};
 
     #[test]
     fn rec709_white_is_one() {
-        assert!((luminance([1.0, 1.0, 1.0], "Rec709") - 1.0).abs() < 1e-6);
-        assert!((luminance([1.0, 1.0, 1.0], "Rec2020") - 1.0).abs() < 1e-6);
-        assert_eq!(luminance([1.0, 4.0, 2.0], "Max"), 4.0);
+        assert!((luminance([1.0, 1.0, 1.0], Weights::Rec709) - 1.0).abs() < 1e-6);
+        assert!((luminance([1.0, 1.0, 1.0], Weights::Rec2020) - 1.0).abs() < 1e-6);
+        assert_eq!(luminance([1.0, 4.0, 2.0], Weights::Max), 4.0);
     }
 }

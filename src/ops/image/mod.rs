@@ -12,12 +12,12 @@ pub mod resize;
 use crate::engine::registry::Registry;
 
 pub fn register(r: &mut Registry) {
-    r.register(&luminance::SPEC);
-    r.register(&flip_vertical::SPEC);
-    r.register(&resize::SPEC);
-    r.register(&exposure::SPEC);
-    r.register(&constant::SPEC);
-    r.register(&angular_to_latlong::SPEC);
-    r.register(&overlay::SPEC);
-    r.register(&image_error::SPEC);
+    r.register(luminance::spec());
+    r.register(flip_vertical::spec());
+    r.register(resize::spec());
+    r.register(exposure::spec());
+    r.register(constant::spec());
+    r.register(angular_to_latlong::spec());
+    r.register(overlay::spec());
+    r.register(image_error::spec());
 }

@@ -4,54 +4,51 @@
 //! centred on each sample's texel. The texel is found from the sample's direction, so samples
 //! drawn for one resolution can be drawn on a canvas of any other.
 
-use crate::engine::op::{Default, FieldKind, FieldSpec, OpContext, OpError, OpSpec, OutputType};
-use crate::engine::value::{Value, ValueType};
+use crate::data::{Image, SampleSet};
+use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
+use crate::engine::params::Rgb;
+use crate::engine::value::Value;
 use crate::maths::latlong;
+use crate::types::ty::*;
 
-pub static SPEC: OpSpec = OpSpec {
-    name: "Overlay",
-    category: "image",
-    version: 1,
-    doc: "Draw samples as coloured squares on a lat-long image (the seed's green squares)",
-    fields: &[
-        FieldSpec::input("image", &[ValueType::Image, ValueType::ScalarField], "the lat-long map or canvas"),
-        FieldSpec::input("samples", &[ValueType::Samples], "the samples to draw"),
-        FieldSpec {
-            name: "size",
-            kind: FieldKind::Int { min: 1, max: 255 },
-            default: Default::Int(5),
-            doc: "side of each square in pixels",
-        },
-        FieldSpec {
-            name: "color",
-            kind: FieldKind::Tuple { len: 3, min: 0.0, max: 1.0 },
-            default: Default::Tuple(&[0.0, 1.0, 0.0]),
-            doc: "linear RGB colour of the squares",
-        },
-        FieldSpec {
-            name: "exposure",
-            kind: FieldKind::Float { min: -64.0, max: 64.0 },
-            default: Default::Float(0.0),
-            doc: "exposure in stops applied to the image before clamping",
-        },
-    ],
-    output: OutputType::Fixed(ValueType::Image),
-    eval,
-    content_key: None,
-    check: None,
-};
+crate::params! {
+    pub struct OverlayParams {
+        /// side of each square in pixels
+        #[range(1, 255)]
+        pub size: usize = 5,
+        /// linear RGB colour of the squares
+        #[range(0.0, 1.0)]
+        pub color: Rgb = Rgb([0.0, 1.0, 0.0]),
+        /// exposure in stops applied to the image before clamping
+        #[range(-64.0, 64.0)]
+        pub exposure: f64 = 0.0,
+    }
+}
 
-fn eval(ctx: &OpContext) -> Result<Value, OpError> {
-    let img = ctx.image("image");
-    let samples = ctx.samples("samples");
-    let size = ctx.params.usize("size") as isize;
-    let color = ctx.params.vec3("color").map(|v| v as f32);
-    let scale = 2f64.powf(ctx.params.f64("exposure")) as f32;
+pub fn spec() -> OpSpec {
+    OpSpec::new(
+        "Overlay",
+        "image",
+        1,
+        "Draw samples as coloured squares on a lat-long image (the seed's green squares)",
+    )
+    .input("image", ANY_IMAGE, "the lat-long map or canvas")
+    .input("samples", &[SAMPLES_T], "the samples to draw")
+    .output("image", OutputType::Fixed(IMAGE_T), "the image with the samples drawn (RGB)")
+    .code(crate::this_file!())
+    .eval(eval)
+}
+
+fn eval(ctx: &mut OpContext, p: OverlayParams) -> Result<Value, OpError> {
+    let img: &Image = ctx.get("image");
+    let samples: &SampleSet = ctx.get("samples");
+    let size = p.size as isize;
+    let color = p.color.f32();
+    let scale = 2f64.powf(p.exposure) as f32;
     let (w, h) = (img.width, img.height);
-    let mut out = crate::data::Image::from_fn_rgb(w, h, |x, y| {
+    let mut out = Image::from_fn_rgb(w, h, |x, y| {
         img.rgb(x, y).map(|v| if v.is_nan() { 0.0 } else { (v * scale).clamp(0.0, 1.0) })
     });
-    // A square of odd size is centred on the texel; an even one extends one more to the left/top.
     let before = size / 2;
     for s in &samples.samples {
         let (cx, cy) = if s.x < samples.width
@@ -77,5 +74,5 @@ fn eval(ctx: &OpContext) -> Result<Value, OpError> {
             }
         }
     }
-    Ok(Value::image(out))
+    Ok(Value::new(out))
 }

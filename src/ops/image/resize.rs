@@ -9,34 +9,34 @@
 use rayon::prelude::*;
 
 use crate::data::Image;
-use crate::engine::op::{Default, FieldKind, FieldSpec, OpContext, OpError, OpSpec, OutputType};
-use crate::engine::value::{Value, ValueType};
+use crate::engine::op::{check_pixels, CheckContext, CheckProblem};
+use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
+use crate::engine::value::Value;
+use crate::types::ty::*;
 
-pub static SPEC: OpSpec = OpSpec {
-    name: "Resize",
-    category: "image",
-    version: 1,
-    doc: "Area-averaging, energy-preserving resize",
-    fields: &[
-        FieldSpec::input("image", &[ValueType::Image, ValueType::ScalarField], "the image to resize"),
-        FieldSpec {
-            name: "width",
-            kind: FieldKind::Int { min: 1, max: 1 << 16 },
-            default: Default::Required,
-            doc: "output width",
-        },
-        FieldSpec {
-            name: "height",
-            kind: FieldKind::Int { min: 1, max: 1 << 16 },
-            default: Default::Required,
-            doc: "output height",
-        },
-    ],
-    output: OutputType::SameAsInput("image"),
-    eval,
-    content_key: None,
-    check: None,
-};
+crate::params! {
+    pub struct ResizeParams {
+        /// output width
+        #[range(1, 1 << 28)]
+        pub width: usize,
+        /// output height
+        #[range(1, 1 << 28)]
+        pub height: usize,
+    }
+}
+
+pub fn spec() -> OpSpec {
+    OpSpec::new("Resize", "image", 1, "Area-averaging, energy-preserving resize")
+        .input("image", ANY_IMAGE, "the image to resize")
+        .output("image", OutputType::SameAsInput("image"), "the resized image")
+        .code(crate::this_file!())
+        .eval(eval)
+        .check(check)
+}
+
+fn check(_: &CheckContext, p: ResizeParams) -> Result<(), CheckProblem> {
+    check_pixels(p.width as u64, p.height as u64).map_err(|m| CheckProblem::at("width", m))
+}
 
 /// For each output index, the (input index, weight) pairs; weights sum to 1.
 fn box_weights(src: usize, dst: usize) -> Vec<Vec<(usize, f64)>> {
@@ -89,9 +89,11 @@ pub fn resize(img: &Image, w: usize, h: usize) -> Image {
     Image::from_vec(w, h, c, out)
 }
 
-fn eval(ctx: &OpContext) -> Result<Value, OpError> {
-    let img = ctx.image("image");
-    Ok(Value::image(resize(img, ctx.params.usize("width"), ctx.params.usize("height"))))
+fn eval(ctx: &mut OpContext, p: ResizeParams) -> Result<Value, OpError> {
+    let img: &Image = ctx.get("image");
+    let mut out = resize(img, p.width, p.height);
+    out.names = img.names.clone();
+    Ok(Value::new(out))
 }
 
 #[cfg(test)]

@@ -6,34 +6,33 @@
 
 use std::path::Path;
 
-use crate::engine::op::{resolve_path, Default, FieldKind, FieldSpec, OpContext, OpError, OpSpec, OutputType, Params};
-use crate::engine::value::{Value, ValueType};
+use crate::engine::op::{resolve_path, OpContext, OpError, OpSpec, OutputType};
+use crate::engine::params::{InputPath, Params};
+use crate::engine::value::Value;
 use crate::formats;
+use crate::types::ty::*;
 
-pub static SPEC: OpSpec = OpSpec {
-    name: "LoadHdr",
-    category: "io",
-    version: 1,
-    doc: "Load an HDR image (.hdr RGBE, .exr, .pfm) or a built-in procedural map (builtin:sky, ...)",
-    fields: &[
-        FieldSpec {
-            name: "path",
-            kind: FieldKind::Path,
-            default: Default::Required,
-            doc: "file path (relative to the pipeline file) or builtin:NAME",
-        },
-        FieldSpec {
-            name: "flip_vertical",
-            kind: FieldKind::Bool,
-            default: Default::Bool(false),
-            doc: "flip rows after loading (pbrt's grace_latlong.exr is stored upside down)",
-        },
-    ],
-    output: OutputType::Fixed(ValueType::Image),
-    eval,
-    content_key: Some(content_key),
-    check: None,
-};
+crate::params! {
+    pub struct LoadHdrParams {
+        /// file path (relative to the pipeline file) or builtin:NAME
+        pub path: InputPath,
+        /// flip rows after loading (pbrt's grace_latlong.exr is stored upside down)
+        pub flip_vertical: bool = false,
+    }
+}
+
+pub fn spec() -> OpSpec {
+    OpSpec::new(
+        "LoadHdr",
+        "io",
+        1,
+        "Load an HDR image (.hdr RGBE, .exr, .pfm) or a built-in procedural map (builtin:sky, ...)",
+    )
+    .output("image", OutputType::Fixed(IMAGE_T), "the image (RGB, or RGBA for an EXR with alpha)")
+    .code(crate::this_file!())
+    .content_key(content_key)
+    .eval(eval)
+}
 
 /// Bump when a built-in map's generator changes.
 const BUILTIN_VERSION: u32 = 1;
@@ -55,15 +54,15 @@ fn extension(path: &Path) -> String {
     path.extension().map(|e| e.to_string_lossy().to_lowercase()).unwrap_or_default()
 }
 
-fn eval(ctx: &OpContext) -> Result<Value, OpError> {
-    let path = ctx.params.text("path");
+fn eval(ctx: &mut OpContext, p: LoadHdrParams) -> Result<Value, OpError> {
+    let path = p.path.0.as_str();
     let mut image = if let Some(name) = path.strip_prefix("builtin:") {
         formats::builtin::builtin(name).ok_or_else(|| {
             let names: Vec<&str> = formats::builtin::BUILTINS.iter().map(|(n, _)| *n).collect();
             OpError::Invalid(format!("no built-in map {name:?} (built-ins: {})", names.join(", ")))
         })?
     } else {
-        let full = ctx.path("path");
+        let full = ctx.path(path);
         let bytes = std::fs::read(&full).map_err(|source| OpError::Io { path: full.clone(), source })?;
         // The key was made from the file's hash before the run; decoding other bytes would
         // cache them under that key.
@@ -82,8 +81,8 @@ fn eval(ctx: &OpContext) -> Result<Value, OpError> {
         let data = image.data.iter().flat_map(|&v| [v, v, v]).collect();
         image = crate::data::Image::from_vec(image.width, image.height, 3, data);
     }
-    if ctx.params.bool("flip_vertical") {
-        image = image.flipped_vertical();
+    if p.flip_vertical {
+        image.flip_vertical_in_place();
     }
-    Ok(Value::image(image))
+    Ok(Value::new(image))
 }

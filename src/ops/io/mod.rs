@@ -6,6 +6,6 @@ pub mod save;
 use crate::engine::registry::Registry;
 
 pub fn register(r: &mut Registry) {
-    r.register(&load_hdr::SPEC);
-    r.register(&save::SPEC);
+    r.register(load_hdr::spec());
+    r.register(save::spec());
 }

@@ -12,253 +12,90 @@
 //! The operator only encodes: the engine writes the bytes atomically into `--out`, and refuses
 //! paths that are absolute or leave that folder. Encoding is cached like any result.
 
-use std::fmt::Write as _;
+use crate::data::Image;
+use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec, OutputType};
+use crate::engine::params::OutputPath;
+use crate::engine::value::{FileBlob, SaveOptions, Value, ValueType, FILE};
 
-use crate::data::{Curves, Distribution2D, Image, Metrics, SampleSet};
-use crate::engine::op::{
-    CheckContext, CheckProblem, Default, FieldKind, FieldSpec, OpContext, OpError, OpSpec, OutputType,
-};
-use crate::engine::scheduler::check_output_path;
-use crate::engine::value::{FileBlob, Value, ValueType};
-use crate::formats;
-
-pub static SPEC: OpSpec = OpSpec {
-    name: "Save",
-    category: "io",
-    version: 1,
-    doc: "Write a value to a file in the output folder; the format follows the extension",
-    fields: &[
-        FieldSpec::input(
-            "input",
-            &[
-                ValueType::Image,
-                ValueType::ScalarField,
-                ValueType::Distribution,
-                ValueType::Samples,
-                ValueType::Curves,
-                ValueType::Metrics,
-            ],
-            "the value to write",
-        ),
-        FieldSpec {
-            name: "path",
-            kind: FieldKind::Text,
-            default: Default::Required,
-            doc: "file name relative to the output folder (--out); no `..`, not absolute",
-        },
-        FieldSpec {
-            name: "exposure",
-            kind: FieldKind::Float { min: -64.0, max: 64.0 },
-            default: Default::Float(0.0),
-            doc: "exposure in stops applied before the sRGB transfer (.png only)",
-        },
-        FieldSpec {
-            name: "auto_exposure",
-            kind: FieldKind::Bool,
-            default: Default::Bool(false),
-            doc: "(.png) first scale so the 99.5th percentile of lit pixels' max channel maps to 1",
-        },
-        FieldSpec {
-            name: "plot_size",
-            kind: FieldKind::Tuple { len: 2, min: 64.0, max: 8192.0 },
-            default: Default::Tuple(&[800.0, 500.0]),
-            doc: "width and height in pixels of a curve plot (.png, .svg)",
-        },
-    ],
-    output: OutputType::Fixed(ValueType::File),
-    eval,
-    content_key: None,
-    check: Some(check),
-};
-
-fn extension(path: &str) -> String {
-    std::path::Path::new(path).extension().map(|e| e.to_string_lossy().to_lowercase()).unwrap_or_default()
-}
-
-/// Extensions accepted for each input type.
-fn formats_for(t: ValueType) -> &'static [&'static str] {
-    match t {
-        ValueType::Image | ValueType::ScalarField | ValueType::Distribution => &["png", "exr", "hdr", "pfm"],
-        ValueType::Samples => &["csv", "json"],
-        ValueType::Curves => &["json", "csv", "png", "svg"],
-        ValueType::Metrics => &["json", "csv"],
-        ValueType::File => &[],
+crate::params! {
+    pub struct SaveParams {
+        /// file name relative to the output folder (--out); no `..`, not absolute
+        pub path: OutputPath,
+        /// exposure in stops applied before the sRGB transfer (.png only)
+        #[range(-64.0, 64.0)]
+        pub exposure: f64 = 0.0,
+        /// (.png) first scale so the 99.5th percentile of lit pixels' max channel maps to 1
+        pub auto_exposure: bool = false,
+        /// width and height in pixels of a curve plot (.png, .svg)
+        #[range(64.0, 8192.0)]
+        pub plot_size: [f64; 2] = [800.0, 500.0],
     }
 }
 
-fn check(ctx: &CheckContext) -> Result<(), CheckProblem> {
-    let path = ctx.params.text("path");
-    check_output_path(path).map_err(|message| CheckProblem { field: Some("path"), message })?;
-    let t = ctx.input_types["input"];
-    let ext = extension(path);
-    let ok = formats_for(t);
+pub fn spec() -> OpSpec {
+    OpSpec::new("Save", "io", 1, "Write a value to a file in the output folder; the format follows the extension")
+        .input("input", &[], "the value to write (any type that can be saved: see the type list in `hdrflow ops`)")
+        .output("file", OutputType::Fixed(ValueType(&FILE)), "the encoded file (the engine writes it into --out)")
+        .code(crate::this_file!())
+        .eval(eval)
+        .check(check)
+}
+
+fn check(ctx: &CheckContext, p: SaveParams) -> Result<(), CheckProblem> {
+    let Some(t) = ctx.input_type("input") else { return Ok(()) };
+    let ext = p.path.extension();
+    let ok = t.spec().save_extensions;
+    if ok.is_empty() {
+        return Err(CheckProblem::at("input", format!("a value of type {t} cannot be saved")));
+    }
     if !ok.contains(&ext.as_str()) {
-        return Err(CheckProblem {
-            field: Some("path"),
-            message: format!(
-                "cannot save a {t} as {:?}: use one of {}",
+        return Err(CheckProblem::at(
+            "path",
+            format!(
+                "cannot save a value of type {t} as {:?}: use one of {}",
                 if ext.is_empty() { "(no extension)".to_string() } else { format!(".{ext}") },
                 ok.iter().map(|e| format!(".{e}")).collect::<Vec<_>>().join(", ")
             ),
-        });
+        ));
     }
     Ok(())
 }
 
-fn eval(ctx: &OpContext) -> Result<Value, OpError> {
-    let rel_path = ctx.params.text("path").to_string();
-    let ext = extension(&rel_path);
+fn eval(ctx: &mut OpContext, p: SaveParams) -> Result<Value, OpError> {
+    let rel_path = p.path.0.clone();
+    let value = ctx.input("input");
     let fail = |m: String| OpError::Invalid(format!("encoding {rel_path}: {m}"));
-    let bytes = match ctx.input("input") {
-        Value::Image(img) => encode_image(img, &ext, exposure(ctx, img)).map_err(fail)?,
-        Value::Distribution(d) => {
-            let img = pdf_image(d);
-            encode_image(&img, &ext, exposure(ctx, &img)).map_err(fail)?
+    let save =
+        value.value_type().spec().save.ok_or_else(|| fail(format!("a {} cannot be saved", value.value_type())))?;
+    let mut exposure = p.exposure;
+    if p.auto_exposure {
+        if let Some(img) = value.get::<Image>() {
+            exposure += auto_exposure(img);
+        } else if let Some(d) = value.get::<crate::data::Distribution2D>() {
+            exposure += auto_exposure(&crate::types::distribution::pdf_image(d));
         }
-        Value::Samples(s) => match ext.as_str() {
-            "csv" => samples_csv(s).into_bytes(),
-            _ => samples_json(s).into_bytes(),
-        },
-        Value::Curves(c) => {
-            let [w, h] = ctx.params.vec2("plot_size");
-            match ext.as_str() {
-                "json" => curves_json(c).into_bytes(),
-                "csv" => curves_csv(c).into_bytes(),
-                "svg" => crate::plotting::curves_plot::plot_svg(c, w as u32, h as u32).map_err(fail)?.into_bytes(),
-                _ => crate::plotting::curves_plot::plot_png(c, w as u32, h as u32).map_err(fail)?,
-            }
-        }
-        Value::Metrics(m) => match ext.as_str() {
-            "csv" => metrics_csv(m).into_bytes(),
-            _ => metrics_json(m).into_bytes(),
-        },
-        Value::File(_) => return Err(OpError::Invalid("cannot save a file value".into())),
+    }
+    let options = SaveOptions {
+        ext: p.path.extension(),
+        exposure,
+        plot_size: (p.plot_size[0] as u32, p.plot_size[1] as u32),
+        extra: Vec::new(),
     };
-    Ok(Value::File(std::sync::Arc::new(FileBlob { rel_path, bytes })))
+    let bytes = save(value, &options).map_err(fail)?;
+    Ok(Value::new(FileBlob { rel_path, bytes }))
 }
 
-/// The exposure in stops for a PNG: the `exposure` field, plus with `auto_exposure` the stops
-/// that bring the 99.5th percentile of the non-black pixels' max channel to 1.0.
-fn exposure(ctx: &OpContext, img: &Image) -> f64 {
-    let mut stops = ctx.params.f64("exposure");
-    if ctx.params.bool("auto_exposure") {
-        let mut lit: Vec<f32> = (0..img.height)
-            .flat_map(|y| (0..img.width).map(move |x| (x, y)))
-            .map(|(x, y)| img.rgb(x, y).into_iter().fold(0.0f32, f32::max))
-            .filter(|v| *v > 0.0 && v.is_finite())
-            .collect();
-        if !lit.is_empty() {
-            let k = ((lit.len() - 1) as f64 * 0.995) as usize;
-            let (_, p, _) = lit.select_nth_unstable_by(k, f32::total_cmp);
-            stops -= (*p as f64).log2();
-        }
-    }
-    stops
-}
-
-fn encode_image(img: &Image, ext: &str, exposure: f64) -> Result<Vec<u8>, String> {
-    match ext {
-        "png" => formats::png::encode(img, exposure).map_err(|e| e.0),
-        "exr" => formats::exr::encode(img).map_err(|e| e.0),
-        "hdr" => Ok(formats::rgbe::encode(img)),
-        "pfm" => Ok(formats::pfm::encode(img)),
-        other => Err(format!("unsupported image extension .{other}")),
-    }
-}
-
-/// The distribution's solid-angle pdf per texel, as a scalar field.
-fn pdf_image(d: &Distribution2D) -> Image {
-    let mut img = Image::new(d.width, d.height, 1);
-    for y in 0..d.height {
-        for x in 0..d.width {
-            img.data[y * d.width + x] = d.pdf(x, y) as f32;
-        }
-    }
-    img
-}
-
-/// A JSON number, or `null` for NaN and infinities (JSON has neither).
-fn num(v: f64) -> serde_json::Value {
-    serde_json::Number::from_f64(v).map(serde_json::Value::Number).unwrap_or(serde_json::Value::Null)
-}
-
-fn samples_csv(s: &SampleSet) -> String {
-    let mut out = String::with_capacity(s.samples.len() * 96);
-    out.push_str("index,x,y,theta,phi,dx,dy,dz,pdf\n");
-    for (i, p) in s.samples.iter().enumerate() {
-        let _ =
-            writeln!(out, "{i},{},{},{},{},{},{},{},{}", p.x, p.y, p.theta, p.phi, p.dir[0], p.dir[1], p.dir[2], p.pdf);
-    }
-    out
-}
-
-fn samples_json(s: &SampleSet) -> String {
-    let samples: Vec<serde_json::Value> = s
-        .samples
-        .iter()
-        .map(|p| {
-            serde_json::json!({
-                "x": p.x, "y": p.y, "theta": num(p.theta as f64), "phi": num(p.phi as f64),
-                "dx": num(p.dir[0] as f64), "dy": num(p.dir[1] as f64), "dz": num(p.dir[2] as f64),
-                "pdf": num(p.pdf as f64),
-            })
-        })
+/// The stops that bring the 99.5th percentile of the non-black pixels' max channel to 1.0.
+fn auto_exposure(img: &Image) -> f64 {
+    let mut lit: Vec<f32> = (0..img.height)
+        .flat_map(|y| (0..img.width).map(move |x| (x, y)))
+        .map(|(x, y)| img.rgb(x, y).into_iter().fold(0.0f32, f32::max))
+        .filter(|v| *v > 0.0 && v.is_finite())
         .collect();
-    let v = serde_json::json!({ "width": s.width, "height": s.height, "count": s.samples.len(), "samples": samples });
-    serde_json::to_string_pretty(&v).expect("JSON of plain values") + "\n"
-}
-
-fn curves_json(c: &Curves) -> String {
-    let mut map = serde_json::Map::new();
-    for (name, v) in &c.scalars {
-        map.insert(name.clone(), v.map(num).unwrap_or(serde_json::Value::Null));
+    if lit.is_empty() {
+        return 0.0;
     }
-    map.insert(c.x_name.clone(), c.x.iter().map(|&v| num(v)).collect());
-    for (name, ys) in &c.series {
-        map.insert(name.clone(), ys.iter().map(|&v| num(v)).collect());
-    }
-    serde_json::to_string_pretty(&serde_json::Value::Object(map)).expect("JSON of plain values") + "\n"
-}
-
-/// Curves as CSV: scalars as leading `# name=value` comment lines, then one row per x.
-fn curves_csv(c: &Curves) -> String {
-    let mut out = String::new();
-    for (name, v) in &c.scalars {
-        match v {
-            Some(v) => {
-                let _ = writeln!(out, "# {name}={v}");
-            }
-            None => {
-                let _ = writeln!(out, "# {name}=none");
-            }
-        }
-    }
-    out.push_str(&c.x_name);
-    for (name, _) in &c.series {
-        out.push(',');
-        out.push_str(name);
-    }
-    out.push('\n');
-    for (i, x) in c.x.iter().enumerate() {
-        let _ = write!(out, "{x}");
-        for (_, ys) in &c.series {
-            let _ = write!(out, ",{}", ys[i]);
-        }
-        out.push('\n');
-    }
-    out
-}
-
-fn metrics_json(m: &Metrics) -> String {
-    let mut map = serde_json::Map::new();
-    for (name, v) in &m.fields {
-        map.insert(name.clone(), num(*v));
-    }
-    serde_json::to_string_pretty(&serde_json::Value::Object(map)).expect("JSON of plain values") + "\n"
-}
-
-fn metrics_csv(m: &Metrics) -> String {
-    let names: Vec<&str> = m.fields.iter().map(|(n, _)| n.as_str()).collect();
-    let values: Vec<String> = m.fields.iter().map(|(_, v)| v.to_string()).collect();
-    format!("{}\n{}\n", names.join(","), values.join(","))
+    let k = ((lit.len() - 1) as f64 * 0.995) as usize;
+    let (_, p, _) = lit.select_nth_unstable_by(k, f32::total_cmp);
+    -(*p as f64).log2()
 }

@@ -5,5 +5,5 @@ pub mod fresnel;
 use crate::engine::registry::Registry;
 
 pub fn register(r: &mut Registry) {
-    r.register(&fresnel::SPEC);
+    r.register(fresnel::spec());
 }

@@ -3,38 +3,35 @@
 //! zero rows, black maps, NaN/Inf/negative texels and 1xN maps do).
 
 use crate::data::Distribution2D;
-use crate::engine::op::{Default, FieldKind, FieldSpec, OpContext, OpError, OpSpec, OutputType};
-use crate::engine::value::{Value, ValueType};
+use crate::data::Image;
+use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
+use crate::engine::value::Value;
+use crate::types::ty::*;
 
-pub static SPEC: OpSpec = OpSpec {
-    name: "BuildCdf",
-    category: "sampling",
-    version: 1,
-    doc: "Importance-sampling distribution of a lat-long map: marginal over rows, conditional per row (f64)",
-    fields: &[
-        FieldSpec::input("luminance", &[ValueType::ScalarField], "the lat-long luminance (Luminance of the map)"),
-        FieldSpec {
-            name: "sin_theta",
-            kind: FieldKind::Bool,
-            default: Default::Bool(true),
-            doc: "weight texels by sin(theta), their solid angle; false reproduces the seed's comparison",
-        },
-        FieldSpec {
-            name: "sanitize",
-            kind: FieldKind::Bool,
-            default: Default::Bool(false),
-            doc: "treat NaN and negative texels as 0 and +Inf as the largest float instead of failing",
-        },
-    ],
-    output: OutputType::Fixed(ValueType::Distribution),
-    eval,
-    content_key: None,
-    check: None,
-};
+crate::params! {
+    pub struct BuildCdfParams {
+        /// weight texels by sin(theta), their solid angle; false reproduces the seed's comparison
+        pub sin_theta: bool = true,
+        /// treat NaN and negative texels as 0 and +Inf as the largest float instead of failing
+        pub sanitize: bool = false,
+    }
+}
 
-fn eval(ctx: &OpContext) -> Result<Value, OpError> {
-    let lum = ctx.image("luminance");
-    let dist = Distribution2D::build(lum, ctx.params.bool("sin_theta"), ctx.params.bool("sanitize"))
-        .map_err(|e| OpError::Invalid(e.to_string()))?;
-    Ok(Value::Distribution(std::sync::Arc::new(dist)))
+pub fn spec() -> OpSpec {
+    OpSpec::new(
+        "BuildCdf",
+        "sampling",
+        1,
+        "Importance-sampling distribution of a lat-long map: marginal over rows, conditional per row (f64)",
+    )
+    .input("luminance", &[SCALAR_T], "the lat-long luminance (Luminance of the map)")
+    .output("cdf", OutputType::Fixed(DISTRIBUTION_T), "the distribution")
+    .code(crate::this_file!())
+    .eval(eval)
+}
+
+fn eval(ctx: &mut OpContext, p: BuildCdfParams) -> Result<Value, OpError> {
+    let lum: &Image = ctx.get("luminance");
+    let dist = Distribution2D::build(lum, p.sin_theta, p.sanitize).map_err(|e| OpError::Invalid(e.to_string()))?;
+    Ok(Value::new(dist))
 }

@@ -9,57 +9,49 @@
 use rayon::prelude::*;
 
 use crate::data::{Sample, SampleSet};
-use crate::engine::op::{Default, FieldKind, FieldSpec, OpContext, OpError, OpSpec, OutputType};
-use crate::engine::value::{Value, ValueType};
+use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
+use crate::engine::value::Value;
 use crate::maths::{latlong, phong, sequences};
+use crate::types::ty::*;
 
-use super::{count_field, sequence_of, SEED_FIELD, SEQUENCE_FIELD};
+crate::params! {
+    pub struct PhongSampleParams {
+        /// Phong exponent s (0 = cosine-free uniform hemisphere lobe)
+        #[range(0.0, 1e9)]
+        pub exponent: f64,
+        /// number of samples
+        #[range(1, 1 << 24)]
+        pub count: usize = 1024,
+        /// random seed: the same seed gives the same samples, whatever --jobs
+        pub seed: u64 = 1,
+        /// surface normal (normalised here)
+        #[range(-1e6, 1e6)]
+        pub normal: [f64; 3] = [0.0, 0.0, -1.0],
+        /// direction from the surface towards the viewer (normalised here)
+        #[range(-1e6, 1e6)]
+        pub view: [f64; 3] = [0.0, 0.0, -1.0],
+        /// Random (seeded PCG), Stratified (jittered grid / Latin hypercube), Sobol (Owen-scrambled), Halton
+        pub sequence: sequences::Sequence = sequences::Sequence::Random,
+        /// lat-long grid width for texel indices
+        #[range(1, 1 << 15)]
+        pub width: usize = 512,
+        /// lat-long grid height for texel indices
+        #[range(1, 1 << 15)]
+        pub height: usize = 256,
+    }
+}
 
-pub static SPEC: OpSpec = OpSpec {
-    name: "PhongSample",
-    category: "sampling",
-    version: 1,
-    doc: "Draw directions from a modified Phong lobe cos^s around the mirror direction",
-    fields: &[
-        FieldSpec {
-            name: "exponent",
-            kind: FieldKind::Float { min: 0.0, max: 1e9 },
-            default: Default::Required,
-            doc: "Phong exponent s (0 = cosine-free uniform hemisphere lobe)",
-        },
-        count_field(1024),
-        SEED_FIELD,
-        FieldSpec {
-            name: "normal",
-            kind: FieldKind::Tuple { len: 3, min: -1e6, max: 1e6 },
-            default: Default::Tuple(&[0.0, 0.0, -1.0]),
-            doc: "surface normal (normalised here)",
-        },
-        FieldSpec {
-            name: "view",
-            kind: FieldKind::Tuple { len: 3, min: -1e6, max: 1e6 },
-            default: Default::Tuple(&[0.0, 0.0, -1.0]),
-            doc: "direction from the surface towards the viewer (normalised here)",
-        },
-        SEQUENCE_FIELD,
-        FieldSpec {
-            name: "width",
-            kind: FieldKind::Int { min: 1, max: 1 << 15 },
-            default: Default::Int(512),
-            doc: "lat-long grid width for texel indices",
-        },
-        FieldSpec {
-            name: "height",
-            kind: FieldKind::Int { min: 1, max: 1 << 15 },
-            default: Default::Int(256),
-            doc: "lat-long grid height for texel indices",
-        },
-    ],
-    output: OutputType::Fixed(ValueType::Samples),
-    eval,
-    content_key: None,
-    check: None,
-};
+pub fn spec() -> OpSpec {
+    OpSpec::new(
+        "PhongSample",
+        "sampling",
+        1,
+        "Draw directions from a modified Phong lobe cos^s around the mirror direction",
+    )
+    .output("samples", OutputType::Fixed(SAMPLES_T), "the samples")
+    .code(crate::this_file!())
+    .eval(eval)
+}
 
 fn normalised(v: [f64; 3], what: &str) -> Result<[f64; 3], OpError> {
     let len = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
@@ -69,13 +61,13 @@ fn normalised(v: [f64; 3], what: &str) -> Result<[f64; 3], OpError> {
     Ok(v.map(|c| c / len))
 }
 
-fn eval(ctx: &OpContext) -> Result<Value, OpError> {
-    let normal = normalised(ctx.params.vec3("normal"), "normal")?;
-    let view = normalised(ctx.params.vec3("view"), "view")?;
+fn eval(_: &mut OpContext, p: PhongSampleParams) -> Result<Value, OpError> {
+    let normal = normalised(p.normal, "normal")?;
+    let view = normalised(p.view, "view")?;
     let axis = phong::mirror(view, normal);
-    let s = ctx.params.f64("exponent");
-    let (w, h) = (ctx.params.usize("width"), ctx.params.usize("height"));
-    let points = sequences::generate(sequence_of(ctx), ctx.params.usize("count"), ctx.params.int("seed") as u64);
+    let s = p.exponent;
+    let (w, h) = (p.width, p.height);
+    let points = sequences::generate(p.sequence, p.count, p.seed);
     let samples: Vec<Sample> = points
         .par_iter()
         .map(|&[u1, u2]| {
@@ -85,5 +77,5 @@ fn eval(ctx: &OpContext) -> Result<Value, OpError> {
             Sample::new(x, y, theta, phi, d, pdf)
         })
         .collect();
-    Ok(Value::Samples(std::sync::Arc::new(SampleSet { width: w as u32, height: h as u32, samples })))
+    Ok(Value::new(SampleSet { width: w as u32, height: h as u32, samples, luminance_integral: None }))
 }

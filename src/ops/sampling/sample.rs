@@ -8,32 +8,34 @@
 use rayon::prelude::*;
 
 use crate::data::{Distribution2D, Sample, SampleSet};
-use crate::engine::op::{FieldSpec, OpContext, OpError, OpSpec, OutputType};
-use crate::engine::value::{Value, ValueType};
+use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
+use crate::engine::value::Value;
 use crate::maths::{latlong, sequences};
+use crate::types::ty::*;
 
-use super::{count_field, sequence_of, SEED_FIELD, SEQUENCE_FIELD};
+crate::params! {
+    pub struct SampleParams {
+        /// number of samples
+        #[range(1, 1 << 24)]
+        pub count: usize = 256,
+        /// random seed: the same seed gives the same samples, whatever --jobs
+        pub seed: u64 = 1,
+        /// Random (seeded PCG), Stratified (jittered grid / Latin hypercube), Sobol (Owen-scrambled), Halton
+        pub sequence: sequences::Sequence = sequences::Sequence::Random,
+    }
+}
 
-pub static SPEC: OpSpec = OpSpec {
-    name: "Sample",
-    category: "sampling",
-    version: 1,
-    doc: "Draw directions from an environment distribution, with their solid-angle pdf",
-    fields: &[
-        FieldSpec::input("cdf", &[ValueType::Distribution], "the distribution (BuildCdf)"),
-        count_field(256),
-        SEED_FIELD,
-        SEQUENCE_FIELD,
-    ],
-    output: OutputType::Fixed(ValueType::Samples),
-    eval,
-    content_key: None,
-    check: None,
-};
+pub fn spec() -> OpSpec {
+    OpSpec::new("Sample", "sampling", 1, "Draw directions from an environment distribution, with their solid-angle pdf")
+        .input("cdf", &[DISTRIBUTION_T], "the distribution (BuildCdf)")
+        .output("samples", OutputType::Fixed(SAMPLES_T), "the samples")
+        .code(crate::this_file!())
+        .eval(eval)
+}
 
-fn eval(ctx: &OpContext) -> Result<Value, OpError> {
-    let set = draw(ctx.distribution("cdf"), sequence_of(ctx), ctx.params.usize("count"), ctx.params.int("seed") as u64);
-    Ok(Value::Samples(std::sync::Arc::new(set)))
+fn eval(ctx: &mut OpContext, p: SampleParams) -> Result<Value, OpError> {
+    let set = draw(ctx.get::<Distribution2D>("cdf"), p.sequence, p.count, p.seed);
+    Ok(Value::new(set))
 }
 
 /// The operator's work, callable from code: `count` texel-centre samples of `dist`.
@@ -50,5 +52,10 @@ pub fn draw(dist: &Distribution2D, sequence: sequences::Sequence, count: usize, 
             Sample::new(x, y, theta, phi, d, pdf)
         })
         .collect();
-    SampleSet { width: w as u32, height: h as u32, samples }
+    SampleSet {
+        width: w as u32,
+        height: h as u32,
+        samples,
+        luminance_integral: dist.carries_light.then_some(dist.luminance_integral),
+    }
 }

@@ -1,4 +1,8 @@
 //! Shading: relighting objects with an environment.
+//!
+//! Every sphere renderer takes the same `size`, `albedo` and `view` fields (declared in each
+//! operator's parameter struct with the same ranges and defaults), so that their images compare
+//! pixel for pixel.
 
 pub mod per_pixel_sphere;
 pub mod reference_sphere;
@@ -6,34 +10,32 @@ pub mod relight_sphere;
 pub mod sh_irradiance;
 pub mod sh_sphere;
 
+use crate::engine::params::Choice;
 use crate::engine::registry::Registry;
+use crate::maths::latlong;
+use crate::maths::per_pixel::PerPixelStrategy;
+use crate::maths::relight::SphereView;
 
 pub fn register(r: &mut Registry) {
-    r.register(&relight_sphere::SPEC);
-    r.register(&reference_sphere::SPEC);
-    r.register(&sh_irradiance::SPEC);
-    r.register(&sh_sphere::SPEC);
-    r.register(&per_pixel_sphere::SPEC);
+    r.register(relight_sphere::spec());
+    r.register(reference_sphere::spec());
+    r.register(sh_irradiance::spec());
+    r.register(sh_sphere::spec());
+    r.register(per_pixel_sphere::spec());
 }
 
-use crate::engine::op::{Default, FieldKind, FieldSpec};
+/// The sphere seen from `view` = (theta, phi) in degrees, inscribed in a `size` x `size` image.
+pub(crate) fn sphere_view(size: usize, view: [f64; 2]) -> SphereView {
+    SphereView::new(size, latlong::direction_deg(view[0], view[1]))
+}
 
-/// The fields every sphere renderer shares, so that their images compare pixel for pixel.
-pub(crate) const SIZE_FIELD: FieldSpec = FieldSpec {
-    name: "size",
-    kind: FieldKind::Int { min: 1, max: 1 << 14 },
-    default: Default::Int(256),
-    doc: "image width and height",
-};
-pub(crate) const ALBEDO_FIELD: FieldSpec = FieldSpec {
-    name: "albedo",
-    kind: FieldKind::Tuple { len: 3, min: 0.0, max: 1.0 },
-    default: Default::Tuple(&[1.0, 1.0, 1.0]),
-    doc: "diffuse albedo (RGB)",
-};
-pub(crate) const VIEW_FIELD: FieldSpec = FieldSpec {
-    name: "view",
-    kind: FieldKind::Tuple { len: 2, min: -360.0, max: 360.0 },
-    default: Default::Tuple(&[90.0, 90.0]),
-    doc: "camera direction (theta, phi) in degrees, lat-long convention; the seed's is (90, 90)",
-};
+impl Choice for PerPixelStrategy {
+    const NAMES: &'static [&'static str] = PerPixelStrategy::NAMES;
+    fn from_name(name: &str) -> Option<Self> {
+        PerPixelStrategy::from_name(name)
+    }
+    fn name(self) -> &'static str {
+        PerPixelStrategy::name(self)
+    }
+}
+crate::choice_param!(PerPixelStrategy);

@@ -13,59 +13,59 @@
 //! `RelightSphere`. The image is a pure function of `seed` (per-pixel SplitMix64 streams),
 //! whatever `--jobs`.
 
-use super::{ALBEDO_FIELD, SIZE_FIELD, VIEW_FIELD};
-use crate::engine::op::{Default, FieldKind, FieldSpec, OpContext, OpError, OpSpec, OutputType};
-use crate::engine::value::{Value, ValueType};
-use crate::maths::latlong;
+use super::sphere_view;
+use crate::data::Distribution2D;
+use crate::data::Image;
+use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
+use crate::engine::params::Rgb;
+use crate::engine::value::Value;
 use crate::maths::per_pixel::{relight_per_pixel, PerPixelStrategy};
-use crate::maths::relight::SphereView;
+use crate::types::ty::*;
 
-pub static SPEC: OpSpec = OpSpec {
-    name: "PerPixelSphere",
-    category: "shading",
-    version: 1,
-    doc: "Relight a diffuse sphere with independent samples per pixel (Environment, Cosine, Uniform or MIS)",
-    fields: &[
-        FieldSpec::input("env", &[ValueType::Image], "the lat-long environment (linear RGB)"),
-        FieldSpec::input("cdf", &[ValueType::Distribution], "the environment's distribution (BuildCdf), same size as env"),
-        SIZE_FIELD,
-        ALBEDO_FIELD,
-        VIEW_FIELD,
-        FieldSpec {
-            name: "strategy",
-            kind: FieldKind::Choice(PerPixelStrategy::NAMES),
-            default: Default::Choice("Environment"),
-            doc: "Environment (cdf texels), Cosine (cosine hemisphere), Uniform (sphere), Mis (balance heuristic of the first two)",
-        },
-        FieldSpec { name: "spp", kind: FieldKind::Int { min: 1, max: 1 << 20 }, default: Default::Int(16), doc: "samples per pixel (Mis: pairs)" },
-        FieldSpec {
-            name: "seed",
-            kind: FieldKind::Int { min: 0, max: i64::MAX },
-            default: Default::Int(1),
-            doc: "random seed: the same seed gives the same image, whatever --jobs",
-        },
-    ],
-    output: OutputType::Fixed(ValueType::Image),
-    eval,
-    content_key: None,
-    check: None,
-};
+crate::params! {
+    pub struct PerPixelParams {
+        /// image width and height
+        #[range(1, 1 << 14)]
+        pub size: usize = 256,
+        /// diffuse albedo (RGB, or a single number for grey)
+        #[range(0.0, 1.0)]
+        pub albedo: Rgb = Rgb([1.0, 1.0, 1.0]),
+        /// camera direction (theta, phi) in degrees, lat-long convention; the seed's is (90, 90)
+        #[range(-360.0, 360.0)]
+        pub view: [f64; 2] = [90.0, 90.0],
+        /// Environment (cdf texels), Cosine (cosine hemisphere), Uniform (sphere), Mis (balance heuristic of the first two)
+        pub strategy: PerPixelStrategy = PerPixelStrategy::Environment,
+        /// samples per pixel (Mis: pairs)
+        #[range(1, 1 << 20)]
+        pub spp: usize = 16,
+        /// random seed: the same seed gives the same image, whatever --jobs
+        pub seed: u64 = 1,
+    }
+}
 
-fn eval(ctx: &OpContext) -> Result<Value, OpError> {
-    let env = ctx.image("env");
-    let dist = ctx.distribution("cdf");
+pub fn spec() -> OpSpec {
+    OpSpec::new(
+        "PerPixelSphere",
+        "shading",
+        1,
+        "Relight a diffuse sphere with independent samples per pixel (Environment, Cosine, Uniform or MIS)",
+    )
+    .input("env", &[IMAGE_T], "the lat-long environment (linear RGB)")
+    .input("cdf", &[DISTRIBUTION_T], "the environment's distribution (BuildCdf), same size as env")
+    .output("image", OutputType::Fixed(IMAGE_T), "the relit sphere")
+    .code(crate::this_file!())
+    .eval(eval)
+}
+
+fn eval(ctx: &mut OpContext, p: PerPixelParams) -> Result<Value, OpError> {
+    let env: &Image = ctx.get("env");
+    let dist: &Distribution2D = ctx.get("cdf");
     if (dist.width, dist.height) != (env.width, env.height) {
         return Err(OpError::Invalid(format!(
             "the distribution is over a {}x{} map but env is {}x{}: build it from this env",
             dist.width, dist.height, env.width, env.height
         )));
     }
-    let strategy = PerPixelStrategy::from_name(ctx.params.text("strategy")).expect("validated choice");
-    let size = ctx.params.usize("size");
-    let albedo = ctx.params.vec3("albedo");
-    let [vt, vp] = ctx.params.vec2("view");
-    let spp = ctx.params.usize("spp");
-    let seed = ctx.params.int("seed") as u64;
-    let view = SphereView::new(size, latlong::direction_deg(vt, vp));
-    Ok(Value::image(relight_per_pixel(env, dist, &view, albedo, strategy, spp, seed)))
+    let view = sphere_view(p.size, p.view);
+    Ok(Value::new(relight_per_pixel(env, dist, &view, p.albedo.0, p.strategy, p.spp, p.seed)))
 }

@@ -8,29 +8,40 @@
 //! Cost: O(pixels x lit texels), a brute-force sum made fast by culling and SIMD (a 256 x 256
 //! sphere under a 1024 x 512 map takes ~1-2 s on 2 cores).
 
-use super::{ALBEDO_FIELD, SIZE_FIELD, VIEW_FIELD};
-use crate::engine::op::{FieldSpec, OpContext, OpError, OpSpec, OutputType};
-use crate::engine::value::{Value, ValueType};
-use crate::maths::latlong;
+use super::sphere_view;
+use crate::data::Image;
+use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
+use crate::engine::params::Rgb;
+use crate::engine::value::Value;
 use crate::maths::reference::{first_non_finite, reference_sphere};
-use crate::maths::relight::SphereView;
+use crate::types::ty::*;
 
-pub static SPEC: OpSpec = OpSpec {
-    name: "ReferenceSphere",
-    category: "shading",
-    version: 1,
-    doc: "The exact relit diffuse sphere: (albedo/pi) * sum over every texel of L dOmega max(n.d, 0)",
-    fields: &[
-        FieldSpec::input("env", &[ValueType::Image], "the lat-long environment (linear RGB)"),
-        SIZE_FIELD,
-        ALBEDO_FIELD,
-        VIEW_FIELD,
-    ],
-    output: OutputType::Fixed(ValueType::Image),
-    eval,
-    content_key: None,
-    check: None,
-};
+crate::params! {
+    pub struct ReferenceParams {
+        /// image width and height
+        #[range(1, 1 << 14)]
+        pub size: usize = 256,
+        /// diffuse albedo (RGB, or a single number for grey)
+        #[range(0.0, 1.0)]
+        pub albedo: Rgb = Rgb([1.0, 1.0, 1.0]),
+        /// camera direction (theta, phi) in degrees, lat-long convention; the seed's is (90, 90)
+        #[range(-360.0, 360.0)]
+        pub view: [f64; 2] = [90.0, 90.0],
+    }
+}
+
+pub fn spec() -> OpSpec {
+    OpSpec::new(
+        "ReferenceSphere",
+        "shading",
+        1,
+        "The exact relit diffuse sphere: (albedo/pi) * sum over every texel of L dOmega max(n.d, 0)",
+    )
+    .input("env", &[IMAGE_T], "the lat-long environment (linear RGB)")
+    .output("image", OutputType::Fixed(IMAGE_T), "the exactly relit sphere")
+    .code(crate::this_file!())
+    .eval(eval)
+}
 
 /// An error naming the first NaN or infinite texel of `env`, if any (shared by the shading
 /// operators that sum over the whole map).
@@ -43,14 +54,10 @@ pub(crate) fn check_finite(env: &crate::data::Image) -> Result<(), OpError> {
     }
 }
 
-fn eval(ctx: &OpContext) -> Result<Value, OpError> {
-    let env = ctx.image("env");
+fn eval(ctx: &mut OpContext, p: ReferenceParams) -> Result<Value, OpError> {
+    let env: &Image = ctx.get("env");
     check_finite(env)?;
-    let size = ctx.params.usize("size");
-    let albedo = ctx.params.vec3("albedo");
-    let [vt, vp] = ctx.params.vec2("view");
-    let view = SphereView::new(size, latlong::direction_deg(vt, vp));
-    Ok(Value::image(reference_sphere(env, &view, albedo)))
+    Ok(Value::new(reference_sphere(env, &sphere_view(p.size, p.view), p.albedo.0)))
 }
 
 /// The five measurement operators wired in one pipeline (parse, validate, run), under the
@@ -62,12 +69,13 @@ mod tests {
     use std::path::Path;
 
     use crate::engine::graph::Pipeline;
-    use crate::engine::registry::Registry;
+
+    use crate::data::{Image, Metrics};
     use crate::engine::scheduler::{self, RunOptions, Silent};
     use crate::engine::value::Value;
 
     fn run(text: &str, targets: &[&str]) -> Result<BTreeMap<String, Value>, String> {
-        let registry = Registry::with_builtins();
+        let registry = crate::ops::builtin_registry();
         let p = Pipeline::parse(text, "test.ron", Path::new("."), &registry, &[]).map_err(|e| e.to_string())?;
         let out = std::env::temp_dir().join(format!("hdrflow-reference-sphere-test-{}", std::process::id()));
         let options = RunOptions {
@@ -98,14 +106,14 @@ mod tests {
     },
 )"#;
         let v = run(text, &["ref", "coeffs", "err", "err_sh", "err_mis"]).expect("runs");
-        let reference = v["ref"].as_image().unwrap();
+        let reference = v["ref"].get::<Image>().unwrap();
         assert_eq!((reference.width, reference.height, reference.channels), (24, 24, 3));
         let centre = reference.pixel(12, 12);
         for (ch, a) in [0.8f32, 0.5, 0.25].iter().enumerate() {
             // Midpoint rule on the 64 x 32 map: ~(pi/32)^2 / 6 = 1.6e-3 at worst.
             assert!((centre[ch] / a - 1.0).abs() < 2e-3, "{centre:?}");
         }
-        let coeffs = v["coeffs"].as_metrics().unwrap();
+        let coeffs = v["coeffs"].get::<Metrics>().unwrap();
         assert_eq!(coeffs.fields.len(), 27);
         assert_eq!(coeffs.fields[0].0, "L_0_0_r");
         assert_eq!(coeffs.fields[3].0, "L_1_-1_r");
@@ -113,15 +121,15 @@ mod tests {
         assert!((l00 / (2.0 * std::f64::consts::PI.sqrt()) - 1.0).abs() < 2e-3, "{l00}");
         assert!(coeffs.get("L_2_0_b").unwrap().abs() < 1e-2);
 
-        let err = v["err"].as_metrics().unwrap();
+        let err = v["err"].get::<Metrics>().unwrap();
         let disc = err.get("pixels").unwrap();
         assert!(disc > 0.7 * 576.0 && disc < 0.85 * 576.0, "{disc}");
         // Cosine on a constant map is exact; only the reference's midpoint rule differs.
         assert!(err.get("relative_rmse").unwrap() < 2e-3, "{:?}", err.fields);
-        let err_sh = v["err_sh"].as_metrics().unwrap();
+        let err_sh = v["err_sh"].get::<Metrics>().unwrap();
         assert_eq!(err_sh.get("pixels"), Some(576.0));
         assert!(err_sh.get("relative_rmse").unwrap() < 3e-3, "{:?}", err_sh.fields);
-        let err_mis = v["err_mis"].as_metrics().unwrap();
+        let err_mis = v["err_mis"].get::<Metrics>().unwrap();
         assert!(err_mis.get("relative_rmse").unwrap() < 0.5, "{:?}", err_mis.fields);
     }
 

@@ -7,8 +7,9 @@
 //!   Carlo estimate of (albedo/pi) * integral of L(w) max(n.w, 0) dw. Its expectation is the
 //!   exact sum over texels that `ReferenceSphere` computes.
 //! - `Seed`: the seed's formula exactly, L = (integral of L dw / N) * sum_j (1/pi) max(cos, 0) V_j
-//!   with V_j = rgb_j / |rgb_j| (times albedo). The integral is that of the map's Rec. 709
-//!   luminance over the sphere. Against `Unbiased` with a luminance-proportional pdf (where
+//!   with V_j = rgb_j / |rgb_j| (times albedo). The integral is that of the Rec. 709 luminance
+//!   of the map the samples' distribution was built from (`SampleSet::luminance_integral`), so
+//!   samples drawn from a distribution over another resolution scale correctly. Against `Unbiased` with a luminance-proportional pdf (where
 //!   L/pdf = rgb/Y * integral), it replaces rgb/Y by rgb/|rgb|: for grey light |rgb| = sqrt(3) Y,
 //!   so the seed is sqrt(3) = 1.73x too dark, and its hue shifts towards the dominant channel.
 //!
@@ -16,36 +17,55 @@
 //! pixel sees the same direction), pixels off the disc cost nothing, and samples behind a
 //! pixel's surface add nothing (max(cos, 0)).
 
-use super::{ALBEDO_FIELD, SIZE_FIELD, VIEW_FIELD};
-use crate::data::{Image, SampleSet};
-use crate::engine::op::{Default, FieldKind, FieldSpec, OpContext, OpError, OpSpec, OutputType};
-use crate::engine::value::{Value, ValueType};
+use super::sphere_view;
+use crate::data::Image;
+use crate::data::SampleSet;
+use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
+use crate::engine::params::Rgb;
+use crate::engine::value::Value;
 use crate::maths::latlong;
 use crate::maths::relight::{merge_duplicates, relight, Estimator, LightSample, SphereView};
+use crate::types::ty::*;
 
-pub static SPEC: OpSpec = OpSpec {
-    name: "RelightSphere",
-    category: "shading",
-    version: 1,
-    doc: "Relight a diffuse sphere with an environment through shared light samples",
-    fields: &[
-        FieldSpec::input("env", &[ValueType::Image], "the lat-long environment (linear RGB)"),
-        FieldSpec::input("samples", &[ValueType::Samples], "light samples (Sample), shared by every pixel"),
-        SIZE_FIELD,
-        ALBEDO_FIELD,
-        VIEW_FIELD,
-        FieldSpec {
-            name: "estimator",
-            kind: FieldKind::Choice(&["Unbiased", "Seed"]),
-            default: Default::Choice("Unbiased"),
-            doc: "Unbiased: (albedo/pi) mean(L cos / pdf); Seed: the seed's formula exactly",
-        },
-    ],
-    output: OutputType::Fixed(ValueType::Image),
-    eval,
-    content_key: None,
-    check: None,
-};
+crate::choice! {
+    /// The relighting estimator.
+    pub enum EstimatorChoice {
+        /// (albedo/pi) mean(L cos / pdf)
+        Unbiased,
+        /// the seed's formula exactly
+        Seed,
+    }
+}
+
+crate::params! {
+    pub struct RelightParams {
+        /// image width and height
+        #[range(1, 1 << 14)]
+        pub size: usize = 256,
+        /// diffuse albedo (RGB, or a single number for grey)
+        #[range(0.0, 1.0)]
+        pub albedo: Rgb = Rgb([1.0, 1.0, 1.0]),
+        /// camera direction (theta, phi) in degrees, lat-long convention; the seed's is (90, 90)
+        #[range(-360.0, 360.0)]
+        pub view: [f64; 2] = [90.0, 90.0],
+        /// Unbiased: (albedo/pi) mean(L cos / pdf); Seed: the seed's formula exactly
+        pub estimator: EstimatorChoice = EstimatorChoice::Unbiased,
+    }
+}
+
+pub fn spec() -> OpSpec {
+    OpSpec::new(
+        "RelightSphere",
+        "shading",
+        2,
+        "Relight a diffuse sphere with an environment through shared light samples",
+    )
+    .input("env", &[IMAGE_T], "the lat-long environment (linear RGB)")
+    .input("samples", &[SAMPLES_T], "light samples (Sample), shared by every pixel")
+    .output("image", OutputType::Fixed(IMAGE_T), "the relit sphere")
+    .code(crate::this_file!())
+    .eval(eval)
+}
 
 /// The integral of the map's Rec. 709 luminance over the sphere: sum of Y * texel solid angle.
 pub fn luminance_integral(env: &Image) -> f64 {
@@ -64,18 +84,14 @@ pub fn luminance_integral(env: &Image) -> f64 {
         .sum()
 }
 
-fn eval(ctx: &OpContext) -> Result<Value, OpError> {
-    let [vt, vp] = ctx.params.vec2("view");
-    let estimator = if ctx.params.text("estimator") == "Seed" { Estimator::Seed } else { Estimator::Unbiased };
-    let image = relight_shared(
-        ctx.image("env"),
-        ctx.samples("samples"),
-        ctx.params.usize("size"),
-        ctx.params.vec3("albedo"),
-        latlong::direction_deg(vt, vp),
-        estimator,
-    )?;
-    Ok(Value::image(image))
+fn eval(ctx: &mut OpContext, p: RelightParams) -> Result<Value, OpError> {
+    let estimator = match p.estimator {
+        EstimatorChoice::Seed => Estimator::Seed,
+        EstimatorChoice::Unbiased => Estimator::Unbiased,
+    };
+    let view = sphere_view(p.size, p.view);
+    let image = relight_shared(ctx.get("env"), ctx.get("samples"), p.size, p.albedo.0, view.view_dir(), estimator)?;
+    Ok(Value::new(image))
 }
 
 /// The operator's work, callable from code (the benchmark uses it): relight a `size` x `size`
@@ -116,8 +132,14 @@ pub fn relight_shared(
             l.dir
         )));
     }
-    // The luminance integral is a full pass over the map: only the seed's formula needs it.
-    let integral = if estimator == Estimator::Seed { luminance_integral(env) } else { 0.0 };
+    // The seed's formula scales by the luminance integral of the distribution the samples were
+    // drawn from (carried by the samples: the distribution may be over another resolution or
+    // another map than `env`); samples from no map (a Phong lobe) fall back to `env`'s. Only the
+    // seed's formula needs it (a full pass over the map).
+    let integral = match estimator {
+        Estimator::Seed => set.luminance_integral.unwrap_or_else(|| luminance_integral(env)),
+        Estimator::Unbiased => 0.0,
+    };
     let scale = estimator.scale(albedo, set.samples.len(), integral);
     if scale.iter().any(|s| !s.is_finite()) {
         return Err(OpError::Invalid(format!("the estimator's scale {scale:?} is beyond f32 range")));

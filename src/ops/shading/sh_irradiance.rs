@@ -6,40 +6,40 @@
 //! (normalisation, signs, and which axes x, y, z are in the lat-long frame) is documented in
 //! `maths::sh`.
 
-use std::sync::Arc;
+use super::reference_sphere::check_finite;
+use crate::data::Image;
+use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
+use crate::engine::value::Value;
+use crate::types::ty::*;
 
 use crate::data::Metrics;
-use crate::engine::op::{Default, FieldKind, FieldSpec, OpContext, OpError, OpSpec, OutputType};
-use crate::engine::value::{Value, ValueType};
 use crate::maths::sh::{coefficient_name, project, sh_lm};
 
-use super::reference_sphere::check_finite;
+crate::params! {
+    pub struct ShIrradianceParams {
+        /// highest band l
+        #[range(0, 32)]
+        pub order: usize = 2,
+    }
+}
 
-pub static SPEC: OpSpec = OpSpec {
-    name: "ShIrradiance",
-    category: "shading",
-    version: 1,
-    doc: "Spherical-harmonic coefficients L_lm of a lat-long map (order 2: Ramamoorthi-Hanrahan's 9)",
-    fields: &[
-        FieldSpec::input("env", &[ValueType::Image], "the lat-long environment (linear RGB)"),
-        FieldSpec {
-            name: "order",
-            kind: FieldKind::Int { min: 0, max: 32 },
-            default: Default::Int(2),
-            doc: "highest band l",
-        },
-    ],
-    output: OutputType::Fixed(ValueType::Metrics),
-    eval,
-    content_key: None,
-    check: None,
-};
+pub fn spec() -> OpSpec {
+    OpSpec::new(
+        "ShIrradiance",
+        "shading",
+        1,
+        "Spherical-harmonic coefficients L_lm of a lat-long map (order 2: Ramamoorthi-Hanrahan's 9)",
+    )
+    .input("env", &[IMAGE_T], "the lat-long environment (linear RGB)")
+    .output("coefficients", OutputType::Fixed(METRICS_T), "the coefficients L_l_m_channel")
+    .code(crate::this_file!())
+    .eval(eval)
+}
 
-fn eval(ctx: &OpContext) -> Result<Value, OpError> {
-    let env = ctx.image("env");
+fn eval(ctx: &mut OpContext, p: ShIrradianceParams) -> Result<Value, OpError> {
+    let env: &Image = ctx.get("env");
     check_finite(env)?;
-    let order = ctx.params.usize("order");
-    let coeffs = project(env, order);
+    let coeffs = project(env, p.order);
     let mut fields = Vec::with_capacity(coeffs.len() * 3);
     for (i, c) in coeffs.iter().enumerate() {
         let (l, m) = sh_lm(i);
@@ -47,5 +47,5 @@ fn eval(ctx: &OpContext) -> Result<Value, OpError> {
             fields.push((coefficient_name(l, m, ch), v));
         }
     }
-    Ok(Value::Metrics(Arc::new(Metrics { fields })))
+    Ok(Value::new(Metrics { fields }))
 }

@@ -6,45 +6,47 @@
 //! with `ReferenceSphere`. Accurate (~1%) for smooth lighting at order 2; a small sun gives large
 //! errors and rings, even negative values, which are kept (not clamped) so they can be measured.
 
-use super::{ALBEDO_FIELD, SIZE_FIELD, VIEW_FIELD};
-use crate::engine::op::{Default, FieldKind, FieldSpec, OpContext, OpError, OpSpec, OutputType};
-use crate::engine::value::{Value, ValueType};
-use crate::maths::latlong;
-use crate::maths::relight::SphereView;
-use crate::maths::sh::sh_sphere;
-
 use super::reference_sphere::check_finite;
+use super::sphere_view;
+use crate::data::Image;
+use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
+use crate::engine::params::Rgb;
+use crate::engine::value::Value;
+use crate::maths::sh::sh_sphere;
+use crate::types::ty::*;
 
-pub static SPEC: OpSpec = OpSpec {
-    name: "ShSphere",
-    category: "shading",
-    version: 1,
-    doc: "Relight a diffuse sphere with the spherical-harmonic irradiance map (Ramamoorthi-Hanrahan)",
-    fields: &[
-        FieldSpec::input("env", &[ValueType::Image], "the lat-long environment (linear RGB)"),
-        SIZE_FIELD,
-        ALBEDO_FIELD,
-        VIEW_FIELD,
-        FieldSpec {
-            name: "order",
-            kind: FieldKind::Int { min: 0, max: 32 },
-            default: Default::Int(2),
-            doc: "highest SH band l (2: 9 coefficients)",
-        },
-    ],
-    output: OutputType::Fixed(ValueType::Image),
-    eval,
-    content_key: None,
-    check: None,
-};
+crate::params! {
+    pub struct ShSphereParams {
+        /// image width and height
+        #[range(1, 1 << 14)]
+        pub size: usize = 256,
+        /// diffuse albedo (RGB, or a single number for grey)
+        #[range(0.0, 1.0)]
+        pub albedo: Rgb = Rgb([1.0, 1.0, 1.0]),
+        /// camera direction (theta, phi) in degrees, lat-long convention; the seed's is (90, 90)
+        #[range(-360.0, 360.0)]
+        pub view: [f64; 2] = [90.0, 90.0],
+        /// highest SH band l (2: 9 coefficients)
+        #[range(0, 32)]
+        pub order: usize = 2,
+    }
+}
 
-fn eval(ctx: &OpContext) -> Result<Value, OpError> {
-    let env = ctx.image("env");
+pub fn spec() -> OpSpec {
+    OpSpec::new(
+        "ShSphere",
+        "shading",
+        1,
+        "Relight a diffuse sphere with the spherical-harmonic irradiance map (Ramamoorthi-Hanrahan)",
+    )
+    .input("env", &[IMAGE_T], "the lat-long environment (linear RGB)")
+    .output("image", OutputType::Fixed(IMAGE_T), "the relit sphere")
+    .code(crate::this_file!())
+    .eval(eval)
+}
+
+fn eval(ctx: &mut OpContext, p: ShSphereParams) -> Result<Value, OpError> {
+    let env: &Image = ctx.get("env");
     check_finite(env)?;
-    let size = ctx.params.usize("size");
-    let albedo = ctx.params.vec3("albedo");
-    let [vt, vp] = ctx.params.vec2("view");
-    let order = ctx.params.usize("order");
-    let view = SphereView::new(size, latlong::direction_deg(vt, vp));
-    Ok(Value::image(sh_sphere(env, &view, albedo, order)))
+    Ok(Value::new(sh_sphere(env, &sphere_view(p.size, p.view), p.albedo.0, p.order)))
 }

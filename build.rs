@@ -1,0 +1,56 @@
+//! Computes the engine's code salt: BLAKE3 of every source file that operators build on (the
+//! engine, data types, maths, formats, plotting, value types and the operators' shared domain
+//! modules), each with comments and blank space removed. It goes into every cache key, so a
+//! shared cache never serves a result computed by different code. Each operator adds the hash
+//! of its own file (`OpSpec::code`).
+
+#[path = "src/engine/normalise.rs"]
+mod normalise;
+
+use std::path::{Path, PathBuf};
+
+fn collect(dir: &Path, out: &mut Vec<PathBuf>) {
+    let Ok(entries) = std::fs::read_dir(dir) else { return };
+    for e in entries.flatten() {
+        let p = e.path();
+        if p.is_dir() {
+            collect(&p, out);
+        } else if p.extension().is_some_and(|e| e == "rs") {
+            out.push(p);
+        }
+    }
+}
+
+fn main() {
+    println!("cargo:rerun-if-changed=src");
+    let mut files = Vec::new();
+    for dir in ["src/engine", "src/data", "src/maths", "src/formats", "src/plotting", "src/types", "src/geometry"] {
+        collect(Path::new(dir), &mut files);
+    }
+    // The operators' shared domain modules (field helpers, common code), not the operators.
+    let mut ops = Vec::new();
+    collect(Path::new("src/ops"), &mut ops);
+    files.extend(ops.into_iter().filter(|p| p.file_name().is_some_and(|n| n == "mod.rs")));
+    files.sort();
+    let mut h = blake3::Hasher::new();
+    for f in &files {
+        let text = std::fs::read_to_string(f).unwrap_or_default();
+        let rel = f.to_string_lossy().replace('\\', "/");
+        h.update(rel.as_bytes());
+        h.update(&[0]);
+        h.update(normalise::normalise_source(&text).as_bytes());
+        h.update(&[0]);
+    }
+    let hash = h.finalize();
+    let out = PathBuf::from(std::env::var_os("OUT_DIR").expect("cargo sets OUT_DIR")).join("engine_salt.rs");
+    let bytes: Vec<String> = hash.as_bytes().iter().map(|b| b.to_string()).collect();
+    std::fs::write(
+        out,
+        format!(
+            "/// BLAKE3 of the engine's and shared layers' normalised sources ({} files).\npub const ENGINE_SALT: [u8; 32] = [{}];\n",
+            files.len(),
+            bytes.join(", ")
+        ),
+    )
+    .expect("writing engine_salt.rs");
+}

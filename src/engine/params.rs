@@ -1,0 +1,600 @@
+//! Operator parameters, declared once as a typed Rust struct.
+//!
+//! An operator writes its parameters as a struct with the [`params!`](crate::params) macro: each
+//! field's doc comment, range and default become its spec (what validation checks, what
+//! `hdrflow ops` prints, what the cache key hashes), and `eval` receives the struct itself:
+//!
+//! ```ignore
+//! hdrflow::params! {
+//!     pub struct ExposureParams {
+//!         /// exposure change in stops (+1 doubles)
+//!         #[range(-126.0, 126.0)]
+//!         pub stops: f64,
+//!         /// channel weights
+//!         pub weights: Weights = Weights::Rec709,
+//!     }
+//! }
+//! ```
+//!
+//! A field without `= default` is required. Choices are Rust enums declared with
+//! [`choice!`](crate::choice), so `eval` matches on variants instead of comparing strings.
+//! What a Rust type means as a field is its [`Param`] implementation.
+
+use std::collections::BTreeMap;
+
+use crate::engine::value::ValueType;
+
+/// How many nodes an input field takes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Arity {
+    /// Exactly one node (`image: "env"`).
+    One,
+    /// None or one: an absent field means "not wired".
+    Optional,
+    /// A list of nodes in order (`channels: ["a.R", "b"]`), with an inclusive length range.
+    List { min: usize, max: usize },
+}
+
+/// The type and accepted range of one field.
+#[derive(Clone, Debug)]
+pub enum FieldKind {
+    /// The name of another node (or `node.port`), whose value must have one of these types
+    /// (an empty list accepts any type).
+    Input {
+        types: Vec<ValueType>,
+        arity: Arity,
+    },
+    /// A number (integer literals are accepted), inclusive range.
+    Float {
+        min: f64,
+        max: f64,
+    },
+    /// An integer, inclusive range.
+    Int {
+        min: i64,
+        max: i64,
+    },
+    Bool,
+    /// Free text.
+    Text,
+    /// A list of strings, inclusive length range.
+    TextList {
+        min: usize,
+        max: usize,
+    },
+    /// A file to read, or `builtin:NAME`. A loader's path is not part of its cache key: the
+    /// file's content is.
+    Path,
+    /// A file to write, relative to the output folder: it must stay inside it, and two nodes
+    /// may not write the same path (both checked at validation).
+    OutputPath,
+    /// One of these bare identifiers, e.g. `Rec709`.
+    Choice(&'static [&'static str]),
+    /// A tuple of N numbers, each in the inclusive range, e.g. `(0.0, 1.0, 0.0)`.
+    Tuple {
+        len: usize,
+        min: f64,
+        max: f64,
+    },
+    /// An RGB colour `(r, g, b)`; a single number `v` means the grey `(v, v, v)`.
+    Color {
+        min: f64,
+        max: f64,
+    },
+}
+
+impl FieldKind {
+    /// How the kind reads in `hdrflow ops` and in error messages.
+    pub fn describe(&self) -> String {
+        match self {
+            FieldKind::Input { types, arity } => {
+                let names: Vec<&str> = types.iter().map(|t| t.name()).collect();
+                let one =
+                    if names.is_empty() { "input<any>".to_string() } else { format!("input<{}>", names.join(" | ")) };
+                match arity {
+                    Arity::One => one,
+                    Arity::Optional => format!("optional {one}"),
+                    Arity::List { min, max } if *max == usize::MAX => format!("list of {min}+ {one}"),
+                    Arity::List { min, max } => format!("list of {min}..{max} {one}"),
+                }
+            }
+            FieldKind::Float { min, max } => format!("float in [{}, {}]", fmt_bound(*min), fmt_bound(*max)),
+            FieldKind::Int { min, max } => format!("integer in [{min}, {max}]"),
+            FieldKind::Bool => "bool".into(),
+            FieldKind::Text => "string".into(),
+            FieldKind::TextList { .. } => "list of strings".into(),
+            FieldKind::Path => "path".into(),
+            FieldKind::OutputPath => "output path".into(),
+            FieldKind::Choice(options) => options.join(" | "),
+            FieldKind::Tuple { len, .. } => format!("({})", vec!["float"; *len].join(", ")),
+            FieldKind::Color { .. } => "(r, g, b) or grey".into(),
+        }
+    }
+
+    pub fn is_input(&self) -> bool {
+        matches!(self, FieldKind::Input { .. })
+    }
+}
+
+fn fmt_bound(v: f64) -> String {
+    if v == f64::INFINITY {
+        "inf".into()
+    } else if v == f64::NEG_INFINITY {
+        "-inf".into()
+    } else {
+        format!("{v}")
+    }
+}
+
+/// One field of an operator: an input (an edge) or a parameter.
+#[derive(Clone, Debug)]
+pub struct FieldSpec {
+    pub name: &'static str,
+    pub kind: FieldKind,
+    /// `None`: the field must be given (inputs of arity `Optional`/`List{min: 0}` may be absent).
+    pub default: Option<ParamValue>,
+    pub doc: String,
+}
+
+impl FieldSpec {
+    /// A parameter field whose kind follows its Rust type.
+    pub fn param<T: Param>(name: &'static str, doc: String, range: Option<(f64, f64)>, default: Option<T>) -> Self {
+        FieldSpec { name, kind: T::kind(range), default: default.map(|d| d.to_value()), doc }
+    }
+
+    pub fn is_input(&self) -> bool {
+        self.kind.is_input()
+    }
+
+    /// The default as `hdrflow ops` prints it.
+    pub fn describe_default(&self) -> String {
+        match (&self.default, &self.kind) {
+            (Some(v), _) => format!("default {}", v.to_ron()),
+            (None, FieldKind::Input { arity: Arity::Optional, .. }) => "optional".into(),
+            (None, FieldKind::Input { arity: Arity::List { min: 0, .. }, .. }) => "default []".into(),
+            (None, _) => "required".into(),
+        }
+    }
+}
+
+/// Joins a field's doc-comment lines (the `params!` macro passes them here).
+pub fn doc_text(lines: &[&str]) -> String {
+    lines.iter().map(|l| l.trim()).filter(|l| !l.is_empty()).collect::<Vec<_>>().join(" ")
+}
+
+/// A validated parameter value (inputs are not parameters: they are edges).
+#[derive(Clone, Debug, PartialEq)]
+pub enum ParamValue {
+    Float(f64),
+    Int(i64),
+    Bool(bool),
+    Text(String),
+    TextList(Vec<String>),
+    Choice(String),
+    Tuple(Vec<f64>),
+}
+
+impl ParamValue {
+    /// RON text of the value (for `ops`, messages and reports).
+    pub fn to_ron(&self) -> String {
+        match self {
+            ParamValue::Float(v) => format!("{v:?}"),
+            ParamValue::Int(v) => v.to_string(),
+            ParamValue::Bool(v) => v.to_string(),
+            ParamValue::Text(s) => format!("{s:?}"),
+            ParamValue::TextList(v) => {
+                format!("[{}]", v.iter().map(|s| format!("{s:?}")).collect::<Vec<_>>().join(", "))
+            }
+            ParamValue::Choice(s) => s.clone(),
+            ParamValue::Tuple(v) => format!("({})", v.iter().map(|x| format!("{x:?}")).collect::<Vec<_>>().join(", ")),
+        }
+    }
+}
+
+/// A node's parameters after validation: every non-input field, given or defaulted.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Params {
+    pub values: BTreeMap<String, ParamValue>,
+}
+
+impl Params {
+    /// A parameter converted to its declared Rust type. Validation has checked kind and range,
+    /// so a mismatch here is a bug in the operator's declaration (it panics, and the scheduler
+    /// reports the panic as a bug).
+    pub fn typed<T: Param>(&self, name: &str) -> T {
+        let v = self.values.get(name).unwrap_or_else(|| panic!("parameter {name:?} missing after validation"));
+        T::from_value(v).unwrap_or_else(|| panic!("parameter {name:?} = {v:?} does not convert to its declared type"))
+    }
+    /// A text-like parameter (text, path, output path, choice) by name, e.g. for a loader's
+    /// content key.
+    pub fn text(&self, name: &str) -> &str {
+        match self.values.get(name) {
+            Some(ParamValue::Text(s) | ParamValue::Choice(s)) => s,
+            other => panic!("parameter {name:?} is not text: {other:?}"),
+        }
+    }
+}
+
+/// A Rust type usable as a parameter field: its kind (what validation accepts) and its
+/// conversion from and to the validated value.
+pub trait Param: Sized {
+    /// The field kind; `range` is the `#[range(min, max)]` given in the declaration.
+    fn kind(range: Option<(f64, f64)>) -> FieldKind;
+    fn to_value(&self) -> ParamValue;
+    fn from_value(v: &ParamValue) -> Option<Self>;
+}
+
+impl Param for f64 {
+    fn kind(range: Option<(f64, f64)>) -> FieldKind {
+        let (min, max) = range.unwrap_or((f64::MIN, f64::MAX));
+        FieldKind::Float { min, max }
+    }
+    fn to_value(&self) -> ParamValue {
+        ParamValue::Float(*self)
+    }
+    fn from_value(v: &ParamValue) -> Option<Self> {
+        match v {
+            ParamValue::Float(v) => Some(*v),
+            ParamValue::Int(v) => Some(*v as f64),
+            _ => None,
+        }
+    }
+}
+
+macro_rules! int_param {
+    ($($t:ty),*) => {$(
+        impl Param for $t {
+            fn kind(range: Option<(f64, f64)>) -> FieldKind {
+                let (min, max) = range.unwrap_or((<$t>::MIN as f64, <$t>::MAX as f64));
+                // Clamp to what the Rust type holds, so a declared range can never overflow it.
+                let min = (min.max(<$t>::MIN as f64)).max(i64::MIN as f64) as i64;
+                let max = (max.min(<$t>::MAX as f64)).min(i64::MAX as f64) as i64;
+                FieldKind::Int { min, max }
+            }
+            fn to_value(&self) -> ParamValue {
+                ParamValue::Int(*self as i64)
+            }
+            fn from_value(v: &ParamValue) -> Option<Self> {
+                match v {
+                    ParamValue::Int(v) => <$t>::try_from(*v).ok(),
+                    _ => None,
+                }
+            }
+        }
+    )*};
+}
+int_param!(i64, u64, u32, usize);
+
+impl Param for bool {
+    fn kind(_: Option<(f64, f64)>) -> FieldKind {
+        FieldKind::Bool
+    }
+    fn to_value(&self) -> ParamValue {
+        ParamValue::Bool(*self)
+    }
+    fn from_value(v: &ParamValue) -> Option<Self> {
+        match v {
+            ParamValue::Bool(b) => Some(*b),
+            _ => None,
+        }
+    }
+}
+
+impl Param for String {
+    fn kind(_: Option<(f64, f64)>) -> FieldKind {
+        FieldKind::Text
+    }
+    fn to_value(&self) -> ParamValue {
+        ParamValue::Text(self.clone())
+    }
+    fn from_value(v: &ParamValue) -> Option<Self> {
+        match v {
+            ParamValue::Text(s) => Some(s.clone()),
+            _ => None,
+        }
+    }
+}
+
+impl Param for Vec<String> {
+    fn kind(range: Option<(f64, f64)>) -> FieldKind {
+        let (min, max) = range.map(|(a, b)| (a as usize, b as usize)).unwrap_or((0, 1 << 16));
+        FieldKind::TextList { min, max }
+    }
+    fn to_value(&self) -> ParamValue {
+        ParamValue::TextList(self.clone())
+    }
+    fn from_value(v: &ParamValue) -> Option<Self> {
+        match v {
+            ParamValue::TextList(s) => Some(s.clone()),
+            _ => None,
+        }
+    }
+}
+
+impl<const N: usize> Param for [f64; N] {
+    fn kind(range: Option<(f64, f64)>) -> FieldKind {
+        let (min, max) = range.unwrap_or((f64::MIN, f64::MAX));
+        FieldKind::Tuple { len: N, min, max }
+    }
+    fn to_value(&self) -> ParamValue {
+        ParamValue::Tuple(self.to_vec())
+    }
+    fn from_value(v: &ParamValue) -> Option<Self> {
+        match v {
+            ParamValue::Tuple(t) => t.as_slice().try_into().ok(),
+            _ => None,
+        }
+    }
+}
+
+/// A file to read (`path: "maps/grace.exr"` or `builtin:NAME`), relative to the pipeline file.
+#[derive(Clone, Debug, PartialEq)]
+pub struct InputPath(pub String);
+
+impl Param for InputPath {
+    fn kind(_: Option<(f64, f64)>) -> FieldKind {
+        FieldKind::Path
+    }
+    fn to_value(&self) -> ParamValue {
+        ParamValue::Text(self.0.clone())
+    }
+    fn from_value(v: &ParamValue) -> Option<Self> {
+        match v {
+            ParamValue::Text(s) => Some(InputPath(s.clone())),
+            _ => None,
+        }
+    }
+}
+
+/// A file to write, relative to the output folder (checked to stay inside it).
+#[derive(Clone, Debug, PartialEq)]
+pub struct OutputPath(pub String);
+
+impl OutputPath {
+    /// The lower-case extension, without the dot.
+    pub fn extension(&self) -> String {
+        std::path::Path::new(&self.0).extension().map(|e| e.to_string_lossy().to_lowercase()).unwrap_or_default()
+    }
+}
+
+impl Param for OutputPath {
+    fn kind(_: Option<(f64, f64)>) -> FieldKind {
+        FieldKind::OutputPath
+    }
+    fn to_value(&self) -> ParamValue {
+        ParamValue::Text(self.0.clone())
+    }
+    fn from_value(v: &ParamValue) -> Option<Self> {
+        match v {
+            ParamValue::Text(s) => Some(OutputPath(s.clone())),
+            _ => None,
+        }
+    }
+}
+
+/// A linear RGB colour; a pipeline may give a single number for grey.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Rgb(pub [f64; 3]);
+
+impl Rgb {
+    pub fn f32(self) -> [f32; 3] {
+        self.0.map(|v| v as f32)
+    }
+}
+
+impl Param for Rgb {
+    fn kind(range: Option<(f64, f64)>) -> FieldKind {
+        let (min, max) = range.unwrap_or((f64::MIN, f64::MAX));
+        FieldKind::Color { min, max }
+    }
+    fn to_value(&self) -> ParamValue {
+        ParamValue::Tuple(self.0.to_vec())
+    }
+    fn from_value(v: &ParamValue) -> Option<Self> {
+        match v {
+            ParamValue::Tuple(t) => Some(Rgb(t.as_slice().try_into().ok()?)),
+            _ => None,
+        }
+    }
+}
+
+/// A set of parameters declared with `params!`.
+pub trait ParamSet: Sized {
+    /// The fields' specs, in declaration order.
+    fn fields() -> Vec<FieldSpec>;
+    /// The typed struct from validated parameters.
+    fn from_params(p: &Params) -> Self;
+}
+
+/// No parameters.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct NoParams;
+
+impl ParamSet for NoParams {
+    fn fields() -> Vec<FieldSpec> {
+        Vec::new()
+    }
+    fn from_params(_: &Params) -> Self {
+        NoParams
+    }
+}
+
+/// A choice: a Rust enum whose variants are written as bare identifiers in pipelines.
+pub trait Choice: Sized + Copy + 'static {
+    const NAMES: &'static [&'static str];
+    fn from_name(name: &str) -> Option<Self>;
+    fn name(self) -> &'static str;
+}
+
+/// Declares a choice enum: `choice! { pub enum Weights { Rec709, Rec2020, Mean, Max } }`.
+/// Variants may carry doc comments. The enum derives `Clone, Copy, Debug, PartialEq, Eq`.
+#[macro_export]
+macro_rules! choice {
+    ($(#[$meta:meta])* $vis:vis enum $name:ident { $($(#[$vmeta:meta])* $variant:ident),+ $(,)? }) => {
+        $(#[$meta])*
+        #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+        $vis enum $name { $($(#[$vmeta])* $variant),+ }
+
+        impl $crate::engine::params::Choice for $name {
+            const NAMES: &'static [&'static str] = &[$(stringify!($variant)),+];
+            fn from_name(name: &str) -> Option<Self> {
+                match name {
+                    $(stringify!($variant) => Some($name::$variant),)+
+                    _ => None,
+                }
+            }
+            fn name(self) -> &'static str {
+                match self {
+                    $($name::$variant => stringify!($variant),)+
+                }
+            }
+        }
+
+        impl $crate::engine::params::Param for $name {
+            fn kind(_: Option<(f64, f64)>) -> $crate::engine::params::FieldKind {
+                $crate::engine::params::FieldKind::Choice(<$name as $crate::engine::params::Choice>::NAMES)
+            }
+            fn to_value(&self) -> $crate::engine::params::ParamValue {
+                $crate::engine::params::ParamValue::Choice(
+                    <$name as $crate::engine::params::Choice>::name(*self).to_string(),
+                )
+            }
+            fn from_value(v: &$crate::engine::params::ParamValue) -> Option<Self> {
+                match v {
+                    $crate::engine::params::ParamValue::Choice(s) => {
+                        <$name as $crate::engine::params::Choice>::from_name(s)
+                    }
+                    _ => None,
+                }
+            }
+        }
+    };
+}
+
+/// Makes a type that implements [`Choice`] usable as a parameter (`choice!` does this itself;
+/// use it for an enum declared elsewhere, e.g. in `maths`).
+#[macro_export]
+macro_rules! choice_param {
+    ($t:ty) => {
+        impl $crate::engine::params::Param for $t {
+            fn kind(_: Option<(f64, f64)>) -> $crate::engine::params::FieldKind {
+                $crate::engine::params::FieldKind::Choice(<$t as $crate::engine::params::Choice>::NAMES)
+            }
+            fn to_value(&self) -> $crate::engine::params::ParamValue {
+                $crate::engine::params::ParamValue::Choice(
+                    <$t as $crate::engine::params::Choice>::name(*self).to_string(),
+                )
+            }
+            fn from_value(v: &$crate::engine::params::ParamValue) -> Option<Self> {
+                match v {
+                    $crate::engine::params::ParamValue::Choice(s) => {
+                        <$t as $crate::engine::params::Choice>::from_name(s)
+                    }
+                    _ => None,
+                }
+            }
+        }
+    };
+}
+
+/// `Some(x)` for one argument, `None` for none (used by `params!`).
+#[doc(hidden)]
+#[macro_export]
+macro_rules! __opt {
+    () => {
+        None
+    };
+    ($e:expr) => {
+        Some($e)
+    };
+}
+
+/// Declares an operator's parameters as a typed struct; see the module documentation of
+/// `hdrflow::engine::params`.
+#[macro_export]
+macro_rules! params {
+    (
+        $(#[$meta:meta])*
+        $vis:vis struct $name:ident {
+            $(
+                $(#[doc = $doc:literal])*
+                $(#[range($min:expr, $max:expr)])?
+                $fvis:vis $field:ident : $ty:ty $(= $default:expr)?
+            ),* $(,)?
+        }
+    ) => {
+        $(#[$meta])*
+        #[derive(Clone, Debug, PartialEq)]
+        $vis struct $name {
+            $( $(#[doc = $doc])* $fvis $field: $ty, )*
+        }
+
+        impl $crate::engine::params::ParamSet for $name {
+            fn fields() -> Vec<$crate::engine::params::FieldSpec> {
+                vec![$(
+                    $crate::engine::params::FieldSpec::param::<$ty>(
+                        stringify!($field),
+                        $crate::engine::params::doc_text(&[$($doc),*]),
+                        $crate::__opt!($(($min as f64, $max as f64))?),
+                        $crate::__opt!($({ let d: $ty = $default; d })?),
+                    )
+                ),*]
+            }
+            fn from_params(p: &$crate::engine::params::Params) -> Self {
+                $name { $( $field: p.typed::<$ty>(stringify!($field)), )* }
+            }
+        }
+    };
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    crate::choice! {
+        /// Test weights.
+        enum Weights { Rec709, Max }
+    }
+
+    crate::params! {
+        struct TestParams {
+            /// stops of exposure
+            /// (second line)
+            #[range(-2.0, 2.0)]
+            stops: f64,
+            /// the weights
+            weights: Weights = Weights::Max,
+            #[range(1, 10)]
+            count: usize = 3,
+            tint: Rgb = Rgb([1.0, 0.5, 0.25]),
+        }
+    }
+
+    #[test]
+    fn declaration_drives_specs_and_conversion() {
+        let fields = TestParams::fields();
+        assert_eq!(fields.len(), 4);
+        assert_eq!(fields[0].name, "stops");
+        assert_eq!(fields[0].doc, "stops of exposure (second line)");
+        assert!(fields[0].default.is_none());
+        assert!(matches!(fields[0].kind, FieldKind::Float { min, max } if min == -2.0 && max == 2.0));
+        assert!(matches!(fields[1].kind, FieldKind::Choice(names) if names == ["Rec709", "Max"]));
+        assert_eq!(fields[1].default, Some(ParamValue::Choice("Max".into())));
+        assert!(matches!(fields[2].kind, FieldKind::Int { min: 1, max: 10 }));
+        let mut p = Params::default();
+        p.values.insert("stops".into(), ParamValue::Float(1.5));
+        p.values.insert("weights".into(), ParamValue::Choice("Rec709".into()));
+        p.values.insert("count".into(), ParamValue::Int(7));
+        p.values.insert("tint".into(), ParamValue::Tuple(vec![0.5, 0.5, 0.5]));
+        let t = TestParams::from_params(&p);
+        assert_eq!(t, TestParams { stops: 1.5, weights: Weights::Rec709, count: 7, tint: Rgb([0.5; 3]) });
+    }
+
+    #[test]
+    fn integer_ranges_never_exceed_the_rust_type() {
+        assert!(matches!(<u32 as Param>::kind(None), FieldKind::Int { min: 0, max } if max == u32::MAX as i64));
+        assert!(
+            matches!(<u32 as Param>::kind(Some((-5.0, 1e30))), FieldKind::Int { min: 0, max } if max == u32::MAX as i64)
+        );
+    }
+}

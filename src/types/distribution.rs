@@ -1,0 +1,87 @@
+//! `distribution`: a [`Distribution2D`] over a lat-long map. Saved as an image of its
+//! solid-angle pdf per texel.
+
+use crate::data::{Distribution2D, Image};
+use crate::engine::cache::codec::{Reader, Writer};
+use crate::engine::value::{SaveOptions, TypeSpec, Value, ValueData, ValueType};
+
+pub static DISTRIBUTION: TypeSpec = TypeSpec {
+    name: "distribution",
+    doc: "a piecewise-constant 2D sampling distribution over a lat-long map (f64)",
+    decode,
+    save_extensions: &["png", "exr", "hdr", "pfm"],
+    save: Some(save),
+};
+
+impl ValueData for Distribution2D {
+    fn value_type(&self) -> ValueType {
+        ValueType(&DISTRIBUTION)
+    }
+    fn approx_bytes(&self) -> usize {
+        Distribution2D::approx_bytes(self)
+    }
+    fn encode(&self, out: &mut Vec<u8>) {
+        let mut w = Writer(out);
+        w.u64(self.width as u64);
+        w.u64(self.height as u64);
+        w.u8(u8::from(self.sin_theta));
+        w.u8(u8::from(self.carries_light));
+        w.f64(self.total);
+        w.f64(self.luminance_integral);
+        w.f64s(&self.func);
+        w.f64s(&self.conditional_cdf);
+        w.f64s(&self.row_sums);
+        w.f64s(&self.marginal_cdf);
+    }
+}
+
+fn decode(bytes: &[u8]) -> Result<Value, String> {
+    let mut r = Reader::new(bytes);
+    let width = r.usize()?;
+    let height = r.usize()?;
+    let sin_theta = r.u8()? != 0;
+    let carries_light = r.u8()? != 0;
+    let total = r.f64()?;
+    let luminance_integral = r.f64()?;
+    let func = r.f64s()?;
+    let conditional_cdf = r.f64s()?;
+    let row_sums = r.f64s()?;
+    let marginal_cdf = r.f64s()?;
+    r.finish()?;
+    let n = width.checked_mul(height).ok_or("distribution size overflows")?;
+    if func.len() != n
+        || Some(conditional_cdf.len()) != height.checked_mul(width + 1)
+        || row_sums.len() != height
+        || marginal_cdf.len() != height + 1
+    {
+        return Err("distribution arrays do not match its size".into());
+    }
+    Ok(Value::new(Distribution2D {
+        width,
+        height,
+        sin_theta,
+        func,
+        conditional_cdf,
+        row_sums,
+        marginal_cdf,
+        total,
+        luminance_integral,
+        carries_light,
+    }))
+}
+
+fn save(value: &Value, o: &SaveOptions) -> Result<Vec<u8>, String> {
+    let d = value.get::<Distribution2D>().ok_or("not a distribution")?;
+    super::image::encode_image(&pdf_image(d), &o.ext, o.exposure)
+}
+
+/// The distribution's solid-angle pdf per texel, as a scalar field.
+pub fn pdf_image(d: &Distribution2D) -> Image {
+    let mut img = Image::new(d.width, d.height, 1);
+    for y in 0..d.height {
+        for x in 0..d.width {
+            img.data[y * d.width + x] = d.pdf(x, y) as f32;
+        }
+    }
+    img
+}

@@ -1,0 +1,113 @@
+//! `image` (2+ channels) and `scalar field` (1 channel): both are [`Image`]s; the type follows
+//! the channel count, so an operator can demand a one-channel input at validation.
+//!
+//! Cache payload: width, height, channel names, then the f32 samples. Saved as `.png` (exposure
+//! then sRGB, 8-bit; RGBA keeps alpha), `.exr` (f32, every channel under its name), `.hdr` (RGB)
+//! or `.pfm` (RGB or grey).
+
+use crate::data::Image;
+use crate::engine::cache::codec::{Reader, Writer};
+use crate::engine::value::{SaveOptions, TypeSpec, Value, ValueData, ValueType};
+use crate::formats;
+
+pub static IMAGE: TypeSpec = TypeSpec {
+    name: "image",
+    doc: "a float raster of 2 or more named channels (RGB, RGBA, ...), linear radiance",
+    decode,
+    save_extensions: &["png", "exr", "hdr", "pfm"],
+    save: Some(save),
+};
+
+pub static SCALAR_FIELD: TypeSpec = TypeSpec {
+    name: "scalar field",
+    doc: "a one-channel float raster (luminance, weights, masks, one channel of an image)",
+    decode,
+    save_extensions: &["png", "exr", "hdr", "pfm"],
+    save: Some(save),
+};
+
+impl ValueData for Image {
+    fn value_type(&self) -> ValueType {
+        if self.channels == 1 {
+            ValueType(&SCALAR_FIELD)
+        } else {
+            ValueType(&IMAGE)
+        }
+    }
+    fn approx_bytes(&self) -> usize {
+        self.data.len() * 4
+    }
+    fn encode(&self, out: &mut Vec<u8>) {
+        let mut w = Writer(out);
+        w.u64(self.width as u64);
+        w.u64(self.height as u64);
+        w.u64(self.names.len() as u64);
+        for n in &self.names {
+            w.str(n);
+        }
+        w.f32s(&self.data);
+    }
+}
+
+fn decode(bytes: &[u8]) -> Result<Value, String> {
+    let mut r = Reader::new(bytes);
+    let width = r.usize()?;
+    let height = r.usize()?;
+    let channels = r.usize()?;
+    r.need(channels.saturating_mul(8))?;
+    let names = (0..channels).map(|_| r.str()).collect::<Result<Vec<_>, _>>()?;
+    let data = r.f32s()?;
+    r.finish()?;
+    if channels == 0 || width.checked_mul(height).and_then(|p| p.checked_mul(channels)) != Some(data.len()) {
+        return Err("image dimensions do not match its data".into());
+    }
+    Ok(Value::new(Image::with_names(width, height, names, data)))
+}
+
+fn save(value: &Value, o: &SaveOptions) -> Result<Vec<u8>, String> {
+    let img = value.get::<Image>().ok_or("not an image")?;
+    encode_image(img, &o.ext, o.exposure)
+}
+
+/// Encodes an image as a file of the given extension.
+pub fn encode_image(img: &Image, ext: &str, exposure: f64) -> Result<Vec<u8>, String> {
+    match ext {
+        "png" => formats::png::encode(img, exposure).map_err(|e| e.0),
+        "exr" => formats::exr::encode(img).map_err(|e| e.0),
+        "hdr" | "pfm" => {
+            // RGBE and PFM hold RGB (PFM also grey): alpha and further channels are dropped.
+            let rgb = if img.channels > 3 || img.channels == 2 {
+                crate::data::Image::from_fn_rgb(img.width, img.height, |x, y| img.rgb(x, y))
+            } else {
+                img.clone()
+            };
+            Ok(if ext == "hdr" { formats::rgbe::encode(&rgb) } else { formats::pfm::encode(&rgb) })
+        }
+        other => Err(format!("unsupported image extension .{other}")),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn round_trip_keeps_names_and_truncation_is_an_error() {
+        let img = Image::with_names(
+            2,
+            1,
+            vec!["R".into(), "G".into(), "B".into(), "A".into()],
+            (0..8).map(|v| v as f32).collect(),
+        );
+        let mut bytes = Vec::new();
+        img.encode(&mut bytes);
+        let back = decode(&bytes).unwrap();
+        assert_eq!(back.value_type(), ValueType(&IMAGE));
+        assert_eq!(back.get::<Image>().unwrap(), &img);
+        for cut in [0, 8, bytes.len() - 1] {
+            assert!(decode(&bytes[..cut]).is_err());
+        }
+        let y = Value::new(Image::new(2, 2, 1));
+        assert_eq!(y.value_type(), ValueType(&SCALAR_FIELD));
+    }
+}

@@ -1,0 +1,62 @@
+//! `metrics`: a flat record of named numbers ([`Metrics`]). Saved as `.json` or `.csv`.
+
+use super::json_num as num;
+use crate::data::Metrics;
+use crate::engine::cache::codec::{Reader, Writer};
+use crate::engine::value::{SaveOptions, TypeSpec, Value, ValueData, ValueType};
+
+pub static METRICS: TypeSpec = TypeSpec {
+    name: "metrics",
+    doc: "a record of named numbers (errors, statistics)",
+    decode,
+    save_extensions: &["json", "csv"],
+    save: Some(save),
+};
+
+impl ValueData for Metrics {
+    fn value_type(&self) -> ValueType {
+        ValueType(&METRICS)
+    }
+    fn approx_bytes(&self) -> usize {
+        self.fields.len() * 32
+    }
+    fn encode(&self, out: &mut Vec<u8>) {
+        let mut w = Writer(out);
+        w.u64(self.fields.len() as u64);
+        for (name, v) in &self.fields {
+            w.str(name);
+            w.f64(*v);
+        }
+    }
+}
+
+fn decode(bytes: &[u8]) -> Result<Value, String> {
+    let mut r = Reader::new(bytes);
+    let n = r.usize()?;
+    r.need(n.saturating_mul(16))?;
+    let mut fields = Vec::with_capacity(n);
+    for _ in 0..n {
+        fields.push((r.str()?, r.f64()?));
+    }
+    r.finish()?;
+    Ok(Value::new(Metrics { fields }))
+}
+
+fn save(value: &Value, o: &SaveOptions) -> Result<Vec<u8>, String> {
+    let m = value.get::<Metrics>().ok_or("not metrics")?;
+    Ok(match o.ext.as_str() {
+        "csv" => {
+            let names: Vec<&str> = m.fields.iter().map(|(n, _)| n.as_str()).collect();
+            let values: Vec<String> = m.fields.iter().map(|(_, v)| v.to_string()).collect();
+            format!("{}\n{}\n", names.join(","), values.join(","))
+        }
+        _ => {
+            let mut map = serde_json::Map::new();
+            for (name, v) in &m.fields {
+                map.insert(name.clone(), num(*v));
+            }
+            serde_json::to_string_pretty(&serde_json::Value::Object(map)).expect("JSON of plain values") + "\n"
+        }
+    }
+    .into_bytes())
+}

@@ -1,0 +1,48 @@
+//! The built-in value types: how each data type of `crate::data` is named, cached and saved.
+//!
+//! Each file declares one or two `TypeSpec`s and implements `ValueData` for its data type: the
+//! cache payload (`encode`/`decode`, every length checked before allocating) and `Save`'s file
+//! encoders. The engine knows none of them; `register_all` adds them to a registry. A value
+//! type from outside the crate is declared the same way (see `examples/custom_operator.rs`).
+
+pub mod curves;
+pub mod distribution;
+pub mod image;
+pub mod metrics;
+pub mod samples;
+
+use crate::engine::registry::Registry;
+use crate::engine::value::ValueType;
+
+pub use self::image::{IMAGE, SCALAR_FIELD};
+pub use curves::CURVES;
+pub use distribution::DISTRIBUTION;
+pub use metrics::METRICS;
+pub use samples::SAMPLES;
+
+/// Registers every built-in value type.
+pub fn register_all(r: &mut Registry) {
+    for spec in [&IMAGE, &SCALAR_FIELD, &DISTRIBUTION, &SAMPLES, &CURVES, &METRICS] {
+        r.register_type(spec);
+    }
+}
+
+/// The built-in types as `ValueType`s, for operators' declarations.
+pub mod ty {
+    use super::*;
+    /// An image of 2 or more channels (RGB, RGBA, ...; linear radiance).
+    pub const IMAGE_T: ValueType = ValueType(&IMAGE);
+    /// A one-channel image (luminance, weights, masks, a single channel).
+    pub const SCALAR_T: ValueType = ValueType(&SCALAR_FIELD);
+    pub const DISTRIBUTION_T: ValueType = ValueType(&DISTRIBUTION);
+    pub const SAMPLES_T: ValueType = ValueType(&SAMPLES);
+    pub const CURVES_T: ValueType = ValueType(&CURVES);
+    pub const METRICS_T: ValueType = ValueType(&METRICS);
+    /// Either kind of image.
+    pub const ANY_IMAGE: &[ValueType] = &[IMAGE_T, SCALAR_T];
+}
+
+/// A JSON number, or `null` for NaN and infinities (JSON has neither).
+pub(crate) fn json_num(v: f64) -> serde_json::Value {
+    serde_json::Number::from_f64(v).map(serde_json::Value::Number).unwrap_or(serde_json::Value::Null)
+}

@@ -1,0 +1,96 @@
+//! `sample set`: directions with their solid-angle pdfs ([`SampleSet`]). Saved as `.csv`
+//! (`index,x,y,theta,phi,dx,dy,dz,pdf`) or `.json`.
+
+use std::fmt::Write as _;
+
+use super::json_num as num;
+use crate::data::{Sample, SampleSet};
+use crate::engine::cache::codec::{Reader, Writer};
+use crate::engine::value::{SaveOptions, TypeSpec, Value, ValueData, ValueType};
+
+pub static SAMPLES: TypeSpec = TypeSpec {
+    name: "sample set",
+    doc: "directions with their solid-angle pdfs, on a lat-long grid",
+    decode,
+    save_extensions: &["csv", "json"],
+    save: Some(save),
+};
+
+impl ValueData for SampleSet {
+    fn value_type(&self) -> ValueType {
+        ValueType(&SAMPLES)
+    }
+    fn approx_bytes(&self) -> usize {
+        self.samples.len() * std::mem::size_of::<Sample>()
+    }
+    fn encode(&self, out: &mut Vec<u8>) {
+        let mut w = Writer(out);
+        w.u64(self.width as u64);
+        w.u64(self.height as u64);
+        match self.luminance_integral {
+            Some(v) => {
+                w.u8(1);
+                w.f64(v);
+            }
+            None => w.u8(0),
+        }
+        w.u64(self.samples.len() as u64);
+        for p in &self.samples {
+            w.u64(p.x as u64);
+            w.u64(p.y as u64);
+            w.f32s_raw(&[p.theta, p.phi, p.dir[0], p.dir[1], p.dir[2], p.pdf]);
+        }
+    }
+}
+
+fn decode(bytes: &[u8]) -> Result<Value, String> {
+    let mut r = Reader::new(bytes);
+    let width = u32::try_from(r.u64()?).map_err(|_| "width overflows")?;
+    let height = u32::try_from(r.u64()?).map_err(|_| "height overflows")?;
+    let luminance_integral = if r.u8()? == 1 { Some(r.f64()?) } else { None };
+    let count = r.usize()?;
+    r.need(count.saturating_mul(16 + 24))?;
+    let mut samples = Vec::with_capacity(count);
+    for _ in 0..count {
+        let x = u32::try_from(r.u64()?).map_err(|_| "texel index overflows")?;
+        let y = u32::try_from(r.u64()?).map_err(|_| "texel index overflows")?;
+        let v = r.f32_array::<6>()?;
+        samples.push(Sample { x, y, theta: v[0], phi: v[1], dir: [v[2], v[3], v[4]], pdf: v[5] });
+    }
+    r.finish()?;
+    Ok(Value::new(SampleSet { width, height, samples, luminance_integral }))
+}
+
+fn save(value: &Value, o: &SaveOptions) -> Result<Vec<u8>, String> {
+    let s = value.get::<SampleSet>().ok_or("not a sample set")?;
+    Ok(match o.ext.as_str() {
+        "csv" => samples_csv(s).into_bytes(),
+        _ => samples_json(s).into_bytes(),
+    })
+}
+
+fn samples_csv(s: &SampleSet) -> String {
+    let mut out = String::with_capacity(s.samples.len() * 96);
+    out.push_str("index,x,y,theta,phi,dx,dy,dz,pdf\n");
+    for (i, p) in s.samples.iter().enumerate() {
+        let _ =
+            writeln!(out, "{i},{},{},{},{},{},{},{},{}", p.x, p.y, p.theta, p.phi, p.dir[0], p.dir[1], p.dir[2], p.pdf);
+    }
+    out
+}
+
+fn samples_json(s: &SampleSet) -> String {
+    let samples: Vec<serde_json::Value> = s
+        .samples
+        .iter()
+        .map(|p| {
+            serde_json::json!({
+                "x": p.x, "y": p.y, "theta": num(p.theta as f64), "phi": num(p.phi as f64),
+                "dx": num(p.dir[0] as f64), "dy": num(p.dir[1] as f64), "dz": num(p.dir[2] as f64),
+                "pdf": num(p.pdf as f64),
+            })
+        })
+        .collect();
+    let v = serde_json::json!({ "width": s.width, "height": s.height, "count": s.samples.len(), "samples": samples });
+    serde_json::to_string_pretty(&v).expect("JSON of plain values") + "\n"
+}
