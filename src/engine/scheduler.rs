@@ -11,7 +11,8 @@
 //!    ready, so independent nodes run at once, and operators use the same pool for their own
 //!    data parallelism. Each result is checked against its declared type and stored in the cache
 //!    as soon as it exists.
-//! 5. **Memory.** Every output port counts the consumers still to start (plus one if its node
+//! 5. **Memory.** Among the nodes ready to start, the one that frees the most memory goes
+//!    first (the bytes of the inputs it is the last consumer of). Every output port counts the consumers still to start (plus one if its node
 //!    is a target). A consumer takes a clone of the value, and the last one takes the value
 //!    itself, so the engine's reference is gone as soon as the last consumer has started and
 //!    the value is freed when that consumer finishes with it; an operator that is the last
@@ -307,9 +308,51 @@ struct Shared<'s> {
     abort: &'s AtomicBool,
     first_error: &'s Mutex<Option<RunError>>,
     written: &'s Mutex<Vec<PathBuf>>,
+    /// Nodes whose inputs are all ready, not yet started. Each entry has one spawned task
+    /// that will start the best entry at the time it runs (see `pick`).
+    ready: &'s Mutex<Vec<usize>>,
 }
 
 impl Shared<'_> {
+    /// The ready node to start now: the one that frees the most memory by starting (the bytes
+    /// of the inputs it is the last consumer of), then the earliest in file order. Starting
+    /// such nodes first keeps large values (a distribution, a full map) alive as briefly as
+    /// possible; the outputs do not depend on the order.
+    fn pick(&self) -> Option<usize> {
+        let mut ready = self.ready.lock().expect("ready lock");
+        let best = (0..ready.len()).max_by_key(|&k| {
+            let i = ready[k];
+            (self.frees(i), std::cmp::Reverse(i))
+        })?;
+        Some(ready.swap_remove(best))
+    }
+
+    /// Bytes of the values node `i` is the last consumer of.
+    fn frees(&self, i: usize) -> usize {
+        let node = &self.p.nodes[i];
+        let mut bytes = 0;
+        for src in node.sources() {
+            let uses = node.sources().filter(|s| *s == src).count();
+            let slot = &self.slots[src.node][src.port];
+            if slot.remaining.load(Ordering::SeqCst) == uses {
+                if let Some(v) = slot.value.lock().expect("slot lock").as_ref() {
+                    bytes += v.approx_bytes() / uses;
+                }
+            }
+        }
+        bytes
+    }
+
+    /// Queues a node whose inputs are ready and spawns a task to start the best queued one.
+    fn enqueue<'s>(&'s self, scope: &rayon::Scope<'s>, i: usize) {
+        self.ready.lock().expect("ready lock").push(i);
+        scope.spawn(move |scope| {
+            if let Some(next) = self.pick() {
+                execute(self, scope, next);
+            }
+        });
+    }
+
     fn fail(&self, e: RunError) {
         self.abort.store(true, Ordering::SeqCst);
         self.first_error.lock().expect("error lock").get_or_insert(e);
@@ -446,6 +489,7 @@ fn run_in_pool(p: &Pipeline, options: &RunOptions) -> Result<RunOutcome, RunErro
         (0..n).map(|i| p.consumers(i).into_iter().filter(|&c| is_compute[c]).collect()).collect();
     let abort = AtomicBool::new(false);
     let first_error: Mutex<Option<RunError>> = Mutex::new(None);
+    let ready = Mutex::new(Vec::new());
     let shared = Shared {
         p,
         options,
@@ -461,6 +505,7 @@ fn run_in_pool(p: &Pipeline, options: &RunOptions) -> Result<RunOutcome, RunErro
         abort: &abort,
         first_error: &first_error,
         written: &written,
+        ready: &ready,
     };
 
     // Cached values go into their slots (their files into the output folder).
@@ -475,8 +520,7 @@ fn run_in_pool(p: &Pipeline, options: &RunOptions) -> Result<RunOutcome, RunErro
     rayon::scope(|scope| {
         for &i in &compute {
             if pending[i].load(Ordering::SeqCst) == 0 {
-                let s = &shared;
-                scope.spawn(move |scope| execute(s, scope, i));
+                shared.enqueue(scope, i);
             }
         }
     });
@@ -608,7 +652,7 @@ fn execute<'s>(s: &'s Shared<'s>, scope: &rayon::Scope<'s>, i: usize) {
     for &c in &s.consumers[i] {
         let waits = s.p.nodes[c].sources().filter(|src| src.node == i).count();
         if s.pending[c].fetch_sub(waits, Ordering::SeqCst) == waits {
-            scope.spawn(move |scope| execute(s, scope, c));
+            s.enqueue(scope, c);
         }
     }
 }
