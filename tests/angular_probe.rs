@@ -4,6 +4,8 @@
 //! `../shared/data/envmaps/SOURCES.md` reports a log-luminance correlation of 0.9986 for a
 //! remap with this convention; a mirrored or shifted mapping falls far below.
 
+mod common;
+
 use std::path::Path;
 
 use hdrflow::data::Image;
@@ -50,7 +52,9 @@ fn mirrored(img: &Image) -> Image {
 #[test]
 fn grace_probe_converts_to_pbrts_lat_long_remap() {
     let (Some(probe), Some(latlong)) = (load("grace_probe.hdr"), load("grace_latlong.exr")) else {
-        eprintln!("SKIPPED: ../shared/data/envmaps/grace_probe.hdr or grace_latlong.exr not found; AngularToLatLong was not checked against real data");
+        common::skip_missing_data(
+            "../shared/data/envmaps/grace_probe.hdr or grace_latlong.exr not found; AngularToLatLong was not checked against real data",
+        );
         return;
     };
     let upright = latlong.flipped_vertical();

@@ -81,13 +81,6 @@ fn corrupt_every_file(dir: &Path) -> usize {
     files.len()
 }
 
-/// Whether `hdrflow ops` lists an operator.
-fn has_operator(name: &str) -> bool {
-    let out = run_hdrflow(["ops"]);
-    out.assert_success();
-    out.stdout.lines().any(|l| l.starts_with(&format!("{name} (v")))
-}
-
 // The branchy pipeline of the `--set` test: env -> exp -> lum -> save, env -> flip -> save2.
 const BRANCHES: &str = r#"(
     nodes: {
@@ -395,10 +388,6 @@ fn two_runs_at_once_on_one_cache_and_one_output_folder() {
 
 #[test]
 fn jobs_1_and_jobs_2_give_byte_identical_outputs_for_the_seed_pipeline() {
-    if !has_operator("RelightSphere") {
-        eprintln!("SKIPPED: `hdrflow ops` does not list RelightSphere; graphs/seed.ron cannot run yet");
-        return;
-    }
     let sb = Sandbox::new();
     let graph = Path::new("graphs/seed.ron");
     let timeout = Duration::from_secs(600);
@@ -684,7 +673,7 @@ const REAL_MAPS: &[RealMap] = &[
 fn loadhdr_reads_the_real_environment_maps() {
     let dir = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data/envmaps"));
     if !dir.is_dir() {
-        eprintln!("SKIPPED: ../shared/data/envmaps not found; real-data loader tests did not run");
+        common::skip_missing_data("../shared/data/envmaps not found; real-data loader tests did not run");
         return;
     }
     let sb = Sandbox::new();

@@ -1,5 +1,7 @@
 //! `graphs/seed.ron` end to end, and the relighting operators against closed forms.
 
+mod common;
+
 use std::collections::BTreeMap;
 use std::path::Path;
 use std::process::Command;
@@ -209,7 +211,7 @@ fn samples_are_reproducible_for_a_seed_whatever_the_thread_count() {
 fn grace_cathedral_runs_with_one_set() {
     let grace = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data/envmaps/grace-new_256x128.hdr");
     if !grace.is_file() {
-        eprintln!("SKIPPED: {} not found; the Grace Cathedral run did not happen", grace.display());
+        common::skip_missing_data(&format!("{} not found; the Grace Cathedral run did not happen", grace.display()));
         return;
     }
     let dir = tempfile::tempdir().unwrap();

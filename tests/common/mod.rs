@@ -380,3 +380,14 @@ pub fn assert_statuses(map: &BTreeMap<String, String>, want: &[(&str, &str)], co
         );
     }
 }
+
+/// Reports a test that could not run because `../shared/data` (the real maps, outside the
+/// repository) is missing: a loud `SKIPPED` line, or, when `HDRFLOW_REQUIRE_DATA=1` (CI sets
+/// it), a failure, so that a missing data folder cannot pass silently where it must exist.
+#[allow(dead_code)]
+pub fn skip_missing_data(what: &str) {
+    if std::env::var("HDRFLOW_REQUIRE_DATA").is_ok_and(|v| v == "1") {
+        panic!("HDRFLOW_REQUIRE_DATA=1 but {what}");
+    }
+    eprintln!("SKIPPED: {what}");
+}
