@@ -22,7 +22,8 @@
 //!    only when their bytes differ from what is already there. The folder is checked (created,
 //!    a folder, writable) before anything is computed.
 
-use std::collections::{BTreeMap, BTreeSet};
+use std::cmp::Reverse;
+use std::collections::{BTreeMap, BTreeSet, BinaryHeap};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::Mutex;
@@ -308,23 +309,15 @@ struct Shared<'s> {
     abort: &'s AtomicBool,
     first_error: &'s Mutex<Option<RunError>>,
     written: &'s Mutex<Vec<PathBuf>>,
-    /// Nodes whose inputs are all ready, not yet started. Each entry has one spawned task
-    /// that will start the best entry at the time it runs (see `pick`).
-    ready: &'s Mutex<Vec<usize>>,
+    /// Nodes whose inputs are all ready, not yet started, by priority (see `enqueue`). Each
+    /// entry has one spawned task that starts the best entry at the time it runs.
+    ready: &'s Mutex<BinaryHeap<(usize, Reverse<usize>)>>,
 }
 
 impl Shared<'_> {
-    /// The ready node to start now: the one that frees the most memory by starting (the bytes
-    /// of the inputs it is the last consumer of), then the earliest in file order. Starting
-    /// such nodes first keeps large values (a distribution, a full map) alive as briefly as
-    /// possible; the outputs do not depend on the order.
+    /// The ready node to start now (see `enqueue`).
     fn pick(&self) -> Option<usize> {
-        let mut ready = self.ready.lock().expect("ready lock");
-        let best = (0..ready.len()).max_by_key(|&k| {
-            let i = ready[k];
-            (self.frees(i), std::cmp::Reverse(i))
-        })?;
-        Some(ready.swap_remove(best))
+        self.ready.lock().expect("ready lock").pop().map(|(_, Reverse(i))| i)
     }
 
     /// Bytes of the values node `i` is the last consumer of.
@@ -344,8 +337,13 @@ impl Shared<'_> {
     }
 
     /// Queues a node whose inputs are ready and spawns a task to start the best queued one.
+    /// Priority: the memory the node frees by starting (the bytes of the inputs it is the last
+    /// consumer of, as of now), then the earliest in file order. Starting such nodes first keeps
+    /// large values (a distribution, a full map) alive as briefly as possible; outputs do not
+    /// depend on the order. A heap keeps this O(log n) per node for wide graphs.
     fn enqueue<'s>(&'s self, scope: &rayon::Scope<'s>, i: usize) {
-        self.ready.lock().expect("ready lock").push(i);
+        let priority = self.frees(i);
+        self.ready.lock().expect("ready lock").push((priority, Reverse(i)));
         scope.spawn(move |scope| {
             if let Some(next) = self.pick() {
                 execute(self, scope, next);
@@ -489,7 +487,7 @@ fn run_in_pool(p: &Pipeline, options: &RunOptions) -> Result<RunOutcome, RunErro
         (0..n).map(|i| p.consumers(i).into_iter().filter(|&c| is_compute[c]).collect()).collect();
     let abort = AtomicBool::new(false);
     let first_error: Mutex<Option<RunError>> = Mutex::new(None);
-    let ready = Mutex::new(Vec::new());
+    let ready = Mutex::new(BinaryHeap::new());
     let shared = Shared {
         p,
         options,
