@@ -7,17 +7,25 @@
 //! tree in which every value, field name and struct name carries its [`Pos`].
 //!
 //! Accepted subset:
-//! - whitespace, `//` line comments and nested `/* */` block comments;
+//! - whitespace (RON's: space, `\t`, `\n`, `\r`, U+000B, U+000C, U+0085, U+200E, U+200F,
+//!   U+2028, U+2029), `//` line comments and nested `/* */` block comments;
 //! - optional leading `#![enable(...)]` attributes (skipped);
-//! - strings `"..."` with escapes `\" \' \\ \/ \n \t \r \0 \b \f \u{XXXX}`,
+//! - strings `"..."` with escapes `\" \' \\ \n \t \r \0 \u{XXXX}`,
 //!   raw strings `r"..."` / `r#"..."#`, and chars `'c'` (read as strings);
-//! - integers (decimal, `0x`/`0o`/`0b`, optional sign, `_` separators) and
-//!   floats (`1.5`, `1.`, `.5`, `1e10`, `-1.0e-3`, `inf`, `-inf`, `NaN`);
-//! - `true` / `false`; identifiers `[A-Za-z_][A-Za-z0-9_]*` and `r#ident`;
+//! - integers (decimal, `0x`/`0o`/`0b`, optional sign, `_` separators, not right after the
+//!   prefix) and floats (`1.5`, `1.`, `.5`, `1e10`, `-1.0e-3`, `inf`, `-inf`, `NaN`; no `_`
+//!   right after the `.`);
+//! - `true` / `false`; identifiers `[A-Za-z_][A-Za-z0-9_]*` and `r#ident` (always an
+//!   identifier: `r#true` is not a bool);
 //! - tuples `(a, b)`, structs `(f: 1)`, named forms `Name(a)` / `Name(f: 1)`
 //!   / `Name()`, lists `[a, b]` and maps `{k: v}`; trailing commas anywhere.
 //!
 //! Positions are 1-based; columns count characters, not bytes, like `ron`.
+//!
+//! Every text this parser accepts is RON that the `ron` crate reads the same way, and the other
+//! way round within the subset: `tests/ron_oracle.rs` checks it, and lists the deliberate
+//! differences (a leading byte-order mark, unread `#![...]` attributes, what lies outside the
+//! subset).
 
 use std::fmt;
 
@@ -123,9 +131,21 @@ fn describe(c: Option<char>) -> String {
     match c {
         None => "end of file".to_string(),
         Some('\n') => "end of line".to_string(),
-        Some(c) if c.is_control() => format!("`{}`", c.escape_default()),
+        // Invisible characters (a no-break space, say) are shown escaped.
+        Some(c) if c.is_control() || (c.is_whitespace() && c != ' ') || c == '\u{feff}' => {
+            format!("`{}`", c.escape_default())
+        }
         Some(c) => format!("`{c}`"),
     }
+}
+
+/// RON's whitespace (Rust's `Pattern_White_Space`), not Unicode's `White_Space`: a no-break
+/// space is not whitespace to `ron`, U+200E and U+200F are.
+fn is_whitespace(c: char) -> bool {
+    matches!(
+        c,
+        ' ' | '\t' | '\n' | '\r' | '\u{b}' | '\u{c}' | '\u{85}' | '\u{200e}' | '\u{200f}' | '\u{2028}' | '\u{2029}'
+    )
 }
 
 fn is_ident_start(c: char) -> bool {
@@ -216,7 +236,7 @@ impl Parser {
     fn skip_ws(&mut self) -> Result<(), SyntaxError> {
         loop {
             match (self.peek(), self.peek_at(1)) {
-                (Some(c), _) if c.is_whitespace() => {
+                (Some(c), _) if is_whitespace(c) => {
                     self.bump();
                 }
                 (Some('/'), Some('/')) => {
@@ -321,12 +341,13 @@ impl Parser {
             Some(c) if c.is_ascii_digit() || c == '+' || c == '-' => self.number(),
             Some('.') if self.peek_at(1).is_some_and(|c| c.is_ascii_digit()) => self.number(),
             Some(c) if is_ident_start(c) => {
+                let raw = c == 'r' && self.peek_at(1) == Some('#'); // `r#true` is an identifier, not a bool
                 let name = self.ident()?;
                 match name.as_str() {
-                    "true" => return Ok(Ron::Bool(true)),
-                    "false" => return Ok(Ron::Bool(false)),
-                    "inf" => return Ok(Ron::Float(f64::INFINITY)),
-                    "NaN" => return Ok(Ron::Float(f64::NAN)),
+                    "true" if !raw => return Ok(Ron::Bool(true)),
+                    "false" if !raw => return Ok(Ron::Bool(false)),
+                    "inf" if !raw => return Ok(Ron::Float(f64::INFINITY)),
+                    "NaN" if !raw => return Ok(Ron::Float(f64::NAN)),
                     _ => {}
                 }
                 let save = self.cur;
@@ -512,13 +533,10 @@ impl Parser {
             '"' => '"',
             '\'' => '\'',
             '\\' => '\\',
-            '/' => '/',
             'n' => '\n',
             't' => '\t',
             'r' => '\r',
             '0' => '\0',
-            'b' => '\u{8}',
-            'f' => '\u{c}',
             'u' => {
                 if !self.eat('{') {
                     return Err(self.unexpected("`{` after `\\u`"));
@@ -583,6 +601,9 @@ impl Parser {
         if radix != 10 {
             self.bump();
             self.bump();
+            if self.peek() == Some('_') {
+                return Err(self.unexpected("a digit"));
+            }
             text = self.take_while(|c| c.is_digit(radix) || c == '_');
             if !text.chars().any(|c| c != '_') {
                 return Err(self.unexpected("a digit"));
@@ -591,6 +612,9 @@ impl Parser {
             text.push_str(&self.take_while(|c| c.is_ascii_digit() || c == '_'));
             if self.peek() == Some('.') {
                 self.bump();
+                if self.peek() == Some('_') {
+                    return Err(self.unexpected("a digit after `.`"));
+                }
                 is_float = true;
                 text.push('.');
                 text.push_str(&self.take_while(|c| c.is_ascii_digit() || c == '_'));
@@ -826,6 +850,38 @@ mod tests {
         assert_eq!(e.pos, p(1, 4));
         let e = fail("(a: 1, 2)");
         assert_eq!(e.message, "expected a field name or `)`, found `2`");
+    }
+
+    /// Found by `tests/ron_oracle.rs`: texts we read differently from the `ron` crate.
+    #[test]
+    fn agrees_with_ron() {
+        // Raw identifiers are never keywords.
+        assert_eq!(
+            ok("[r#true, r#false, r#inf, r#NaN]").value,
+            Ron::List(vec![
+                Spanned { value: Ron::Ident("true".into()), pos: p(1, 2) },
+                Spanned { value: Ron::Ident("false".into()), pos: p(1, 10) },
+                Spanned { value: Ron::Ident("inf".into()), pos: p(1, 19) },
+                Spanned { value: Ron::Ident("NaN".into()), pos: p(1, 26) },
+            ])
+        );
+        assert_eq!(name_of(&ok("r#true(1)").value).unwrap().value, "true");
+        // `\/`, `\b` and `\f` are JSON escapes, not RON ones: "C:\folder" is an error, not a form feed.
+        let e = fail(r#""C:\folder""#);
+        assert_eq!((e.pos, e.message.as_str()), (p(1, 4), "unknown escape `\\f`"));
+        assert_eq!(fail(r#""\/""#).message, "unknown escape `\\/`");
+        assert_eq!(fail(r#"'\b'"#).message, "unknown escape `\\b`");
+        // RON's whitespace: U+200E and U+200F are whitespace, a no-break space (shown escaped) is not.
+        assert_eq!(ok("[1,\u{200e}2,\u{200f}3]").value.kind_name(), "list");
+        let e = fail("[1,\u{a0}2]");
+        assert_eq!((e.pos, e.message.as_str()), (p(1, 4), "expected a value, found `\\u{a0}`"));
+        assert!(fail("(a:\u{3000}1)").message.contains("found `\\u{3000}`"));
+        // No `_` right after a radix prefix or a decimal point (`_` elsewhere is fine).
+        assert_eq!(fail("0x_1").message, "expected a digit, found `_`");
+        assert_eq!(fail("-0b_1").pos, p(1, 4));
+        let e = fail("1._5");
+        assert_eq!((e.pos, e.message.as_str()), (p(1, 3), "expected a digit after `.`, found `_`"));
+        assert_eq!(ok("[0x1_, 1_.5, 1.5_, 1e_5]").value.kind_name(), "list");
     }
 
     #[test]
