@@ -227,14 +227,15 @@ fn plan(registry: &Registry, args: &RunArgs) -> ExitCode {
     let cache = cache_of(args);
     match scheduler::plan(&p, &args.targets, cache.as_ref()) {
         Ok(plan) => {
-            outln!("{:<24} {:<18} {:<11} key", "node", "operator", "plan");
+            outln!("{:<24} {:<18} {:<11} {:<16} outputs", "node", "operator", "plan", "key");
             for (i, n) in p.nodes.iter().enumerate() {
                 let key = plan.keys[i].map(|k| crate::engine::cache::key_hex(&k)[..16].to_string()).unwrap_or_default();
-                outln!("{:<24} {:<18} {:<11} {key}", n.name, n.spec.name, plan.status[i].word());
+                let ports: Vec<String> = n.ports.iter().map(|p| format!("{}: {}", p.name, p.ty)).collect();
+                outln!("{:<24} {:<18} {:<11} {:<16} {}", n.name, n.spec.name, plan.status[i].word(), key, ports.join(", "));
             }
             let count = |st: NodeStatus| plan.status.iter().filter(|s| **s == st).count();
             outln!(
-                "{} nodes: {} to compute, {} cached, {} not needed",
+                "{} nodes: {} computed, {} cached, {} not needed (planned; nothing was run)",
                 p.nodes.len(),
                 count(NodeStatus::Computed),
                 count(NodeStatus::Cached),

@@ -87,6 +87,16 @@ pub struct NodeReport {
     pub thread: Option<usize>,
     /// Hex cache key ("" when the node was not needed at all).
     pub key: String,
+    /// The node's output ports and their value types.
+    pub ports: Vec<PortReport>,
+}
+
+/// One output port of a node in a report.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct PortReport {
+    pub name: String,
+    #[serde(rename = "type")]
+    pub ty: String,
 }
 
 /// The report of a run (`--report FILE` writes it as JSON).
@@ -664,6 +674,11 @@ fn node_report(p: &Pipeline, i: usize, status: NodeStatus, t: Timing, keys: &[Op
         start_ms: t.start_ms,
         thread: t.thread,
         key: keys[i].map(|k| key_hex(&k)).unwrap_or_default(),
+        ports: p.nodes[i]
+            .ports
+            .iter()
+            .map(|port| PortReport { name: port.name.clone(), ty: port.ty.name().to_string() })
+            .collect(),
     }
 }
 
