@@ -64,11 +64,39 @@ enum Command {
     Dot(GraphArgs),
     /// Benchmark run time against error for every relighting strategy and the peers.
     Bench(BenchArgs),
-    /// List every operator with its fields, types, defaults and docs.
+    /// List every operator with its ports, fields, types, defaults and docs, then the value types.
     Ops {
         /// Show only this operator.
         name: Option<String>,
     },
+    /// Inspect or trim the cache: stats, prune, clear.
+    Cache {
+        #[command(subcommand)]
+        action: CacheAction,
+        /// Cache folder (default: $HDRFLOW_CACHE_DIR, $XDG_CACHE_HOME/hdrflow or ~/.cache/hdrflow).
+        #[arg(long, global = true)]
+        cache_dir: Option<PathBuf>,
+    },
+    /// Print a shell completion script (bash, zsh, fish, elvish, powershell) to stdout.
+    Completions {
+        shell: clap_complete::Shell,
+    },
+    /// Print the manual page (roff) to stdout: `hdrflow man > hdrflow.1`.
+    Man,
+}
+
+#[derive(Subcommand)]
+enum CacheAction {
+    /// Entries, bytes, live runs and leftover temporary files.
+    Stats,
+    /// Remove least-recently-used entries down to a size; entries in use by live runs stay.
+    Prune {
+        /// The size to prune down to, in MiB.
+        #[arg(long, default_value_t = DEFAULT_LIMIT_BYTES >> 20)]
+        max_mb: u64,
+    },
+    /// Remove every entry not in use by a live run.
+    Clear,
 }
 
 #[derive(Args)]
@@ -135,18 +163,30 @@ struct RunArgs {
     /// Compute everything; neither read nor write the cache.
     #[arg(long)]
     no_cache: bool,
-    /// Cache size limit in MiB; least recently used entries are evicted past it.
+    /// At most this many MiB of new cache entries from this run (results past it are not
+    /// stored). Other pipelines' entries are never touched by it; the folder as a whole is
+    /// pruned to $HDRFLOW_CACHE_MAX_MB (default 4096) after a run, sparing live runs' entries.
     #[arg(long, default_value_t = DEFAULT_LIMIT_BYTES >> 20)]
     cache_limit_mb: u64,
-    /// Worker threads (default: one per core).
+    /// Worker threads; 0 or absent: one per core.
     #[arg(long)]
     jobs: Option<usize>,
     /// Write the run report as JSON to this file.
     #[arg(long)]
     report: Option<PathBuf>,
     /// Print only errors and warnings.
-    #[arg(long, short)]
+    #[arg(long, short, conflicts_with = "verbose")]
     quiet: bool,
+    /// Also print one line per node as it finishes, and the per-node table at the end.
+    #[arg(long, short)]
+    verbose: bool,
+    /// Print this node's value after the run (repeatable); metrics and other small targets are
+    /// printed without asking.
+    #[arg(long = "print", value_name = "NODE")]
+    print: Vec<String>,
+    /// Print the run report as JSON on stdout (for scripts) instead of the summary.
+    #[arg(long)]
+    json: bool,
 }
 
 /// The `hdrflow` command line over the built-in operators.
@@ -183,6 +223,22 @@ where
             Err(code) => code,
         },
         Command::Plan(args) => plan(&registry, &args),
+        Command::Cache { action, cache_dir } => cache_command(action, cache_dir),
+        Command::Completions { shell } => {
+            let mut cmd = <Cli as clap::CommandFactory>::command();
+            clap_complete::generate(shell, &mut cmd, "hdrflow", &mut std::io::stdout());
+            ExitCode::SUCCESS
+        }
+        Command::Man => {
+            let cmd = <Cli as clap::CommandFactory>::command();
+            let mut out = Vec::new();
+            if let Err(e) = clap_mangen::Man::new(cmd).render(&mut out) {
+                eprintln!("error: rendering the manual: {e}");
+                return ExitCode::from(1);
+            }
+            out!("{}", String::from_utf8_lossy(&out));
+            ExitCode::SUCCESS
+        }
         Command::Bench(args) => bench(&args),
         Command::Run(args) => run(&registry, &args),
     }
@@ -262,12 +318,34 @@ fn run(registry: &Registry, args: &RunArgs) -> ExitCode {
         Ok(p) => p,
         Err(code) => return code,
     };
-    let observer = progress::Progress::new(args.quiet);
+    for name in &args.print {
+        if p.index_of(name).is_none() {
+            let names: Vec<&str> = p.nodes.iter().map(|n| n.name.as_str()).collect();
+            eprintln!("error: --print {name:?}: no such node{}", crate::engine::graph::suggest(name, &names, "nodes"));
+            return ExitCode::from(2);
+        }
+    }
+    let verbosity = if args.quiet {
+        progress::Verbosity::Quiet
+    } else if args.verbose {
+        progress::Verbosity::Verbose
+    } else {
+        progress::Verbosity::Normal
+    };
+    let observer = progress::Progress::new(verbosity);
+    // Nodes to print are targets too, so that their values come back.
+    let mut targets = args.targets.clone();
+    if !args.print.is_empty() {
+        if targets.is_empty() {
+            targets = p.default_targets().into_iter().map(|i| p.nodes[i].name.clone()).collect();
+        }
+        targets.extend(args.print.iter().cloned());
+    }
     let options = RunOptions {
-        targets: args.targets.clone(),
+        targets,
         out_dir: args.out.clone(),
         cache: cache_of(args),
-        jobs: args.jobs,
+        jobs: args.jobs.filter(|&j| j > 0),
         observer: &observer,
     };
     let outcome = scheduler::run(&p, &options);
@@ -280,8 +358,12 @@ fn run(registry: &Registry, args: &RunArgs) -> ExitCode {
         }
     };
     let report = &outcome.report;
-    if !args.quiet {
-        progress::print_table(report);
+    if args.json {
+        outln!("{}", serde_json::to_string_pretty(report).expect("report serialises"));
+    } else if !args.quiet {
+        if args.verbose {
+            progress::print_table(report);
+        }
         outln!(
             "{} nodes: {} computed, {} cached, {} not needed; {:.1} ms; {} file{} written to {}",
             report.nodes.len(),
@@ -294,18 +376,21 @@ fn run(registry: &Registry, args: &RunArgs) -> ExitCode {
             args.out.display()
         );
     }
+    if !args.json {
+        print_values(&outcome.values, &args.print, args.quiet);
+    }
     if let Some(cache) = &options.cache {
         match cache.evict() {
-            Ok(r) if r.removed > 0 && !args.quiet => {
+            Ok(r) if r.removed > 0 && args.verbose => {
                 eprintln!(
-                    "cache: evicted {} entries ({} MiB -> {} MiB)",
+                    "cache: pruned {} least-recently-used entries ({} MiB -> {} MiB)",
                     r.removed,
                     r.bytes_before >> 20,
                     r.bytes_after >> 20
                 )
             }
             Ok(_) => {}
-            Err(e) => eprintln!("warning: cache eviction: {e}"),
+            Err(e) => eprintln!("warning: cache pruning: {e}"),
         }
     }
     if let Some(path) = &args.report {
@@ -316,6 +401,66 @@ fn run(registry: &Registry, args: &RunArgs) -> ExitCode {
         }
     }
     ExitCode::SUCCESS
+}
+
+/// Prints the values a user asked for with `--print` (any type, in full where the type can
+/// show itself, else a one-line summary) and the small target values that show themselves
+/// (metrics, curve scalars), unless quiet.
+fn print_values(values: &std::collections::BTreeMap<String, crate::Value>, asked: &[String], quiet: bool) {
+    for (name, value) in values {
+        let wanted = asked.iter().any(|a| a == name);
+        match value.display() {
+            Some(text) if wanted || !quiet => {
+                outln!("{name} ({}):", value.value_type());
+                for line in text.lines() {
+                    outln!("  {line}");
+                }
+            }
+            None if wanted => outln!("{name}: {}", value.summary()),
+            _ => {}
+        }
+    }
+}
+
+fn cache_command(action: CacheAction, dir: Option<PathBuf>) -> ExitCode {
+    let dir = dir.unwrap_or_else(CacheStore::default_dir);
+    let store = CacheStore::new(&dir, 0);
+    let result = match action {
+        CacheAction::Stats => store.stats().map(|s| {
+            outln!(
+                "{}: {} entries, {:.1} MiB; {} live run{}; {} leftover temporary file{}",
+                dir.display(),
+                s.entries,
+                s.bytes as f64 / (1 << 20) as f64,
+                s.live_runs,
+                if s.live_runs == 1 { "" } else { "s" },
+                s.temporaries,
+                if s.temporaries == 1 { "" } else { "s" }
+            );
+        }),
+        CacheAction::Prune { max_mb } => store.prune(max_mb << 20).map(|r| report_removal(&dir, r)),
+        CacheAction::Clear => store.clear().map(|r| report_removal(&dir, r)),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::from(1)
+        }
+    }
+}
+
+fn report_removal(dir: &std::path::Path, r: crate::engine::cache::store::EvictionReport) {
+    let kept = r.entries - r.removed;
+    outln!(
+        "{}: removed {} of {} entries ({:.1} MiB -> {:.1} MiB){}",
+        dir.display(),
+        r.removed,
+        r.entries,
+        r.bytes_before as f64 / (1 << 20) as f64,
+        r.bytes_after as f64 / (1 << 20) as f64,
+        if kept > 0 && r.bytes_after > 0 { format!("; {kept} kept (in use by live runs, or within the size)") } else { String::new() }
+    );
 }
 
 fn ops(registry: &Registry, name: Option<&str>) -> ExitCode {

@@ -1,5 +1,5 @@
-//! Progress on a terminal (a bar, shown once a run lasts more than a moment) or plain lines
-//! when stderr is not a terminal; and the end-of-run table.
+//! Progress on a terminal (a bar naming the nodes running now, shown once a run lasts more than
+//! a moment); per-node lines off a terminal only with `-v`; and the end-of-run table (`-v`).
 
 use std::io::IsTerminal;
 use std::sync::Mutex;
@@ -12,22 +12,45 @@ use crate::engine::scheduler::{NodeReport, NodeStatus, Observer, RunReport};
 /// How long a run may last before a bar appears.
 const BAR_DELAY: Duration = Duration::from_millis(300);
 
+/// How much a run prints.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Verbosity {
+    /// Errors and warnings only.
+    Quiet,
+    /// The progress bar on a terminal and the summary line.
+    Normal,
+    /// Also a line per node and the per-node table.
+    Verbose,
+}
+
 pub struct Progress {
-    quiet: bool,
+    verbosity: Verbosity,
     terminal: bool,
     start: Instant,
     bar: Mutex<Option<ProgressBar>>,
     shown: std::sync::atomic::AtomicBool,
+    /// The nodes running now, in start order (the bar names them).
+    running: Mutex<Vec<String>>,
 }
 
 impl Progress {
-    pub fn new(quiet: bool) -> Self {
+    pub fn new(verbosity: Verbosity) -> Self {
         Progress {
-            quiet,
+            verbosity,
             terminal: std::io::stderr().is_terminal(),
             start: Instant::now(),
             bar: Mutex::new(None),
             shown: std::sync::atomic::AtomicBool::new(false),
+            running: Mutex::new(Vec::new()),
+        }
+    }
+
+    fn running_message(&self) -> String {
+        let running = self.running.lock().expect("progress lock");
+        match running.len() {
+            0 => String::new(),
+            1..=3 => running.join(", "),
+            n => format!("{} and {} more", running[..3].join(", "), n - 3),
         }
     }
 
@@ -51,30 +74,37 @@ impl Progress {
 
 impl Observer for Progress {
     fn planned(&self, compute: usize, _cached: usize) {
-        if self.quiet || !self.terminal {
+        if self.verbosity == Verbosity::Quiet || !self.terminal {
             return;
         }
         let bar = ProgressBar::with_draw_target(Some(compute as u64), ProgressDrawTarget::hidden());
         bar.set_style(
-            ProgressStyle::with_template("{spinner} [{elapsed_precise}] {bar:30} {pos}/{len} nodes  {msg}")
+            ProgressStyle::with_template("{spinner} [{elapsed_precise}] {bar:30} {pos}/{len} nodes  running: {msg}")
                 .expect("valid template"),
         );
         *self.bar.lock().expect("progress lock") = Some(bar);
     }
 
     fn node_started(&self, name: &str) {
-        self.with_bar(|b| b.set_message(name.to_string()));
+        self.running.lock().expect("progress lock").push(name.to_string());
+        let message = self.running_message();
+        self.with_bar(|b| b.set_message(message));
     }
 
     fn node_finished(&self, r: &NodeReport) {
-        if self.quiet {
+        self.running.lock().expect("progress lock").retain(|n| n != &r.name);
+        if self.verbosity == Verbosity::Quiet {
             return;
         }
         if self.terminal {
             if r.status == NodeStatus::Computed {
-                self.with_bar(|b| b.inc(1));
+                let message = self.running_message();
+                self.with_bar(|b| {
+                    b.inc(1);
+                    b.set_message(message);
+                });
             }
-        } else if r.status == NodeStatus::Computed {
+        } else if r.status == NodeStatus::Computed && self.verbosity == Verbosity::Verbose {
             eprintln!(
                 "[{:>8.1} ms] computed {} ({}) in {:.1} ms",
                 self.start.elapsed().as_secs_f64() * 1e3,

@@ -85,6 +85,9 @@ pub enum RunError {
 pub enum CacheError {
     #[error("cache entry {} is corrupt: {reason}", path.display())]
     Corrupt { path: PathBuf, reason: String },
+    /// This run has added as much as `--cache-limit-mb` allows.
+    #[error("this run's cache limit of {limit_mb} MiB (--cache-limit-mb) is reached")]
+    LimitReached { limit_mb: u64 },
     #[error("cache folder {}: {source}", path.display())]
     Io {
         path: PathBuf,

@@ -412,6 +412,8 @@ fn run_in_pool(p: &Pipeline, options: &RunOptions) -> Result<RunOutcome, RunErro
         }
     });
     let cache_failed = AtomicBool::new(false);
+    // While this run lasts, pruning by other processes spares the entries it uses.
+    let _lease = cache.and_then(|c| c.lease().ok());
 
     let slots: Vec<Vec<Slot>> = p
         .nodes

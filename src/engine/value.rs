@@ -108,6 +108,15 @@ pub trait ValueData: Any + Send + Sync + fmt::Debug {
     fn approx_bytes(&self) -> usize;
     /// The cache payload, read back by the type's `TypeSpec::decode`.
     fn encode(&self, out: &mut Vec<u8>);
+    /// The value in full as text, for small values worth printing after a run (metrics, a
+    /// light); `None` for values too large to print (images).
+    fn display(&self) -> Option<String> {
+        None
+    }
+    /// One line describing the value (size, channels, count).
+    fn summary(&self) -> String {
+        format!("a {} of about {} bytes", self.value_type(), self.approx_bytes())
+    }
 }
 
 /// A value on an edge of the graph: shared, immutable, of an open set of types.
@@ -163,6 +172,16 @@ impl Value {
 
     pub fn approx_bytes(&self) -> usize {
         self.view.approx_bytes()
+    }
+
+    /// See [`ValueData::display`].
+    pub fn display(&self) -> Option<String> {
+        self.view.display()
+    }
+
+    /// See [`ValueData::summary`].
+    pub fn summary(&self) -> String {
+        self.view.summary()
     }
 
     /// The cache payload of this value.

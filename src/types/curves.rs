@@ -23,6 +23,23 @@ impl ValueData for Curves {
     fn approx_bytes(&self) -> usize {
         (self.x.len() * (1 + self.series.len())) * 8
     }
+    fn display(&self) -> Option<String> {
+        let mut lines = vec![format!(
+            "{}: {} series ({}) over {} values of {}",
+            self.title,
+            self.series.len(),
+            self.series.iter().map(|(n, _)| n.as_str()).collect::<Vec<_>>().join(", "),
+            self.x.len(),
+            self.x_name
+        )];
+        for (name, v) in &self.scalars {
+            lines.push(match v {
+                Some(v) => format!("{name}  {v}"),
+                None => format!("{name}  none"),
+            });
+        }
+        Some(lines.join("\n"))
+    }
     fn encode(&self, out: &mut Vec<u8>) {
         let mut w = Writer(out);
         w.str(&self.title);

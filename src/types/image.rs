@@ -37,6 +37,16 @@ impl ValueData for Image {
     fn approx_bytes(&self) -> usize {
         self.data.len() * 4
     }
+    fn summary(&self) -> String {
+        let n = self.pixel_count().max(1) as f64;
+        let means: Vec<String> = (0..self.channels)
+            .map(|c| {
+                let sum: f64 = self.data.iter().skip(c).step_by(self.channels).map(|&v| v as f64).sum();
+                format!("{} {:.6}", self.names[c], sum / n)
+            })
+            .collect();
+        format!("{}x{} image, channel means: {}", self.width, self.height, means.join(", "))
+    }
     fn encode(&self, out: &mut Vec<u8>) {
         let mut w = Writer(out);
         w.u64(self.width as u64);

@@ -20,6 +20,10 @@ impl ValueData for Metrics {
     fn approx_bytes(&self) -> usize {
         self.fields.len() * 32
     }
+    fn display(&self) -> Option<String> {
+        let width = self.fields.iter().map(|(n, _)| n.len()).max().unwrap_or(0);
+        Some(self.fields.iter().map(|(n, v)| format!("{n:<width$}  {v}")).collect::<Vec<_>>().join("\n"))
+    }
     fn encode(&self, out: &mut Vec<u8>) {
         let mut w = Writer(out);
         w.u64(self.fields.len() as u64);

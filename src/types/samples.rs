@@ -23,6 +23,9 @@ impl ValueData for SampleSet {
     fn approx_bytes(&self) -> usize {
         self.samples.len() * std::mem::size_of::<Sample>()
     }
+    fn summary(&self) -> String {
+        format!("{} samples on a {}x{} lat-long grid", self.samples.len(), self.width, self.height)
+    }
     fn encode(&self, out: &mut Vec<u8>) {
         let mut w = Writer(out);
         w.u64(self.width as u64);

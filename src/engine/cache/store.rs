@@ -6,6 +6,14 @@
 //! at once both succeed (the last rename wins; both wrote the same bytes). A read checks magic,
 //! version, length and checksum: anything else is reported as corrupt and recomputed.
 //! Reads refresh the entry's modification time, which is what eviction orders by (LRU).
+//!
+//! Size: a run may add at most `add_limit_bytes` (`--cache-limit-mb`); past that its results are
+//! not stored. The folder as a whole is pruned least-recently-used first down to a size
+//! (`prune`, `hdrflow cache prune`, and after every run to the default 4 GiB or
+//! `$HDRFLOW_CACHE_MAX_MB`), but an entry used since the start of a live run is never removed:
+//! each run holds a lease file `<dir>/v1/live/<pid>-<n>` for its duration, and entries whose
+//! time is newer than the oldest live lease are spared. Leases of processes that are gone are
+//! removed. So one run's limit never empties a cache that other pipelines share.
 
 use std::fs;
 use std::io::Write;
@@ -22,13 +30,46 @@ use crate::engine::value::Value;
 const MAGIC: &[u8; 8] = b"HDRFLOWC";
 const HEADER_LEN: usize = 8 + 4 + 8 + 32;
 
-/// Default size limit: 4 GiB.
+/// Default size of the cache folder that runs prune down to: 4 GiB (`$HDRFLOW_CACHE_MAX_MB`
+/// overrides it).
 pub const DEFAULT_LIMIT_BYTES: u64 = 4 << 30;
+
+/// The folder size runs prune down to: `$HDRFLOW_CACHE_MAX_MB` MiB, else 4 GiB.
+pub fn default_max_bytes() -> u64 {
+    std::env::var("HDRFLOW_CACHE_MAX_MB").ok().and_then(|v| v.trim().parse::<u64>().ok()).map_or(DEFAULT_LIMIT_BYTES, |mb| mb << 20)
+}
 
 #[derive(Debug, Clone)]
 pub struct CacheStore {
     root: PathBuf,
-    limit_bytes: u64,
+    /// How many bytes this store handle may add (one run's `--cache-limit-mb`).
+    add_limit_bytes: u64,
+    /// Bytes added through this handle (and its clones).
+    added: std::sync::Arc<AtomicU64>,
+}
+
+/// A live run's claim on the entries it uses: while it exists, `prune` spares every entry used
+/// since it was taken. Dropping it releases the claim.
+#[derive(Debug)]
+pub struct Lease {
+    path: PathBuf,
+}
+
+impl Drop for Lease {
+    fn drop(&mut self) {
+        let _ = fs::remove_file(&self.path);
+    }
+}
+
+/// What the cache folder holds (`hdrflow cache stats`).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct CacheStats {
+    pub entries: usize,
+    pub bytes: u64,
+    /// Live runs holding a lease.
+    pub live_runs: usize,
+    /// Temporary files left by killed runs.
+    pub temporaries: usize,
 }
 
 /// What eviction did.
@@ -41,9 +82,49 @@ pub struct EvictionReport {
 }
 
 impl CacheStore {
-    /// A store under `dir` (created on first write).
-    pub fn new(dir: impl Into<PathBuf>, limit_bytes: u64) -> Self {
-        CacheStore { root: dir.into().join("v1"), limit_bytes }
+    /// A store under `dir` (created on first write) through which at most `add_limit_bytes`
+    /// may be added.
+    pub fn new(dir: impl Into<PathBuf>, add_limit_bytes: u64) -> Self {
+        CacheStore { root: dir.into().join("v1"), add_limit_bytes, added: Default::default() }
+    }
+
+    /// Bytes added through this handle so far.
+    pub fn added_bytes(&self) -> u64 {
+        self.added.load(Ordering::Relaxed)
+    }
+
+    /// Takes a lease for a run (see the module documentation).
+    pub fn lease(&self) -> Result<Lease, CacheError> {
+        let dir = self.root.join("live");
+        fs::create_dir_all(&dir).map_err(|source| CacheError::Io { path: dir.clone(), source })?;
+        let path = dir.join(format!("{}-{}", std::process::id(), TMP_COUNTER.fetch_add(1, Ordering::Relaxed)));
+        fs::write(&path, b"").map_err(|source| CacheError::Io { path: path.clone(), source })?;
+        Ok(Lease { path })
+    }
+
+    /// The start of the oldest live run, if any; leases of processes that are gone are removed.
+    fn oldest_live_lease(&self) -> (Option<SystemTime>, usize) {
+        let Ok(entries) = fs::read_dir(self.root.join("live")) else { return (None, 0) };
+        let proc_fs = Path::new("/proc/self").exists();
+        let mut oldest: Option<SystemTime> = None;
+        let mut live = 0;
+        for e in entries.flatten() {
+            let name = e.file_name().to_string_lossy().into_owned();
+            let pid = name.split('-').next().and_then(|p| p.parse::<u32>().ok());
+            let dead = match pid {
+                Some(pid) if proc_fs => pid != std::process::id() && !Path::new("/proc").join(pid.to_string()).exists(),
+                _ => false,
+            };
+            if dead {
+                let _ = fs::remove_file(e.path());
+                continue;
+            }
+            live += 1;
+            if let Ok(t) = e.metadata().and_then(|m| m.modified()) {
+                oldest = Some(oldest.map_or(t, |o| o.min(t)));
+            }
+        }
+        (oldest, live)
     }
 
     /// The per-user default folder: `$HDRFLOW_CACHE_DIR`, else `$XDG_CACHE_HOME/hdrflow`,
@@ -120,10 +201,17 @@ impl CacheStore {
         }
     }
 
-    /// Writes a node's outputs as one entry, atomically.
+    /// Writes a node's outputs as one entry, atomically. Fails with `LimitReached` when the
+    /// entry would take this handle past its add limit (nothing is written then).
     pub fn put(&self, key: &Key, outputs: &[(String, Value)]) -> Result<(), CacheError> {
         let path = self.path_for(key);
         let payload = codec::encode(outputs);
+        let len = (HEADER_LEN + payload.len()) as u64;
+        let before = self.added.fetch_add(len, Ordering::SeqCst);
+        if before + len > self.add_limit_bytes {
+            self.added.fetch_sub(len, Ordering::SeqCst);
+            return Err(CacheError::LimitReached { limit_mb: self.add_limit_bytes >> 20 });
+        }
         let mut entry = Vec::with_capacity(HEADER_LEN + payload.len());
         entry.extend_from_slice(MAGIC);
         entry.extend_from_slice(&CODEC_VERSION.to_le_bytes());
@@ -135,43 +223,75 @@ impl CacheStore {
         write_atomic_with(&path, &entry, false).map_err(|source| CacheError::Io { path, source })
     }
 
-    /// Removes least-recently-used entries until the store is under its limit.
-    pub fn evict(&self) -> Result<EvictionReport, CacheError> {
-        let mut entries: Vec<(SystemTime, u64, PathBuf)> = Vec::new();
+    /// What the folder holds.
+    pub fn stats(&self) -> Result<CacheStats, CacheError> {
+        let mut stats = CacheStats { live_runs: self.oldest_live_lease().1, ..Default::default() };
+        for (_, len, path) in self.entries()? {
+            if path.to_string_lossy().contains(".tmp-") {
+                stats.temporaries += 1;
+            } else {
+                stats.entries += 1;
+                stats.bytes += len;
+            }
+        }
+        Ok(stats)
+    }
+
+    /// Every file under the store's entry folders: (time, length, path).
+    fn entries(&self) -> Result<Vec<(SystemTime, u64, PathBuf)>, CacheError> {
+        let mut out = Vec::new();
         let dirs = match fs::read_dir(&self.root) {
             Ok(d) => d,
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(EvictionReport::default()),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(out),
             Err(source) => return Err(CacheError::Io { path: self.root.clone(), source }),
         };
         for dir in dirs.flatten() {
+            if dir.file_name() == "live" {
+                continue;
+            }
             let Ok(files) = fs::read_dir(dir.path()) else { continue };
             for f in files.flatten() {
                 let Ok(meta) = f.metadata() else { continue };
-                if !meta.is_file() {
-                    continue;
+                if meta.is_file() {
+                    out.push((meta.modified().unwrap_or(SystemTime::UNIX_EPOCH), meta.len(), f.path()));
                 }
-                let path = f.path();
-                let is_tmp = path.to_string_lossy().contains(".tmp-");
-                let mtime = meta.modified().unwrap_or(SystemTime::UNIX_EPOCH);
-                // Temporary files older than an hour were left by a killed run.
-                if is_tmp {
-                    if mtime.elapsed().map(|e| e.as_secs() > 3600).unwrap_or(false) {
-                        let _ = fs::remove_file(&path);
-                    }
-                    continue;
-                }
-                entries.push((mtime, meta.len(), path));
             }
+        }
+        Ok(out)
+    }
+
+    /// Removes every entry not in use by a live run; returns what was removed.
+    pub fn clear(&self) -> Result<EvictionReport, CacheError> {
+        self.prune(0)
+    }
+
+    /// Removes least-recently-used entries until the folder holds at most `max_bytes`, sparing
+    /// entries used since the start of a live run (see the module documentation).
+    pub fn prune(&self, max_bytes: u64) -> Result<EvictionReport, CacheError> {
+        let (oldest_live, _) = self.oldest_live_lease();
+        let mut entries: Vec<(SystemTime, u64, PathBuf)> = Vec::new();
+        for (mtime, len, path) in self.entries()? {
+            // Temporary files older than an hour were left by a killed run.
+            if path.to_string_lossy().contains(".tmp-") {
+                if mtime.elapsed().map(|e| e.as_secs() > 3600).unwrap_or(false) {
+                    let _ = fs::remove_file(&path);
+                }
+                continue;
+            }
+            entries.push((mtime, len, path));
         }
         let bytes_before: u64 = entries.iter().map(|e| e.1).sum();
         let mut report = EvictionReport { entries: entries.len(), bytes_before, removed: 0, bytes_after: bytes_before };
-        if bytes_before <= self.limit_bytes {
+        if bytes_before <= max_bytes {
             return Ok(report);
         }
         entries.sort_by_key(|e| e.0);
-        for (_, len, path) in entries {
-            if report.bytes_after <= self.limit_bytes {
+        for (mtime, len, path) in entries {
+            if report.bytes_after <= max_bytes {
                 break;
+            }
+            if oldest_live.is_some_and(|start| mtime >= start) {
+                continue; // in use by a live run
             }
             if fs::remove_file(&path).is_ok() {
                 report.removed += 1;
@@ -180,6 +300,13 @@ impl CacheStore {
         }
         Ok(report)
     }
+
+    /// Removes least-recently-used entries until the store is under the default size
+    /// (`default_max_bytes`), sparing entries in use by live runs.
+    pub fn evict(&self) -> Result<EvictionReport, CacheError> {
+        self.prune(default_max_bytes())
+    }
+
 }
 
 fn check_entry(bytes: &[u8]) -> Result<&[u8], String> {
@@ -313,7 +440,7 @@ mod tests {
     #[test]
     fn eviction_removes_least_recently_used_first() {
         let dir = tempfile::tempdir().unwrap();
-        let s = CacheStore::new(dir.path(), 1);
+        let s = CacheStore::new(dir.path(), DEFAULT_LIMIT_BYTES);
         let old = [1u8; 32];
         let new = [2u8; 32];
         s.put(&old, &blob(192)).unwrap();
@@ -321,10 +448,40 @@ mod tests {
         f.set_modified(SystemTime::UNIX_EPOCH + std::time::Duration::from_secs(1000)).unwrap();
         s.put(&new, &blob(192)).unwrap();
         let size = fs::metadata(s.path_for(&new)).unwrap().len();
-        let s = CacheStore::new(dir.path(), size);
-        let report = s.evict().unwrap();
+        let report = s.prune(size).unwrap();
         assert_eq!(report.removed, 1);
         assert!(!s.contains(&old));
         assert!(s.contains(&new));
+    }
+
+    #[test]
+    fn a_live_lease_spares_the_entries_used_since_it_was_taken() {
+        let dir = tempfile::tempdir().unwrap();
+        let s = CacheStore::new(dir.path(), DEFAULT_LIMIT_BYTES);
+        let old = [1u8; 32];
+        s.put(&old, &blob(64)).unwrap();
+        let f = fs::File::options().write(true).open(s.path_for(&old)).unwrap();
+        f.set_modified(SystemTime::UNIX_EPOCH + std::time::Duration::from_secs(1000)).unwrap();
+        let lease = s.lease().unwrap();
+        let used = [2u8; 32];
+        s.put(&used, &blob(64)).unwrap();
+        assert_eq!(s.stats().unwrap().live_runs, 1);
+        let report = s.clear().unwrap();
+        assert_eq!(report.removed, 1, "only the entry older than the live run goes");
+        assert!(s.contains(&used) && !s.contains(&old));
+        drop(lease);
+        assert_eq!(s.stats().unwrap().live_runs, 0);
+        s.clear().unwrap();
+        assert!(!s.contains(&used));
+    }
+
+    #[test]
+    fn a_handle_adds_at_most_its_limit() {
+        let dir = tempfile::tempdir().unwrap();
+        let s = CacheStore::new(dir.path(), 300);
+        s.put(&[1u8; 32], &blob(64)).unwrap();
+        assert!(matches!(s.put(&[2u8; 32], &blob(400)), Err(CacheError::LimitReached { .. })));
+        assert!(!s.contains(&[2u8; 32]));
+        assert!(s.added_bytes() < 300);
     }
 }
