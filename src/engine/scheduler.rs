@@ -472,12 +472,14 @@ fn run_in_pool(p: &Pipeline, options: &RunOptions) -> Result<RunOutcome, RunErro
         }
     }
 
+    // The nodes with no input to wait for, chosen before any node runs: once the first ones run,
+    // they start their consumers themselves, and a consumer whose count reached 0 meanwhile must
+    // not be started a second time by this loop.
+    let roots: Vec<usize> = compute.iter().copied().filter(|&i| pending[i].load(Ordering::SeqCst) == 0).collect();
     rayon::scope(|scope| {
-        for &i in &compute {
-            if pending[i].load(Ordering::SeqCst) == 0 {
-                let s = &shared;
-                scope.spawn(move |scope| execute(s, scope, i));
-            }
+        for &i in &roots {
+            let s = &shared;
+            scope.spawn(move |scope| execute(s, scope, i));
         }
     });
     if let Some(e) = first_error.into_inner().expect("error lock") {
