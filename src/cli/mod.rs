@@ -379,7 +379,9 @@ fn run(registry: &Registry, args: &RunArgs) -> ExitCode {
     if !args.json {
         print_values(&outcome.values, &args.print, args.quiet);
     }
-    if let Some(cache) = &options.cache {
+    // A cache folder the run could not use was already reported (one warning, and the run went
+    // on without it): there is nothing of ours to evict there, and no second warning to give.
+    if let Some(cache) = options.cache.as_ref().filter(|c| c.ensure_writable().is_ok()) {
         match cache.evict() {
             Ok(r) if r.removed > 0 && args.verbose => {
                 eprintln!(

@@ -527,11 +527,13 @@ fn run_in_pool(p: &Pipeline, options: &RunOptions) -> Result<RunOutcome, RunErro
         }
     }
 
+    // The nodes with no input to wait for, chosen before any node runs: once the first ones run,
+    // they start their consumers themselves, and a consumer whose count reached 0 meanwhile must
+    // not be started a second time by this loop.
+    let roots: Vec<usize> = compute.iter().copied().filter(|&i| pending[i].load(Ordering::SeqCst) == 0).collect();
     rayon::scope(|scope| {
-        for &i in &compute {
-            if pending[i].load(Ordering::SeqCst) == 0 {
-                shared.enqueue(scope, i);
-            }
+        for &i in &roots {
+            shared.enqueue(scope, i);
         }
     });
     if let Some(e) = first_error.into_inner().expect("error lock") {
@@ -543,12 +545,7 @@ fn run_in_pool(p: &Pipeline, options: &RunOptions) -> Result<RunOutcome, RunErro
     for &t in &targets {
         for (port, slot) in slots[t].iter().enumerate() {
             if let Some(v) = slot.value.lock().expect("slot lock").take() {
-                let name = if port == 0 {
-                    p.nodes[t].name.clone()
-                } else {
-                    format!("{}.{}", p.nodes[t].name, p.nodes[t].ports[port].name)
-                };
-                values.insert(name, v);
+                values.insert(p.nodes[t].port_label(port), v);
             }
         }
     }

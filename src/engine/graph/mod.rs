@@ -90,9 +90,23 @@ impl Node {
     pub fn sources(&self) -> impl Iterator<Item = PortRef> + '_ {
         self.inputs.iter().flat_map(|w| w.sources.iter().copied())
     }
-    /// The type of the default output (port 0).
+    /// The type of the default output (None when the operator declares no port).
     pub fn output_type(&self) -> Option<ValueType> {
-        self.ports.first().map(|p| p.ty)
+        self.ports.first().filter(|_| self.is_default_port(0)).map(|p| p.ty)
+    }
+    /// Whether `port` is the default output, the one a reference by the node's name alone takes:
+    /// the first declared port. An operator that declares only open ports has none (its port 0
+    /// is an open port that a consumer named).
+    pub fn is_default_port(&self, port: usize) -> bool {
+        port == 0 && !self.spec.outputs.is_empty()
+    }
+    /// `node` for the default port, `node.port` for the others, as a user writes it.
+    pub fn port_label(&self, port: usize) -> String {
+        if self.is_default_port(port) {
+            self.name.clone()
+        } else {
+            format!("{}.{}", self.name, self.ports[port].name)
+        }
     }
     /// Whether this node produces a file for the output folder.
     pub fn writes_file(&self) -> bool {
@@ -172,12 +186,7 @@ impl Pipeline {
 
     /// `node` or `node.port` as a user writes it (the default port has no suffix).
     pub fn port_label(&self, r: PortRef) -> String {
-        let n = &self.nodes[r.node];
-        if r.port == 0 {
-            n.name.clone()
-        } else {
-            format!("{}.{}", n.name, n.ports[r.port].name)
-        }
+        self.nodes[r.node].port_label(r.port)
     }
 
     /// Graphviz DOT: one box per node (name, operator, ports), edges labelled with input
@@ -197,7 +206,7 @@ impl Pipeline {
                     if w.sources.len() > 1 {
                         label.push_str(&format!("[{k}]"));
                     }
-                    if src.port != 0 {
+                    if !from.is_default_port(src.port) {
                         label = format!("{} <- {}", label, from.ports[src.port].name);
                     }
                     s.push_str(&format!(

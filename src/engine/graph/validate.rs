@@ -392,23 +392,32 @@ fn resolve_fields(
                         Err(RefError::NoPort { node, port }) => {
                             let spec = &raw[node].spec;
                             let ports: Vec<&str> = spec.outputs.iter().map(|p| p.name).collect();
-                            let listing = if ports.is_empty() {
-                                format!("{} has no default output: name one of its ports", spec.name)
+                            let message = if ports.is_empty() && port.is_empty() {
+                                // `"split"` for an operator with only open ports.
+                                format!(
+                                    "field {:?}: node {:?} has no default output: name one of its ports, \
+                                     e.g. \"{}.NAME\" ({} has ports under any name: {})",
+                                    field.name,
+                                    raw[node].name,
+                                    raw[node].name,
+                                    spec.name,
+                                    spec.open_ports.as_ref().map_or("", |o| o.doc)
+                                )
                             } else {
-                                format!("{} has ports: {}", spec.name, ports.join(", "))
-                            };
-                            errs.push_from(
-                                origin,
-                                Some(item.pos),
-                                Some(&n.name),
+                                let listing = if ports.is_empty() {
+                                    format!("{} has no default output: name one of its ports", spec.name)
+                                } else {
+                                    format!("{} has ports: {}", spec.name, ports.join(", "))
+                                };
                                 format!(
                                     "field {:?}: node {:?} has no output port {:?}{} ({listing})",
                                     field.name,
                                     raw[node].name,
                                     port,
                                     did_you_mean(&port, &ports)
-                                ),
-                            );
+                                )
+                            };
+                            errs.push_from(origin, Some(item.pos), Some(&n.name), message);
                             ok = false;
                         }
                     }
@@ -594,7 +603,7 @@ fn infer_types(
                     let r = &refs[i][w.field][k];
                     let want: Vec<&str> = accepted.iter().map(|t| t.name()).collect();
                     let producer = &nodes[r.node];
-                    let label = if s.port == 0 {
+                    let label = if producer.is_default_port(s.port) {
                         format!("node {:?}", producer.name)
                     } else {
                         format!("port {:?}", format!("{}.{}", producer.name, r.port))
