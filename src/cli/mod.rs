@@ -78,9 +78,7 @@ enum Command {
         cache_dir: Option<PathBuf>,
     },
     /// Print a shell completion script (bash, zsh, fish, elvish, powershell) to stdout.
-    Completions {
-        shell: clap_complete::Shell,
-    },
+    Completions { shell: clap_complete::Shell },
     /// Print the manual page (roff) to stdout: `hdrflow man > hdrflow.1`.
     Man,
 }
@@ -287,7 +285,14 @@ fn plan(registry: &Registry, args: &RunArgs) -> ExitCode {
             for (i, n) in p.nodes.iter().enumerate() {
                 let key = plan.keys[i].map(|k| crate::engine::cache::key_hex(&k)[..16].to_string()).unwrap_or_default();
                 let ports: Vec<String> = n.ports.iter().map(|p| format!("{}: {}", p.name, p.ty)).collect();
-                outln!("{:<24} {:<18} {:<11} {:<16} {}", n.name, n.spec.name, plan.status[i].word(), key, ports.join(", "));
+                outln!(
+                    "{:<24} {:<18} {:<11} {:<16} {}",
+                    n.name,
+                    n.spec.name,
+                    plan.status[i].word(),
+                    key,
+                    ports.join(", ")
+                );
             }
             let count = |st: NodeStatus| plan.status.iter().filter(|s| **s == st).count();
             outln!(
@@ -461,7 +466,11 @@ fn report_removal(dir: &std::path::Path, r: crate::engine::cache::store::Evictio
         r.entries,
         r.bytes_before as f64 / (1 << 20) as f64,
         r.bytes_after as f64 / (1 << 20) as f64,
-        if kept > 0 && r.bytes_after > 0 { format!("; {kept} kept (in use by live runs, or within the size)") } else { String::new() }
+        if kept > 0 && r.bytes_after > 0 {
+            format!("; {kept} kept (in use by live runs, or within the size)")
+        } else {
+            String::new()
+        }
     );
 }
 

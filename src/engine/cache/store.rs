@@ -36,7 +36,10 @@ pub const DEFAULT_LIMIT_BYTES: u64 = 4 << 30;
 
 /// The folder size runs prune down to: `$HDRFLOW_CACHE_MAX_MB` MiB, else 4 GiB.
 pub fn default_max_bytes() -> u64 {
-    std::env::var("HDRFLOW_CACHE_MAX_MB").ok().and_then(|v| v.trim().parse::<u64>().ok()).map_or(DEFAULT_LIMIT_BYTES, |mb| mb << 20)
+    std::env::var("HDRFLOW_CACHE_MAX_MB")
+        .ok()
+        .and_then(|v| v.trim().parse::<u64>().ok())
+        .map_or(DEFAULT_LIMIT_BYTES, |mb| mb << 20)
 }
 
 #[derive(Debug, Clone)]
@@ -306,7 +309,6 @@ impl CacheStore {
     pub fn evict(&self) -> Result<EvictionReport, CacheError> {
         self.prune(default_max_bytes())
     }
-
 }
 
 fn check_entry(bytes: &[u8]) -> Result<&[u8], String> {

@@ -94,6 +94,89 @@ fn eval(ctx: &mut OpContext, p: RelightParams) -> Result<Value, OpError> {
     Ok(Value::new(image))
 }
 
+fn check_weight(light: &LightSample, x: usize, y: usize, rgb: [f32; 3], pdf: f32) -> Result<(), OpError> {
+    if light.weight.iter().any(|w| !w.is_finite()) {
+        return Err(OpError::Invalid(format!(
+            "texel ({x}, {y}) gives a non-finite light weight {:?} (radiance {rgb:?}, pdf {pdf})",
+            light.weight
+        )));
+    }
+    Ok(())
+}
+
+/// Lights for samples drawn at texel centres of a distribution over a grid coarser than `env`
+/// (e.g. a distribution built from a downsized map). A point lookup at the coarse centre would
+/// only ever see those directions (and miss a small sun entirely); instead each sample of coarse
+/// texel T, drawn with probability `P_T = pdf * dOmega_T`, becomes the env texels t inside T:
+///
+/// - `Unbiased`: weight `L_t / (P_T / dOmega_t)`, so the sample contributes
+///   `sum_t L_t max(n.d_t, 0) dOmega_t / P_T`, whose expectation over T is exactly the sum over
+///   every env texel that `ReferenceSphere` computes.
+/// - `Seed`: the seed's `V = rgb / |rgb|` per texel, weighted by the texel's share of T's
+///   luminance `Y_t dOmega_t / sum_T Y dOmega`, which is what drawing from the env's own
+///   distribution conditioned on T gives in expectation.
+///
+/// The env's size must be an integer multiple of the grid's (any other ratio would split env
+/// texels between coarse texels); otherwise the operator refuses with the sizes.
+fn spread_coarse_samples(
+    env: &Image,
+    set: &SampleSet,
+    estimator: Estimator,
+) -> Result<Vec<(u32, LightSample)>, OpError> {
+    let (sw, sh) = (set.width as usize, set.height as usize);
+    if sw == 0 || sh == 0 || env.width % sw != 0 || env.height % sh != 0 {
+        return Err(OpError::Invalid(format!(
+            "the samples come from a distribution over a {sw}x{sh} map but env is {}x{}: build the distribution \
+             from env, or from a Resize of it by an integer factor",
+            env.width, env.height
+        )));
+    }
+    let (rx, ry) = (env.width / sw, env.height / sh);
+    let mut lights = Vec::with_capacity(set.samples.len() * rx * ry);
+    let mut block: Vec<(usize, usize, f64)> = Vec::with_capacity(rx * ry);
+    for s in &set.samples {
+        let (cx, cy) = (s.x as usize, s.y as usize);
+        let probability = s.pdf as f64 * latlong::texel_solid_angle(cy, sw, sh);
+        block.clear();
+        for y in cy * ry..(cy + 1) * ry {
+            let d_omega = latlong::texel_solid_angle(y, env.width, env.height);
+            for x in cx * rx..(cx + 1) * rx {
+                block.push((x, y, d_omega));
+            }
+        }
+        let luminance_total: f64 = match estimator {
+            Estimator::Seed => block.iter().map(|&(x, y, dw)| rec709(env.rgb(x, y)) * dw).sum(),
+            Estimator::Unbiased => 0.0,
+        };
+        for &(x, y, d_omega) in &block {
+            let rgb = env.rgb(x, y);
+            let d = latlong::texel_direction(x, y, env.width, env.height).map(|c| c as f32);
+            let pdf = (probability / d_omega) as f32;
+            let light = match estimator {
+                Estimator::Unbiased => LightSample::unbiased(d, rgb, pdf),
+                Estimator::Seed => {
+                    let share = if luminance_total > 0.0 { rec709(rgb) * d_omega / luminance_total } else { 0.0 };
+                    let mut l = LightSample::seed(d, rgb);
+                    l.weight = l.weight.map(|w| (w as f64 * share) as f32);
+                    l
+                }
+            };
+            check_weight(&light, x, y, rgb, pdf)?;
+            lights.push(((y * env.width + x) as u32, light));
+        }
+    }
+    Ok(lights)
+}
+
+fn rec709(rgb: [f32; 3]) -> f64 {
+    let y = 0.2126 * rgb[0] as f64 + 0.7152 * rgb[1] as f64 + 0.0722 * rgb[2] as f64;
+    if y.is_finite() && y > 0.0 {
+        y
+    } else {
+        0.0
+    }
+}
+
 /// The operator's work, callable from code (the benchmark uses it): relight a `size` x `size`
 /// sphere seen from `view_dir` with `set`'s samples of `env`.
 pub fn relight_shared(
@@ -105,26 +188,29 @@ pub fn relight_shared(
     estimator: Estimator,
 ) -> Result<Image, OpError> {
     let same_grid = set.width as usize == env.width && set.height as usize == env.height;
-    let mut lights: Vec<(u32, LightSample)> = Vec::with_capacity(set.samples.len());
-    for s in &set.samples {
-        let (x, y) = if same_grid {
-            (s.x as usize, s.y as usize)
-        } else {
-            latlong::texel_of_direction([s.dir[0] as f64, s.dir[1] as f64, s.dir[2] as f64], env.width, env.height)
-        };
-        let rgb = env.rgb(x, y);
-        let light = match estimator {
-            Estimator::Seed => LightSample::seed(s.dir, rgb),
-            Estimator::Unbiased => LightSample::unbiased(s.dir, rgb, s.pdf),
-        };
-        if light.weight.iter().any(|w| !w.is_finite()) {
-            return Err(OpError::Invalid(format!(
-                "texel ({x}, {y}) gives a non-finite light weight {:?} (radiance {rgb:?}, pdf {})",
-                light.weight, s.pdf
-            )));
+    // Samples drawn at the texel centres of a distribution over a coarser grid: spread each
+    // over the env texels its coarse texel covers (below), which keeps the estimate exact.
+    let lights = if !same_grid && set.luminance_integral.is_some() {
+        spread_coarse_samples(env, set, estimator)?
+    } else {
+        let mut lights: Vec<(u32, LightSample)> = Vec::with_capacity(set.samples.len());
+        for s in &set.samples {
+            let (x, y) = if same_grid {
+                (s.x as usize, s.y as usize)
+            } else {
+                // Continuous directions (a Phong lobe): a point lookup is the estimator.
+                latlong::texel_of_direction([s.dir[0] as f64, s.dir[1] as f64, s.dir[2] as f64], env.width, env.height)
+            };
+            let rgb = env.rgb(x, y);
+            let light = match estimator {
+                Estimator::Seed => LightSample::seed(s.dir, rgb),
+                Estimator::Unbiased => LightSample::unbiased(s.dir, rgb, s.pdf),
+            };
+            check_weight(&light, x, y, rgb, s.pdf)?;
+            lights.push(((y * env.width + x) as u32, light));
         }
-        lights.push(((y * env.width + x) as u32, light));
-    }
+        lights
+    };
     let merged = merge_duplicates(&lights);
     if let Some(l) = merged.iter().find(|l| l.weight.iter().any(|w| !w.is_finite())) {
         return Err(OpError::Invalid(format!(
