@@ -3,6 +3,7 @@
 //! - [`engine`]: pipeline files, validation, the parallel demand-driven scheduler, the cache.
 //! - [`ops`]: the built-in operators, one file each, grouped by domain.
 //! - [`data`], [`maths`], [`formats`], [`plotting`]: values, mathematics, file formats, plots.
+//! - [`geometry`]: the lat-long convention, below all of them (it depends on nothing else).
 //!
 //! Running a pipeline from code:
 //! ```no_run
@@ -27,6 +28,7 @@ pub mod bench;
 pub mod data;
 pub mod engine;
 pub mod formats;
+pub mod geometry;
 pub mod maths;
 pub mod ops;
 pub mod plotting;

@@ -2,7 +2,7 @@
 //! data files at all.
 //!
 //! All maps are 3-channel f32, deterministic (pure functions of the name), and use hdrflow's
-//! lat-long convention (`crate::maths::latlong`: +Y up, row 0 = zenith, centre column = forward
+//! lat-long convention (`crate::geometry::latlong`: +Y up, row 0 = zenith, centre column = forward
 //! -Z): every texel's value is a function of its centre direction `texel_direction(x, y, w, h)`.
 //! They are rendered in parallel over rows (rayon) and take a few milliseconds each.
 //!
@@ -23,7 +23,7 @@ use std::f64::consts::PI;
 use rayon::prelude::*;
 
 use crate::data::Image;
-use crate::maths::latlong;
+use crate::geometry::latlong;
 
 /// (name, one-line description) of every built-in map, in a stable order.
 pub const BUILTINS: &[(&str, &str)] = &[

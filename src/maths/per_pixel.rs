@@ -43,7 +43,7 @@ use std::f64::consts::PI;
 use rayon::prelude::*;
 
 use crate::data::{Distribution2D, Image};
-use crate::maths::latlong;
+use crate::geometry::latlong;
 use crate::maths::relight::SphereView;
 use crate::maths::sequences::{mix64, SplitMix64};
 

@@ -2,7 +2,7 @@
 //! hdrflow is measured against.
 //!
 //! For a W x H map with texel radiance `L_i`, texel-centre direction `d_i` and midpoint solid
-//! angle `dOmega_i = (2 pi / W)(pi / H) sin(theta_i)` (conventions of [`crate::maths::latlong`]),
+//! angle `dOmega_i = (2 pi / W)(pi / H) sin(theta_i)` (conventions of [`crate::geometry::latlong`]),
 //! the irradiance at a unit normal `n` is
 //!
 //! ```text
@@ -63,7 +63,7 @@ use std::f64::consts::PI;
 use rayon::prelude::*;
 
 use crate::data::Image;
-use crate::maths::latlong;
+use crate::geometry::latlong;
 use crate::maths::relight::SphereView;
 
 /// Texels per block: the unit of f32 accumulation and of culling.

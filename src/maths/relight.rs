@@ -537,7 +537,7 @@ fn relight_with(kernel: Kernel, view: &SphereView, lights: &[LightSample], scale
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::maths::latlong;
+    use crate::geometry::latlong;
     use std::f64::consts::PI;
 
     /// Fibonacci-lattice directions: a low-discrepancy, equal-area set on the sphere

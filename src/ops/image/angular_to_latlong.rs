@@ -14,7 +14,7 @@ use rayon::prelude::*;
 use crate::data::Image;
 use crate::engine::op::{Default, FieldKind, FieldSpec, OpContext, OpError, OpSpec, OutputType};
 use crate::engine::value::{Value, ValueType};
-use crate::maths::latlong;
+use crate::geometry::latlong;
 
 pub static SPEC: OpSpec = OpSpec {
     name: "AngularToLatLong",

@@ -11,7 +11,8 @@ use rayon::prelude::*;
 use crate::data::{Sample, SampleSet};
 use crate::engine::op::{Default, FieldKind, FieldSpec, OpContext, OpError, OpSpec, OutputType};
 use crate::engine::value::{Value, ValueType};
-use crate::maths::{latlong, phong, sequences};
+use crate::geometry::latlong;
+use crate::maths::{phong, sequences};
 
 use super::{count_field, sequence_of, SEED_FIELD, SEQUENCE_FIELD};
 

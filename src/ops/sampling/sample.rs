@@ -10,7 +10,8 @@ use rayon::prelude::*;
 use crate::data::{Distribution2D, Sample, SampleSet};
 use crate::engine::op::{FieldSpec, OpContext, OpError, OpSpec, OutputType};
 use crate::engine::value::{Value, ValueType};
-use crate::maths::{latlong, sequences};
+use crate::geometry::latlong;
+use crate::maths::sequences;
 
 use super::{count_field, sequence_of, SEED_FIELD, SEQUENCE_FIELD};
 

@@ -16,7 +16,7 @@
 use super::{ALBEDO_FIELD, SIZE_FIELD, VIEW_FIELD};
 use crate::engine::op::{Default, FieldKind, FieldSpec, OpContext, OpError, OpSpec, OutputType};
 use crate::engine::value::{Value, ValueType};
-use crate::maths::latlong;
+use crate::geometry::latlong;
 use crate::maths::per_pixel::{relight_per_pixel, PerPixelStrategy};
 use crate::maths::relight::SphereView;
 

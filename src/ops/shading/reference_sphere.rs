@@ -11,7 +11,7 @@
 use super::{ALBEDO_FIELD, SIZE_FIELD, VIEW_FIELD};
 use crate::engine::op::{FieldSpec, OpContext, OpError, OpSpec, OutputType};
 use crate::engine::value::{Value, ValueType};
-use crate::maths::latlong;
+use crate::geometry::latlong;
 use crate::maths::reference::{first_non_finite, reference_sphere};
 use crate::maths::relight::SphereView;
 

@@ -20,7 +20,7 @@ use super::{ALBEDO_FIELD, SIZE_FIELD, VIEW_FIELD};
 use crate::data::{Image, SampleSet};
 use crate::engine::op::{Default, FieldKind, FieldSpec, OpContext, OpError, OpSpec, OutputType};
 use crate::engine::value::{Value, ValueType};
-use crate::maths::latlong;
+use crate::geometry::latlong;
 use crate::maths::relight::{merge_duplicates, relight, Estimator, LightSample, SphereView};
 
 pub static SPEC: OpSpec = OpSpec {

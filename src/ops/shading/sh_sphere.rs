@@ -9,7 +9,7 @@
 use super::{ALBEDO_FIELD, SIZE_FIELD, VIEW_FIELD};
 use crate::engine::op::{Default, FieldKind, FieldSpec, OpContext, OpError, OpSpec, OutputType};
 use crate::engine::value::{Value, ValueType};
-use crate::maths::latlong;
+use crate::geometry::latlong;
 use crate::maths::relight::SphereView;
 use crate::maths::sh::sh_sphere;
 
