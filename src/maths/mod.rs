@@ -1,10 +1,11 @@
 //! The mathematics behind the operators, free of the engine: sequences, lobes, Fresnel,
-//! relighting kernels and statistical tests. The lat-long convention they all use
+//! relighting and its SIMD kernels, and statistical tests. The lat-long convention they all use
 //! lives below them, in [`crate::geometry::latlong`].
 
 pub mod chi_square;
 pub mod error_metrics;
 pub mod fresnel;
+pub mod kernels;
 pub mod per_pixel;
 pub mod phong;
 pub mod reference;
