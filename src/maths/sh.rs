@@ -132,7 +132,7 @@ fn legendre_q(order: usize, x: f64, out: &mut [f64]) {
 /// a zero or non-finite `d` gives NaN everywhere.
 pub fn eval_sh_into(order: usize, d: [f64; 3], out: &mut [f64]) {
     let out = &mut out[..sh_count(order)];
-    let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+    let len = glam::DVec3::from(d).length();
     if !(len > 0.0) || !len.is_finite() {
         out.fill(f64::NAN);
         return;
