@@ -276,6 +276,8 @@ impl Distribution2D {
 #[cfg(test)]
 mod tests {
     use super::*;
+    // Test-only: the generator and the chi-square test are maths'; `data` itself does not
+    // depend on `maths` (the lat-long geometry it needs is `geometry::latlong`).
     use crate::maths::chi_square::chi_square_test;
     use crate::maths::sequences::SplitMix64;
     use std::f64::consts::PI;

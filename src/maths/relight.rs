@@ -652,6 +652,39 @@ mod tests {
         assert_eq!(relight(&view, &lights, scale).data, reference.data);
     }
 
+    /// RelightSphere's output bits, pinned: BLAKE3 of two renders, computed with the code before
+    /// the kernels were shared with ReferenceSphere (commit 3aa044f). The inputs use only `+ - * /`
+    /// and `sqrt` (correctly rounded in IEEE 754), so inputs and hashes are the same on every
+    /// platform, and every kernel must reproduce them. A change here means RelightSphere's
+    /// renders changed: say so in the commit and bump the operator's version.
+    #[test]
+    fn render_bits_are_pinned() {
+        let mut rng = crate::maths::sequences::SplitMix64::new(2024);
+        let lights: Vec<LightSample> = (0..700)
+            .map(|i| {
+                let v = DVec3::new(2.0 * rng.next_f64() - 1.0, 2.0 * rng.next_f64() - 1.0, 2.0 * rng.next_f64() - 1.0);
+                let d = v / v.length();
+                let w = if i % 4 == 0 { 1e4 * rng.next_f64() } else { rng.next_f64() };
+                LightSample { dir: d.as_vec3().to_array(), weight: [w as f32, (0.5 * w) as f32, (0.25 * w) as f32] }
+            })
+            .collect();
+        let pinned = [
+            ([0.3, 0.5, -0.81], 67usize, "0ddde302d414668b2da69eee7fb785a6280de58a9f64cf7403625672d1b05f18"),
+            ([0.0, 1.0, 0.0], 40, "65d39a8568616c4d4a6803d023f184f0b8d3086b24543dd0d68b3458a0ed8aed"),
+        ];
+        #[allow(unused_mut)]
+        let mut kernels = vec![Kernel::Scalar];
+        #[cfg(target_arch = "x86_64")]
+        kernels.extend([Kernel::Sse2, Kernel::Avx]); // Avx falls back to SSE2 without AVX
+        for (view_dir, size, hash) in pinned {
+            for &kernel in &kernels {
+                let img = relight_with(kernel, &SphereView::new(size, view_dir), &lights, [0.01, 0.02, 0.03]);
+                let bytes: Vec<u8> = img.data.iter().flat_map(|v| v.to_le_bytes()).collect();
+                assert_eq!(blake3::hash(&bytes).to_hex().as_str(), hash, "{kernel:?} {view_dir:?} {size}");
+            }
+        }
+    }
+
     /// Tile culling changes nothing beyond f32 rounding: compare with a brute-force f64 sum over
     /// every light at every pixel (views where the sun is in front, behind and at the limb).
     #[test]
