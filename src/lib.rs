@@ -7,6 +7,7 @@
 //! - [`engine`]: pipeline files, validation, the parallel demand-driven scheduler, the cache;
 //!   it knows no operator and no data type.
 //! - [`data`], [`maths`], [`formats`], [`plotting`]: data types, mathematics, file formats, plots.
+//! - [`geometry`]: the lat-long convention, below all of them (it depends on nothing else).
 //!
 //! Running a pipeline from code:
 //! ```no_run
@@ -33,6 +34,7 @@ pub mod cli;
 pub mod data;
 pub mod engine;
 pub mod formats;
+pub mod geometry;
 pub mod maths;
 pub mod ops;
 pub mod plotting;

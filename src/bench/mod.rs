@@ -17,12 +17,13 @@ use std::time::Instant;
 
 use crate::data::{Distribution2D, Image};
 use crate::engine::cache::store::write_atomic;
+use crate::geometry::latlong;
 use crate::maths::error_metrics::image_error;
 use crate::maths::per_pixel::{relight_per_pixel, PerPixelStrategy};
 use crate::maths::reference::reference_sphere;
 use crate::maths::relight::{Estimator, SphereView};
 use crate::maths::sequences::Sequence;
-use crate::maths::{latlong, sh};
+use crate::maths::sh;
 use crate::ops::sampling::sample::draw;
 use crate::ops::shading::relight_sphere::relight_shared;
 use crate::plotting::time_error::{self, Line};

@@ -12,7 +12,7 @@ use std::time::Instant;
 use crate::data::{Distribution2D, Image};
 use crate::engine::cache::CacheStore;
 use crate::engine::scheduler::{self, RunOptions, Silent};
-use crate::maths::latlong;
+use crate::geometry::latlong;
 use crate::maths::relight::Estimator;
 use crate::maths::sequences::Sequence;
 use crate::ops::image::resize::resize;

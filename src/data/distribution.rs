@@ -13,7 +13,7 @@
 //!   cannot give index -1 (YafaRay #92), and u is clamped to 1 - 2^-53 so u = 1 works;
 //! - the pdf is `func / total` divided by the texel's solid angle, looked up at exactly the texel
 //!   that was sampled (no half-texel offset: the map is piecewise constant over texels whose
-//!   centres are `maths::latlong`'s theta = pi (y + 1/2) / H, phi = 2 pi (x + 1/2) / W);
+//!   centres are `geometry::latlong`'s theta = pi (y + 1/2) / H, phi = 2 pi (x + 1/2) / W);
 //! - an all-black map does not fail: it falls back to uniform sampling over solid angle.
 //!
 //! Texel weights: `w(x, y) = Y(x, y) sin(theta_y)` when `sin_theta` (the sampling density is then
@@ -27,7 +27,7 @@
 use rayon::prelude::*;
 
 use crate::data::image::Image;
-use crate::maths::latlong::{texel_of_direction, texel_solid_angle, theta_of_row};
+use crate::geometry::latlong::{texel_of_direction, texel_solid_angle, theta_of_row};
 
 /// The largest f64 below 1: 1 - 2^-53.
 const ONE_MINUS_EPSILON: f64 = 1.0 - f64::EPSILON / 2.0;
@@ -276,6 +276,8 @@ impl Distribution2D {
 #[cfg(test)]
 mod tests {
     use super::*;
+    // Test-only: the generator and the chi-square test are maths'; `data` itself does not
+    // depend on `maths` (the lat-long geometry it needs is `geometry::latlong`).
     use crate::maths::chi_square::chi_square_test;
     use crate::maths::sequences::SplitMix64;
     use std::f64::consts::PI;
@@ -585,7 +587,7 @@ mod tests {
         assert!(many.approx_bytes() >= 8 * (50 * 25 + 25 * 51 + 25 + 26));
         // pdf_direction agrees with the texel lookup at texel centres.
         for (x, y) in [(0usize, 0usize), (10, 7), (49, 24)] {
-            let dir = crate::maths::latlong::texel_direction(x, y, 50, 25);
+            let dir = crate::geometry::latlong::texel_direction(x, y, 50, 25);
             assert_eq!(many.pdf_direction(dir), many.pdf(x, y));
         }
     }

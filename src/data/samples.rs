@@ -1,6 +1,6 @@
 //! `SampleSet`: directions drawn on the sphere, each with its solid-angle pdf.
 //!
-//! Direction convention (see `maths::latlong`): +Y up; a lat-long texel (x, y) of a W x H map has
+//! Direction convention (see `geometry::latlong`): +Y up; a lat-long texel (x, y) of a W x H map has
 //! theta = pi*(y+0.5)/H (polar angle from +Y) and phi = 2*pi*(x+0.5)/W.
 
 /// One sampled direction.

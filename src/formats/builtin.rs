@@ -2,7 +2,7 @@
 //! data files at all.
 //!
 //! All maps are 3-channel f32, deterministic (pure functions of the name), and use hdrflow's
-//! lat-long convention (`crate::maths::latlong`: +Y up, row 0 = zenith, centre column = forward
+//! lat-long convention (`crate::geometry::latlong`: +Y up, row 0 = zenith, centre column = forward
 //! -Z): every texel's value is a function of its centre direction `texel_direction(x, y, w, h)`.
 //! They are rendered in parallel over rows (rayon) and take a few milliseconds each.
 //!
@@ -20,10 +20,11 @@
 
 use std::f64::consts::PI;
 
+use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::data::Image;
-use crate::maths::latlong;
+use crate::geometry::latlong;
 
 /// (name, one-line description) of every built-in map, in a stable order.
 pub const BUILTINS: &[(&str, &str)] = &[
@@ -78,19 +79,14 @@ where
     Image::from_vec(w, h, 3, data)
 }
 
-#[inline]
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
 /// Coverage in [0, 1] of a disc of angular radius `radius` centred on `centre`, seen from the
 /// texel-centre direction `d`, with a linear ramp one texel (`texel` radians) wide across the rim:
 /// an anti-aliased edge, so that the disc's total energy varies smoothly with its radius and no
 /// single texel carries it alone.
 #[inline]
-fn disc_coverage(d: [f64; 3], centre: [f64; 3], radius: f64, texel: f64) -> f64 {
+fn disc_coverage(d: DVec3, centre: DVec3, radius: f64, texel: f64) -> f64 {
     let half = 0.5 * texel;
-    let c = dot(d, centre);
+    let c = d.dot(centre);
     if c < (radius + half).cos() {
         return 0.0;
     }
@@ -101,7 +97,7 @@ fn disc_coverage(d: [f64; 3], centre: [f64; 3], radius: f64, texel: f64) -> f64 
 /// `sky` 512x256: sky gradient, ground, a small bright sun (see the module table).
 fn sky() -> Image {
     let (w, h) = (512usize, 256usize);
-    let sun = latlong::direction((90.0 - SKY_SUN_ELEVATION_DEG).to_radians(), SKY_SUN_PHI);
+    let sun = DVec3::from(latlong::direction((90.0 - SKY_SUN_ELEVATION_DEG).to_radians(), SKY_SUN_PHI));
     let radius = SKY_SUN_RADIUS_DEG.to_radians();
     let texel = PI / h as f64;
     let zenith = [0.2, 0.35, 0.8];
@@ -113,7 +109,7 @@ fn sky() -> Image {
             let t = d[1].sqrt();
             // A soft aureole around the sun (e-folding ~8.6 degrees; the chord length stands in
             // for the angle, which is all that matters where the glow is visible).
-            let chord = (2.0 * (1.0 - dot(d, sun))).max(0.0).sqrt();
+            let chord = (2.0 * (1.0 - DVec3::from(d).dot(sun))).max(0.0).sqrt();
             let glow = 2.0 * (-chord / 0.15).exp();
             [
                 horizon[0] + (zenith[0] - horizon[0]) * t + glow,
@@ -125,7 +121,7 @@ fn sky() -> Image {
             let k = 0.85 + 0.1 * (3.0 * d[0]).sin() * (2.0 * d[2]).cos() + 0.05 * (5.0 * d[2] + 1.0).sin();
             [ground[0] * k, ground[1] * k, ground[2] * k]
         };
-        let s = disc_coverage(d, sun, radius, texel);
+        let s = disc_coverage(DVec3::from(d), sun, radius, texel);
         if s > 0.0 {
             for k in 0..3 {
                 v[k] = v[k] * (1.0 - s) + SKY_SUN_RADIANCE[k] * s;
@@ -145,7 +141,7 @@ fn studio() -> Image {
         (30f64.to_radians(), 0.8 * PI, 6f64.to_radians(), 10f64.to_radians(), [100.0, 98.0, 95.0]),
         (15f64.to_radians(), 1.35 * PI, 10f64.to_radians(), 7f64.to_radians(), [40.0, 40.0, 42.0]),
     ];
-    let spot = latlong::direction((90.0f64 - 50.0).to_radians(), 1.1 * PI);
+    let spot = DVec3::from(latlong::direction((90.0f64 - 50.0).to_radians(), 1.1 * PI));
     let spot_radius = 1f64.to_radians();
     let spot_radiance = [2000.0, 1950.0, 1850.0];
     render(w, h, move |d| {
@@ -161,7 +157,7 @@ fn studio() -> Image {
                 v = l;
             }
         }
-        let s = disc_coverage(d, spot, spot_radius, texel);
+        let s = disc_coverage(DVec3::from(d), spot, spot_radius, texel);
         if s > 0.0 {
             for k in 0..3 {
                 v[k] = v[k] * (1.0 - s) + spot_radiance[k] * s;

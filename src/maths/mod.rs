@@ -1,13 +1,19 @@
-//! The mathematics behind the operators, free of the engine: conventions, sequences, lobes,
-//! Fresnel, relighting kernels and statistical tests.
+//! The mathematics behind the operators, free of the engine: sequences, lobes, Fresnel,
+//! relighting and its SIMD kernels, and statistical tests. The lat-long convention they all use
+//! lives below them, in [`crate::geometry::latlong`].
 
 pub mod chi_square;
 pub mod error_metrics;
 pub mod fresnel;
-pub mod latlong;
+pub mod kernels;
 pub mod per_pixel;
 pub mod phong;
 pub mod reference;
 pub mod relight;
 pub mod sequences;
 pub mod sh;
+
+/// The old path of [`crate::geometry::latlong`], kept so that code written against it (the
+/// operators being redeclared on another branch) still compiles; new code uses
+/// `crate::geometry::latlong`. Remove once nothing names `maths::latlong`.
+pub use crate::geometry::latlong;

@@ -40,10 +40,11 @@
 
 use std::f64::consts::PI;
 
+use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::data::{Distribution2D, Image};
-use crate::maths::latlong;
+use crate::geometry::latlong;
 use crate::maths::relight::SphereView;
 use crate::maths::sequences::{mix64, SplitMix64};
 
@@ -90,45 +91,32 @@ pub fn pixel_seed(seed: u64, pixel: u64) -> u64 {
     mix64(mix64(seed ^ 0x5045_5250_4958_454C).wrapping_add(pixel.wrapping_mul(0x9E37_79B9_7F4A_7C15)))
 }
 
-#[inline]
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
 /// Radiance of the texel containing `d`.
 #[inline]
-fn radiance(env: &Image, d: [f64; 3]) -> [f64; 3] {
-    let (x, y) = latlong::texel_of_direction(d, env.width, env.height);
+fn radiance(env: &Image, d: DVec3) -> [f64; 3] {
+    let (x, y) = latlong::texel_of_direction(d.to_array(), env.width, env.height);
     env.rgb(x, y).map(|v| v as f64)
 }
 
-/// An orthonormal basis (b1, b2) completing unit `n` (Duff et al., "Building an Orthonormal
-/// Basis, Revisited", JCGT 6(1), 2017, listing 3).
+/// Malley's method: a cosine-distributed direction around unit `n` (pdf `cos / pi`), in the
+/// orthonormal basis (b1, b2, n) of Duff et al., "Building an Orthonormal Basis, Revisited",
+/// JCGT 6(1), 2017, listing 3 (glam's `any_orthonormal_pair` is that listing).
 #[inline]
-fn basis(n: [f64; 3]) -> ([f64; 3], [f64; 3]) {
-    let sign = 1.0f64.copysign(n[2]);
-    let a = -1.0 / (sign + n[2]);
-    let b = n[0] * n[1] * a;
-    ([1.0 + sign * n[0] * n[0] * a, sign * b, -sign * n[0]], [b, sign + n[1] * n[1] * a, -n[1]])
-}
-
-/// Malley's method: a cosine-distributed direction around unit `n` (pdf `cos / pi`).
-#[inline]
-fn sample_cosine(n: [f64; 3], u1: f64, u2: f64) -> [f64; 3] {
+fn sample_cosine(n: DVec3, u1: f64, u2: f64) -> DVec3 {
     let r = u1.sqrt();
     let (s, c) = (2.0 * PI * u2).sin_cos();
     let (lx, ly, lz) = (r * c, r * s, (1.0 - u1).max(0.0).sqrt());
-    let (b1, b2) = basis(n);
-    [0, 1, 2].map(|k| lx * b1[k] + ly * b2[k] + lz * n[k])
+    let (b1, b2) = n.any_orthonormal_pair();
+    lx * b1 + ly * b2 + lz * n
 }
 
 /// A uniform direction on the unit sphere (pdf `1 / (4 pi)`).
 #[inline]
-fn sample_uniform(u1: f64, u2: f64) -> [f64; 3] {
+fn sample_uniform(u1: f64, u2: f64) -> DVec3 {
     let z = 1.0 - 2.0 * u1;
     let r = (1.0 - z * z).max(0.0).sqrt();
     let (s, c) = (2.0 * PI * u2).sin_cos();
-    [r * c, r * s, z]
+    DVec3::new(r * c, r * s, z)
 }
 
 /// Exact solid angle of a texel of row `y`: `(2 pi / W)(cos theta_top - cos theta_bottom)`.
@@ -140,7 +128,7 @@ fn exact_texel_solid_angle(y: usize, w: usize, h: usize) -> f64 {
 /// The continuous environment technique of `Mis`: a texel from `dist`, then a point uniform in
 /// solid angle inside it.
 #[inline]
-fn sample_env_continuous(dist: &Distribution2D, u: [f64; 4]) -> [f64; 3] {
+fn sample_env_continuous(dist: &Distribution2D, u: [f64; 4]) -> DVec3 {
     let (w, h) = (dist.width, dist.height);
     let (x, y, _) = dist.sample(u[0], u[1]);
     let phi = 2.0 * PI * (x as f64 + u[2]) / w as f64;
@@ -149,14 +137,14 @@ fn sample_env_continuous(dist: &Distribution2D, u: [f64; 4]) -> [f64; 3] {
     let ct = c0 + (c1 - c0) * u[3];
     let st = (1.0 - ct * ct).max(0.0).sqrt();
     let (sp, cp) = phi.sin_cos();
-    [-st * sp, ct, st * cp]
+    DVec3::new(-st * sp, ct, st * cp)
 }
 
 /// Density (per steradian) of [`sample_env_continuous`] at `d`: the probability of the texel
 /// containing `d` over its exact solid angle.
 #[inline]
-fn pdf_env_continuous(dist: &Distribution2D, d: [f64; 3]) -> f64 {
-    let (x, y) = latlong::texel_of_direction(d, dist.width, dist.height);
+fn pdf_env_continuous(dist: &Distribution2D, d: DVec3) -> f64 {
+    let (x, y) = latlong::texel_of_direction(d.to_array(), dist.width, dist.height);
     let p = dist.texel_probability(x, y) / exact_texel_solid_angle(y, dist.width, dist.height);
     if p.is_finite() && p > 0.0 {
         p
@@ -176,6 +164,7 @@ pub fn estimate_irradiance(
     spp: usize,
     rng: &mut SplitMix64,
 ) -> [f64; 3] {
+    let n = DVec3::from(n);
     let mut sum = [0.0f64; 3];
     let mut add = |l: [f64; 3], k: f64| {
         for ch in 0..3 {
@@ -187,8 +176,8 @@ pub fn estimate_irradiance(
             PerPixelStrategy::Environment => {
                 let (x, y, pdf) = dist.sample(rng.next_f64(), rng.next_f64());
                 if pdf > 0.0 {
-                    let d = latlong::texel_direction(x, y, env.width, env.height);
-                    let c = dot(n, d).max(0.0);
+                    let d = DVec3::from(latlong::texel_direction(x, y, env.width, env.height));
+                    let c = n.dot(d).max(0.0);
                     add(env.rgb(x, y).map(|v| v as f64), c / pdf);
                 }
             }
@@ -199,14 +188,14 @@ pub fn estimate_irradiance(
             }
             PerPixelStrategy::Uniform => {
                 let w = sample_uniform(rng.next_f64(), rng.next_f64());
-                add(radiance(env, w), 4.0 * PI * dot(n, w).max(0.0));
+                add(radiance(env, w), 4.0 * PI * n.dot(w).max(0.0));
             }
             PerPixelStrategy::Mis => {
                 let u = [rng.next_f64(), rng.next_f64(), rng.next_f64(), rng.next_f64()];
                 let we = sample_env_continuous(dist, u);
                 let wc = sample_cosine(n, rng.next_f64(), rng.next_f64());
                 for w in [we, wc] {
-                    let c = dot(n, w).max(0.0);
+                    let c = n.dot(w).max(0.0);
                     if c > 0.0 {
                         // Balance heuristic: w_i f / p_i = f / (p_e + p_c).
                         let denom = pdf_env_continuous(dist, w) + c / PI;
@@ -308,14 +297,14 @@ mod tests {
         let dist = luminance_distribution(&env);
         for _ in 0..10_000 {
             let n = sample_uniform(rng.next_f64(), rng.next_f64());
-            assert!((dot(n, n) - 1.0).abs() < 1e-12);
-            let (b1, b2) = basis(n);
-            assert!(dot(b1, n).abs() < 1e-12 && dot(b2, n).abs() < 1e-12 && dot(b1, b2).abs() < 1e-12);
+            assert!((n.dot(n) - 1.0).abs() < 1e-12);
+            let (b1, b2) = n.any_orthonormal_pair();
+            assert!(b1.dot(n).abs() < 1e-12 && b2.dot(n).abs() < 1e-12 && b1.dot(b2).abs() < 1e-12);
             let w = sample_cosine(n, rng.next_f64(), rng.next_f64());
-            assert!((dot(w, w) - 1.0).abs() < 1e-12 && dot(w, n) >= -1e-12);
+            assert!((w.dot(w) - 1.0).abs() < 1e-12 && w.dot(n) >= -1e-12);
             let u = [rng.next_f64(), rng.next_f64(), rng.next_f64(), rng.next_f64()];
             let we = sample_env_continuous(&dist, u);
-            assert!((dot(we, we) - 1.0).abs() < 1e-12);
+            assert!((we.dot(we) - 1.0).abs() < 1e-12);
             assert!(pdf_env_continuous(&dist, we) > 0.0);
         }
         // The exact texel solid angles sum to 4 pi.

@@ -19,35 +19,23 @@
 
 use std::f64::consts::PI;
 
-/// A 3-vector of f64 (x, y, z).
+use glam::DVec3;
+
+use crate::geometry::unit;
+
+/// A 3-vector of f64 (x, y, z): the type of this module's interface (the arithmetic is glam's
+/// `DVec3`).
 pub type V3 = [f64; 3];
-
-#[inline]
-fn dot(a: V3, b: V3) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-/// `v / |v|`, or `fallback` when `v` is zero or not finite.
-#[inline]
-fn normalize_or(v: V3, fallback: V3) -> V3 {
-    let len = dot(v, v).sqrt();
-    if len > 0.0 && len.is_finite() {
-        [v[0] / len, v[1] / len, v[2] / len]
-    } else {
-        fallback
-    }
-}
 
 /// Mirror reflection of `view` about `normal`: `r = 2 (n . v) n - v` with `n` and `v`
 /// normalised first (`view` points from the surface toward the viewer; so does `r`, toward the
 /// mirrored side). A zero or non-finite normal is taken as +Y; a zero view as the normal (which
 /// reflects to itself). The result is renormalised (unit length up to rounding).
 pub fn mirror(view: V3, normal: V3) -> V3 {
-    let n = normalize_or(normal, [0.0, 1.0, 0.0]);
-    let v = normalize_or(view, n);
-    let k = 2.0 * dot(n, v);
-    let r = [k * n[0] - v[0], k * n[1] - v[1], k * n[2] - v[2]];
-    normalize_or(r, n)
+    let n = unit(DVec3::from(normal)).unwrap_or(DVec3::Y);
+    let v = unit(DVec3::from(view)).unwrap_or(n);
+    let k = 2.0 * n.dot(v);
+    unit(k * n - v).unwrap_or(n).to_array()
 }
 
 /// Two unit vectors `(b1, b2)` such that `(b1, b2, n)` is a right-handed orthonormal basis, for a
@@ -56,14 +44,13 @@ pub fn mirror(view: V3, normal: V3) -> V3 {
 /// `b1 = (1 + sign n.x^2 a, sign b, -sign n.x); b2 = (b, sign + n.y^2 a, -n.y)`.
 /// Continuous everywhere except across n.z = 0 and accurate to a few ulps (no singularity at
 /// n = -Z, unlike Frisvad 2012).
+///
+/// This is glam's `DVec3::any_orthonormal_pair`, which implements the same listing operation
+/// for operation (its `signum(n.z)` equals `copysign(1, n.z)` for every n.z but NaN).
 #[inline]
 pub fn orthonormal_basis(n: V3) -> (V3, V3) {
-    let sign = 1.0f64.copysign(n[2]);
-    let a = -1.0 / (sign + n[2]);
-    let b = n[0] * n[1] * a;
-    let b1 = [1.0 + sign * n[0] * n[0] * a, sign * b, -sign * n[0]];
-    let b2 = [b, sign + n[1] * n[1] * a, -n[1]];
-    (b1, b2)
+    let (b1, b2) = DVec3::from(n).any_orthonormal_pair();
+    (b1.to_array(), b2.to_array())
 }
 
 /// The exponent as used: negative and NaN become 0, +inf is capped at 1e300 (so the pdf's
@@ -105,7 +92,7 @@ fn pdf_from_one_minus_cos(omc: f64, s: f64) -> f64 {
 /// axis itself with pdf `(s+1)/(2 pi)`. u values outside [0, 1] are clamped, NaN is 0. Finite
 /// and unit length for any exponent (0 .. 1e6 and beyond).
 pub fn sample_lobe(axis: V3, exponent: f64, u1: f64, u2: f64) -> (V3, f64) {
-    let n = normalize_or(axis, [0.0, 1.0, 0.0]);
+    let n = unit(DVec3::from(axis)).unwrap_or(DVec3::Y);
     let s = clean_exponent(exponent);
     let u1 = if u1.is_nan() { 0.0 } else { u1.clamp(0.0, 1.0) };
     let u2 = if u2.is_nan() { 0.0 } else { u2.clamp(0.0, 1.0) };
@@ -116,15 +103,10 @@ pub fn sample_lobe(axis: V3, exponent: f64, u1: f64, u2: f64) -> (V3, f64) {
     let sin_a = (omc * (2.0 - omc)).max(0.0).sqrt();
     let phi = 2.0 * PI * u2;
     let (sp, cp) = phi.sin_cos();
-    let (b1, b2) = orthonormal_basis(n);
+    let (b1, b2) = n.any_orthonormal_pair();
     let (ta, tb) = (sin_a * cp, sin_a * sp);
-    let d = [
-        ta * b1[0] + tb * b2[0] + cos_a * n[0],
-        ta * b1[1] + tb * b2[1] + cos_a * n[1],
-        ta * b1[2] + tb * b2[2] + cos_a * n[2],
-    ];
-    let dir = normalize_or(d, n);
-    (dir, pdf_from_one_minus_cos(omc, s))
+    let dir = unit(ta * b1 + tb * b2 + cos_a * n).unwrap_or(n);
+    (dir.to_array(), pdf_from_one_minus_cos(omc, s))
 }
 
 /// The solid-angle density of `sample_lobe(axis, exponent, ..)` at direction `dir` (neither
@@ -132,14 +114,11 @@ pub fn sample_lobe(axis: V3, exponent: f64, u1: f64, u2: f64) -> (V3, f64) {
 /// `|a - d|^2 / 2` for the unit vectors a and d (exact identity `|a - d|^2 = 2 - 2 a.d`, without
 /// the cancellation of `1 - a.d` near the axis). 0 behind the lobe and for a zero `dir`.
 pub fn lobe_pdf(axis: V3, dir: V3, exponent: f64) -> f64 {
-    let a = normalize_or(axis, [0.0, 1.0, 0.0]);
-    let len = dot(dir, dir).sqrt();
-    if !(len > 0.0) || !len.is_finite() {
+    let a = unit(DVec3::from(axis)).unwrap_or(DVec3::Y);
+    let Some(d) = unit(DVec3::from(dir)) else {
         return 0.0;
-    }
-    let d = [dir[0] / len, dir[1] / len, dir[2] / len];
-    let e = [a[0] - d[0], a[1] - d[1], a[2] - d[2]];
-    let omc = 0.5 * dot(e, e);
+    };
+    let omc = 0.5 * (a - d).length_squared();
     pdf_from_one_minus_cos(omc, clean_exponent(exponent))
 }
 
@@ -156,14 +135,23 @@ mod tests {
             [0.0, 0.0, 1.0],
             [0.0, 0.0, -1.0],
             [0.0, 1.0, 0.0],
-            normalize_or([0.3, -0.5, 0.8], [0.0; 3]),
-            normalize_or([-0.7, 0.2, -0.1], [0.0; 3]),
+            unit3([0.3, -0.5, 0.8]),
+            unit3([-0.7, 0.2, -0.1]),
             [1e-9, 0.0, -1.0],
         ]
     }
 
     fn len(v: V3) -> f64 {
-        dot(v, v).sqrt()
+        DVec3::from(v).length()
+    }
+
+    fn dot(a: V3, b: V3) -> f64 {
+        DVec3::from(a).dot(DVec3::from(b))
+    }
+
+    /// `v / |v|` (finite, non-zero `v`).
+    fn unit3(v: V3) -> V3 {
+        unit(DVec3::from(v)).unwrap().to_array()
     }
 
     #[test]
@@ -178,8 +166,8 @@ mod tests {
         let v = [0.5, 0.1, 0.7];
         let r = mirror(v, n);
         let back = mirror(r, n);
-        let vn = normalize_or(v, [0.0; 3]);
-        let nn = normalize_or(n, [0.0; 3]);
+        let vn = unit3(v);
+        let nn = unit3(n);
         for k in 0..3 {
             assert!((back[k] - vn[k]).abs() < 1e-14);
         }
@@ -238,14 +226,14 @@ mod tests {
         for &s in &EXPONENTS {
             let axis = [0.3, -0.5, 0.8];
             let (d, pdf) = sample_lobe(axis, s, 0.0, 0.3);
-            assert!(dot(d, normalize_or(axis, [0.0; 3])).abs() < 1e-12, "u1 = 0 must be 90 deg");
+            assert!(dot(d, unit3(axis)).abs() < 1e-12, "u1 = 0 must be 90 deg");
             if s > 0.0 {
                 assert_eq!(pdf, 0.0);
             } else {
                 assert!((pdf - 1.0 / (2.0 * PI)).abs() < 1e-15);
             }
             let (d, pdf) = sample_lobe(axis, s, 1.0, 0.3);
-            let a = normalize_or(axis, [0.0; 3]);
+            let a = unit3(axis);
             assert!((dot(d, a) - 1.0).abs() < 1e-15);
             assert!((pdf - (s + 1.0) / (2.0 * PI)).abs() <= 1e-12 * (s + 1.0));
             let (d, pdf) = sample_lobe(axis, s, f64::NAN, f64::NAN);
@@ -256,7 +244,7 @@ mod tests {
     /// Midpoint quadrature of lobe_pdf over the whole sphere (in global coordinates, tilted axis).
     #[test]
     fn pdf_integrates_to_one() {
-        let axis = normalize_or([0.3, 0.8, -0.5], [0.0; 3]);
+        let axis = unit3([0.3, 0.8, -0.5]);
         let (nt, np) = (800usize, 1600usize);
         let dt = PI / nt as f64;
         let dp = 2.0 * PI / np as f64;

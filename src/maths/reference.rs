@@ -2,7 +2,7 @@
 //! hdrflow is measured against.
 //!
 //! For a W x H map with texel radiance `L_i`, texel-centre direction `d_i` and midpoint solid
-//! angle `dOmega_i = (2 pi / W)(pi / H) sin(theta_i)` (conventions of [`crate::maths::latlong`]),
+//! angle `dOmega_i = (2 pi / W)(pi / H) sin(theta_i)` (conventions of [`crate::geometry::latlong`]),
 //! the irradiance at a unit normal `n` is
 //!
 //! ```text
@@ -23,22 +23,22 @@
 //! The sum is brute force, O(normals x texels) (a 256 x 256 sphere against a 1024 x 512 map is
 //! 2.7e10 terms), made fast by:
 //! - skipping texels whose radiance is zero in every channel (they add exactly 0);
-//! - packing texels in structure-of-arrays f32 (dx, dy, dz, L dOmega per channel), grouped in
-//!   blocks of [`BLOCK`] = 256 texels taken from 16 x 16 tiles of the map, so each block covers a
-//!   small cone of directions;
-//! - culling per block and per chunk of normals: when every texel of a block is behind every
-//!   normal of the chunk (bounding cones, with a margin far above f32 rounding), the block's
-//!   terms are all exactly `+0`, so skipping it changes no bit of the result;
-//! - an inner loop without branches (`max(dot, 0) * w`, 8 lanes): AVX intrinsics (two normals
-//!   per pass, sharing the texel loads) when the CPU has AVX, SSE2 otherwise, a portable loop
-//!   elsewhere. Every lane performs the same f32 operations in the same order (no FMA), so the
-//!   result is identical on every CPU and whatever the number of threads;
-//! - rayon over chunks of normals; within a chunk, blocks outer and normals inner, so a block
-//!   (6 KiB) stays in L1 while the chunk's normals use it.
+//! - packing texels with their weight `L dOmega` in the structure-of-arrays blocks of
+//!   [`crate::maths::kernels`] (8 per block), taken tile by tile from 16 x 16 tiles of the map
+//!   ([`TILE_TEXELS`] = 256 per tile), so each tile covers a small cone of directions;
+//! - culling per tile and per chunk of normals: when every texel of a tile is behind every normal
+//!   of the chunk ([`Cone::hides`], with the margin derived in [`crate::maths::kernels`]), the
+//!   tile's terms are all exactly `+0`, so skipping it changes no bit of the result;
+//! - the inner loop of [`crate::maths::kernels`], without branches (`max(dot, 0) * w`, 8 lanes):
+//!   AVX (two normals per pass, sharing the texel loads) when the CPU has AVX, SSE2 otherwise, a
+//!   portable loop elsewhere. Every lane performs the same f32 operations in the same order (no
+//!   FMA), so the result is identical on every CPU and whatever the number of threads;
+//! - rayon over chunks of normals; within a chunk, tiles outer and normals inner, so a tile's
+//!   blocks (6 KiB) stay in L1 while the chunk's normals use them.
 //!
 //! # Accuracy
 //!
-//! Each block's sum is formed in f32 (8 lanes of 32 sequential additions, then a fixed pairwise
+//! Each tile's sum is formed in f32 (8 lanes of 32 sequential additions, then a fixed pairwise
 //! sum of the lanes) and added into f64 accumulators. With `u = 2^-24`:
 //! - the inputs: `n`, `d_i` and `w_i = L_i dOmega_i` rounded to f32 (relative `u` each) and the
 //!   3-term dot product make each cosine wrong by at most ~5u = 3e-7 absolute (`|n| = |d| = 1`);
@@ -46,8 +46,8 @@
 //! - the summation: recursive summation of k terms errs by at most `gamma_{k-1} sum |t_i|`,
 //!   `gamma_k = k u / (1 - k u)` (Higham, *Accuracy and Stability of Numerical Algorithms*, 2nd
 //!   ed., 2002, section 4.2): 31 additions per lane, 3 for the lanes, one rounding for the
-//!   product: ~35 u = 2.1e-6 of `sum_block |t_i|`;
-//! - the f64 sum of the `W H / 256` block sums adds `~(W H / 256) 2^-53` relative: negligible.
+//!   product: ~35 u = 2.1e-6 of `sum_tile |t_i|`;
+//! - the f64 sum of the `W H / 256` tile sums adds `~(W H / 256) 2^-53` relative: negligible.
 //!
 //! So `|E_computed - E| <= ~2.1e-6 E_abs + ~3e-7 sum_{i facing n} |L_i| dOmega_i`, where `E_abs`
 //! is the same sum with `|L|`. For non-negative radiance that is a few 1e-6 relative in the
@@ -60,60 +60,32 @@
 
 use std::f64::consts::PI;
 
+use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::data::Image;
-use crate::maths::latlong;
+use crate::geometry::{latlong, unit};
+use crate::maths::kernels::{pack_blocks, Block, Cone, Kernel, LANES};
 use crate::maths::relight::SphereView;
 
-/// Texels per block: the unit of f32 accumulation and of culling.
-pub const BLOCK: usize = 256;
-/// Lanes of the inner loop (one AVX register of f32).
-const LANES: usize = 8;
-/// Groups of `LANES` texels per block.
-const GROUPS_PER_BLOCK: usize = BLOCK / LANES;
-/// Side of the map tiles that blocks are filled from (TILE^2 = BLOCK).
+/// Side of the map tiles that texels are packed from, and of the pixel tiles of
+/// [`disc_pixels_tiled`].
 const TILE: usize = 16;
+/// Texels per map tile (`TILE^2`): the unit of f32 accumulation and of culling.
+pub const TILE_TEXELS: usize = TILE * TILE;
+/// Kernel blocks per map tile.
+const BLOCKS_PER_TILE: usize = TILE_TEXELS / LANES;
 /// Normals per parallel task and per culling cone (with `reference_sphere`, one 16 x 16 tile of
 /// pixels). Larger chunks cull less; smaller ones stream the packed map from memory more often.
 /// 256 and 512 were the fastest of 64..1024 on 2 cores (on a busy machine: timings varied 2x).
 const NORMAL_CHUNK: usize = 256;
-/// Extra angle (radians) a block must lie beyond the horizon of a chunk of normals to be
-/// culled: it guarantees `n.d < -sin(1e-3)` in exact arithmetic, far beyond the ~1e-6 error of
-/// the f32 dot product, so a culled block's terms are all exactly +0.
-const CULL_MARGIN: f64 = 1e-3;
 
-/// Eight texels in structure-of-arrays form (direction and `L * dOmega` per channel).
-#[derive(Clone, Copy, Debug, Default)]
-#[repr(C, align(32))]
-struct Group {
-    dx: [f32; LANES],
-    dy: [f32; LANES],
-    dz: [f32; LANES],
-    wr: [f32; LANES],
-    wg: [f32; LANES],
-    wb: [f32; LANES],
-}
-
-/// A cone of directions: unit axis and half-angle (radians). `half_angle >= PI` means "anything".
-#[derive(Clone, Copy, Debug)]
-struct Cone {
-    axis: [f64; 3],
-    half_angle: f64,
-}
-
-const ANY_DIRECTION: Cone = Cone { axis: [0.0, 1.0, 0.0], half_angle: PI };
-
-/// The map packed for the inner loop: `groups.len() == cones.len() * GROUPS_PER_BLOCK`, the
-/// last block padded with zero texels (direction 0, weight 0: they add exactly 0).
+/// The map packed for the inner loop: `blocks.len() == cones.len() * BLOCKS_PER_TILE`, the last
+/// tile padded with zero texels (direction 0, weight 0: they add exactly 0). A tile's cone is
+/// `None` when it spans a hemisphere or more (it is never culled).
 struct Packed {
-    groups: Vec<Group>,
-    cones: Vec<Cone>,
-}
-
-#[inline]
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+    blocks: Vec<Block>,
+    cones: Vec<Option<Cone>>,
 }
 
 /// The first texel (x, y, value) of `env` that is NaN or infinite, in row-major order.
@@ -123,46 +95,6 @@ pub fn first_non_finite(env: &Image) -> Option<(usize, usize, f32)> {
         .iter()
         .position(|v| !v.is_finite())
         .map(|i| ((i / c) % env.width.max(1), i / c / env.width.max(1), env.data[i]))
-}
-
-/// The smallest cone (approximately: axis = normalised mean) containing `dirs`, or
-/// [`ANY_DIRECTION`] when some direction is zero or not finite, or the mean is ~0.
-fn bounding_cone(dirs: impl Iterator<Item = [f64; 3]> + Clone) -> Cone {
-    let mut sum = [0.0f64; 3];
-    let mut count = 0usize;
-    for d in dirs.clone() {
-        let len = dot(d, d).sqrt();
-        if !(len > 0.0) || !len.is_finite() {
-            return ANY_DIRECTION;
-        }
-        for k in 0..3 {
-            sum[k] += d[k] / len;
-        }
-        count += 1;
-    }
-    let len = dot(sum, sum).sqrt();
-    if count == 0 || !(len > 1e-6 * count as f64) {
-        return ANY_DIRECTION;
-    }
-    let axis = [sum[0] / len, sum[1] / len, sum[2] / len];
-    let mut half_angle = 0.0f64;
-    for d in dirs {
-        let c = dot(d, axis) / dot(d, d).sqrt();
-        half_angle = half_angle.max(c.clamp(-1.0, 1.0).acos());
-    }
-    // acos near 1 loses ~1e-8 rad; 1e-6 covers it.
-    Cone { axis, half_angle: half_angle + 1e-6 }
-}
-
-/// True when every direction of `block` is at more than 90 degrees (+ margin) from every
-/// direction of `normals`: then `max(n.d, 0)` is exactly 0 for all pairs, even in f32.
-#[inline]
-fn behind(normals: &Cone, block: &Cone) -> bool {
-    if normals.half_angle >= PI || block.half_angle >= PI {
-        return false;
-    }
-    let gamma = dot(normals.axis, block.axis).clamp(-1.0, 1.0).acos();
-    gamma - normals.half_angle - block.half_angle > 0.5 * PI + CULL_MARGIN
 }
 
 /// Packs the non-zero texels of `env` tile by tile into blocks (see the module documentation).
@@ -178,7 +110,7 @@ fn pack(env: &Image) -> Packed {
     let cols: Vec<(f64, f64)> = (0..w).map(|x| latlong::phi_of_column(x, w).sin_cos()).collect();
 
     // Texel stream in tile order, zero texels skipped: (direction, L * dOmega).
-    let mut dirs: Vec<[f64; 3]> = Vec::new();
+    let mut dirs: Vec<DVec3> = Vec::new();
     let mut weights: Vec<[f64; 3]> = Vec::new();
     for ty in (0..h).step_by(TILE) {
         for tx in (0..w).step_by(TILE) {
@@ -188,190 +120,33 @@ fn pack(env: &Image) -> Packed {
                     if l == [0.0f32; 3] {
                         continue;
                     }
-                    dirs.push([-st * sp, ct, st * cp]);
+                    dirs.push(DVec3::new(-st * sp, ct, st * cp));
                     weights.push(l.map(|c| c as f64 * d_omega));
                 }
             }
         }
     }
 
-    let blocks = dirs.len().div_ceil(BLOCK);
-    let mut groups = vec![Group::default(); blocks * GROUPS_PER_BLOCK];
-    for (i, (d, wt)) in dirs.iter().zip(&weights).enumerate() {
-        let g = &mut groups[i / LANES];
-        let l = i % LANES;
-        g.dx[l] = d[0] as f32;
-        g.dy[l] = d[1] as f32;
-        g.dz[l] = d[2] as f32;
-        g.wr[l] = wt[0] as f32;
-        g.wg[l] = wt[1] as f32;
-        g.wb[l] = wt[2] as f32;
-    }
-    let cones = (0..blocks)
-        .map(|b| bounding_cone(dirs[b * BLOCK..((b + 1) * BLOCK).min(dirs.len())].iter().copied()))
+    let tiles = dirs.len().div_ceil(TILE_TEXELS);
+    let mut blocks = Vec::with_capacity(tiles * BLOCKS_PER_TILE);
+    pack_blocks(dirs.iter().zip(&weights).map(|(d, wt)| (d.as_vec3().to_array(), wt.map(|c| c as f32))), &mut blocks);
+    blocks.resize(tiles * BLOCKS_PER_TILE, Block::ZERO);
+    let cones = (0..tiles)
+        .map(|t| Cone::around(dirs[t * TILE_TEXELS..((t + 1) * TILE_TEXELS).min(dirs.len())].iter().copied()))
         .collect();
-    Packed { groups, cones }
+    Packed { blocks, cones }
 }
 
-/// Fixed pairwise sum of the 8 lanes.
-#[inline(always)]
-fn hsum(a: &[f32; LANES]) -> f32 {
-    ((a[0] + a[4]) + (a[1] + a[5])) + ((a[2] + a[6]) + (a[3] + a[7]))
-}
-
-/// Portable inner loop (the reference for the SIMD ones): `sum_j max(n . d_j, 0) * w_j` over
-/// one block, in f32, per lane `(nx dx + ny dy) + nz dz`, then `max`, then `acc += c * w`.
-/// `max` is `if d > 0 { d } else { 0 }`: the semantics of MAXPS(d, 0) (NaN and -0 give +0).
-#[allow(clippy::needless_range_loop)] // lane l of every array: the SIMD layout, written out
-fn block_sum_portable(groups: &[Group], n: [f32; 3]) -> [f32; 3] {
-    let mut acc = [[0.0f32; LANES]; 3];
-    for g in groups {
-        for l in 0..LANES {
-            let d = n[0] * g.dx[l] + n[1] * g.dy[l] + n[2] * g.dz[l];
-            let c = if d > 0.0 { d } else { 0.0 };
-            acc[0][l] += c * g.wr[l];
-            acc[1][l] += c * g.wg[l];
-            acc[2][l] += c * g.wb[l];
-        }
-    }
-    [hsum(&acc[0]), hsum(&acc[1]), hsum(&acc[2])]
-}
-
-#[cfg(target_arch = "x86_64")]
-mod x86 {
-    use super::{hsum, Group, LANES};
-    use std::arch::x86_64::*;
-
-    /// AVX version of `block_sum_portable` for two normals at once (the texel loads are shared;
-    /// each normal's lane arithmetic is exactly the portable one).
-    #[target_feature(enable = "avx")]
-    pub(super) unsafe fn block_sums2_avx(groups: &[Group], a: [f32; 3], b: [f32; 3]) -> [[f32; 3]; 2] {
-        let (ax, ay, az) = (_mm256_set1_ps(a[0]), _mm256_set1_ps(a[1]), _mm256_set1_ps(a[2]));
-        let (bx, by, bz) = (_mm256_set1_ps(b[0]), _mm256_set1_ps(b[1]), _mm256_set1_ps(b[2]));
-        let zero = _mm256_setzero_ps();
-        let mut acc = [zero; 6];
-        for g in groups {
-            let dx = _mm256_load_ps(g.dx.as_ptr());
-            let dy = _mm256_load_ps(g.dy.as_ptr());
-            let dz = _mm256_load_ps(g.dz.as_ptr());
-            let wr = _mm256_load_ps(g.wr.as_ptr());
-            let wg = _mm256_load_ps(g.wg.as_ptr());
-            let wb = _mm256_load_ps(g.wb.as_ptr());
-            let da = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(ax, dx), _mm256_mul_ps(ay, dy)), _mm256_mul_ps(az, dz));
-            let db = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(bx, dx), _mm256_mul_ps(by, dy)), _mm256_mul_ps(bz, dz));
-            // MAXPS returns the second operand when the first is not greater (NaN, -0 -> +0).
-            let ca = _mm256_max_ps(da, zero);
-            let cb = _mm256_max_ps(db, zero);
-            acc[0] = _mm256_add_ps(acc[0], _mm256_mul_ps(ca, wr));
-            acc[1] = _mm256_add_ps(acc[1], _mm256_mul_ps(ca, wg));
-            acc[2] = _mm256_add_ps(acc[2], _mm256_mul_ps(ca, wb));
-            acc[3] = _mm256_add_ps(acc[3], _mm256_mul_ps(cb, wr));
-            acc[4] = _mm256_add_ps(acc[4], _mm256_mul_ps(cb, wg));
-            acc[5] = _mm256_add_ps(acc[5], _mm256_mul_ps(cb, wb));
-        }
-        let mut lanes = [[0.0f32; LANES]; 6];
-        for k in 0..6 {
-            _mm256_storeu_ps(lanes[k].as_mut_ptr(), acc[k]);
-        }
-        [[hsum(&lanes[0]), hsum(&lanes[1]), hsum(&lanes[2])], [hsum(&lanes[3]), hsum(&lanes[4]), hsum(&lanes[5])]]
-    }
-
-    /// SSE2 version of `block_sum_portable` (lanes 0-3 and 4-7 in two registers).
-    pub(super) unsafe fn block_sum_sse2(groups: &[Group], n: [f32; 3]) -> [f32; 3] {
-        let (nx, ny, nz) = (_mm_set1_ps(n[0]), _mm_set1_ps(n[1]), _mm_set1_ps(n[2]));
-        let zero = _mm_setzero_ps();
-        let mut acc = [zero; 6]; // r lo, r hi, g lo, g hi, b lo, b hi
-        for g in groups {
-            for half in 0..2 {
-                let o = 4 * half;
-                let d = _mm_add_ps(
-                    _mm_add_ps(
-                        _mm_mul_ps(nx, _mm_load_ps(g.dx.as_ptr().add(o))),
-                        _mm_mul_ps(ny, _mm_load_ps(g.dy.as_ptr().add(o))),
-                    ),
-                    _mm_mul_ps(nz, _mm_load_ps(g.dz.as_ptr().add(o))),
-                );
-                let c = _mm_max_ps(d, zero);
-                acc[half] = _mm_add_ps(acc[half], _mm_mul_ps(c, _mm_load_ps(g.wr.as_ptr().add(o))));
-                acc[2 + half] = _mm_add_ps(acc[2 + half], _mm_mul_ps(c, _mm_load_ps(g.wg.as_ptr().add(o))));
-                acc[4 + half] = _mm_add_ps(acc[4 + half], _mm_mul_ps(c, _mm_load_ps(g.wb.as_ptr().add(o))));
-            }
-        }
-        let mut lanes = [[0.0f32; LANES]; 3];
-        for ch in 0..3 {
-            _mm_storeu_ps(lanes[ch].as_mut_ptr(), acc[2 * ch]);
-            _mm_storeu_ps(lanes[ch].as_mut_ptr().add(4), acc[2 * ch + 1]);
-        }
-        [hsum(&lanes[0]), hsum(&lanes[1]), hsum(&lanes[2])]
-    }
-}
-
-/// Which implementation of the inner loop runs. All give bit-identical results: each lane does
-/// the same f32 operations in the same order (no FMA contraction), lanes summed in one order.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Kernel {
-    #[cfg_attr(target_arch = "x86_64", allow(dead_code))] // the tests use it on x86_64
-    Portable,
-    #[cfg(target_arch = "x86_64")]
-    Sse2,
-    #[cfg(target_arch = "x86_64")]
-    Avx,
-}
-
-impl Kernel {
-    fn detect() -> Kernel {
-        #[cfg(target_arch = "x86_64")]
-        {
-            if is_x86_feature_detected!("avx") {
-                Kernel::Avx
-            } else {
-                Kernel::Sse2
-            }
-        }
-        #[cfg(not(target_arch = "x86_64"))]
-        Kernel::Portable
-    }
-
-    /// One chunk of normals: for every non-culled block (in increasing order), each normal's
-    /// f32 block sum added into its f64 accumulator.
-    fn run(self, packed: &Packed, active: &[usize], normals: &[[f32; 3]], out: &mut [[f64; 3]]) {
-        let add = |acc: &mut [f64; 3], s: [f32; 3]| {
+/// For one chunk of normals: for every tile of `active` (in increasing order), each normal's f32
+/// tile sum added into its f64 accumulator.
+fn sum_tiles(kernel: Kernel, packed: &Packed, active: &[usize], normals: &[[f32; 3]], out: &mut [[f64; 3]]) {
+    for &t in active {
+        let blocks = &packed.blocks[t * BLOCKS_PER_TILE..(t + 1) * BLOCKS_PER_TILE];
+        kernel.for_each_sum(blocks, normals, |i, s| {
             for ch in 0..3 {
-                acc[ch] += s[ch] as f64;
+                out[i][ch] += s[ch] as f64;
             }
-        };
-        for &b in active {
-            let groups = &packed.groups[b * GROUPS_PER_BLOCK..(b + 1) * GROUPS_PER_BLOCK];
-            match self {
-                Kernel::Portable => {
-                    for (n, acc) in normals.iter().zip(out.iter_mut()) {
-                        add(acc, block_sum_portable(groups, *n));
-                    }
-                }
-                // SAFETY: SSE2 is part of the x86_64 baseline.
-                #[cfg(target_arch = "x86_64")]
-                Kernel::Sse2 => {
-                    for (n, acc) in normals.iter().zip(out.iter_mut()) {
-                        add(acc, unsafe { x86::block_sum_sse2(groups, *n) });
-                    }
-                }
-                // SAFETY: `Kernel::Avx` is only chosen when `is_x86_feature_detected!("avx")`.
-                #[cfg(target_arch = "x86_64")]
-                Kernel::Avx => {
-                    let pairs = normals.len() / 2;
-                    for i in 0..pairs {
-                        let s = unsafe { x86::block_sums2_avx(groups, normals[2 * i], normals[2 * i + 1]) };
-                        add(&mut out[2 * i], s[0]);
-                        add(&mut out[2 * i + 1], s[1]);
-                    }
-                    if normals.len() % 2 == 1 {
-                        let i = normals.len() - 1;
-                        let s = unsafe { x86::block_sums2_avx(groups, normals[i], normals[i]) };
-                        add(&mut out[i], s[0]);
-                    }
-                }
-            }
-        }
+        });
     }
 }
 
@@ -397,10 +172,14 @@ fn irradiance_exact_with(env: &Image, normals: &[[f64; 3]], kernel: Kernel, cull
         return out;
     }
     normals.par_chunks(NORMAL_CHUNK).zip(out.par_chunks_mut(NORMAL_CHUNK)).for_each(|(ns, acc)| {
-        let cone = if cull { bounding_cone(ns.iter().copied()) } else { ANY_DIRECTION };
-        let active: Vec<usize> = (0..packed.cones.len()).filter(|&b| !behind(&cone, &packed.cones[b])).collect();
+        // The chunk's cone, of the normals' directions (the sign of n . d does not depend on
+        // |n|); a zero or non-finite normal leaves the chunk without a cone, so nothing is culled.
+        let cone =
+            if cull { Cone::around(ns.iter().map(|n| unit(DVec3::from(*n)).unwrap_or(DVec3::NAN))) } else { None };
+        let hidden = |t: usize| matches!((&cone, &packed.cones[t]), (Some(c), Some(tile)) if c.hides(tile));
+        let active: Vec<usize> = (0..packed.cones.len()).filter(|&t| !hidden(t)).collect();
         let nf: Vec<[f32; 3]> = ns.iter().map(|n| n.map(|c| c as f32)).collect();
-        kernel.run(&packed, &active, &nf, acc);
+        sum_tiles(kernel, &packed, &active, &nf, acc);
     });
     out
 }
@@ -444,6 +223,10 @@ pub fn reference_sphere(env: &Image, view: &SphereView, albedo: [f64; 3]) -> Ima
 pub(crate) mod tests {
     use super::*;
     use crate::maths::sequences::SplitMix64;
+
+    fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+        DVec3::from(a).dot(DVec3::from(b))
+    }
 
     /// The sum written plainly in f64, over every texel.
     pub(crate) fn naive(env: &Image, n: [f64; 3]) -> [f64; 3] {
@@ -651,8 +434,8 @@ pub(crate) mod tests {
         let same = |a: &[[f64; 3]], b: &[[f64; 3]]| {
             a.len() == b.len() && a.iter().zip(b).all(|(a, b)| (0..3).all(|c| a[c].to_bits() == b[c].to_bits()))
         };
-        let plain = irradiance_exact_with(&env, &ns, Kernel::Portable, false);
-        assert!(same(&plain, &irradiance_exact_with(&env, &ns, Kernel::Portable, true)));
+        let plain = irradiance_exact_with(&env, &ns, Kernel::Scalar, false);
+        assert!(same(&plain, &irradiance_exact_with(&env, &ns, Kernel::Scalar, true)));
         #[cfg(target_arch = "x86_64")]
         {
             assert!(same(&plain, &irradiance_exact_with(&env, &ns, Kernel::Sse2, true)));
@@ -674,14 +457,19 @@ pub(crate) mod tests {
     }
 
     #[test]
-    fn culling_skips_blocks() {
+    fn culling_skips_tiles() {
         // A map lit only near +Y and normals pointing down: everything is culled, result 0.
         let env = map(128, 64, |d| if d[1] > 0.9 { [1.0; 3] } else { [0.0; 3] });
-        let e = irradiance_exact(&env, &[[0.0, -1.0, 0.0], [0.05, -0.99, 0.0]]);
+        let normals = [[0.0, -1.0, 0.0], [0.05, -0.99, 0.0]];
+        let e = irradiance_exact(&env, &normals);
         assert_eq!(e, vec![[0.0; 3]; 2]);
         let packed = pack(&env);
-        let cone = bounding_cone([[0.0, -1.0, 0.0], [0.05, -0.99, 0.0]].into_iter());
-        assert!(packed.cones.iter().all(|c| behind(&cone, c)));
+        let cone = Cone::around(normals.iter().map(|n| unit(DVec3::from(*n)).unwrap())).unwrap();
+        assert!(!packed.cones.is_empty());
+        assert!(packed.cones.iter().all(|t| t.is_some_and(|t| cone.hides(&t))));
+        // Seen from above, nothing is culled.
+        let up = Cone::around([DVec3::Y].into_iter()).unwrap();
+        assert!(packed.cones.iter().all(|t| !t.is_some_and(|t| up.hides(&t))));
     }
 
     #[test]
@@ -717,17 +505,18 @@ pub(crate) mod tests {
             rayon::current_num_threads()
         );
         std::hint::black_box(img);
-        // How much culling saves: the fraction of blocks kept, over the sphere's chunks.
+        // How much culling saves: the fraction of tiles kept, over the sphere's chunks.
         let packed = pack(&env);
         let ns: Vec<[f64; 3]> = disc_pixels_tiled(&view).iter().map(|p| p.1).collect();
         let kept: usize = ns
             .chunks(NORMAL_CHUNK)
             .map(|c| {
-                let cone = bounding_cone(c.iter().copied());
-                packed.cones.iter().filter(|b| !behind(&cone, b)).count() * c.len()
+                let cone = Cone::around(c.iter().map(|n| DVec3::from(*n)));
+                let hidden = |t: &Option<Cone>| matches!((&cone, t), (Some(c), Some(t)) if c.hides(t));
+                packed.cones.iter().filter(|t| !hidden(t)).count() * c.len()
             })
             .sum();
-        eprintln!("blocks kept after culling: {:.1}%", 100.0 * kept as f64 / (packed.cones.len() * ns.len()) as f64);
+        eprintln!("tiles kept after culling: {:.1}%", 100.0 * kept as f64 / (packed.cones.len() * ns.len()) as f64);
         let sky = crate::formats::builtin::builtin("sky").unwrap();
         let big = crate::ops::image::resize::resize(&sky, 1024, 512);
         let t = std::time::Instant::now();

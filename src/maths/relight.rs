@@ -19,9 +19,12 @@
 use std::collections::hash_map::Entry;
 use std::collections::HashMap;
 
+use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::data::image::Image;
+use crate::geometry::unit;
+use crate::maths::kernels::{pack_blocks, Block, Cone, Kernel, LANES};
 
 /// An orthographic camera looking at the unit sphere, whose silhouette is the disc inscribed in a
 /// `size` x `size` image.
@@ -37,72 +40,52 @@ use crate::data::image::Image;
 pub struct SphereView {
     /// Image width and height in pixels.
     pub size: usize,
-    forward: [f64; 3],
-    right: [f64; 3],
-    up: [f64; 3],
-}
-
-#[inline]
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-#[inline]
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
-}
-
-#[inline]
-fn normalised(a: [f64; 3]) -> Option<[f64; 3]> {
-    let len = dot(a, a).sqrt();
-    if len > 0.0 && len.is_finite() {
-        Some([a[0] / len, a[1] / len, a[2] / len])
-    } else {
-        None
-    }
+    forward: DVec3,
+    right: DVec3,
+    up: DVec3,
 }
 
 impl SphereView {
     /// A view of a `size` x `size` image from direction `view_dir` (from the sphere's centre to the
     /// camera; normalised here). A zero or non-finite `view_dir` falls back to +Z.
     pub fn new(size: usize, view_dir: [f64; 3]) -> SphereView {
-        let v = normalised(view_dir).unwrap_or([0.0, 0.0, 1.0]);
-        let forward = [-v[0], -v[1], -v[2]];
-        // Up: +Y minus its component along v (Gram-Schmidt).
-        let y = [0.0, 1.0, 0.0];
-        let vy = v[1];
-        let projected = [-vy * v[0], 1.0 - vy * v[1], -vy * v[2]];
-        let up_hint = if dot(projected, projected).sqrt() > 1e-9 {
-            normalised(projected).unwrap_or(y)
+        let v = unit(DVec3::from(view_dir)).unwrap_or(DVec3::Z);
+        let forward = -v;
+        // Up: +Y minus its component along v (Gram-Schmidt), written out per component (as
+        // `Y - vy v` it would turn some -0 into +0).
+        let vy = v.y;
+        let projected = DVec3::new(-vy * v.x, 1.0 - vy * v.y, -vy * v.z);
+        let up_hint = if projected.length() > 1e-9 {
+            unit(projected).unwrap_or(DVec3::Y)
         } else if vy > 0.0 {
-            [0.0, 0.0, -1.0]
+            DVec3::NEG_Z
         } else {
-            [0.0, 0.0, 1.0]
+            DVec3::Z
         };
-        let right = normalised(cross(forward, up_hint)).unwrap_or([1.0, 0.0, 0.0]);
+        let right = unit(forward.cross(up_hint)).unwrap_or(DVec3::X);
         // Re-orthogonalise so (right, up, view_dir) is orthonormal to rounding.
-        let up = normalised(cross(right, forward)).unwrap_or(up_hint);
+        let up = unit(right.cross(forward)).unwrap_or(up_hint);
         SphereView { size, forward, right, up }
     }
 
     /// Unit direction from the sphere's centre towards the camera.
     pub fn view_dir(&self) -> [f64; 3] {
-        [-self.forward[0], -self.forward[1], -self.forward[2]]
+        (-self.forward).to_array()
     }
 
     /// The direction the camera looks along (`-view_dir`).
     pub fn forward(&self) -> [f64; 3] {
-        self.forward
+        self.forward.to_array()
     }
 
     /// Screen right (+x in the image).
     pub fn right(&self) -> [f64; 3] {
-        self.right
+        self.right.to_array()
     }
 
     /// Screen up (towards row 0 of the image).
     pub fn up(&self) -> [f64; 3] {
-        self.up
+        self.up.to_array()
     }
 
     /// The unit surface normal seen at pixel (px, py), or `None` off the silhouette.
@@ -124,9 +107,7 @@ impl SphereView {
             return None;
         }
         let sz = (1.0 - r2).max(0.0).sqrt();
-        let v = self.view_dir();
-        let (r, u) = (self.right, self.up);
-        Some([sx * r[0] + sy * u[0] + sz * v[0], sx * r[1] + sy * u[1] + sz * v[1], sx * r[2] + sy * u[2] + sz * v[2]])
+        Some((sx * self.right + sy * self.up + sz * -self.forward).to_array())
     }
 }
 
@@ -224,37 +205,8 @@ pub fn merge_duplicates(samples: &[(u32, LightSample)]) -> Vec<LightSample> {
     merged.into_iter().map(|(dir, w)| LightSample { dir, weight: [w[0] as f32, w[1] as f32, w[2] as f32] }).collect()
 }
 
-/// Lights per block of the structure-of-arrays layout (one AVX or two SSE registers of f32).
-const LANES: usize = 8;
-
 /// Side of the square pixel tiles over which back-facing lights are culled.
 const TILE: usize = 16;
-
-/// Margin (in cosine) kept when culling, far above f32 rounding of the dot products (~1e-7), so
-/// a culled light would have contributed exactly 0 to every pixel of its tile.
-const CULL_MARGIN: f64 = 1e-4;
-
-/// `LANES` lights as structure of arrays (directions and weights per component), aligned for AVX
-/// loads. Padding lanes have a zero direction and zero weight, so they add exactly 0.
-#[derive(Clone, Copy)]
-#[repr(C, align(32))]
-struct Block {
-    dx: [f32; LANES],
-    dy: [f32; LANES],
-    dz: [f32; LANES],
-    wr: [f32; LANES],
-    wg: [f32; LANES],
-    wb: [f32; LANES],
-}
-
-const EMPTY_BLOCK: Block = Block {
-    dx: [0.0; LANES],
-    dy: [0.0; LANES],
-    dz: [0.0; LANES],
-    wr: [0.0; LANES],
-    wg: [0.0; LANES],
-    wb: [0.0; LANES],
-};
 
 /// The lights that can contribute at all: non-zero weight and non-zero direction (a light with
 /// either zero adds exactly 0 to every pixel).
@@ -269,8 +221,7 @@ impl LiveLights {
     fn new(lights: &[LightSample]) -> LiveLights {
         let mut live = LiveLights { dir: Vec::new(), inv_len: Vec::new(), weight: Vec::new() };
         for l in lights {
-            let d = [l.dir[0] as f64, l.dir[1] as f64, l.dir[2] as f64];
-            let len = dot(d, d).sqrt();
+            let len = DVec3::from(l.dir.map(f64::from)).length();
             // A non-finite weight would turn max(n.d, 0) * w into NaN for pixels facing away;
             // callers refuse such lights first (RelightSphere reports them), here they are dropped.
             if l.weight == [0.0; 3] || !(len > 0.0) || !len.is_finite() || l.weight.iter().any(|w| !w.is_finite()) {
@@ -287,187 +238,19 @@ impl LiveLights {
         self.dir.is_empty()
     }
 
-    /// Packs into `blocks` the lights that may face at least one of `normals` (unit, f64).
-    ///
-    /// The normals lie in a cone of axis `c` (their normalised mean) and half-angle `t`
-    /// (`cos t = min n.c`). For a unit direction `d` at angle `a` from `c`, the largest `n.d` over
-    /// the cone is `cos(a - t)`, which is <= 0 when `a >= 90 deg + t`, i.e. `d.c <= -sin t`: such
-    /// a light is behind every pixel of the tile and is skipped (with `CULL_MARGIN` to spare).
-    /// When the cone is wider than a hemisphere every light is kept.
+    /// Packs into `blocks` (cleared first) the lights that may face at least one of `normals`
+    /// (unit, f64), in their order: a light is skipped when [`Cone::cull_threshold`] shows it
+    /// behind every normal of the tile (it would add exactly +0 to each of their sums; see
+    /// [`crate::maths::kernels`] for the test and its margin). The tile's cone is around the
+    /// normalised mean of its normals; a tile wider than a hemisphere keeps every light.
     fn pack_visible(&self, normals: &[(usize, usize, [f64; 3])], blocks: &mut Vec<Block>) {
-        let mut sum = [0.0f64; 3];
-        for (_, _, n) in normals {
-            sum = [sum[0] + n[0], sum[1] + n[1], sum[2] + n[2]];
-        }
-        let threshold = match normalised(sum) {
-            Some(c) => {
-                let cos_t = normals.iter().map(|(_, _, n)| dot(*n, c)).fold(1.0f64, f64::min);
-                if cos_t > 0.0 {
-                    Some((c, -((1.0 - cos_t * cos_t).max(0.0).sqrt() + CULL_MARGIN)))
-                } else {
-                    None
-                }
-            }
-            None => None,
-        };
+        let cull = Cone::around(normals.iter().map(|p| DVec3::from(p.2)))
+            .and_then(|cone| cone.cull_threshold(Cone::RAY).map(|h| (cone.axis, h)));
+        // The cosine between the tile's axis and light j's direction (not necessarily unit).
+        let cos_to_axis = |j: usize, axis: DVec3| DVec3::from(self.dir[j].map(f64::from)).dot(axis) * self.inv_len[j];
+        let visible = (0..self.dir.len()).filter(|&j| cull.is_none_or(|(axis, h)| !(cos_to_axis(j, axis) <= h)));
         blocks.clear();
-        let mut k = 0;
-        for j in 0..self.dir.len() {
-            let d = self.dir[j];
-            if let Some((c, thr)) = threshold {
-                let dc = (d[0] as f64 * c[0] + d[1] as f64 * c[1] + d[2] as f64 * c[2]) * self.inv_len[j];
-                if dc <= thr {
-                    continue;
-                }
-            }
-            if k == 0 {
-                blocks.push(EMPTY_BLOCK);
-            }
-            let b = blocks.last_mut().expect("a block was pushed");
-            let w = self.weight[j];
-            b.dx[k] = d[0];
-            b.dy[k] = d[1];
-            b.dz[k] = d[2];
-            b.wr[k] = w[0];
-            b.wg[k] = w[1];
-            b.wb[k] = w[2];
-            k = (k + 1) % LANES;
-        }
-    }
-}
-
-/// Which implementation of the inner loop runs. All give bit-identical results: each lane does
-/// the same f32 operations in the same order (`(nx dx + ny dy) + nz dz`, clamp, multiply-add
-/// without FMA contraction), and the 8 lanes are summed in one fixed order.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Kernel {
-    #[cfg_attr(target_arch = "x86_64", allow(dead_code))]
-    Scalar,
-    #[cfg(target_arch = "x86_64")]
-    Sse2,
-    #[cfg(target_arch = "x86_64")]
-    Avx,
-}
-
-impl Kernel {
-    #[cfg(target_arch = "x86_64")]
-    fn detect() -> Kernel {
-        if is_x86_feature_detected!("avx") {
-            Kernel::Avx
-        } else {
-            Kernel::Sse2
-        }
-    }
-
-    #[cfg(not(target_arch = "x86_64"))]
-    fn detect() -> Kernel {
-        Kernel::Scalar
-    }
-}
-
-/// `sum_j max(n.dir_j, 0) * weight_j` for one normal, with the selected kernel.
-#[inline]
-fn accumulate(kernel: Kernel, blocks: &[Block], n: [f32; 3]) -> [f32; 3] {
-    match kernel {
-        Kernel::Scalar => accumulate_scalar(blocks, n),
-        // SAFETY: SSE2 is part of the x86_64 baseline.
-        #[cfg(target_arch = "x86_64")]
-        Kernel::Sse2 => unsafe { x86::accumulate_sse2(blocks, n) },
-        // SAFETY: `Kernel::Avx` is only chosen when `is_x86_feature_detected!("avx")`.
-        #[cfg(target_arch = "x86_64")]
-        Kernel::Avx => unsafe { x86::accumulate_avx(blocks, n) },
-    }
-}
-
-/// Portable version of the inner loop (the reference for the SIMD ones).
-fn accumulate_scalar(blocks: &[Block], n: [f32; 3]) -> [f32; 3] {
-    let mut ar = [0.0f32; LANES];
-    let mut ag = [0.0f32; LANES];
-    let mut ab = [0.0f32; LANES];
-    for b in blocks {
-        for l in 0..LANES {
-            let d = n[0] * b.dx[l] + n[1] * b.dy[l] + n[2] * b.dz[l];
-            // Same semantics as MAXPS(d, 0): NaN and -0 give +0.
-            let c = if d > 0.0 { d } else { 0.0 };
-            ar[l] += c * b.wr[l];
-            ag[l] += c * b.wg[l];
-            ab[l] += c * b.wb[l];
-        }
-    }
-    [hsum(&ar), hsum(&ag), hsum(&ab)]
-}
-
-/// Pairwise lane sum in a fixed order.
-#[inline(always)]
-fn hsum(a: &[f32; LANES]) -> f32 {
-    ((a[0] + a[4]) + (a[1] + a[5])) + ((a[2] + a[6]) + (a[3] + a[7]))
-}
-
-#[cfg(target_arch = "x86_64")]
-mod x86 {
-    use super::{hsum, Block, LANES};
-    use std::arch::x86_64::*;
-
-    /// AVX: one 8-lane register per block component.
-    #[target_feature(enable = "avx")]
-    pub(super) unsafe fn accumulate_avx(blocks: &[Block], n: [f32; 3]) -> [f32; 3] {
-        let nx = _mm256_set1_ps(n[0]);
-        let ny = _mm256_set1_ps(n[1]);
-        let nz = _mm256_set1_ps(n[2]);
-        let zero = _mm256_setzero_ps();
-        let mut ar = zero;
-        let mut ag = zero;
-        let mut ab = zero;
-        for b in blocks {
-            let d = _mm256_add_ps(
-                _mm256_add_ps(
-                    _mm256_mul_ps(nx, _mm256_loadu_ps(b.dx.as_ptr())),
-                    _mm256_mul_ps(ny, _mm256_loadu_ps(b.dy.as_ptr())),
-                ),
-                _mm256_mul_ps(nz, _mm256_loadu_ps(b.dz.as_ptr())),
-            );
-            // MAXPS returns the second operand when the first is not greater (NaN, -0 -> +0).
-            let c = _mm256_max_ps(d, zero);
-            ar = _mm256_add_ps(ar, _mm256_mul_ps(c, _mm256_loadu_ps(b.wr.as_ptr())));
-            ag = _mm256_add_ps(ag, _mm256_mul_ps(c, _mm256_loadu_ps(b.wg.as_ptr())));
-            ab = _mm256_add_ps(ab, _mm256_mul_ps(c, _mm256_loadu_ps(b.wb.as_ptr())));
-        }
-        let mut lanes = [[0.0f32; LANES]; 3];
-        _mm256_storeu_ps(lanes[0].as_mut_ptr(), ar);
-        _mm256_storeu_ps(lanes[1].as_mut_ptr(), ag);
-        _mm256_storeu_ps(lanes[2].as_mut_ptr(), ab);
-        [hsum(&lanes[0]), hsum(&lanes[1]), hsum(&lanes[2])]
-    }
-
-    /// SSE2: lanes 0-3 and 4-7 of each block component in two registers.
-    pub(super) unsafe fn accumulate_sse2(blocks: &[Block], n: [f32; 3]) -> [f32; 3] {
-        let nx = _mm_set1_ps(n[0]);
-        let ny = _mm_set1_ps(n[1]);
-        let nz = _mm_set1_ps(n[2]);
-        let zero = _mm_setzero_ps();
-        let mut acc = [zero; 6]; // r lo, r hi, g lo, g hi, b lo, b hi
-        for b in blocks {
-            for half in 0..2 {
-                let o = 4 * half;
-                let d = _mm_add_ps(
-                    _mm_add_ps(
-                        _mm_mul_ps(nx, _mm_loadu_ps(b.dx.as_ptr().add(o))),
-                        _mm_mul_ps(ny, _mm_loadu_ps(b.dy.as_ptr().add(o))),
-                    ),
-                    _mm_mul_ps(nz, _mm_loadu_ps(b.dz.as_ptr().add(o))),
-                );
-                let c = _mm_max_ps(d, zero);
-                acc[half] = _mm_add_ps(acc[half], _mm_mul_ps(c, _mm_loadu_ps(b.wr.as_ptr().add(o))));
-                acc[2 + half] = _mm_add_ps(acc[2 + half], _mm_mul_ps(c, _mm_loadu_ps(b.wg.as_ptr().add(o))));
-                acc[4 + half] = _mm_add_ps(acc[4 + half], _mm_mul_ps(c, _mm_loadu_ps(b.wb.as_ptr().add(o))));
-            }
-        }
-        let mut lanes = [[0.0f32; LANES]; 3];
-        for ch in 0..3 {
-            _mm_storeu_ps(lanes[ch].as_mut_ptr(), acc[2 * ch]);
-            _mm_storeu_ps(lanes[ch].as_mut_ptr().add(4), acc[2 * ch + 1]);
-        }
-        [hsum(&lanes[0]), hsum(&lanes[1]), hsum(&lanes[2])]
+        pack_blocks(visible.map(|j| (self.dir[j], self.weight[j])), blocks);
     }
 }
 
@@ -481,9 +264,10 @@ mod x86 {
 ///
 /// Speed: bands of 16 rows run in parallel (rayon); within a band, each 16 x 16 tile first drops
 /// the lights that are behind all its normals (they would add exactly 0; see `pack_visible`),
-/// then runs the inner loop over the remaining lights in f32, laid out as structure of arrays in
-/// blocks of 8, with AVX when the CPU has it and SSE2 otherwise. The result is deterministic and
-/// the same on every x86_64 CPU (no FMA, fixed summation order). Sums are f32: with 1024 lights
+/// then runs the inner loop of [`crate::maths::kernels`] over the remaining lights in f32, laid
+/// out as structure of arrays in blocks of 8, with AVX when the CPU has it (two pixels per pass)
+/// and SSE2 otherwise. The result is deterministic and the same on every CPU (no FMA, fixed
+/// summation order). Sums are f32: with 1024 lights
 /// the relative rounding is ~1e-6. Lights with a non-finite weight or direction are ignored:
 /// callers must refuse them first (`RelightSphere` reports them as an error).
 pub fn relight(view: &SphereView, lights: &[LightSample], scale: [f32; 3]) -> Image {
@@ -504,6 +288,7 @@ fn relight_with(kernel: Kernel, view: &SphereView, lights: &[LightSample], scale
         let y0 = band * TILE;
         let y1 = (y0 + TILE).min(size);
         let mut normals: Vec<(usize, usize, [f64; 3])> = Vec::with_capacity(TILE * TILE);
+        let mut normals_f32: Vec<[f32; 3]> = Vec::with_capacity(TILE * TILE);
         let mut blocks: Vec<Block> = Vec::with_capacity(live.dir.len().div_ceil(LANES));
         for x0 in (0..size).step_by(TILE) {
             let x1 = (x0 + TILE).min(size);
@@ -522,13 +307,15 @@ fn relight_with(kernel: Kernel, view: &SphereView, lights: &[LightSample], scale
             if blocks.is_empty() {
                 continue;
             }
-            for &(px, py, n) in &normals {
-                let c = accumulate(kernel, &blocks, [n[0] as f32, n[1] as f32, n[2] as f32]);
+            normals_f32.clear();
+            normals_f32.extend(normals.iter().map(|p| p.2.map(|c| c as f32)));
+            kernel.for_each_sum(&blocks, &normals_f32, |k, c| {
+                let (px, py, _) = normals[k];
                 let i = ((py - y0) * size + px) * 3;
                 rows[i] = scale[0] * c[0];
                 rows[i + 1] = scale[1] * c[1];
                 rows[i + 2] = scale[2] * c[2];
-            }
+            });
         }
     });
     image
@@ -537,7 +324,7 @@ fn relight_with(kernel: Kernel, view: &SphereView, lights: &[LightSample], scale
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::maths::latlong;
+    use crate::geometry::latlong;
     use std::f64::consts::PI;
 
     /// Fibonacci-lattice directions: a low-discrepancy, equal-area set on the sphere
@@ -557,7 +344,11 @@ mod tests {
     }
 
     fn len(a: [f64; 3]) -> f64 {
-        dot(a, a).sqrt()
+        DVec3::from(a).length()
+    }
+
+    fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+        DVec3::from(a).dot(DVec3::from(b))
     }
 
     fn close3(a: [f64; 3], b: [f64; 3], tol: f64) -> bool {
@@ -671,7 +462,7 @@ mod tests {
             }
             assert!(dot(r, u).abs() < 1e-12 && dot(r, w).abs() < 1e-12 && dot(u, w).abs() < 1e-12, "{v:?}");
             // right = forward x up
-            assert!(close3(cross(view.forward(), u), r, 1e-12), "{v:?}");
+            assert!(close3(DVec3::from(view.forward()).cross(DVec3::from(u)).to_array(), r, 1e-12), "{v:?}");
         }
         let top = SphereView::new(8, [0.0, 1.0, 0.0]);
         assert!(close3(top.up(), [0.0, 0.0, -1.0], 1e-12));
@@ -824,12 +615,12 @@ mod tests {
     /// A mix of a tight "sun" cluster and scattered sky lights, weights spanning 5 decades.
     fn mixed_lights(n: usize) -> Vec<LightSample> {
         let mut rng = Rng(0x9E37_79B9_7F4A_7C15);
-        let sun = normalised([0.4, 0.7, -0.6]).unwrap();
+        let sun = unit(DVec3::new(0.4, 0.7, -0.6)).unwrap();
         (0..n)
             .map(|i| {
                 let d = if i % 3 == 0 {
-                    let j = rng.dir();
-                    normalised([sun[0] + 0.02 * j[0], sun[1] + 0.02 * j[1], sun[2] + 0.02 * j[2]]).unwrap()
+                    let j = DVec3::from(rng.dir());
+                    unit(sun + 0.02 * j).unwrap().to_array()
                 } else {
                     rng.dir()
                 };
@@ -859,6 +650,39 @@ mod tests {
             }
         }
         assert_eq!(relight(&view, &lights, scale).data, reference.data);
+    }
+
+    /// RelightSphere's output bits, pinned: BLAKE3 of two renders, computed with the code before
+    /// the kernels were shared with ReferenceSphere (commit 3aa044f). The inputs use only `+ - * /`
+    /// and `sqrt` (correctly rounded in IEEE 754), so inputs and hashes are the same on every
+    /// platform, and every kernel must reproduce them. A change here means RelightSphere's
+    /// renders changed: say so in the commit and bump the operator's version.
+    #[test]
+    fn render_bits_are_pinned() {
+        let mut rng = crate::maths::sequences::SplitMix64::new(2024);
+        let lights: Vec<LightSample> = (0..700)
+            .map(|i| {
+                let v = DVec3::new(2.0 * rng.next_f64() - 1.0, 2.0 * rng.next_f64() - 1.0, 2.0 * rng.next_f64() - 1.0);
+                let d = v / v.length();
+                let w = if i % 4 == 0 { 1e4 * rng.next_f64() } else { rng.next_f64() };
+                LightSample { dir: d.as_vec3().to_array(), weight: [w as f32, (0.5 * w) as f32, (0.25 * w) as f32] }
+            })
+            .collect();
+        let pinned = [
+            ([0.3, 0.5, -0.81], 67usize, "0ddde302d414668b2da69eee7fb785a6280de58a9f64cf7403625672d1b05f18"),
+            ([0.0, 1.0, 0.0], 40, "65d39a8568616c4d4a6803d023f184f0b8d3086b24543dd0d68b3458a0ed8aed"),
+        ];
+        #[allow(unused_mut)]
+        let mut kernels = vec![Kernel::Scalar];
+        #[cfg(target_arch = "x86_64")]
+        kernels.extend([Kernel::Sse2, Kernel::Avx]); // Avx falls back to SSE2 without AVX
+        for (view_dir, size, hash) in pinned {
+            for &kernel in &kernels {
+                let img = relight_with(kernel, &SphereView::new(size, view_dir), &lights, [0.01, 0.02, 0.03]);
+                let bytes: Vec<u8> = img.data.iter().flat_map(|v| v.to_le_bytes()).collect();
+                assert_eq!(blake3::hash(&bytes).to_hex().as_str(), hash, "{kernel:?} {view_dir:?} {size}");
+            }
+        }
     }
 
     /// Tile culling changes nothing beyond f32 rounding: compare with a brute-force f64 sum over

@@ -4,7 +4,7 @@
 //! # The basis
 //!
 //! For band `l >= 0` and `-l <= m <= l`, with `(theta, phi)` the angles of hdrflow's lat-long
-//! convention ([`crate::maths::latlong`]: theta from +Y, phi such that
+//! convention ([`crate::geometry::latlong`]: theta from +Y, phi such that
 //! `d = (-sin t sin p, cos t, sin t cos p)`):
 //!
 //! ```text
@@ -78,7 +78,7 @@ use std::f64::consts::{PI, SQRT_2};
 use rayon::prelude::*;
 
 use crate::data::Image;
-use crate::maths::latlong;
+use crate::geometry::latlong;
 use crate::maths::relight::SphereView;
 
 /// Number of coefficients of order `order` (bands 0..=order): `(order + 1)^2`.
@@ -132,7 +132,7 @@ fn legendre_q(order: usize, x: f64, out: &mut [f64]) {
 /// a zero or non-finite `d` gives NaN everywhere.
 pub fn eval_sh_into(order: usize, d: [f64; 3], out: &mut [f64]) {
     let out = &mut out[..sh_count(order)];
-    let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+    let len = glam::DVec3::from(d).length();
     if !(len > 0.0) || !len.is_finite() {
         out.fill(f64::NAN);
         return;

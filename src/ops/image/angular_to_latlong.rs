@@ -15,7 +15,7 @@ use crate::data::Image;
 use crate::engine::op::{check_pixels, CheckContext, CheckProblem};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
 use crate::engine::value::Value;
-use crate::maths::latlong;
+use crate::geometry::latlong;
 use crate::types::ty::*;
 
 crate::params! {

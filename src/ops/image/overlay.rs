@@ -8,7 +8,7 @@ use crate::data::{Image, SampleSet};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
 use crate::engine::params::Rgb;
 use crate::engine::value::Value;
-use crate::maths::latlong;
+use crate::geometry::latlong;
 use crate::types::ty::*;
 
 crate::params! {

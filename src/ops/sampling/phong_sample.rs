@@ -11,7 +11,8 @@ use rayon::prelude::*;
 use crate::data::{Sample, SampleSet};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
 use crate::engine::value::Value;
-use crate::maths::{latlong, phong, sequences};
+use crate::geometry::latlong;
+use crate::maths::{phong, sequences};
 use crate::types::ty::*;
 
 crate::params! {

@@ -10,7 +10,8 @@ use rayon::prelude::*;
 use crate::data::{Distribution2D, Sample, SampleSet};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
 use crate::engine::value::Value;
-use crate::maths::{latlong, sequences};
+use crate::geometry::latlong;
+use crate::maths::sequences;
 use crate::types::ty::*;
 
 crate::params! {

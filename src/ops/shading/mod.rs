@@ -12,7 +12,7 @@ pub mod sh_sphere;
 
 use crate::engine::params::Choice;
 use crate::engine::registry::Registry;
-use crate::maths::latlong;
+use crate::geometry::latlong;
 use crate::maths::per_pixel::PerPixelStrategy;
 use crate::maths::relight::SphereView;
 

@@ -23,7 +23,7 @@ use crate::data::SampleSet;
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
 use crate::engine::params::Rgb;
 use crate::engine::value::Value;
-use crate::maths::latlong;
+use crate::geometry::latlong;
 use crate::maths::relight::{merge_duplicates, relight, Estimator, LightSample, SphereView};
 use crate::types::ty::*;
 

@@ -44,7 +44,7 @@ pub fn direction(theta: f64, phi: f64) -> [f64; 3] {
 /// phi is in [0, 2*pi).
 #[inline]
 pub fn angles(d: [f64; 3]) -> (f64, f64) {
-    let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+    let len = glam::DVec3::from(d).length();
     if !(len > 0.0) || !len.is_finite() {
         return (0.0, 0.0);
     }
