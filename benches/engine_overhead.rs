@@ -12,7 +12,7 @@ use std::hint::black_box;
 use criterion::{criterion_group, criterion_main, Criterion};
 use hdrflow::engine::cache::CacheStore;
 use hdrflow::engine::scheduler::{self, RunOptions, Silent};
-use hdrflow::{Pipeline, Registry};
+use hdrflow::Pipeline;
 
 const NODES: usize = 1000;
 
