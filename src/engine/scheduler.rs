@@ -489,7 +489,7 @@ fn run_in_pool(p: &Pipeline, options: &RunOptions) -> Result<RunOutcome, RunErro
     for &t in &targets {
         for (port, slot) in slots[t].iter().enumerate() {
             if let Some(v) = slot.value.lock().expect("slot lock").take() {
-                let name = if port == 0 {
+                let name = if p.nodes[t].is_default_port(port) {
                     p.nodes[t].name.clone()
                 } else {
                     format!("{}.{}", p.nodes[t].name, p.nodes[t].ports[port].name)

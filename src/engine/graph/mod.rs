@@ -94,6 +94,12 @@ impl Node {
     pub fn output_type(&self) -> Option<ValueType> {
         self.ports.first().map(|p| p.ty)
     }
+    /// Whether port `port` is the default output, named by the bare node name. A node whose
+    /// operator declares no output (only open ports, e.g. `SplitChannels`) has none: its port 0
+    /// is the first open port a consumer named, and is written `node.port` like the others.
+    pub fn is_default_port(&self, port: usize) -> bool {
+        port == 0 && !self.spec.outputs.is_empty()
+    }
     /// Whether this node produces a file for the output folder.
     pub fn writes_file(&self) -> bool {
         self.ports.iter().any(|p| p.ty == ValueType(&FILE))
@@ -173,7 +179,7 @@ impl Pipeline {
     /// `node` or `node.port` as a user writes it (the default port has no suffix).
     pub fn port_label(&self, r: PortRef) -> String {
         let n = &self.nodes[r.node];
-        if r.port == 0 {
+        if n.is_default_port(r.port) {
             n.name.clone()
         } else {
             format!("{}.{}", n.name, n.ports[r.port].name)
@@ -197,7 +203,7 @@ impl Pipeline {
                     if w.sources.len() > 1 {
                         label.push_str(&format!("[{k}]"));
                     }
-                    if src.port != 0 {
+                    if !from.is_default_port(src.port) {
                         label = format!("{} <- {}", label, from.ports[src.port].name);
                     }
                     s.push_str(&format!(

@@ -594,7 +594,7 @@ fn infer_types(
                     let r = &refs[i][w.field][k];
                     let want: Vec<&str> = accepted.iter().map(|t| t.name()).collect();
                     let producer = &nodes[r.node];
-                    let label = if s.port == 0 {
+                    let label = if producer.is_default_port(s.port) {
                         format!("node {:?}", producer.name)
                     } else {
                         format!("port {:?}", format!("{}.{}", producer.name, r.port))
