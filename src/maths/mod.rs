@@ -12,8 +12,3 @@ pub mod reference;
 pub mod relight;
 pub mod sequences;
 pub mod sh;
-
-/// The old path of [`crate::geometry::latlong`], kept so that code written against it (the
-/// operators being redeclared on another branch) still compiles; new code uses
-/// `crate::geometry::latlong`. Remove once nothing names `maths::latlong`.
-pub use crate::geometry::latlong;

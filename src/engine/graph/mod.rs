@@ -94,12 +94,6 @@ impl Node {
     pub fn output_type(&self) -> Option<ValueType> {
         self.ports.first().filter(|_| self.is_default_port(0)).map(|p| p.ty)
     }
-    /// Whether `port` is the default output, the one a reference by the node's name alone takes:
-    /// the first declared port. An operator that declares only open ports has none (its port 0
-    /// is an open port that a consumer named).
-    pub fn is_default_port(&self, port: usize) -> bool {
-        port == 0 && !self.spec.outputs.is_empty()
-    }
     /// `node` for the default port, `node.port` for the others, as a user writes it.
     pub fn port_label(&self, port: usize) -> String {
         if self.is_default_port(port) {
@@ -107,6 +101,12 @@ impl Node {
         } else {
             format!("{}.{}", self.name, self.ports[port].name)
         }
+    }
+    /// Whether port `port` is the default output, named by the bare node name. A node whose
+    /// operator declares no output (only open ports, e.g. `SplitChannels`) has none: its port 0
+    /// is the first open port a consumer named, and is written `node.port` like the others.
+    pub fn is_default_port(&self, port: usize) -> bool {
+        port == 0 && !self.spec.outputs.is_empty()
     }
     /// Whether this node produces a file for the output folder.
     pub fn writes_file(&self) -> bool {

@@ -1,4 +1,6 @@
 //! `FlipVertical(image)`: reverse the row order (e.g. pbrt's upside-down lat-long maps).
+//!
+//! out(x, y) = image(x, H - 1 - y), every channel (alpha included) and its name kept.
 
 use crate::data::Image;
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
@@ -18,4 +20,17 @@ fn eval(ctx: &mut OpContext, _: NoParams) -> Result<Value, OpError> {
     let mut img: Image = ctx.take("image");
     img.flip_vertical_in_place();
     Ok(Value::new(img))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rgba_rows_swap_with_their_alpha_and_names() {
+        let names: Vec<String> = ["R", "G", "B", "A"].map(String::from).to_vec();
+        let mut img = Image::with_names(1, 2, names.clone(), vec![1.0, 2.0, 3.0, 0.5, 4.0, 5.0, 6.0, 1.0]);
+        img.flip_vertical_in_place();
+        assert_eq!((img.names, img.data), (names, vec![4.0, 5.0, 6.0, 1.0, 1.0, 2.0, 3.0, 0.5]));
+    }
 }

@@ -1,13 +1,20 @@
 //! Per-image operations.
 
 pub mod angular_to_latlong;
+pub mod blur;
 pub mod constant;
+pub mod crop;
+pub mod difference;
 pub mod exposure;
 pub mod flip_vertical;
 pub mod image_error;
 pub mod luminance;
+pub mod math;
+pub mod merge_channels;
 pub mod overlay;
 pub mod resize;
+pub mod split_channels;
+pub mod tonemap;
 
 use crate::engine::registry::Registry;
 
@@ -20,4 +27,11 @@ pub fn register(r: &mut Registry) {
     r.register(angular_to_latlong::spec());
     r.register(overlay::spec());
     r.register(image_error::spec());
+    r.register(split_channels::spec());
+    r.register(merge_channels::spec());
+    r.register(math::spec());
+    r.register(crop::spec());
+    r.register(blur::spec());
+    r.register(tonemap::spec());
+    r.register(difference::spec());
 }

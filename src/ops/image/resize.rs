@@ -5,6 +5,10 @@
 //!
 //! Separable: output column j covers input columns [j*W/w, (j+1)*W/w); each input column
 //! contributes the length of its overlap, divided by W/w.
+//!
+//! Every channel is averaged alike, alpha included, and the channel names are kept: for
+//! premultiplied alpha (OpenEXR's convention) that is exact compositing coverage; an opaque
+//! image (A = 1) stays opaque.
 
 use rayon::prelude::*;
 
@@ -56,7 +60,7 @@ fn box_weights(src: usize, dst: usize) -> Vec<Vec<(usize, f64)>> {
         .collect()
 }
 
-/// Resizes `img` to `w` x `h` by area averaging (f64 accumulation).
+/// Resizes `img` to `w` x `h` by area averaging (f64 accumulation), keeping its channel names.
 pub fn resize(img: &Image, w: usize, h: usize) -> Image {
     let c = img.channels;
     let wx = box_weights(img.width, w);
@@ -86,14 +90,11 @@ pub fn resize(img: &Image, w: usize, h: usize) -> Image {
             *o = a as f32;
         }
     });
-    Image::from_vec(w, h, c, out)
+    Image::with_names(w, h, img.names.clone(), out)
 }
 
 fn eval(ctx: &mut OpContext, p: ResizeParams) -> Result<Value, OpError> {
-    let img: &Image = ctx.get("image");
-    let mut out = resize(img, p.width, p.height);
-    out.names = img.names.clone();
-    Ok(Value::new(out))
+    Ok(Value::new(resize(ctx.get("image"), p.width, p.height)))
 }
 
 #[cfg(test)]
@@ -111,6 +112,16 @@ mod tests {
             let r = resize(&img, w, h);
             assert!((mean(&r) - mean(&img)).abs() < 1e-5, "{w}x{h}");
         }
+    }
+
+    #[test]
+    fn rgba_keeps_its_names_and_an_opaque_alpha() {
+        let names: Vec<String> = ["R", "G", "B", "A"].map(String::from).to_vec();
+        let data = (0..5 * 3).flat_map(|i| [i as f32, 1.0, 2.0, 1.0]).collect();
+        let img = Image::with_names(5, 3, names.clone(), data);
+        let out = resize(&img, 2, 2);
+        assert_eq!(out.names, names);
+        assert!(out.data.chunks_exact(4).all(|p| (p[3] - 1.0).abs() < 1e-6 && (p[1] - 1.0).abs() < 1e-6));
     }
 
     #[test]
