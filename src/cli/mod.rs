@@ -386,7 +386,7 @@ fn run(registry: &Registry, args: &RunArgs) -> ExitCode {
     }
     // A cache folder the run could not use was already reported (one warning, and the run went
     // on without it): there is nothing of ours to evict there, and no second warning to give.
-    if let Some(cache) = options.cache.as_ref().filter(|c| c.ensure_writable().is_ok()) {
+    if let Some(cache) = options.cache.as_ref().filter(|c| c.root().is_dir()) {
         match cache.evict() {
             Ok(r) if r.removed > 0 && args.verbose => {
                 eprintln!(

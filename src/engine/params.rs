@@ -194,7 +194,7 @@ impl ParamValue {
 /// A node's parameters after validation: every non-input field, given or defaulted.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Params {
-    pub values: BTreeMap<String, ParamValue>,
+    pub values: BTreeMap<&'static str, ParamValue>,
 }
 
 impl Params {
@@ -582,10 +582,10 @@ mod tests {
         assert_eq!(fields[1].default, Some(ParamValue::Choice("Max".into())));
         assert!(matches!(fields[2].kind, FieldKind::Int { min: 1, max: 10 }));
         let mut p = Params::default();
-        p.values.insert("stops".into(), ParamValue::Float(1.5));
-        p.values.insert("weights".into(), ParamValue::Choice("Rec709".into()));
-        p.values.insert("count".into(), ParamValue::Int(7));
-        p.values.insert("tint".into(), ParamValue::Tuple(vec![0.5, 0.5, 0.5]));
+        p.values.insert("stops", ParamValue::Float(1.5));
+        p.values.insert("weights", ParamValue::Choice("Rec709".into()));
+        p.values.insert("count", ParamValue::Int(7));
+        p.values.insert("tint", ParamValue::Tuple(vec![0.5, 0.5, 0.5]));
         let t = TestParams::from_params(&p);
         assert_eq!(t, TestParams { stops: 1.5, weights: Weights::Rec709, count: 7, tint: Rgb([0.5; 3]) });
     }

@@ -94,9 +94,9 @@ pub struct NodeReport {
 /// One output port of a node in a report.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct PortReport {
-    pub name: String,
+    pub name: std::borrow::Cow<'static, str>,
     #[serde(rename = "type")]
-    pub ty: String,
+    pub ty: &'static str,
 }
 
 /// The report of a run (`--report FILE` writes it as JSON).
@@ -213,7 +213,7 @@ fn compute_keys_and_content(
                     .iter()
                     .map(|s| {
                         let key = keys[s.node].expect("inputs are keyed first");
-                        (key, p.nodes[s.node].ports[s.port].name.as_str())
+                        (key, p.nodes[s.node].ports[s.port].name.as_ref())
                     })
                     .collect()
             })
@@ -403,17 +403,18 @@ fn run_in_pool(p: &Pipeline, options: &RunOptions) -> Result<RunOutcome, RunErro
     let (keys, content) = compute_keys_and_content(p, &targets)?;
     let n = p.nodes.len();
 
-    // An unusable cache folder is one warning, then the run goes on without the cache.
-    let cache = options.cache.as_ref().filter(|c| match c.ensure_writable() {
-        Ok(()) => true,
-        Err(e) => {
+    // The run's lease on the cache (pruning by other processes spares what it uses) is also the
+    // check that the folder is usable: if it cannot be taken, one warning, and the run goes on
+    // without the cache.
+    let (cache, _lease) = match options.cache.as_ref().map(|c| (c, c.lease())) {
+        Some((c, Ok(lease))) => (Some(c), Some(lease)),
+        Some((_, Err(e))) => {
             obs.warning(&format!("{e}; running without the cache"));
-            false
+            (None, None)
         }
-    });
+        None => (None, None),
+    };
     let cache_failed = AtomicBool::new(false);
-    // While this run lasts, pruning by other processes spares the entries it uses.
-    let _lease = cache.and_then(|c| c.lease().ok());
 
     let slots: Vec<Vec<Slot>> = p
         .nodes
@@ -437,7 +438,15 @@ fn run_in_pool(p: &Pipeline, options: &RunOptions) -> Result<RunOutcome, RunErro
                 let t0 = Instant::now();
                 let key = keys[i].expect("needed nodes are keyed");
                 let r = match cache.expect("cached implies a cache").get(&key, &p.registry) {
-                    Ok(Some(outputs)) => match_ports(p, i, Outputs(outputs)),
+                    // An entry without a port this pipeline names (an open port that an older
+                    // run did not produce) is a plain miss.
+                    Ok(Some(outputs)) => match_ports(p, i, Outputs(outputs)).map(|m| m.values).map_err(|e| {
+                        if e.starts_with("no output") {
+                            String::new()
+                        } else {
+                            e
+                        }
+                    }),
                     Ok(None) => Err(String::new()),
                     Err(e) => Err(e.to_string()),
                 };
@@ -554,41 +563,58 @@ fn run_in_pool(p: &Pipeline, options: &RunOptions) -> Result<RunOutcome, RunErro
     Ok(RunOutcome { report: RunReport { total_ms: start.elapsed().as_secs_f64() * 1e3, nodes, written }, values })
 }
 
+/// A node's outputs matched to its ports, and what else it produced (open ports no consumer
+/// names: cached, so that a later pipeline naming them is served, but not kept in memory).
+struct Matched {
+    values: Vec<Value>,
+    extra: Vec<(String, Value)>,
+}
+
 /// Orders an operator's (or a cache entry's) outputs by the node's ports and checks each
 /// against its declared type. The unnamed output is the default port.
-fn match_ports(p: &Pipeline, i: usize, outputs: Outputs) -> Result<Vec<Value>, String> {
+fn match_ports(p: &Pipeline, i: usize, outputs: Outputs) -> Result<Matched, String> {
     let node = &p.nodes[i];
-    let mut by_name: BTreeMap<String, Value> = BTreeMap::new();
-    for (name, value) in outputs.0 {
-        let name = if name.is_empty() {
-            node.spec.outputs.first().map(|p| p.name.to_string()).unwrap_or_default()
-        } else {
-            name
-        };
-        by_name.insert(name, value);
+    let mut outputs = outputs.0;
+    // The common case, one output for one port: no lookups.
+    if outputs.len() == 1 && node.ports.len() == 1 && (outputs[0].0.is_empty() || outputs[0].0 == node.ports[0].name) {
+        let (_, value) = outputs.pop().expect("one output");
+        check_type(node, 0, &value)?;
+        return Ok(Matched { values: vec![value], extra: Vec::new() });
     }
-    let mut values = Vec::with_capacity(node.ports.len());
-    for port in &node.ports {
-        let Some(value) = by_name.remove(&port.name) else {
-            let produced: Vec<&str> = by_name.keys().map(String::as_str).collect();
-            return Err(format!(
-                "no output {:?} was produced (it produced: {})",
-                port.name,
-                if produced.is_empty() { "nothing else".to_string() } else { produced.join(", ") }
-            ));
-        };
-        if value.value_type() != port.ty {
-            return Err(format!(
-                "output {:?} is a {}, but {} declares {}",
-                port.name,
-                value.value_type(),
-                node.spec.name,
-                port.ty
-            ));
+    let default = node.spec.outputs.first().map(|p| p.name);
+    let mut slots: Vec<Option<Value>> = vec![None; node.ports.len()];
+    let mut extra = Vec::new();
+    for (name, value) in outputs {
+        let name = if name.is_empty() { default.unwrap_or_default().to_string() } else { name };
+        match node.ports.iter().position(|p| p.name == name) {
+            Some(k) => slots[k] = Some(value),
+            None if node.spec.open_ports.is_some() || node.spec.port(&name).is_some() => extra.push((name, value)),
+            None => return Err(format!("it produced an output {name:?} that {} does not declare", node.spec.name)),
         }
+    }
+    let mut values = Vec::with_capacity(slots.len());
+    for (k, slot) in slots.into_iter().enumerate() {
+        let Some(value) = slot else {
+            return Err(format!("no output {:?} was produced", node.ports[k].name));
+        };
+        check_type(node, k, &value)?;
         values.push(value);
     }
-    Ok(values)
+    Ok(Matched { values, extra })
+}
+
+fn check_type(node: &crate::engine::graph::Node, k: usize, value: &Value) -> Result<(), String> {
+    let port = &node.ports[k];
+    if value.value_type() != port.ty {
+        return Err(format!(
+            "output {:?} is a {}, but {} declares {}",
+            port.name,
+            value.value_type(),
+            node.spec.name,
+            port.ty
+        ));
+    }
+    Ok(())
 }
 
 fn execute<'s>(s: &'s Shared<'s>, scope: &rayon::Scope<'s>, i: usize) {
@@ -606,7 +632,7 @@ fn execute<'s>(s: &'s Shared<'s>, scope: &rayon::Scope<'s>, i: usize) {
         .map(|w| (w.field, w.sources.iter().map(|src| s.acquire(src.node, src.port)).collect()))
         .collect();
     let open_ports: Vec<String> =
-        node.ports.iter().filter(|p| node.spec.port(&p.name).is_none()).map(|p| p.name.clone()).collect();
+        node.ports.iter().filter(|p| node.spec.port(&p.name).is_none()).map(|p| p.name.to_string()).collect();
     let mut ctx = OpContext {
         node: &node.name,
         params: &node.params,
@@ -633,14 +659,15 @@ fn execute<'s>(s: &'s Shared<'s>, scope: &rayon::Scope<'s>, i: usize) {
             Err(RunError::Panic(format!("node {:?} ({}): {msg}", node.name, node.spec.name)))
         }
     };
-    let values = match outcome {
+    let Matched { values, extra } = match outcome {
         Ok(v) => v,
         Err(e) => return s.fail(e),
     };
     if let (Some(cache), Some(key)) = (s.cache, s.keys[i]) {
         if !s.cache_failed.load(Ordering::Relaxed) {
-            let named: Vec<(String, Value)> =
-                node.ports.iter().zip(&values).map(|(p, v)| (p.name.clone(), v.clone())).collect();
+            let mut named: Vec<(String, Value)> =
+                node.ports.iter().zip(&values).map(|(p, v)| (p.name.to_string(), v.clone())).collect();
+            named.extend(extra);
             if let Err(e) = cache.put(&key, &named) {
                 // One warning for the run, not one per node.
                 if !s.cache_failed.swap(true, Ordering::SeqCst) {
@@ -673,11 +700,7 @@ fn node_report(p: &Pipeline, i: usize, status: NodeStatus, t: Timing, keys: &[Op
         start_ms: t.start_ms,
         thread: t.thread,
         key: keys[i].map(|k| key_hex(&k)).unwrap_or_default(),
-        ports: p.nodes[i]
-            .ports
-            .iter()
-            .map(|port| PortReport { name: port.name.clone(), ty: port.ty.name().to_string() })
-            .collect(),
+        ports: p.nodes[i].ports.iter().map(|port| PortReport { name: port.name.clone(), ty: port.ty.name() }).collect(),
     }
 }
 

@@ -109,7 +109,26 @@ fn put_param(h: &mut blake3::Hasher, value: &ParamValue) {
     }
 }
 
-/// Lower-case hex of a key.
+/// Lower-case hex of a key (a table lookup per nibble: reports format one per node).
 pub fn key_hex(key: &Key) -> String {
-    key.iter().map(|b| format!("{b:02x}")).collect()
+    const DIGITS: &[u8; 16] = b"0123456789abcdef";
+    let mut out = String::with_capacity(64);
+    for &b in key {
+        out.push(DIGITS[(b >> 4) as usize] as char);
+        out.push(DIGITS[(b & 15) as usize] as char);
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn hex_is_lower_case_two_digits_per_byte() {
+        let mut key = [0u8; 32];
+        key[0] = 0x0a;
+        key[31] = 0xff;
+        let hex = super::key_hex(&key);
+        assert_eq!(hex.len(), 64);
+        assert!(hex.starts_with("0a00") && hex.ends_with("00ff"));
+    }
 }

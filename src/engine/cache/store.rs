@@ -145,16 +145,6 @@ impl CacheStore {
         PathBuf::from(".hdrflow-cache")
     }
 
-    /// Creates the store's folder if needed and checks that entries can be written there.
-    pub fn ensure_writable(&self) -> Result<(), CacheError> {
-        let io = |source| CacheError::Io { path: self.root.clone(), source };
-        fs::create_dir_all(&self.root).map_err(io)?;
-        let probe = self.root.join(format!(".write-test-{}", std::process::id()));
-        fs::write(&probe, b"").map_err(io)?;
-        let _ = fs::remove_file(&probe);
-        Ok(())
-    }
-
     pub fn root(&self) -> &Path {
         &self.root
     }

@@ -59,7 +59,8 @@ pub struct PortRef {
 /// One output port of a validated node: a declared port, or an open port a consumer named.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Port {
-    pub name: String,
+    /// A declared port's name is the operator's `&'static str`; only open ports own theirs.
+    pub name: std::borrow::Cow<'static, str>,
     pub ty: ValueType,
 }
 

@@ -33,15 +33,22 @@ struct RawNode {
     op_pos: Pos,
     spec: Arc<OpSpec>,
     /// (field name with its position, value, where it came from: the file or a `--set`).
-    fields: Vec<(Spanned<String>, Spanned<Ron>, String)>,
+    fields: Vec<(Spanned<String>, Spanned<Ron>, Origin)>,
 }
+
+/// Where a field came from: the pipeline file's name or `--set NODE.FIELD` (shared, not copied
+/// per field).
+type Origin = std::rc::Rc<str>;
+
+/// A port name: declared ones borrowed from the operator's spec, open ones owned.
+type PortName = std::borrow::Cow<'static, str>;
 
 /// A reference to a node's port as written, before ports are resolved to indices.
 struct WrittenRef {
     node: usize,
-    port: String,
+    port: PortName,
     pos: Pos,
-    origin: String,
+    origin: Origin,
 }
 
 /// Every problem found so far.
@@ -199,7 +206,7 @@ fn collect_nodes(
             errs.push(Some(op_name.pos), Some(&name), unknown_operator_message(&op_name.value, registry));
             continue;
         };
-        let origin = errs.source.to_string();
+        let origin: Origin = errs.source.into();
         let fields = fields.into_iter().map(|(k, v)| (k, v, origin.clone())).collect();
         raw.push(RawNode { name, op_pos: op_name.pos, spec: spec.clone(), fields });
     }
@@ -265,13 +272,13 @@ fn apply_overrides(
         // A `--set` field name has no position in any file (line 0 = none).
         let field_name = Spanned { value: o.field.clone(), pos: Pos { line: 0, col: 0 } };
         node.fields.retain(|(k, _, _)| k.value != o.field);
-        node.fields.push((field_name, value, origin));
+        node.fields.push((field_name, value, origin.as_str().into()));
     }
 }
 
 /// What phase 4 produces: nodes with parameters and wiring (port indices into `port_names`),
 /// the written position of every reference, and each node's port names.
-type Resolved = (Vec<Node>, Vec<BTreeMap<&'static str, Vec<WrittenRef>>>, Vec<Vec<String>>);
+type Resolved = (Vec<Node>, Vec<BTreeMap<&'static str, Vec<WrittenRef>>>, Vec<Vec<PortName>>);
 
 /// Phase 4: fields, parameters, references and defaults.
 fn resolve_fields(
@@ -283,15 +290,16 @@ fn resolve_fields(
     let index: HashMap<&str, usize> = raw.iter().enumerate().map(|(i, n)| (n.name.as_str(), i)).collect();
     let node_names: Vec<&str> = raw.iter().map(|n| n.name.as_str()).collect();
     // Port names per node: the declared ones first; open ports are appended as consumers name them.
-    let mut port_names: Vec<Vec<String>> =
-        raw.iter().map(|n| n.spec.outputs.iter().map(|p| p.name.to_string()).collect()).collect();
+    let mut port_names: Vec<Vec<PortName>> =
+        raw.iter().map(|n| n.spec.outputs.iter().map(|p| PortName::Borrowed(p.name)).collect()).collect();
     let mut nodes = Vec::with_capacity(raw.len());
     let mut all_refs = Vec::with_capacity(raw.len());
     let mut ok = true;
     for n in raw {
         let mut params = Params::default();
         let mut wired: BTreeMap<&'static str, Vec<WrittenRef>> = BTreeMap::new();
-        let mut given: HashMap<&str, Pos> = HashMap::new();
+        // Fields given so far (a handful per node: a vector beats a hash map).
+        let mut given: Vec<(&'static str, Pos)> = Vec::with_capacity(n.fields.len());
         for (fname, fvalue, origin) in &n.fields {
             let Some(field) = n.spec.field(&fname.value) else {
                 let fields: Vec<&str> = n.spec.fields.iter().map(|f| f.name).collect();
@@ -309,8 +317,10 @@ fn resolve_fields(
                 ok = false;
                 continue;
             };
-            if let Some(first) = given.insert(field.name, fname.pos) {
-                if origin == source {
+            let earlier = given.iter().find(|(g, _)| *g == field.name).map(|&(_, p)| p);
+            given.push((field.name, fname.pos));
+            if let Some(first) = earlier {
+                if &**origin == source {
                     errs.push_from(
                         origin,
                         Some(fname.pos),
@@ -427,7 +437,7 @@ fn resolve_fields(
             }
             match convert(field, &fvalue.value) {
                 Ok(v) => {
-                    params.values.insert(field.name.to_string(), v);
+                    params.values.insert(field.name, v);
                 }
                 Err(msg) => {
                     errs.push_from(origin, Some(fvalue.pos), Some(&n.name), format!("field {:?}: {msg}", field.name));
@@ -436,7 +446,7 @@ fn resolve_fields(
             }
         }
         for field in &n.spec.fields {
-            if given.contains_key(field.name) {
+            if given.iter().any(|(g, _)| *g == field.name) {
                 continue;
             }
             match (&field.kind, &field.default) {
@@ -458,7 +468,7 @@ fn resolve_fields(
                     ok = false;
                 }
                 (_, Some(v)) => {
-                    params.values.insert(field.name.to_string(), v.clone());
+                    params.values.insert(field.name, v.clone());
                 }
             }
         }
@@ -504,7 +514,7 @@ fn resolve_fields(
     Some((nodes, all_refs, port_names))
 }
 
-fn port_index(ports: &[String], name: &str) -> usize {
+fn port_index(ports: &[PortName], name: &str) -> usize {
     ports.iter().position(|p| p == name).expect("port names are resolved before their index is taken")
 }
 
@@ -520,11 +530,11 @@ fn resolve_ref(
     target: &str,
     index: &HashMap<&str, usize>,
     raw: &[RawNode],
-    port_names: &mut [Vec<String>],
-) -> Result<(usize, String), RefError> {
+    port_names: &mut [Vec<PortName>],
+) -> Result<(usize, PortName), RefError> {
     if let Some(&i) = index.get(target) {
         return match raw[i].spec.outputs.first() {
-            Some(p) => Ok((i, p.name.to_string())),
+            Some(p) => Ok((i, PortName::Borrowed(p.name))),
             None => Err(RefError::NoPort { node: i, port: String::new() }),
         };
     }
@@ -533,14 +543,14 @@ fn resolve_ref(
         return Err(if index.contains_key(target) { RefError::NodeInError } else { RefError::NoNode });
     };
     let spec = &raw[i].spec;
-    if spec.port(port).is_some() {
-        return Ok((i, port.to_string()));
+    if let Some(p) = spec.port(port) {
+        return Ok((i, PortName::Borrowed(p.name)));
     }
     if spec.open_ports.is_some() && !port.is_empty() {
         if !port_names[i].iter().any(|p| p == port) {
-            port_names[i].push(port.to_string());
+            port_names[i].push(PortName::Owned(port.to_string()));
         }
-        return Ok((i, port.to_string()));
+        return Ok((i, PortName::Owned(port.to_string())));
     }
     Err(RefError::NoPort { node: i, port: port.to_string() })
 }
@@ -577,7 +587,7 @@ fn infer_types(
     nodes: &mut [Node],
     raw: &[RawNode],
     refs: &[BTreeMap<&'static str, Vec<WrittenRef>>],
-    port_names: Vec<Vec<String>>,
+    port_names: Vec<Vec<PortName>>,
     topo_order: &[usize],
     source: &str,
     errs: &mut Collector,
@@ -632,7 +642,9 @@ fn infer_types(
         let ctx = CheckContext { params: &nodes[i].params, input_types: &input_types };
         let field_pos = |field: Option<&'static str>| -> (Pos, String) {
             field
-                .and_then(|f| raw[i].fields.iter().find(|(k, _, _)| k.value == f).map(|(_, v, o)| (v.pos, o.clone())))
+                .and_then(|f| {
+                    raw[i].fields.iter().find(|(k, _, _)| k.value == f).map(|(_, v, o)| (v.pos, o.to_string()))
+                })
                 .unwrap_or((nodes[i].pos, source.to_string()))
         };
         if let Some(check) = &spec.check {
@@ -689,7 +701,7 @@ fn check_outputs(nodes: &[Node], raw: &[RawNode], errs: &mut Collector) {
                     .fields
                     .iter()
                     .find(|(k, _, _)| k.value == f.name)
-                    .map(|(_, v, o)| (v.pos, o.clone()))
+                    .map(|(_, v, o)| (v.pos, o.to_string()))
                     .unwrap_or((n.pos, errs.source.to_string()));
                 errs.push_from(
                     &origin,

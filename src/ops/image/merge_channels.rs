@@ -233,7 +233,7 @@ mod tests {
         use std::collections::BTreeMap;
         let run = |types: Vec<ValueType>, n: &[&str]| {
             let mut params = Params::default();
-            params.values.insert("names".into(), ParamValue::TextList(names(n)));
+            params.values.insert("names", ParamValue::TextList(names(n)));
             let mut input_types = BTreeMap::new();
             input_types.insert("channels", types);
             let ctx = CheckContext { params: &params, input_types: &input_types };

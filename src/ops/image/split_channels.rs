@@ -41,8 +41,14 @@ pub fn split(img: &Image, wanted: &[String]) -> Result<Vec<Image>, OpError> {
 
 fn eval(ctx: &mut OpContext, _: NoParams) -> Result<Outputs, OpError> {
     let img: &Image = ctx.get("image");
-    let channels = split(img, ctx.wanted_ports)?;
-    Ok(ctx.wanted_ports.iter().zip(channels).fold(Outputs::new(), |out, (name, ch)| out.with(name, Value::new(ch))))
+    // A port a consumer names must exist; then every channel is produced, so that the cache
+    // entry serves later pipelines that name other channels of the same image.
+    if let Some(missing) = ctx.wanted_ports.iter().find(|w| img.channel_index(w).is_none()) {
+        return Err(split(img, std::slice::from_ref(missing)).expect_err("a missing channel is an error"));
+    }
+    let names = img.names.clone();
+    let channels = split(img, &names)?;
+    Ok(names.iter().zip(channels).fold(Outputs::new(), |out, (name, ch)| out.with(name, Value::new(ch))))
 }
 
 #[cfg(test)]
