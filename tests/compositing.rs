@@ -200,3 +200,38 @@ fn validation_catches_what_it_can() {
     )
     .expect("a one-channel merge is a scalar field");
 }
+
+/// Channel names with dots (an EXR layer's `diffuse.R`) are addressable as ports: the longest
+/// node name before a dot wins. And an open-port node caches every channel, so a second pipeline
+/// naming another channel of the same image is served from the cache.
+#[test]
+fn dotted_channel_names_and_open_ports_in_the_cache() {
+    let registry = hdrflow::builtin_registry();
+    let text = |port: &str| {
+        format!(
+            r#"( nodes: {{ "env": LoadHdr(path: "builtin:sky"), "lum": Luminance(image: "env"),
+                 "layer": MergeChannels(channels: ["lum", "lum"], names: ["diffuse.Y", "specular.Y"]),
+                 "s": SplitChannels(image: "layer"), "x": Exposure(image: "s.{port}", stops: 1) }} )"#
+        )
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let cache = hdrflow::engine::cache::CacheStore::new(dir.path().join("cache"), 1 << 30);
+    let mut results = Vec::new();
+    for port in ["diffuse.Y", "specular.Y"] {
+        let p = Pipeline::parse(&text(port), "t.ron", Path::new("."), &registry, &[]).expect("a dotted port resolves");
+        let options = RunOptions {
+            targets: vec!["x".into()],
+            out_dir: dir.path().join("out"),
+            cache: Some(cache.clone()),
+            jobs: None,
+            observer: &Silent,
+        };
+        let outcome = scheduler::run(&p, &options).expect("runs");
+        results.push((outcome.report.status_of("s"), image(&outcome.values, "x").data[17]));
+    }
+    assert_eq!(results[0].0, Some(scheduler::NodeStatus::Computed));
+    assert_eq!(results[1].0, Some(scheduler::NodeStatus::Cached), "the second channel comes from the cache");
+    assert_eq!(results[0].1, results[1].1, "both channels are the luminance");
+    let e = validation_errors(&text("diffuse.Z").replace("SplitChannels(image: \"layer\")", "Luminance(image: \"layer\")"));
+    assert!(e.contains("node \"s\" has no output port \"diffuse.Z\""), "{e}");
+}

@@ -383,8 +383,7 @@ fn resolve_fields(
                     match resolve_ref(target, &index, raw, &mut port_names) {
                         Ok((node, port)) => refs.push(WrittenRef { node, port, pos: item.pos, origin: origin.clone() }),
                         // A node that exists but is itself in error was reported already.
-                        Err(RefError::NodeInError) => ok = false,
-                        Err(RefError::NoNode) if all_names.contains_key(target.as_str()) => ok = false,
+                        Err(RefError::NoNode) if names_a_node_in_error(target, all_names) => ok = false,
                         Err(RefError::NoNode) => {
                             errs.push_from(
                                 origin,
@@ -520,12 +519,16 @@ fn port_index(ports: &[PortName], name: &str) -> usize {
 
 enum RefError {
     NoNode,
-    NodeInError,
     NoPort { node: usize, port: String },
 }
 
+/// Whether `target` is `node` or `node.port` for a node that was written but is in error.
+fn names_a_node_in_error(target: &str, all_names: &HashMap<String, Pos>) -> bool {
+    all_names.contains_key(target) || target.rmatch_indices('.').any(|(at, _)| all_names.contains_key(&target[..at]))
+}
+
 /// Resolves `"node"` (its default port) or `"node.port"`; a whole name with dots wins over a
-/// split. An open port named for the first time is added to the node's ports.
+/// split, and the longest node name before a dot over shorter ones. An open port named for the first time is added to the node's ports.
 fn resolve_ref(
     target: &str,
     index: &HashMap<&str, usize>,
@@ -538,10 +541,16 @@ fn resolve_ref(
             None => Err(RefError::NoPort { node: i, port: String::new() }),
         };
     }
-    let Some((node, port)) = target.rsplit_once('.') else { return Err(RefError::NoNode) };
-    let Some(&i) = index.get(node) else {
-        return Err(if index.contains_key(target) { RefError::NodeInError } else { RefError::NoNode });
-    };
+    // The longest node name before a dot wins, so a port may itself contain dots (an EXR layer's
+    // channel `diffuse.R`: `split.diffuse.R`).
+    let mut found = None;
+    for (at, _) in target.rmatch_indices('.') {
+        if let Some(&i) = index.get(&target[..at]) {
+            found = Some((i, &target[at + 1..]));
+            break;
+        }
+    }
+    let Some((i, port)) = found else { return Err(RefError::NoNode) };
     let spec = &raw[i].spec;
     if let Some(p) = spec.port(port) {
         return Ok((i, PortName::Borrowed(p.name)));
