@@ -232,6 +232,7 @@ fn dotted_channel_names_and_open_ports_in_the_cache() {
     assert_eq!(results[0].0, Some(scheduler::NodeStatus::Computed));
     assert_eq!(results[1].0, Some(scheduler::NodeStatus::Cached), "the second channel comes from the cache");
     assert_eq!(results[0].1, results[1].1, "both channels are the luminance");
-    let e = validation_errors(&text("diffuse.Z").replace("SplitChannels(image: \"layer\")", "Luminance(image: \"layer\")"));
+    let e =
+        validation_errors(&text("diffuse.Z").replace("SplitChannels(image: \"layer\")", "Luminance(image: \"layer\")"));
     assert!(e.contains("node \"s\" has no output port \"diffuse.Z\""), "{e}");
 }

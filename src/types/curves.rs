@@ -129,31 +129,50 @@ fn curves_json(c: &Curves) -> String {
     serde_json::to_string_pretty(&serde_json::Value::Object(map)).expect("JSON of plain values") + "\n"
 }
 
-/// Curves as CSV: scalars as leading `# name=value` comment lines, then one row per x.
+/// Curves as plain CSV, one header line then one row per x, which any CSV reader takes as it is
+/// (no comment lines). The named scalars (e.g. the Brewster and critical angles) are columns of
+/// their own after the series, their value on every row (empty where there is none).
 fn curves_csv(c: &Curves) -> String {
     let mut out = String::new();
-    for (name, v) in &c.scalars {
-        match v {
-            Some(v) => {
-                let _ = writeln!(out, "# {name}={v}");
-            }
-            None => {
-                let _ = writeln!(out, "# {name}=none");
-            }
-        }
-    }
     out.push_str(&c.x_name);
     for (name, _) in &c.series {
         out.push(',');
         out.push_str(name);
     }
+    for (name, _) in &c.scalars {
+        out.push(',');
+        out.push_str(name);
+    }
     out.push('\n');
+    let scalars: String =
+        c.scalars.iter().map(|(_, v)| v.map(|v| format!(",{v}")).unwrap_or_else(|| ",".into())).collect();
     for (i, x) in c.x.iter().enumerate() {
         let _ = write!(out, "{x}");
         for (_, ys) in &c.series {
             let _ = write!(out, ",{}", ys[i]);
         }
+        out.push_str(&scalars);
         out.push('\n');
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn csv_has_one_plain_header_and_scalars_as_columns() {
+        let c = Curves {
+            title: "t".into(),
+            x_name: "angle".into(),
+            x_label: String::new(),
+            y_label: String::new(),
+            x: vec![0.0, 1.0],
+            series: vec![("R".into(), vec![0.5, 0.25])],
+            scalars: vec![("brewster".into(), Some(56.3)), ("critical".into(), None)],
+            markers: vec![],
+        };
+        assert_eq!(curves_csv(&c), "angle,R,brewster,critical\n0,0.5,56.3,\n1,0.25,56.3,\n");
+    }
 }

@@ -1,5 +1,6 @@
-//! `Save(input, path, exposure: 0.0, plot_size: (800, 500))`: encode a value as a file in the
-//! output folder. The format follows the extension and the value's type:
+//! `Save(input, path, exposure: 0.0, auto_exposure: false, exposure_from: NODE, plot_size: (800,
+//! 500))`: encode a value as a file in the output folder. `exposure_from` (optional) takes the
+//! automatic exposure from another image, so that several PNGs (spheres side by side) share one. The format follows the extension and the value's type:
 //!
 //! | value                 | extensions                         |
 //! |-----------------------|------------------------------------|
@@ -35,6 +36,11 @@ crate::params! {
 pub fn spec() -> OpSpec {
     OpSpec::new("Save", "io", 1, "Write a value to a file in the output folder; the format follows the extension")
         .input("input", &[], "the value to write (any type that can be saved: see the type list in `hdrflow ops`)")
+        .optional_input(
+            "exposure_from",
+            crate::types::ty::ANY_IMAGE,
+            "(.png) take the automatic exposure from this image instead, so several PNGs share one exposure",
+        )
         .output("file", OutputType::Fixed(ValueType(&FILE)), "the encoded file (the engine writes it into --out)")
         .code(crate::this_file!())
         .eval(eval)
@@ -42,6 +48,12 @@ pub fn spec() -> OpSpec {
 }
 
 fn check(ctx: &CheckContext, p: SaveParams) -> Result<(), CheckProblem> {
+    if p.auto_exposure && ctx.input_type("exposure_from").is_some() {
+        return Err(CheckProblem::at(
+            "auto_exposure",
+            "give either auto_exposure (each PNG its own exposure) or exposure_from (one shared exposure), not both",
+        ));
+    }
     let Some(t) = ctx.input_type("input") else { return Ok(()) };
     let ext = p.path.extension();
     let ok = t.spec().save_extensions;
@@ -68,7 +80,9 @@ fn eval(ctx: &mut OpContext, p: SaveParams) -> Result<Value, OpError> {
     let save =
         value.value_type().spec().save.ok_or_else(|| fail(format!("a {} cannot be saved", value.value_type())))?;
     let mut exposure = p.exposure;
-    if p.auto_exposure {
+    if let Some(reference) = ctx.get_optional::<Image>("exposure_from") {
+        exposure += auto_exposure(reference);
+    } else if p.auto_exposure {
         if let Some(img) = value.get::<Image>() {
             exposure += auto_exposure(img);
         } else if let Some(d) = value.get::<crate::data::Distribution2D>() {

@@ -1,0 +1,118 @@
+//! The command line as a user meets it (issue 15): a summary line by default, the table with
+//! `-v`, nothing with `-q`; small results printed; `--json`; the cache limit that never touches
+//! another pipeline's entries; `cache stats|prune|clear`; `--jobs 0`; completions and man page.
+
+mod common;
+
+use common::{files_under, run_hdrflow, Sandbox};
+
+const METRICS_GRAPH: &str = r#"(
+    nodes: {
+        "env":  LoadHdr(path: "builtin:constant"),
+        "ref":  ReferenceSphere(env: "env", size: 16, albedo: 0.5),
+        "sh":   ShSphere(env: "env", size: 16, albedo: 0.5),
+        "err":  ImageError(image: "sh", reference: "ref"),
+    },
+)"#;
+
+fn arg(p: &std::path::Path) -> String {
+    p.display().to_string()
+}
+
+#[test]
+fn the_seed_run_prints_one_summary_line_and_the_table_only_with_verbose() {
+    let sb = Sandbox::new();
+    let (out, cache) = (arg(&sb.out()), arg(&sb.cache()));
+    let base = ["run", "graphs/seed.ron", "--out", &out, "--cache-dir", &cache];
+    let cold = run_hdrflow(base);
+    cold.assert_success();
+    let lines: Vec<&str> = cold.stdout.lines().collect();
+    assert_eq!(lines.len(), 1, "a default run prints one summary line:\n{}", cold.describe());
+    assert!(lines[0].starts_with("56 nodes: 56 computed, 0 cached, 0 not needed;"), "{}", lines[0]);
+    assert!(lines[0].contains("29 files written"), "{}", lines[0]);
+    assert!(cold.stderr.trim().is_empty(), "off a terminal, no per-node lines without -v:\n{}", cold.stderr);
+
+    let warm = run_hdrflow(base);
+    assert_eq!(warm.stdout.lines().count(), 1, "{}", warm.describe());
+    assert!(warm.stdout.contains("0 computed, 29 cached, 27 not needed"), "{}", warm.stdout);
+
+    let verbose = run_hdrflow(base.iter().copied().chain(["-v"]));
+    assert!(verbose.stdout.lines().count() > 56, "-v prints the per-node table:\n{}", verbose.stdout);
+    assert!(verbose.stdout.contains("not needed"), "{}", verbose.stdout);
+
+    let quiet = run_hdrflow(base.iter().copied().chain(["-q"]));
+    quiet.assert_success();
+    assert!(quiet.stdout.is_empty() && quiet.stderr.is_empty(), "{}", quiet.describe());
+}
+
+#[test]
+fn a_metrics_target_prints_its_numbers_and_json_prints_the_report() {
+    let sb = Sandbox::new();
+    let graph = sb.write("m.ron", METRICS_GRAPH);
+    let (g, out, cache) = (arg(&graph), arg(&sb.out()), arg(&sb.cache()));
+    let run = run_hdrflow(["run", &g, "--out", &out, "--cache-dir", &cache]);
+    run.assert_success();
+    assert!(run.stdout.contains("err (metrics):"), "{}", run.stdout);
+    let rmse_line = run.stdout.lines().find(|l| l.trim_start().starts_with("rmse ")).expect("an rmse line");
+    let rmse: f64 = rmse_line.split_whitespace().nth(1).unwrap().parse().expect("a number");
+    assert!(rmse.is_finite() && rmse < 0.01, "SH and the reference agree under a constant map: {rmse}");
+
+    // --print shows any node; an image gets a one-line summary.
+    let print = run_hdrflow(["run", &g, "--out", &out, "--cache-dir", &cache, "--print", "ref"]);
+    assert!(print.stdout.contains("ref: 16x16 image, channel means: R "), "{}", print.stdout);
+    let bad = run_hdrflow(["run", &g, "--out", &out, "--cache-dir", &cache, "--print", "rff"]);
+    assert_eq!(bad.code, Some(2));
+    assert!(bad.stderr.contains("did you mean \"ref\""), "{}", bad.stderr);
+
+    let json = run_hdrflow(["run", &g, "--out", &out, "--cache-dir", &cache, "--json", "--jobs", "0"]);
+    json.assert_success();
+    let report: serde_json::Value = serde_json::from_str(&json.stdout).expect("--json prints the report alone");
+    let statuses: Vec<&str> =
+        report["nodes"].as_array().unwrap().iter().map(|n| n["status"].as_str().unwrap()).collect();
+    assert!(statuses.iter().all(|s| ["computed", "cached", "not needed"].contains(s)), "{statuses:?}");
+    assert_eq!(report["nodes"][0]["ports"][0]["type"], "image");
+}
+
+#[test]
+fn a_zero_cache_limit_leaves_another_pipelines_entries_alone() {
+    let sb = Sandbox::new();
+    let a = sb.write("a.ron", METRICS_GRAPH);
+    let b = sb.write(
+        "b.ron",
+        r#"( nodes: { "c": Constant(width: 8, height: 4, color: 0.25), "s": Save(input: "c", path: "c.pfm") } )"#,
+    );
+    let (out, cache) = (arg(&sb.out()), arg(&sb.cache()));
+    run_hdrflow(["run", &arg(&a), "--out", &out, "--cache-dir", &cache]).assert_success();
+    let entries = |dir: &std::path::Path| {
+        files_under(dir).into_iter().filter(|p| p.extension().is_some_and(|e| e == "val")).count()
+    };
+    let before = entries(&sb.cache());
+    assert!(before >= 4, "pipeline a stored its results ({before})");
+    let run_b = run_hdrflow(["run", &arg(&b), "--out", &out, "--cache-dir", &cache, "--cache-limit-mb", "0"]);
+    run_b.assert_success();
+    assert_eq!(run_b.stderr.matches("warning").count(), 1, "one warning for the limit:\n{}", run_b.stderr);
+    assert_eq!(entries(&sb.cache()), before, "--cache-limit-mb 0 added nothing and removed nothing");
+    let again = run_hdrflow(["run", &arg(&a), "--out", &out, "--cache-dir", &cache]);
+    assert!(again.stdout.contains(" 0 computed"), "a's entries are still there:\n{}", again.stdout);
+
+    let stats = run_hdrflow(["cache", "stats", "--cache-dir", &cache]);
+    stats.assert_success();
+    assert!(stats.stdout.contains(&format!("{before} entries")), "{}", stats.stdout);
+    assert!(stats.stdout.contains("0 live runs"), "{}", stats.stdout);
+    run_hdrflow(["cache", "prune", "--max-mb", "0", "--cache-dir", &cache]).assert_success();
+    assert_eq!(entries(&sb.cache()), 0, "prune to 0 MiB with no live run removes everything");
+    run_hdrflow(["run", &arg(&a), "--out", &out, "--cache-dir", &cache]).assert_success();
+    let clear = run_hdrflow(["cache", "clear", "--cache-dir", &cache]);
+    clear.assert_success();
+    assert!(clear.stdout.contains(&format!("removed {before} of {before} entries")), "{}", clear.stdout);
+}
+
+#[test]
+fn completions_and_the_manual_are_generated() {
+    let bash = run_hdrflow(["completions", "bash"]);
+    bash.assert_success();
+    assert!(bash.stdout.contains("_hdrflow()") && bash.stdout.contains("--cache-limit-mb"), "{}", &bash.stdout[..200]);
+    let man = run_hdrflow(["man"]);
+    man.assert_success();
+    assert!(man.stdout.starts_with(".ie") || man.stdout.contains(".TH hdrflow"), "{}", &man.stdout[..200]);
+}
