@@ -30,6 +30,7 @@ const EXPECTED_FILES: &[&str] = &[
     "save_absolute.ron",
     "save_bad_extension.ron",
     "save_parent_dir.ron",
+    "size_mismatch.ron",
     "syntax_error.ron",
     "unknown_field.ron",
     "unknown_operator.ron",

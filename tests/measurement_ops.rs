@@ -83,8 +83,12 @@ nodes: {
     "e":    ImageError(image: "env", reference: "env"),
 },
 )"#;
+    // Both sizes are known before running (built-in maps): refused at validation, with positions.
     let msg = run(text, &["pp"]).expect_err("size mismatch fails");
-    assert!(msg.contains("distribution"), "{msg}");
-    let msg = run(text, &["e"]).expect_err("non-square Sphere mask fails");
+    assert!(msg.contains("test.ron:7:45: node \"pp\": \"cdf\" is 512x256 but \"env\" is 64x32"), "{msg}");
+    // A size only known at run time (a sphere's image is square; a lat-long map is not) is
+    // refused when the node runs.
+    let text = text.replace("\"pp\":   PerPixelSphere(env: \"env\", cdf: \"cdf\", size: 8),\n", "");
+    let msg = run(&text, &["e"]).expect_err("non-square Sphere mask fails");
     assert!(msg.contains("square"), "{msg}");
 }

@@ -27,6 +27,18 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use crate::engine::params::{Arity, FieldKind, FieldSpec, ParamSet, Params};
+
+/// Checks that two inputs' sizes, when both are known before running, are equal; the message
+/// names both.
+pub fn check_same_size(ctx: &CheckContext, a: &'static str, b: &'static str) -> Result<(), CheckProblem> {
+    match (ctx.input_size(a), ctx.input_size(b)) {
+        (Some(sa), Some(sb)) if sa != sb => Err(CheckProblem::at(
+            b,
+            format!("{b:?} is {}x{} but {a:?} is {}x{}: they must be the same size", sb.0, sb.1, sa.0, sa.1),
+        )),
+        _ => Ok(()),
+    }
+}
 use crate::engine::value::{Value, ValueData, ValueType};
 
 /// The engine's image size limit, in pixels: the same 2^28 (268 M) the file readers enforce.
@@ -213,18 +225,29 @@ pub fn resolve_path(base_dir: &Path, path: &str) -> PathBuf {
     }
 }
 
-/// What `OpSpec::check` and computed output types see: a node's parameters and the types of
-/// its inputs.
+/// A pixel size (width, height) known before running, when it is.
+pub type Size = Option<(u64, u64)>;
+
+/// What `OpSpec::check`, computed output types and sizes see: a node's parameters, and the
+/// types and (when known before running) pixel sizes of its inputs.
 pub struct CheckContext<'a> {
     pub params: &'a Params,
     /// Input field -> types of the values wired in, in order (empty when not wired).
     pub input_types: &'a BTreeMap<&'static str, Vec<ValueType>>,
+    /// Input field -> sizes of the values wired in, in order (`None`: not known before running).
+    pub input_sizes: &'a BTreeMap<&'static str, Vec<Size>>,
+    /// The pipeline file's folder (a loader reads its file's header from there).
+    pub base_dir: &'a Path,
 }
 
 impl CheckContext<'_> {
     /// The type of a single input (None when not wired).
     pub fn input_type(&self, field: &str) -> Option<ValueType> {
         self.input_types.get(field).and_then(|v| v.first().copied())
+    }
+    /// The size of a single input, when known before running.
+    pub fn input_size(&self, field: &str) -> Size {
+        self.input_sizes.get(field).and_then(|v| v.first().copied().flatten())
     }
     /// The typed parameters.
     pub fn typed<P: ParamSet>(&self) -> P {
@@ -249,6 +272,9 @@ impl CheckProblem {
 pub type ContentKeyFn = fn(&Params, &Path) -> Result<Vec<u8>, OpError>;
 /// Cross-field validation of one node before anything runs.
 pub type CheckFn = Arc<dyn Fn(&CheckContext) -> Result<(), CheckProblem> + Send + Sync>;
+/// The pixel size of an operator's default output, from its parameters and input sizes, when it
+/// can be told before running.
+pub type SizeFn = Arc<dyn Fn(&CheckContext) -> Size + Send + Sync>;
 /// An operator's evaluation.
 pub type EvalFn = Arc<dyn Fn(&mut OpContext) -> Result<Outputs, OpError> + Send + Sync>;
 
@@ -276,6 +302,9 @@ pub struct OpSpec {
     pub content_key: Option<ContentKeyFn>,
     /// Cross-field validation run before anything is evaluated.
     pub check: Option<CheckFn>,
+    /// The default output's pixel size, when known before running (validation checks that
+    /// inputs which must agree in size do).
+    pub size: Option<SizeFn>,
     /// BLAKE3 of the operator's source with comments and blank space removed (see `code`);
     /// zero when not given. It is in the cache key.
     pub code_hash: [u8; 32],
@@ -302,6 +331,7 @@ impl OpSpec {
             eval: Arc::new(move |_| Err(OpError::Invalid(format!("{name} has no evaluation")))),
             content_key: None,
             check: None,
+            size: None,
             code_hash: [0; 32],
         }
     }
@@ -361,6 +391,18 @@ impl OpSpec {
     /// Cross-field validation with typed parameters.
     pub fn check<P: ParamSet + 'static>(mut self, f: fn(&CheckContext, P) -> Result<(), CheckProblem>) -> Self {
         self.check = Some(Arc::new(move |ctx: &CheckContext| f(ctx, P::from_params(ctx.params))));
+        self
+    }
+
+    /// The default output's pixel size from typed parameters and input sizes.
+    pub fn size<P: ParamSet + 'static>(mut self, f: fn(&CheckContext, P) -> Size) -> Self {
+        self.size = Some(Arc::new(move |ctx: &CheckContext| f(ctx, P::from_params(ctx.params))));
+        self
+    }
+
+    /// The default output has the pixel size of this input (the first, for a list).
+    pub fn size_of_input(mut self, field: &'static str) -> Self {
+        self.size = Some(Arc::new(move |ctx: &CheckContext| ctx.input_size(field)));
         self
     }
 

@@ -36,6 +36,16 @@ pub const BUILTINS: &[(&str, &str)] = &[
 ];
 
 /// The built-in map called `name`, or `None` for an unknown name (see [`BUILTINS`]).
+/// The size of a built-in map, without rendering it.
+pub fn builtin_size(name: &str) -> Option<(usize, usize)> {
+    match name {
+        "sky" | "studio" => Some((512, 256)),
+        "constant" | "hemisphere" => Some((64, 32)),
+        "linear" => Some((128, 64)),
+        _ => None,
+    }
+}
+
 pub fn builtin(name: &str) -> Option<Image> {
     match name {
         "sky" => Some(sky()),
@@ -189,6 +199,7 @@ mod tests {
             assert!(BUILTINS.iter().any(|(n, _)| *n == name));
             let img = builtin(name).unwrap();
             assert_eq!((img.width, img.height, img.channels, img.data.len()), (w, h, 3, w * h * 3), "{name}");
+            assert_eq!(builtin_size(name), Some((w, h)), "{name}: builtin_size agrees with the render");
             assert!(img.data.iter().all(|v| v.is_finite() && *v >= 0.0), "{name}");
             assert_eq!(builtin(name).unwrap(), img, "{name} is not deterministic");
         }

@@ -60,6 +60,26 @@ pub fn decode_by_extension(bytes: &[u8], ext: &str) -> Result<Image, FormatError
     }
 }
 
+/// The size of the image a file holds, read from its header only (the first 64 KiB; for EXR the
+/// header part of the file), or `None` when it cannot be told cheaply. Validation uses it to
+/// check that inputs agree in size before anything runs; the decoder remains the authority.
+pub fn header_size(path: &std::path::Path) -> Option<(usize, usize)> {
+    use std::io::Read;
+    let ext = path.extension()?.to_string_lossy().to_ascii_lowercase();
+    if ext == "exr" {
+        let meta = ::exr::meta::MetaData::read_from_file(path, false).ok()?;
+        let header = meta.headers.iter().find(|h| !h.deep)?;
+        return Some((header.layer_size.0, header.layer_size.1));
+    }
+    let mut prefix = Vec::with_capacity(1 << 16);
+    std::fs::File::open(path).ok()?.take(1 << 16).read_to_end(&mut prefix).ok()?;
+    match ext.as_str() {
+        "hdr" | "pic" | "rgbe" => self::rgbe::header_size(&prefix).ok(),
+        "pfm" => self::pfm::header_size(&prefix).ok(),
+        _ => None,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -56,6 +56,17 @@ fn parse_token<T: std::str::FromStr>(tok: Option<&[u8]>, what: &str) -> Result<T
         .ok_or_else(|| err(format!("bad PFM {what} {:?}", String::from_utf8_lossy(&tok[..tok.len().min(40)]))))
 }
 
+/// The image size a PFM header declares (`width`, `height`), from the file's first bytes.
+pub fn header_size(bytes: &[u8]) -> Result<(usize, usize), FormatError> {
+    if !(bytes.starts_with(b"PF") || bytes.starts_with(b"Pf")) {
+        return Err(err("not a PFM file (bad magic: expected \"PF\" or \"Pf\")"));
+    }
+    let mut pos = 2;
+    let width: usize = parse_token(token(bytes, &mut pos), "width")?;
+    let height: usize = parse_token(token(bytes, &mut pos), "height")?;
+    Ok((width, height))
+}
+
 /// Decodes a PFM file: 3 channels for `PF`, 1 for `Pf`, row 0 at the top (the file's last row),
 /// values exactly as stored (the scale's magnitude is not applied).
 pub fn decode(bytes: &[u8]) -> Result<Image, FormatError> {

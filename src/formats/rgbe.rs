@@ -158,6 +158,11 @@ fn parse_resolution(line: &[u8]) -> Result<(usize, usize, bool, bool), FormatErr
     }
 }
 
+/// The image size a Radiance header declares (`width`, `height`), from the file's first bytes.
+pub fn header_size(bytes: &[u8]) -> Result<(usize, usize), FormatError> {
+    parse_header(bytes).map(|h| (h.width, h.height))
+}
+
 fn parse_header(bytes: &[u8]) -> Result<Header, FormatError> {
     if !(bytes.starts_with(b"#?RADIANCE") || bytes.starts_with(b"#?RGBE")) {
         return Err(err("not a Radiance file (bad magic)"));

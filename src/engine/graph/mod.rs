@@ -84,6 +84,9 @@ pub struct Node {
     /// Output ports: the declared ones, then open ports that consumers named. Port 0 is the
     /// default output.
     pub ports: Vec<Port>,
+    /// The default output's pixel size, when known before running (from file headers and
+    /// parameters); validation checks inputs that must agree in size with it.
+    pub size: Option<(u64, u64)>,
 }
 
 impl Node {

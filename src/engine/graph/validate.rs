@@ -99,7 +99,7 @@ pub(super) fn validate(
         return Err(errs.fail());
     };
     let Some((graph, topo_order)) = build_dag(&nodes, &mut errs) else { return Err(errs.fail()) };
-    infer_types(&mut nodes, &raw, &refs, port_names, &topo_order, source, &mut errs);
+    infer_types(&mut nodes, &raw, &refs, port_names, &topo_order, base_dir, &mut errs);
     if errs.errors.is_empty() {
         check_outputs(&nodes, &raw, &mut errs);
     }
@@ -493,6 +493,7 @@ fn resolve_fields(
             params,
             inputs,
             ports: Vec::new(), // typed by `infer_types`
+            size: None,        // known, if at all, after `infer_types`
         });
         all_refs.push(wired);
     }
@@ -598,9 +599,10 @@ fn infer_types(
     refs: &[BTreeMap<&'static str, Vec<WrittenRef>>],
     port_names: Vec<Vec<PortName>>,
     topo_order: &[usize],
-    source: &str,
+    base_dir: &Path,
     errs: &mut Collector,
 ) {
+    let source = errs.source;
     for &i in topo_order {
         let spec = nodes[i].spec.clone();
         let mut input_types: BTreeMap<&'static str, Vec<ValueType>> = BTreeMap::new();
@@ -648,7 +650,33 @@ fn infer_types(
         if !types_ok {
             continue;
         }
-        let ctx = CheckContext { params: &nodes[i].params, input_types: &input_types };
+        // Sizes of the inputs' default outputs where known (an open port is a channel of the
+        // image, same size; any other named port has no size fact).
+        let input_sizes: BTreeMap<&'static str, Vec<Option<(u64, u64)>>> = nodes[i]
+            .inputs
+            .iter()
+            .map(|w| {
+                let sizes = w
+                    .sources
+                    .iter()
+                    .map(|s| {
+                        let producer = &nodes[s.node];
+                        let open = producer
+                            .spec
+                            .port(&producer.ports.get(s.port).map(|p| p.name.to_string()).unwrap_or_default())
+                            .is_none();
+                        if producer.is_default_port(s.port) || open {
+                            producer.size
+                        } else {
+                            None
+                        }
+                    })
+                    .collect();
+                (w.field, sizes)
+            })
+            .collect();
+        let ctx =
+            CheckContext { params: &nodes[i].params, input_types: &input_types, input_sizes: &input_sizes, base_dir };
         let field_pos = |field: Option<&'static str>| -> (Pos, String) {
             field
                 .and_then(|f| {
@@ -656,11 +684,12 @@ fn infer_types(
                 })
                 .unwrap_or((nodes[i].pos, source.to_string()))
         };
+        // A node that fails its own check still gets its ports typed, so that the nodes after it
+        // are validated too (all problems at once).
         if let Some(check) = &spec.check {
             if let Err(problem) = check(&ctx) {
                 let (pos, origin) = field_pos(problem.field);
                 errs.push_from(&origin, Some(pos), Some(&nodes[i].name), problem.message);
-                continue;
             }
         }
         let mut ports = Vec::with_capacity(port_names[i].len());
@@ -686,6 +715,7 @@ fn infer_types(
         }
         if ports_ok {
             nodes[i].ports = ports;
+            nodes[i].size = spec.size.as_ref().and_then(|f| f(&ctx));
         }
     }
 }

@@ -44,6 +44,7 @@ pub fn spec() -> OpSpec {
     OpSpec::new("Blur", "image", 1, "Separable Gaussian blur (radius 3 sigma), clamp or horizontal wrap-around")
         .input("image", ANY_IMAGE, "the image to blur")
         .output("image", OutputType::SameAsInput("image"), "the blurred image")
+        .size_of_input("image")
         .code(crate::this_file!())
         .eval(eval)
 }

@@ -25,6 +25,7 @@ crate::params! {
 pub fn spec() -> OpSpec {
     OpSpec::new("Constant", "image", 1, "An image of a single colour (canvas, or a constant environment)")
         .output("image", OutputType::Fixed(IMAGE_T), "the image")
+        .size(|_, p: ConstantParams| Some((p.width as u64, p.height as u64)))
         .code(crate::this_file!())
         .eval(eval)
         .check(check)

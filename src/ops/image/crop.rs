@@ -34,6 +34,7 @@ pub fn spec() -> OpSpec {
     OpSpec::new("Crop", "image", 1, "A rectangle of an image (x, y: its top-left pixel)")
         .input("image", ANY_IMAGE, "the image to crop")
         .output("image", OutputType::SameAsInput("image"), "the rectangle, same channels")
+        .size(|_, p: CropParams| Some((p.width as u64, p.height as u64)))
         .code(crate::this_file!())
         .eval(eval)
         .check(check)

@@ -30,6 +30,7 @@
 //! - `metrics`: `mean`, `max` and `rmse` = sqrt(mean d^2) of the heat map over its finite pixels,
 //!   plus `min`, `pixels` and `nonfinite` (the count left out; 0 when both inputs are finite).
 
+use crate::engine::op::check_same_size;
 use rayon::prelude::*;
 
 use crate::data::{Image, Metrics};
@@ -62,6 +63,7 @@ pub fn spec() -> OpSpec {
         .output("image", OutputType::Fixed(IMAGE_T), "the heat map in viridis, with a min..max legend below (for PNG)")
         .output("error", OutputType::Fixed(SCALAR_T), "the per-pixel error d, a scalar field `E`")
         .output("metrics", OutputType::Fixed(METRICS_T), "mean, max, rmse of d (and min, pixels, nonfinite)")
+        .check(|ctx, _: DifferenceParams| check_same_size(ctx, "a", "b"))
         .code(crate::this_file!())
         .eval(eval)
 }

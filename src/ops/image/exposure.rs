@@ -23,6 +23,7 @@ pub fn spec() -> OpSpec {
     OpSpec::new("Exposure", "image", 2, "Scale an image by 2^stops (alpha unchanged)")
         .input("image", ANY_IMAGE, "the image to scale")
         .output("image", OutputType::SameAsInput("image"), "the scaled image")
+        .size_of_input("image")
         .code(crate::this_file!())
         .eval(eval)
 }

@@ -12,6 +12,7 @@ pub fn spec() -> OpSpec {
     OpSpec::new("FlipVertical", "image", 1, "Flip an image upside down")
         .input("image", ANY_IMAGE, "the image to flip")
         .output("image", OutputType::SameAsInput("image"), "the flipped image")
+        .size_of_input("image")
         .code(crate::this_file!())
         .eval(eval)
 }

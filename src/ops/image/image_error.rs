@@ -9,6 +9,7 @@
 //! pixel.
 
 use crate::data::Image;
+use crate::engine::op::check_same_size;
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
 use crate::engine::value::Value;
 use crate::types::ty::*;
@@ -38,6 +39,7 @@ pub fn spec() -> OpSpec {
     .input("image", ANY_IMAGE, "the image to measure")
     .input("reference", ANY_IMAGE, "the reference, same size and channels")
     .output("metrics", OutputType::Fixed(METRICS_T), "the error metrics")
+    .check(|ctx, _: ImageErrorParams| check_same_size(ctx, "image", "reference"))
     .code(crate::this_file!())
     .eval(eval)
 }

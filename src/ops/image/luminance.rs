@@ -26,6 +26,7 @@ pub fn spec() -> OpSpec {
     OpSpec::new("Luminance", "image", 1, "Per-pixel luminance of an RGB image (a scalar field)")
         .input("image", ANY_IMAGE, "the RGB image (a scalar field passes through)")
         .output("luminance", OutputType::Fixed(SCALAR_T), "the luminance")
+        .size_of_input("image")
         .code(crate::this_file!())
         .eval(eval)
 }

@@ -64,6 +64,7 @@ pub fn spec() -> OpSpec {
     .input("a", ANY_IMAGE, "the first operand (its size, channels and type are the output's)")
     .optional_input("b", ANY_IMAGE, "the second operand: a scalar field broadcasts over a's channels; unwired: `value`")
     .output("image", OutputType::SameAsInput("a"), "a (op) b")
+    .size_of_input("a")
     .code(crate::this_file!())
     .eval(eval)
     .check(check)

@@ -55,6 +55,7 @@ pub fn spec() -> OpSpec {
         "the inputs in order, e.g. [\"split.B\", \"split.G\", \"split.R\"]",
     )
     .output("image", OutputType::Computed(output_type), "one channel in all: a scalar field; else an image")
+    .size_of_input("channels")
     .code(crate::this_file!())
     .eval(eval)
     .check(check)
@@ -236,7 +237,12 @@ mod tests {
             params.values.insert("names", ParamValue::TextList(names(n)));
             let mut input_types = BTreeMap::new();
             input_types.insert("channels", types);
-            let ctx = CheckContext { params: &params, input_types: &input_types };
+            let ctx = CheckContext {
+                params: &params,
+                input_types: &input_types,
+                input_sizes: &BTreeMap::new(),
+                base_dir: std::path::Path::new("."),
+            };
             (check(&ctx, MergeChannelsParams::from_params(&params)).map_err(|p| p.message), output_type(&ctx))
         };
         assert_eq!(run(vec![SCALAR_T], &[]).1, Ok(SCALAR_T));

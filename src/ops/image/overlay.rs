@@ -35,6 +35,7 @@ pub fn spec() -> OpSpec {
     .input("image", ANY_IMAGE, "the lat-long map or canvas")
     .input("samples", &[SAMPLES_T], "the samples to draw")
     .output("image", OutputType::Fixed(IMAGE_T), "the image with the samples drawn (RGB)")
+    .size_of_input("image")
     .code(crate::this_file!())
     .eval(eval)
 }

@@ -33,6 +33,7 @@ pub fn spec() -> OpSpec {
     OpSpec::new("Resize", "image", 1, "Area-averaging, energy-preserving resize")
         .input("image", ANY_IMAGE, "the image to resize")
         .output("image", OutputType::SameAsInput("image"), "the resized image")
+        .size(|_, p: ResizeParams| Some((p.width as u64, p.height as u64)))
         .code(crate::this_file!())
         .eval(eval)
         .check(check)

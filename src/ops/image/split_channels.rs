@@ -22,6 +22,7 @@ pub fn spec() -> OpSpec {
     OpSpec::new("SplitChannels", "image", 1, "Each channel of an image as a scalar field, on a port named like it")
         .input("image", ANY_IMAGE, "the image to split")
         .open_ports(SCALAR_T, "one port per channel, named like it: \"split.R\", \"split.A\" (no default port)")
+        .size_of_input("image")
         .code(crate::this_file!())
         .eval(eval)
 }

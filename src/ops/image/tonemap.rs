@@ -57,6 +57,7 @@ pub fn spec() -> OpSpec {
     OpSpec::new("Tonemap", "image", 1, "Exposure then a tone curve (Reinhard, ACES, AgX) to display-linear [0, 1]")
         .input("image", ANY_IMAGE, "linear radiance")
         .output("image", OutputType::SameAsInput("image"), "display-referred linear values in [0, 1]; alpha unchanged")
+        .size_of_input("image")
         .code(crate::this_file!())
         .eval(eval)
 }

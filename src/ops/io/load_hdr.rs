@@ -4,6 +4,7 @@
 //! The cache key holds the file's BLAKE3 content hash and extension, never its path or time:
 //! moving a file keeps its key, editing it in place (even with its mtime restored) changes it.
 
+use crate::engine::op::{CheckContext, Size};
 use std::path::Path;
 
 use crate::engine::op::{resolve_path, OpContext, OpError, OpSpec, OutputType};
@@ -29,6 +30,7 @@ pub fn spec() -> OpSpec {
         "Load an HDR image (.hdr RGBE, .exr, .pfm) or a built-in procedural map (builtin:sky, ...)",
     )
     .output("image", OutputType::Fixed(IMAGE_T), "the image (RGB, or RGBA for an EXR with alpha)")
+    .size(size)
     .code(crate::this_file!())
     .content_key(content_key)
     .eval(eval)
@@ -85,4 +87,14 @@ fn eval(ctx: &mut OpContext, p: LoadHdrParams) -> Result<Value, OpError> {
         image.flip_vertical_in_place();
     }
     Ok(Value::new(image))
+}
+
+/// The image's size from the file's header (or the built-in map's), so that validation can check
+/// the sizes that must agree before anything is decoded.
+fn size(ctx: &CheckContext, p: LoadHdrParams) -> Size {
+    let (w, h) = match p.path.0.strip_prefix("builtin:") {
+        Some(name) => formats::builtin::builtin_size(name)?,
+        None => formats::header_size(&resolve_path(ctx.base_dir, &p.path.0))?,
+    };
+    Some((w as u64, h as u64))
 }

@@ -30,6 +30,7 @@ pub fn spec() -> OpSpec {
     OpSpec::new("Sample", "sampling", 1, "Draw directions from an environment distribution, with their solid-angle pdf")
         .input("cdf", &[DISTRIBUTION_T], "the distribution (BuildCdf)")
         .output("samples", OutputType::Fixed(SAMPLES_T), "the samples")
+        .size_of_input("cdf")
         .code(crate::this_file!())
         .eval(eval)
 }

@@ -16,6 +16,7 @@
 use super::sphere_view;
 use crate::data::Distribution2D;
 use crate::data::Image;
+use crate::engine::op::check_same_size;
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
 use crate::engine::params::Rgb;
 use crate::engine::value::Value;
@@ -53,6 +54,8 @@ pub fn spec() -> OpSpec {
     .input("env", &[IMAGE_T], "the lat-long environment (linear RGB)")
     .input("cdf", &[DISTRIBUTION_T], "the environment's distribution (BuildCdf), same size as env")
     .output("image", OutputType::Fixed(IMAGE_T), "the relit sphere")
+    .size(|_, p: PerPixelParams| Some((p.size as u64, p.size as u64)))
+    .check(|ctx, _: PerPixelParams| check_same_size(ctx, "env", "cdf"))
     .code(crate::this_file!())
     .eval(eval)
 }

@@ -20,6 +20,7 @@
 use super::sphere_view;
 use crate::data::Image;
 use crate::data::SampleSet;
+use crate::engine::op::{CheckContext, CheckProblem};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
 use crate::engine::params::Rgb;
 use crate::engine::value::Value;
@@ -63,6 +64,8 @@ pub fn spec() -> OpSpec {
     .input("env", &[IMAGE_T], "the lat-long environment (linear RGB)")
     .input("samples", &[SAMPLES_T], "light samples (Sample), shared by every pixel")
     .output("image", OutputType::Fixed(IMAGE_T), "the relit sphere")
+    .size(|_, p: RelightParams| Some((p.size as u64, p.size as u64)))
+    .check(check_grid)
     .code(crate::this_file!())
     .eval(eval)
 }
@@ -240,4 +243,22 @@ pub fn relight_shared(
         )));
     }
     Ok(image)
+}
+
+/// Samples drawn from a distribution over another grid are spread over the env's texels, which
+/// needs the env to be an integer multiple of that grid: refused here when both sizes are known
+/// before running (`Sample` knows its distribution's grid; a Phong lobe has none).
+fn check_grid(ctx: &CheckContext, _: RelightParams) -> Result<(), CheckProblem> {
+    if let (Some((ew, eh)), Some((sw, sh))) = (ctx.input_size("env"), ctx.input_size("samples")) {
+        if (ew, eh) != (sw, sh) && (sw == 0 || sh == 0 || ew % sw != 0 || eh % sh != 0) {
+            return Err(CheckProblem::at(
+                "samples",
+                format!(
+                    "the samples come from a distribution over a {sw}x{sh} map but env is {ew}x{eh}: build the \
+                     distribution from env, or from a Resize of it by an integer factor"
+                ),
+            ));
+        }
+    }
+    Ok(())
 }
