@@ -8,7 +8,7 @@ use std::path::Path;
 
 use hdrflow::engine::graph::Pipeline;
 
-use hdrflow::data::{Image, Metrics};
+use hdrflow::data::{Image, Metrics, ShCoefficients, ShFrame};
 use hdrflow::engine::scheduler::{self, RunOptions, Silent};
 use hdrflow::engine::value::Value;
 
@@ -51,8 +51,12 @@ nodes: {
         // Midpoint rule on the 64 x 32 map: ~(pi/32)^2 / 6 = 1.6e-3 at worst.
         assert!((centre[ch] / a - 1.0).abs() < 2e-3, "{centre:?}");
     }
-    let coeffs = v["coeffs"].get::<Metrics>().unwrap();
+    let sh = v["coeffs"].get::<ShCoefficients>().unwrap();
+    assert_eq!((sh.order, sh.frame, sh.rgb.len()), (2, ShFrame::World, 9));
+    // The `metrics` port keeps version 1's flat record (in the chosen frame).
+    let coeffs = v["coeffs.metrics"].get::<Metrics>().unwrap();
     assert_eq!(coeffs.fields.len(), 27);
+    assert_eq!(coeffs.get("L_0_0_g"), Some(sh.rgb[0][1]));
     assert_eq!(coeffs.fields[0].0, "L_0_0_r");
     assert_eq!(coeffs.fields[3].0, "L_1_-1_r");
     let l00 = coeffs.get("L_0_0_g").unwrap();

@@ -5,9 +5,11 @@ pub mod distribution;
 pub mod image;
 pub mod metrics;
 pub mod samples;
+pub mod sh;
 
 pub use curves::Curves;
 pub use distribution::Distribution2D;
 pub use image::Image;
 pub use metrics::Metrics;
 pub use samples::{Sample, SampleSet};
+pub use sh::{ShCoefficients, ShFrame};

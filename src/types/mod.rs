@@ -10,6 +10,7 @@ pub mod distribution;
 pub mod image;
 pub mod metrics;
 pub mod samples;
+pub mod sh;
 
 use crate::engine::registry::Registry;
 use crate::engine::value::ValueType;
@@ -19,10 +20,11 @@ pub use curves::CURVES;
 pub use distribution::DISTRIBUTION;
 pub use metrics::METRICS;
 pub use samples::SAMPLES;
+pub use sh::SH_COEFFICIENTS;
 
 /// Registers every built-in value type.
 pub fn register_all(r: &mut Registry) {
-    for spec in [&IMAGE, &SCALAR_FIELD, &DISTRIBUTION, &SAMPLES, &CURVES, &METRICS] {
+    for spec in [&IMAGE, &SCALAR_FIELD, &DISTRIBUTION, &SAMPLES, &CURVES, &METRICS, &SH_COEFFICIENTS] {
         r.register_type(spec);
     }
 }
@@ -38,6 +40,7 @@ pub mod ty {
     pub const SAMPLES_T: ValueType = ValueType(&SAMPLES);
     pub const CURVES_T: ValueType = ValueType(&CURVES);
     pub const METRICS_T: ValueType = ValueType(&METRICS);
+    pub const SH_COEFFICIENTS_T: ValueType = ValueType(&SH_COEFFICIENTS);
     /// Either kind of image.
     pub const ANY_IMAGE: &[ValueType] = &[IMAGE_T, SCALAR_T];
 }

@@ -1,25 +1,50 @@
-//! `ShIrradiance(env, order: 2)`: the real spherical-harmonic coefficients
-//! `L_lm = sum_texels L Y_lm(d) dOmega` of the map up to band `order`, per channel, as a metrics
-//! record (save it as `.json`). Fields `L_{l}_{m}_{r|g|b}` in the order l = 0.., m = -l..l, then
-//! r, g, b (e.g. `L_0_0_r`, `L_1_-1_g`). With `order: 2` these are the 9 coefficients of
-//! Ramamoorthi and Hanrahan's irradiance environment map (SIGGRAPH 2001); the basis
-//! (normalisation, signs, and which axes x, y, z are in the lat-long frame) is documented in
-//! `maths::sh`.
+//! `ShIrradiance(env, order: 2, frame: World)`: the real spherical-harmonic coefficients
+//! `L_lm = sum_texels L Y_lm(d) dOmega` of the map up to band `order`, per channel, with the
+//! basis evaluated in the axes `frame` names. With `order: 2` these are the 9 coefficients of
+//! Ramamoorthi and Hanrahan's irradiance environment map (SIGGRAPH 2001). The basis (real SH,
+//! orthonormal, no Condon-Shortley phase) and the frames are documented in `maths::sh`:
+//!
+//! - `World` (default): `(x, y, z)` = hdrflow's `(X, Y, Z)`, +Y up, -Z forward, as Y-up engines
+//!   evaluate the basis with a world normal (three.js `SphericalHarmonics3`, Filament).
+//! - `Paper`: `(x, y, z) = (X, Y, -Z)`, Ramamoorthi and Hanrahan's frame for a Debevec probe
+//!   (z forward), in which their published Grace Cathedral table is reproduced.
+//! - `LatLong`: `(x, y, z) = (Z, -X, Y)`, z up and azimuth = the map's phi: version 1's output,
+//!   bit for bit.
+//!
+//! Two output ports: `coefficients` (default), an `sh coefficients` value that carries its order
+//! and frame (saved as `.json` or `.csv`, printed as a table), and `metrics`, the same numbers as
+//! the flat record of version 1 (`L_{l}_{m}_{r|g|b}`, e.g. `L_0_0_r`, `L_1_-1_g`, in the order
+//! l, m, channel), in the chosen frame.
+//!
+//! Version 2: the `frame` field (version 1 always used `LatLong`), the `sh coefficients` type on
+//! the default port, and the `metrics` port.
 
 use super::reference_sphere::check_finite;
-use crate::data::Image;
-use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
+use crate::data::{Image, Metrics, ShCoefficients, ShFrame};
+use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Outputs};
+use crate::engine::params::Choice;
 use crate::engine::value::Value;
+use crate::maths::sh::{coefficient_name, project, sh_lm};
 use crate::types::ty::*;
 
-use crate::data::Metrics;
-use crate::maths::sh::{coefficient_name, project, sh_lm};
+impl Choice for ShFrame {
+    const NAMES: &'static [&'static str] = ShFrame::NAMES;
+    fn from_name(name: &str) -> Option<Self> {
+        ShFrame::from_name(name)
+    }
+    fn name(self) -> &'static str {
+        ShFrame::name(self)
+    }
+}
+crate::choice_param!(ShFrame);
 
 crate::params! {
     pub struct ShIrradianceParams {
         /// highest band l
         #[range(0, 32)]
         pub order: usize = 2,
+        /// axes of the basis: World (X, Y up, Z: three.js, Filament), Paper (X, Y, -Z: Ramamoorthi-Hanrahan for a Debevec probe), LatLong (Z, -X, Y: version 1)
+        pub frame: ShFrame = ShFrame::World,
     }
 }
 
@@ -27,25 +52,32 @@ pub fn spec() -> OpSpec {
     OpSpec::new(
         "ShIrradiance",
         "shading",
-        1,
-        "Spherical-harmonic coefficients L_lm of a lat-long map (order 2: Ramamoorthi-Hanrahan's 9)",
+        2,
+        "Spherical-harmonic coefficients L_lm of a lat-long map in a stated frame (order 2: Ramamoorthi-Hanrahan's 9)",
     )
     .input("env", &[IMAGE_T], "the lat-long environment (linear RGB)")
-    .output("coefficients", OutputType::Fixed(METRICS_T), "the coefficients L_l_m_channel")
+    .output("coefficients", OutputType::Fixed(SH_COEFFICIENTS_T), "the coefficients, with their order and frame")
+    .output(
+        "metrics",
+        OutputType::Fixed(METRICS_T),
+        "the same numbers as flat fields L_l_m_channel (version 1's output)",
+    )
     .code(crate::this_file!())
     .eval(eval)
 }
 
-fn eval(ctx: &mut OpContext, p: ShIrradianceParams) -> Result<Value, OpError> {
+fn eval(ctx: &mut OpContext, p: ShIrradianceParams) -> Result<Outputs, OpError> {
     let env: &Image = ctx.get("env");
     check_finite(env)?;
-    let coeffs = project(env, p.order);
-    let mut fields = Vec::with_capacity(coeffs.len() * 3);
-    for (i, c) in coeffs.iter().enumerate() {
+    let rgb = project(env, p.order, p.frame);
+    let mut fields = Vec::with_capacity(rgb.len() * 3);
+    for (i, c) in rgb.iter().enumerate() {
         let (l, m) = sh_lm(i);
         for (ch, &v) in c.iter().enumerate() {
             fields.push((coefficient_name(l, m, ch), v));
         }
     }
-    Ok(Value::new(Metrics { fields }))
+    Ok(Outputs::new()
+        .with("coefficients", Value::new(ShCoefficients { order: p.order, frame: p.frame, rgb }))
+        .with("metrics", Value::new(Metrics { fields })))
 }

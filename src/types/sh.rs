@@ -1,0 +1,212 @@
+//! `sh coefficients`: real spherical-harmonic coefficients per RGB channel, with their order and
+//! frame ([`ShCoefficients`]). Saved as:
+//!
+//! - `.json`: `{"frame": "World", "order": 2, "basis": "<the convention and axes, one line>",
+//!   "coefficients": [[r, g, b], ...]}`, `(order + 1)^2` rows in `(l, m)` order (l = 0..=order,
+//!   m = -l..=l), one row per line. Numbers are written as the shortest decimal that reads back
+//!   to the same f64 (an exact parser, such as Python's, gets the bits back); NaN and Inf become
+//!   `null`.
+//! - `.csv`: the header `l,m,r,g,b,frame`, then one row per coefficient. The frame is a column
+//!   (the same on every row) rather than a comment line, so that the file stays plain CSV and a
+//!   copy that travels without its JSON still says which axes its numbers belong to.
+
+use std::fmt::Write as _;
+
+use super::json_num as num;
+use crate::data::{ShCoefficients, ShFrame};
+use crate::engine::cache::codec::{Reader, Writer};
+use crate::engine::value::{SaveOptions, TypeSpec, Value, ValueData, ValueType};
+
+pub static SH_COEFFICIENTS: TypeSpec = TypeSpec {
+    name: "sh coefficients",
+    doc: "real spherical-harmonic coefficients L_lm per RGB channel, with their order and frame",
+    decode,
+    save_extensions: &["json", "csv"],
+    save: Some(save),
+};
+
+/// The highest order a cache entry may claim (far above `ShIrradiance`'s 32; it only bounds
+/// the arithmetic on a hostile entry before its length is checked).
+const MAX_ORDER: usize = 1 << 12;
+
+impl ValueData for ShCoefficients {
+    fn value_type(&self) -> ValueType {
+        ValueType(&SH_COEFFICIENTS)
+    }
+    fn approx_bytes(&self) -> usize {
+        self.rgb.len() * 24
+    }
+    fn summary(&self) -> String {
+        format!("{} SH coefficients (order {}, frame {})", self.rgb.len(), self.order, self.frame.name())
+    }
+    fn display(&self) -> Option<String> {
+        Some(table(self))
+    }
+    fn encode(&self, out: &mut Vec<u8>) {
+        let mut w = Writer(out);
+        w.u64(self.order as u64);
+        w.str(self.frame.name());
+        w.u64(self.rgb.len() as u64);
+        for c in &self.rgb {
+            for v in c {
+                w.f64(*v);
+            }
+        }
+    }
+}
+
+fn decode(bytes: &[u8]) -> Result<Value, String> {
+    let mut r = Reader::new(bytes);
+    let order = r.usize()?;
+    if order > MAX_ORDER {
+        return Err(format!("SH order {order} is out of range"));
+    }
+    let name = r.str()?;
+    let frame = ShFrame::from_name(&name).ok_or_else(|| format!("unknown SH frame {name:?}"))?;
+    let n = r.usize()?;
+    if n != (order + 1) * (order + 1) {
+        return Err(format!("{n} SH coefficients for order {order}"));
+    }
+    r.need(n.saturating_mul(24))?;
+    let mut rgb = Vec::with_capacity(n);
+    for _ in 0..n {
+        rgb.push([r.f64()?, r.f64()?, r.f64()?]);
+    }
+    r.finish()?;
+    Ok(Value::new(ShCoefficients { order, frame, rgb }))
+}
+
+fn save(value: &Value, o: &SaveOptions) -> Result<Vec<u8>, String> {
+    let c = value.get::<ShCoefficients>().ok_or("not SH coefficients")?;
+    Ok(match o.ext.as_str() {
+        "csv" => csv(c),
+        _ => json(c),
+    }
+    .into_bytes())
+}
+
+/// The JSON, one coefficient row per line (`serde_json`'s pretty printer would put every number
+/// on a line of its own).
+fn json(c: &ShCoefficients) -> String {
+    let text = |s: &str| serde_json::Value::String(s.to_string()).to_string();
+    let mut out = String::from("{\n");
+    let _ = writeln!(out, "  \"frame\": {},", text(c.frame.name()));
+    let _ = writeln!(out, "  \"order\": {},", c.order);
+    let _ = writeln!(out, "  \"basis\": {},", text(c.frame.basis()));
+    out.push_str("  \"coefficients\": [");
+    for (i, v) in c.rgb.iter().enumerate() {
+        let sep = if i + 1 < c.rgb.len() { "," } else { "" };
+        let _ = write!(out, "\n    [{}, {}, {}]{sep}", num(v[0]), num(v[1]), num(v[2]));
+    }
+    out.push_str(if c.rgb.is_empty() { "]\n}\n" } else { "\n  ]\n}\n" });
+    out
+}
+
+fn csv(c: &ShCoefficients) -> String {
+    let mut out = String::from("l,m,r,g,b,frame\n");
+    for (l, m, v) in c.iter() {
+        let _ = writeln!(out, "{l},{m},{},{},{},{}", v[0], v[1], v[2], c.frame.name());
+    }
+    out
+}
+
+/// A number for the table: fixed with 6 decimals in [1e-3, 1e7), else scientific.
+fn cell(v: f64) -> String {
+    if v == 0.0 || (1e-3..1e7).contains(&v.abs()) {
+        format!("{v:.6}")
+    } else {
+        format!("{v:.5e}")
+    }
+}
+
+/// The aligned table printed after a run: a title line, the basis, then `l m r g b`.
+fn table(c: &ShCoefficients) -> String {
+    let rows: Vec<(usize, isize, [String; 3])> = c.iter().map(|(l, m, v)| (l, m, v.map(cell))).collect();
+    let width = rows.iter().flat_map(|r| r.2.iter().map(String::len)).max().unwrap_or(0).max(1);
+    let mut out = format!("order {}, frame {}\n{}\n", c.order, c.frame.name(), c.frame.basis());
+    let _ = write!(out, " l    m  {:>width$}  {:>width$}  {:>width$}", "r", "g", "b");
+    for (l, m, [r, g, b]) in &rows {
+        let _ = write!(out, "\n{l:>2} {m:>4}  {r:>width$}  {g:>width$}  {b:>width$}");
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample() -> ShCoefficients {
+        let rgb = (0..9).map(|i| [i as f64 * 0.5 - 1.0, 1e-9 * i as f64, 12345.678 / (i + 1) as f64]).collect();
+        ShCoefficients { order: 2, frame: ShFrame::World, rgb }
+    }
+
+    #[test]
+    fn cache_round_trip_and_hostile_entries() {
+        for frame in ShFrame::ALL {
+            let c = ShCoefficients { frame, ..sample() };
+            let mut bytes = Vec::new();
+            c.encode(&mut bytes);
+            let back = decode(&bytes).unwrap();
+            assert_eq!(back.get::<ShCoefficients>(), Some(&c));
+            for cut in [0, 8, 20, bytes.len() - 1] {
+                assert!(decode(&bytes[..cut]).is_err(), "cut at {cut}");
+            }
+        }
+        // A count that does not match the order, an unknown frame, a huge order.
+        let mut bytes = Vec::new();
+        let mut w = Writer(&mut bytes);
+        w.u64(2);
+        w.str("World");
+        w.u64(8);
+        assert!(decode(&bytes).unwrap_err().contains("8 SH coefficients for order 2"));
+        let mut bytes = Vec::new();
+        let mut w = Writer(&mut bytes);
+        w.u64(0);
+        w.str("Sideways");
+        assert!(decode(&bytes).unwrap_err().contains("unknown SH frame"));
+        let mut bytes = Vec::new();
+        Writer(&mut bytes).u64(u64::MAX);
+        assert!(decode(&bytes).is_err());
+    }
+
+    #[test]
+    fn json_csv_and_table() {
+        let c = sample();
+        let json: serde_json::Value = serde_json::from_str(&super::json(&c)).unwrap();
+        assert_eq!(json["frame"], "World");
+        assert_eq!(json["order"], 2);
+        assert_eq!(json["basis"], ShFrame::World.basis());
+        assert_eq!(json["coefficients"].as_array().unwrap().len(), 9);
+        // Shortest round-trip numbers, one row per line: an exact parser reads them back bit for
+        // bit (serde_json's default float parser is not one, so parse the text here).
+        let text = super::json(&c);
+        let rows: Vec<Vec<f64>> = text
+            .lines()
+            .filter_map(|l| l.trim().strip_prefix('['))
+            .map(|l| l.trim_end_matches(',').trim_end_matches(']').split(", ").map(|v| v.parse().unwrap()).collect())
+            .collect();
+        assert_eq!(rows, c.rgb.iter().map(|v| v.to_vec()).collect::<Vec<_>>());
+        let keys: Vec<&String> = json.as_object().unwrap().keys().collect();
+        assert_eq!(keys, ["frame", "order", "basis", "coefficients"]);
+
+        let csv = super::csv(&c);
+        let lines: Vec<&str> = csv.lines().collect();
+        assert_eq!(lines[0], "l,m,r,g,b,frame");
+        assert_eq!(lines.len(), 10);
+        assert_eq!(lines[2], format!("1,-1,{},{},{},World", c.rgb[1][0], c.rgb[1][1], c.rgb[1][2]));
+        assert!(lines[9].starts_with("2,2,"));
+
+        let table = c.display().unwrap();
+        let lines: Vec<&str> = table.lines().collect();
+        assert_eq!(lines[0], "order 2, frame World");
+        assert_eq!(lines.len(), 3 + 9);
+        // Aligned: every row as long as the header, columns right-aligned.
+        assert!(lines[2..].iter().all(|l| l.len() == lines[2].len()), "{table}");
+        assert!(lines[4].starts_with(" 1   -1"), "{table}");
+        assert!(table.contains("1.00000e-9"), "{table}");
+
+        // An empty set of coefficients (never produced, but valid JSON all the same).
+        let empty = ShCoefficients { order: 0, frame: ShFrame::Paper, rgb: vec![] };
+        assert!(serde_json::from_str::<serde_json::Value>(&super::json(&empty)).is_ok());
+    }
+}
