@@ -490,13 +490,13 @@ fn ops(registry: &Registry, name: Option<&str>) -> ExitCode {
         outln!("{} (v{})", spec.name, spec.version);
         outln!("    {}", spec.doc);
         for port in &spec.outputs {
-            outln!("    -> {:<11} {:<40} {}", port.name, port.ty.describe(), port.doc);
+            outln!("    -> {:<12} {:<40} {}", port.name, port.ty.describe(), port.doc);
         }
         if let Some(open) = &spec.open_ports {
-            outln!("    -> {:<11} {:<40} {}", "<any>", open.ty.to_string(), open.doc);
+            outln!("    -> {:<12} {:<40} {}", "<any>", open.ty.to_string(), open.doc);
         }
         for f in &spec.fields {
-            outln!("    {:<14} {:<40} {:<22} {}", f.name, f.kind.describe(), f.describe_default(), f.doc);
+            outln!("    {:<15} {:<40} {:<22} {}", f.name, f.kind.describe(), f.describe_default(), f.doc);
         }
         if spec.name == "LoadHdr" {
             outln!("    built-in maps (path: \"builtin:NAME\"):");
