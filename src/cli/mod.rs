@@ -382,7 +382,8 @@ fn run(registry: &Registry, args: &RunArgs) -> ExitCode {
         );
     }
     if !args.json {
-        print_values(&outcome.values, &args.print, args.quiet);
+        let nodes: std::collections::BTreeSet<&str> = p.nodes.iter().map(|n| n.name.as_str()).collect();
+        print_values(&outcome.values, &args.print, &nodes, args.quiet);
     }
     // A cache folder the run could not use was already reported (one warning, and the run went
     // on without it): there is nothing of ours to evict there, and no second warning to give.
@@ -412,10 +413,18 @@ fn run(registry: &Registry, args: &RunArgs) -> ExitCode {
 
 /// Prints the values a user asked for with `--print` (any type, in full where the type can
 /// show itself, else a one-line summary) and the small target values that show themselves
-/// (metrics, curve scalars), unless quiet.
-fn print_values(values: &std::collections::BTreeMap<String, crate::Value>, asked: &[String], quiet: bool) {
+/// (metrics, curve scalars, SH coefficients; default ports only), unless quiet.
+fn print_values(
+    values: &std::collections::BTreeMap<String, crate::Value>,
+    asked: &[String],
+    nodes: &std::collections::BTreeSet<&str>,
+    quiet: bool,
+) {
     for (name, value) in values {
         let wanted = asked.iter().any(|a| a == name);
+        if !wanted && !nodes.contains(name.as_str()) {
+            continue; // another port of a target: printed when asked for
+        }
         match value.display() {
             Some(text) if wanted || !quiet => {
                 outln!("{name} ({}):", value.value_type());
