@@ -236,3 +236,27 @@ fn dotted_channel_names_and_open_ports_in_the_cache() {
         validation_errors(&text("diffuse.Z").replace("SplitChannels(image: \"layer\")", "Luminance(image: \"layer\")"));
     assert!(e.contains("node \"s\" has no output port \"diffuse.Z\""), "{e}");
 }
+
+/// A `SplitChannels` node that is a target (no consumer names a port) returns every channel, as
+/// `node.CHANNEL`, computed and from the cache alike.
+#[test]
+fn an_open_port_target_returns_every_channel() {
+    let registry = hdrflow::builtin_registry();
+    let text = r#"( nodes: { "env": Constant(width: 4, height: 2, color: (0.25, 0.5, 1.0)), "s": SplitChannels(image: "env") } )"#;
+    let p = Pipeline::parse(text, "t.ron", Path::new("."), &registry, &[]).expect("valid");
+    let dir = tempfile::tempdir().unwrap();
+    let cache = hdrflow::engine::cache::CacheStore::new(dir.path().join("cache"), 1 << 30);
+    for pass in ["computed", "cached"] {
+        let options = RunOptions {
+            targets: vec!["s".into()],
+            out_dir: dir.path().join("out"),
+            cache: Some(cache.clone()),
+            jobs: None,
+            observer: &Silent,
+        };
+        let outcome = scheduler::run(&p, &options).expect("runs");
+        let names: Vec<&str> = outcome.values.keys().map(String::as_str).collect();
+        assert_eq!(names, ["s.B", "s.G", "s.R"], "{pass}");
+        assert_eq!(image(&outcome.values, "s.G").data, vec![0.5; 8], "{pass}");
+    }
+}

@@ -322,6 +322,10 @@ struct Shared<'s> {
     /// Nodes whose inputs are all ready, not yet started, by priority (see `enqueue`). Each
     /// entry has one spawned task that starts the best entry at the time it runs.
     ready: &'s Mutex<BinaryHeap<(usize, Reverse<usize>)>>,
+    /// Which nodes are targets, and the open ports they produced that no consumer names (kept
+    /// for the caller: a `SplitChannels` target returns every channel).
+    is_target: &'s [bool],
+    target_extras: &'s Mutex<Vec<(usize, String, Value)>>,
 }
 
 impl Shared<'_> {
@@ -428,11 +432,11 @@ fn run_in_pool(p: &Pipeline, options: &RunOptions) -> Result<RunOutcome, RunErro
 
     // Plan, then load cached values; a corrupt entry sends its node back to `Computed`.
     let mut distrust = BTreeSet::new();
-    let mut loaded: Vec<Option<Vec<Value>>> = (0..n).map(|_| None).collect();
+    let mut loaded: Vec<Option<Matched>> = (0..n).map(|_| None).collect();
     let status = loop {
         let status = plan_status(p, &targets, &keys, cache, &distrust);
         let to_load: Vec<usize> = (0..n).filter(|&i| status[i] == NodeStatus::Cached && loaded[i].is_none()).collect();
-        let results: Vec<(usize, Result<Vec<Value>, String>, f64)> = to_load
+        let results: Vec<(usize, Result<Matched, String>, f64)> = to_load
             .par_iter()
             .map(|&i| {
                 let t0 = Instant::now();
@@ -440,7 +444,7 @@ fn run_in_pool(p: &Pipeline, options: &RunOptions) -> Result<RunOutcome, RunErro
                 let r = match cache.expect("cached implies a cache").get(&key, &p.registry) {
                     // An entry without a port this pipeline names (an open port that an older
                     // run did not produce) is a plain miss.
-                    Ok(Some(outputs)) => match_ports(p, i, Outputs(outputs)).map(|m| m.values).map_err(|e| {
+                    Ok(Some(outputs)) => match_ports(p, i, Outputs(outputs)).map_err(|e| {
                         if e.starts_with("no output") {
                             String::new()
                         } else {
@@ -509,6 +513,7 @@ fn run_in_pool(p: &Pipeline, options: &RunOptions) -> Result<RunOutcome, RunErro
     let abort = AtomicBool::new(false);
     let first_error: Mutex<Option<RunError>> = Mutex::new(None);
     let ready = Mutex::new(BinaryHeap::new());
+    let target_extras = Mutex::new(Vec::new());
     let shared = Shared {
         p,
         options,
@@ -525,11 +530,16 @@ fn run_in_pool(p: &Pipeline, options: &RunOptions) -> Result<RunOutcome, RunErro
         first_error: &first_error,
         written: &written,
         ready: &ready,
+        is_target: &is_target,
+        target_extras: &target_extras,
     };
 
     // Cached values go into their slots (their files into the output folder).
-    for (i, values) in loaded.into_iter().enumerate() {
-        if let Some(values) = values {
+    for (i, matched) in loaded.into_iter().enumerate() {
+        if let Some(Matched { values, extra }) = matched {
+            if is_target[i] {
+                target_extras.lock().expect("extras lock").extend(extra.into_iter().map(|(n, v)| (i, n, v)));
+            }
             shared.store(i, values)?;
             let t = *timing[i].lock().expect("timing lock");
             obs.node_finished(&node_report(p, i, NodeStatus::Cached, t, &keys));
@@ -557,6 +567,9 @@ fn run_in_pool(p: &Pipeline, options: &RunOptions) -> Result<RunOutcome, RunErro
                 values.insert(p.nodes[t].port_label(port), v);
             }
         }
+    }
+    for (t, port, v) in target_extras.into_inner().expect("extras lock") {
+        values.insert(format!("{}.{port}", p.nodes[t].name), v);
     }
     let mut written = written.into_inner().expect("written lock");
     written.sort();
@@ -667,7 +680,7 @@ fn execute<'s>(s: &'s Shared<'s>, scope: &rayon::Scope<'s>, i: usize) {
         if !s.cache_failed.load(Ordering::Relaxed) {
             let mut named: Vec<(String, Value)> =
                 node.ports.iter().zip(&values).map(|(p, v)| (p.name.to_string(), v.clone())).collect();
-            named.extend(extra);
+            named.extend(extra.iter().cloned());
             if let Err(e) = cache.put(&key, &named) {
                 // One warning for the run, not one per node.
                 if !s.cache_failed.swap(true, Ordering::SeqCst) {
@@ -675,6 +688,9 @@ fn execute<'s>(s: &'s Shared<'s>, scope: &rayon::Scope<'s>, i: usize) {
                 }
             }
         }
+    }
+    if s.is_target[i] {
+        s.target_extras.lock().expect("extras lock").extend(extra.into_iter().map(|(n, v)| (i, n, v)));
     }
     if let Err(e) = s.store(i, values) {
         return s.fail(e);
