@@ -24,6 +24,30 @@ pub fn register(r: &mut Registry) {
     r.register(per_pixel_sphere::spec());
 }
 
+/// Declares a sphere renderer's parameters: the `size`, `albedo` and `view` every sphere operator
+/// shares (so that their images compare pixel for pixel), then the operator's own fields, as one
+/// `params!` struct: `sphere_params! { MyParams { /// doc
+/// pub spp: usize = 16, } }`.
+macro_rules! sphere_params {
+    ($name:ident { $($rest:tt)* }) => {
+        crate::params! {
+            pub struct $name {
+        /// image width and height
+        #[range(1, 1 << 14)]
+        pub size: usize = 256,
+        /// diffuse albedo (RGB, or a single number for grey)
+        #[range(0.0, 1.0)]
+        pub albedo: Rgb = Rgb([1.0, 1.0, 1.0]),
+        /// camera direction (theta, phi) in degrees, lat-long convention; the seed's is (90, 90)
+        #[range(-360.0, 360.0)]
+        pub view: [f64; 2] = [90.0, 90.0],
+                $($rest)*
+            }
+        }
+    };
+}
+pub(crate) use sphere_params;
+
 /// The sphere seen from `view` = (theta, phi) in degrees, inscribed in a `size` x `size` image.
 pub(crate) fn sphere_view(size: usize, view: [f64; 2]) -> SphereView {
     SphereView::new(size, latlong::direction_deg(view[0], view[1]))

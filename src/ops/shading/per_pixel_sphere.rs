@@ -23,17 +23,8 @@ use crate::engine::value::Value;
 use crate::maths::per_pixel::{relight_per_pixel, PerPixelStrategy};
 use crate::types::ty::*;
 
-crate::params! {
-    pub struct PerPixelParams {
-        /// image width and height
-        #[range(1, 1 << 14)]
-        pub size: usize = 256,
-        /// diffuse albedo (RGB, or a single number for grey)
-        #[range(0.0, 1.0)]
-        pub albedo: Rgb = Rgb([1.0, 1.0, 1.0]),
-        /// camera direction (theta, phi) in degrees, lat-long convention; the seed's is (90, 90)
-        #[range(-360.0, 360.0)]
-        pub view: [f64; 2] = [90.0, 90.0],
+super::sphere_params! {
+    PerPixelParams {
         /// Environment (cdf texels), Cosine (cosine hemisphere), Uniform (sphere), Mis (balance heuristic of the first two)
         pub strategy: PerPixelStrategy = PerPixelStrategy::Environment,
         /// samples per pixel (Mis: pairs)

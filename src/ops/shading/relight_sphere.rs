@@ -38,17 +38,8 @@ crate::choice! {
     }
 }
 
-crate::params! {
-    pub struct RelightParams {
-        /// image width and height
-        #[range(1, 1 << 14)]
-        pub size: usize = 256,
-        /// diffuse albedo (RGB, or a single number for grey)
-        #[range(0.0, 1.0)]
-        pub albedo: Rgb = Rgb([1.0, 1.0, 1.0]),
-        /// camera direction (theta, phi) in degrees, lat-long convention; the seed's is (90, 90)
-        #[range(-360.0, 360.0)]
-        pub view: [f64; 2] = [90.0, 90.0],
+super::sphere_params! {
+    RelightParams {
         /// Unbiased: (albedo/pi) mean(L cos / pdf); Seed: the seed's formula exactly
         pub estimator: EstimatorChoice = EstimatorChoice::Unbiased,
     }

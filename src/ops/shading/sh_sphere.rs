@@ -15,17 +15,8 @@ use crate::engine::value::Value;
 use crate::maths::sh::sh_sphere;
 use crate::types::ty::*;
 
-crate::params! {
-    pub struct ShSphereParams {
-        /// image width and height
-        #[range(1, 1 << 14)]
-        pub size: usize = 256,
-        /// diffuse albedo (RGB, or a single number for grey)
-        #[range(0.0, 1.0)]
-        pub albedo: Rgb = Rgb([1.0, 1.0, 1.0]),
-        /// camera direction (theta, phi) in degrees, lat-long convention; the seed's is (90, 90)
-        #[range(-360.0, 360.0)]
-        pub view: [f64; 2] = [90.0, 90.0],
+super::sphere_params! {
+    ShSphereParams {
         /// highest SH band l (2: 9 coefficients)
         #[range(0, 32)]
         pub order: usize = 2,
