@@ -126,10 +126,13 @@ pub fn default_template(axes: &[Axis]) -> String {
     parts.join("/")
 }
 
-/// A value as a folder-name part: paths give their stem; anything but letters, digits and
+/// A value as a folder-name part: `--over` paths (a `/` or a letters-only extension) give
+/// their stem; anything but letters, digits and
 /// `.-_+=` becomes `_`.
 fn path_part(value: &str, over: bool) -> String {
-    let v = if over && (value.contains('/') || value.contains('.')) {
+    let has_ext =
+        Path::new(value).extension().is_some_and(|e| e.to_string_lossy().chars().all(|c| c.is_ascii_alphabetic()));
+    let v = if over && (value.contains('/') || has_ext) {
         Path::new(value).file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| value.to_string())
     } else {
         value.trim_matches('"').to_string()
