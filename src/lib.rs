@@ -29,6 +29,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 // The benchmark harness behind `hdrflow bench`: used by the CLI, not a public API.
+pub mod batch;
 mod bench;
 pub mod cli;
 pub mod data;

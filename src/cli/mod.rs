@@ -25,6 +25,7 @@ macro_rules! out {
     }};
 }
 
+mod batch;
 mod progress;
 
 /// A closed pipe ends the program successfully; any other write error is reported.
@@ -60,6 +61,8 @@ enum Command {
     Run(RunArgs),
     /// Show what a run would do per node: compute, cached, or not needed.
     Plan(RunArgs),
+    /// Run a pipeline over a library of maps and parameter sweeps, one output folder per item.
+    Batch(batch::BatchArgs),
     /// Print the pipeline as a Graphviz DOT graph.
     Dot(GraphArgs),
     /// Benchmark run time against error for every relighting strategy and the peers.
@@ -239,6 +242,7 @@ where
         }
         Command::Bench(args) => bench(&args),
         Command::Run(args) => run(&registry, &args),
+        Command::Batch(args) => batch::batch(&registry, &args),
     }
 }
 

@@ -1,0 +1,253 @@
+//! `hdrflow batch`: arguments, progress and the report files; the work is in `crate::batch`.
+
+use std::io::IsTerminal;
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::sync::Mutex;
+use std::time::Instant;
+
+use clap::Args;
+use indicatif::{ProgressBar, ProgressStyle};
+
+use crate::batch::{self, Axis, BatchObserver, BatchOptions, Item, ItemRow, ItemStatus};
+use crate::engine::cache::store::{write_atomic, DEFAULT_LIMIT_BYTES};
+use crate::engine::cache::CacheStore;
+use crate::engine::registry::Registry;
+
+#[derive(Args)]
+pub(crate) struct BatchArgs {
+    /// The pipeline file (RON).
+    graph: PathBuf,
+    /// One item per value: NODE.FIELD=GLOB (matching files, sorted) or NODE.FIELD=V1,V2,...
+    /// (repeatable; several form the cross product).
+    #[arg(long = "over", value_name = "NODE.FIELD=GLOB_OR_LIST")]
+    over: Vec<String>,
+    /// A parameter sweep: NODE.FIELD=V1,V2,... (RON values, as in `run --set`; repeatable).
+    #[arg(long = "sweep", value_name = "NODE.FIELD=V1,V2,...")]
+    sweep: Vec<String>,
+    /// Pair the --over/--sweep values (equal lengths) instead of their cross product.
+    #[arg(long)]
+    zip: bool,
+    /// Output folder; each item writes into DIR/TEMPLATE/.
+    #[arg(long)]
+    out: PathBuf,
+    /// Item folder template: {stem}, {name}, {index}, {NODE.FIELD}. Default: {stem} of the first
+    /// --over, then FIELD={NODE.FIELD} per other axis (e.g. grace/count=256).
+    #[arg(long, value_name = "TEMPLATE")]
+    item_dir: Option<String>,
+    /// Run only the items whose index is congruent to I mod N (0 <= I < N).
+    #[arg(long, value_name = "I/N")]
+    shard: Option<String>,
+    /// Worker threads in all; up to this many items run at once, each on threads/items of
+    /// them. 0 or absent: one per core.
+    #[arg(long)]
+    jobs: Option<usize>,
+    /// Cache folder (default: $HDRFLOW_CACHE_DIR, $XDG_CACHE_HOME/hdrflow or ~/.cache/hdrflow).
+    #[arg(long)]
+    cache_dir: Option<PathBuf>,
+    /// At most this many MiB of new cache entries per item run.
+    #[arg(long, default_value_t = DEFAULT_LIMIT_BYTES >> 20)]
+    cache_limit_mb: u64,
+    /// Write one JSON row per item to FILE, and the same rows to DIR/batch.csv
+    /// (DIR/batch.I-of-N.csv with --shard).
+    #[arg(long)]
+    report: Option<PathBuf>,
+    /// Run every item even after one fails (default: start no new item after a failure).
+    #[arg(long)]
+    keep_going: bool,
+    /// List the items and their folders; run nothing.
+    #[arg(long)]
+    plan: bool,
+    /// Print only errors.
+    #[arg(long, short)]
+    quiet: bool,
+}
+
+fn parse_shard(s: &str) -> Result<(usize, usize), String> {
+    let err = || format!("--shard {s:?}: expected I/N with 0 <= I < N");
+    let (i, n) = s.split_once('/').ok_or_else(err)?;
+    let (i, n): (usize, usize) = (i.trim().parse().map_err(|_| err())?, n.trim().parse().map_err(|_| err())?);
+    if n == 0 || i >= n {
+        return Err(err());
+    }
+    Ok((i, n))
+}
+
+struct Progress {
+    total: usize,
+    quiet: bool,
+    bar: Option<ProgressBar>,
+    counts: Mutex<[usize; 3]>,
+    start: Instant,
+}
+
+impl Progress {
+    fn message(&self) -> String {
+        let c = self.counts.lock().expect("progress lock");
+        let done = c[0] + c[1] + c[2];
+        format!("{} computed, {} cached, {} failed, {} left", c[0], c[1], c[2], self.total - done)
+    }
+}
+
+impl BatchObserver for Progress {
+    fn shared_phase(&self, nodes: usize) {
+        if let Some(bar) = &self.bar {
+            bar.set_message(format!("computing {nodes} nodes shared by several items"));
+        } else if !self.quiet {
+            eprintln!("shared: {nodes} nodes used by several items, computed once first");
+        }
+    }
+    fn item_finished(&self, row: &ItemRow) {
+        {
+            let mut c = self.counts.lock().expect("progress lock");
+            c[match row.status {
+                ItemStatus::Computed => 0,
+                ItemStatus::Cached => 1,
+                ItemStatus::Failed => 2,
+            }] += 1;
+        }
+        if let Some(bar) = &self.bar {
+            if let Some(e) = &row.error {
+                bar.println(format!("failed: {}: {e}", row.item.dir));
+            }
+            bar.inc(1);
+            bar.set_message(self.message());
+        } else if !self.quiet || row.error.is_some() {
+            let done: usize = self.counts.lock().expect("progress lock").iter().sum();
+            let err = row.error.as_ref().map(|e| format!(": {e}")).unwrap_or_default();
+            eprintln!("[{done}/{}] {} {} {:.1} ms{err}", self.total, row.item.dir, row.status.word(), row.ms);
+        }
+    }
+}
+
+pub(crate) fn batch(registry: &Registry, args: &BatchArgs) -> ExitCode {
+    let usage = |e: String| {
+        eprintln!("error: {e}");
+        ExitCode::from(2)
+    };
+    let mut axes = Vec::new();
+    for s in &args.over {
+        match Axis::parse(s, true) {
+            Ok(a) => axes.push(a),
+            Err(e) => return usage(e),
+        }
+    }
+    for s in &args.sweep {
+        match Axis::parse(s, false) {
+            Ok(a) => axes.push(a),
+            Err(e) => return usage(e),
+        }
+    }
+    let mut items = match batch::items(&axes, args.zip, args.item_dir.as_deref()) {
+        Ok(i) => i,
+        Err(e) => return usage(e),
+    };
+    let total_items = items.len();
+    let shard = match args.shard.as_deref().map(parse_shard).transpose() {
+        Ok(s) => s,
+        Err(e) => return usage(e),
+    };
+    if let Some((i, n)) = shard {
+        items = batch::shard(items, i, n);
+    }
+    let pipelines = match batch::validate(registry, &args.graph, &items) {
+        Ok(p) => p,
+        Err(errors) => {
+            for e in &errors {
+                eprintln!("error: {e}");
+            }
+            eprintln!(
+                "{} error{} in the batch's items; nothing was run",
+                errors.len(),
+                if errors.len() == 1 { "" } else { "s" }
+            );
+            return ExitCode::from(2);
+        }
+    };
+    if args.plan {
+        print_plan(&items, total_items, args);
+        return ExitCode::SUCCESS;
+    }
+    if let Err(e) = crate::engine::scheduler::check_output_dir(&args.out) {
+        eprintln!("error: {e}");
+        return ExitCode::from(1);
+    }
+    let terminal = std::io::stderr().is_terminal() && !args.quiet;
+    let bar = terminal.then(|| {
+        let bar = ProgressBar::new(items.len() as u64);
+        bar.set_style(
+            ProgressStyle::with_template("{bar:30} {pos}/{len} items, {msg} [{elapsed_precise}, eta {eta}]")
+                .expect("template"),
+        );
+        bar
+    });
+    let progress =
+        Progress { total: items.len(), quiet: args.quiet, bar, counts: Mutex::new([0; 3]), start: Instant::now() };
+    let cache =
+        CacheStore::new(args.cache_dir.clone().unwrap_or_else(CacheStore::default_dir), args.cache_limit_mb << 20);
+    let options = BatchOptions {
+        out_dir: args.out.clone(),
+        cache: cache.clone(),
+        jobs: args.jobs,
+        keep_going: args.keep_going,
+        observer: &progress,
+    };
+    let outcome = batch::run(&items, &pipelines, &options);
+    if let Some(bar) = &progress.bar {
+        bar.finish_and_clear();
+    }
+    let failed = outcome.rows.iter().filter(|r| r.status == ItemStatus::Failed).count();
+    let count = |s: ItemStatus| outcome.rows.iter().filter(|r| r.status == s).count();
+    if !args.quiet {
+        let secs = progress.start.elapsed().as_secs_f64();
+        eprintln!(
+            "{} items: {} computed, {} cached, {} failed, {} not started; {:.2} s ({:.2} items/s); {} node evaluations for {} items x nodes ({} shared)",
+            items.len(),
+            count(ItemStatus::Computed),
+            count(ItemStatus::Cached),
+            failed,
+            outcome.not_started,
+            secs,
+            outcome.rows.len() as f64 / secs.max(1e-9),
+            outcome.evaluations,
+            outcome.item_nodes,
+            outcome.shared_evaluations,
+        );
+    }
+    for r in outcome.rows.iter().filter(|r| r.status == ItemStatus::Failed) {
+        eprintln!("error: item {:?} failed: {}", r.item.dir, r.error.as_deref().unwrap_or(""));
+    }
+    if let Some(path) = &args.report {
+        let json = serde_json::to_string_pretty(&batch::json_rows(&outcome.rows)).expect("rows serialise");
+        let csv_name = match shard {
+            Some((i, n)) => format!("batch.{i}-of-{n}.csv"),
+            None => "batch.csv".to_string(),
+        };
+        let csv_path = args.out.join(csv_name);
+        for (p, bytes) in [(path.clone(), json.into_bytes()), (csv_path, batch::csv(&outcome.rows).into_bytes())] {
+            if let Err(e) = write_atomic(&p, &bytes) {
+                eprintln!("error: writing report {}: {e}", p.display());
+                return ExitCode::from(1);
+            }
+        }
+    }
+    if cache.root().is_dir() {
+        if let Err(e) = cache.evict() {
+            eprintln!("warning: cache pruning: {e}");
+        }
+    }
+    if failed > 0 {
+        ExitCode::from(1)
+    } else {
+        ExitCode::SUCCESS
+    }
+}
+
+fn print_plan(items: &[Item], total: usize, args: &BatchArgs) {
+    outln!("{:<6} {:<40} values", "index", "folder");
+    for it in items {
+        let values: Vec<String> = it.values.iter().map(|(k, v)| format!("{k}={v}")).collect();
+        outln!("{:<6} {:<40} {}", it.index, args.out.join(&it.dir).display(), values.join(" "));
+    }
+    outln!("{} of {} items (planned; nothing was run)", items.len(), total);
+}
