@@ -42,15 +42,31 @@ fn main() {
         h.update(&[0]);
     }
     let hash = h.finalize();
-    let out = PathBuf::from(std::env::var_os("OUT_DIR").expect("cargo sets OUT_DIR")).join("engine_salt.rs");
-    let bytes: Vec<String> = hash.as_bytes().iter().map(|b| b.to_string()).collect();
+    let out_dir = PathBuf::from(std::env::var_os("OUT_DIR").expect("cargo sets OUT_DIR"));
+    let bytes = |hash: &blake3::Hash| hash.as_bytes().iter().map(|b| b.to_string()).collect::<Vec<_>>().join(", ");
     std::fs::write(
-        out,
+        out_dir.join("engine_salt.rs"),
         format!(
             "/// BLAKE3 of the engine's and shared layers' normalised sources ({} files).\npub const ENGINE_SALT: [u8; 32] = [{}];\n",
             files.len(),
-            bytes.join(", ")
+            bytes(&hash)
         ),
     )
     .expect("writing engine_salt.rs");
+
+    // Each built-in operator file's own hash (`OpSpec::code_hash(op_code_hash!())`), looked up by
+    // the file's path: computed here because `file!()` is relative or absolute depending on how
+    // the crate is built, so an operator cannot reliably `include_str!` itself by that path.
+    let mut table = String::from("/// (operator source path relative to the crate, BLAKE3 of its normalised text).\npub const OP_SOURCES: &[(&str, [u8; 32])] = &[\n");
+    let mut op_files = Vec::new();
+    collect(Path::new("src/ops"), &mut op_files);
+    op_files.sort();
+    for f in &op_files {
+        let text = std::fs::read_to_string(f).unwrap_or_default();
+        let rel = f.to_string_lossy().replace('\\', "/");
+        let hash = blake3::hash(normalise::normalise_source(&text).as_bytes());
+        table.push_str(&format!("    ({rel:?}, [{}]),\n", bytes(&hash)));
+    }
+    table.push_str("];\n");
+    std::fs::write(out_dir.join("op_sources.rs"), table).expect("writing op_sources.rs");
 }

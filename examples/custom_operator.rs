@@ -28,7 +28,7 @@ fn invert_spec() -> OpSpec {
     OpSpec::new("Invert", "example", 1, "Replace every value v by white - v")
         .input("image", ANY_IMAGE, "the image to invert")
         .output("image", OutputType::SameAsInput("image"), "the inverted image")
-        .code(hdrflow::this_file!())
+        .code(include_str!("custom_operator.rs"))
         .eval(invert)
 }
 

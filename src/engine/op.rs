@@ -14,7 +14,7 @@
 //!     OpSpec::new("Exposure", "image", 1, "Scale an image by 2^stops")
 //!         .input("image", &[IMAGE, SCALAR_FIELD], "the image to scale")
 //!         .output("image", OutputType::SameAsInput("image"), "the scaled image")
-//!         .code(crate::this_file!())
+//!         .code_hash(crate::op_code_hash!())
 //!         .eval(|ctx, p: ExposureParams| { ... })
 //! }
 //! ```
@@ -412,11 +412,19 @@ impl OpSpec {
         self
     }
 
-    /// The operator's source text (`hdrflow::this_file!()`): its hash, with comments and
-    /// blank space removed, goes into every cache key of this operator, so a code change that
-    /// may alter results never serves a stale entry even if nobody bumped the version.
+    /// The operator's source text (from its own file: `include_str!("my_op.rs")`, a path
+    /// relative to that file): its hash, with comments and blank space removed, goes into every
+    /// cache key of this operator, so a code change that may alter results never serves a stale
+    /// entry even if nobody bumped the version.
     pub fn code(mut self, source: &str) -> Self {
         self.code_hash = *blake3::hash(normalise_source(source).as_bytes()).as_bytes();
+        self
+    }
+
+    /// The hash `code` would compute, given directly (the built-in operators take theirs from
+    /// the table `build.rs` makes: `crate::op_code_hash!()`).
+    pub fn code_hash(mut self, hash: [u8; 32]) -> Self {
+        self.code_hash = hash;
         self
     }
 
@@ -435,10 +443,32 @@ impl OpSpec {
 
 pub use crate::engine::normalise::normalise_source;
 
-/// The text of the file this macro is written in, for [`OpSpec::code`].
+include!(concat!(env!("OUT_DIR"), "/op_sources.rs"));
+
+/// The code hash of the built-in operator file at `file` (`file!()`, relative or absolute: the
+/// table entry it ends with), zero for a file the table does not hold.
+pub fn builtin_code_hash(file: &str) -> [u8; 32] {
+    let file = file.replace('\\', "/");
+    OP_SOURCES.iter().find(|(path, _)| file.ends_with(path)).map(|(_, h)| *h).unwrap_or([0; 32])
+}
+
+/// The code hash of the built-in operator file this macro is written in (see `OpSpec::code`).
+#[doc(hidden)]
 #[macro_export]
-macro_rules! this_file {
+macro_rules! op_code_hash {
     () => {
-        include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/", file!()))
+        $crate::engine::op::builtin_code_hash(file!())
     };
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn every_operator_file_has_a_code_hash() {
+        assert!(super::OP_SOURCES.len() > 20);
+        let h = super::builtin_code_hash("/abs/prefix/src/ops/image/exposure.rs");
+        assert_ne!(h, [0; 32]);
+        assert_eq!(h, super::builtin_code_hash("src/ops/image/exposure.rs"));
+        assert_ne!(h, super::builtin_code_hash("src/ops/image/luminance.rs"));
+    }
 }

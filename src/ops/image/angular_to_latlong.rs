@@ -39,7 +39,7 @@ pub fn spec() -> OpSpec {
     .input("image", ANY_IMAGE, "the angular probe (square)")
     .output("image", OutputType::SameAsInput("image"), "the lat-long map")
     .size(|_, p: AngularParams| Some((p.width as u64, p.height as u64)))
-    .code(crate::this_file!())
+    .code_hash(crate::op_code_hash!())
     .eval(eval)
     .check(check)
 }

@@ -45,7 +45,7 @@ pub fn spec() -> OpSpec {
         .input("image", ANY_IMAGE, "the image to blur")
         .output("image", OutputType::SameAsInput("image"), "the blurred image")
         .size_of_input("image")
-        .code(crate::this_file!())
+        .code_hash(crate::op_code_hash!())
         .eval(eval)
 }
 

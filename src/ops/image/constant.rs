@@ -26,7 +26,7 @@ pub fn spec() -> OpSpec {
     OpSpec::new("Constant", "image", 1, "An image of a single colour (canvas, or a constant environment)")
         .output("image", OutputType::Fixed(IMAGE_T), "the image")
         .size(|_, p: ConstantParams| Some((p.width as u64, p.height as u64)))
-        .code(crate::this_file!())
+        .code_hash(crate::op_code_hash!())
         .eval(eval)
         .check(check)
 }

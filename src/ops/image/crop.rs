@@ -35,7 +35,7 @@ pub fn spec() -> OpSpec {
         .input("image", ANY_IMAGE, "the image to crop")
         .output("image", OutputType::SameAsInput("image"), "the rectangle, same channels")
         .size(|_, p: CropParams| Some((p.width as u64, p.height as u64)))
-        .code(crate::this_file!())
+        .code_hash(crate::op_code_hash!())
         .eval(eval)
         .check(check)
 }

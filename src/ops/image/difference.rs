@@ -64,7 +64,7 @@ pub fn spec() -> OpSpec {
         .output("error", OutputType::Fixed(SCALAR_T), "the per-pixel error d, a scalar field `E`")
         .output("metrics", OutputType::Fixed(METRICS_T), "mean, max, rmse of d (and min, pixels, nonfinite)")
         .check(|ctx, _: DifferenceParams| check_same_size(ctx, "a", "b"))
-        .code(crate::this_file!())
+        .code_hash(crate::op_code_hash!())
         .eval(eval)
 }
 

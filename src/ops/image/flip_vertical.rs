@@ -13,7 +13,7 @@ pub fn spec() -> OpSpec {
         .input("image", ANY_IMAGE, "the image to flip")
         .output("image", OutputType::SameAsInput("image"), "the flipped image")
         .size_of_input("image")
-        .code(crate::this_file!())
+        .code_hash(crate::op_code_hash!())
         .eval(eval)
 }
 

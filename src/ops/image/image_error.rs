@@ -40,7 +40,7 @@ pub fn spec() -> OpSpec {
     .input("reference", ANY_IMAGE, "the reference, same size and channels")
     .output("metrics", OutputType::Fixed(METRICS_T), "the error metrics")
     .check(|ctx, _: ImageErrorParams| check_same_size(ctx, "image", "reference"))
-    .code(crate::this_file!())
+    .code_hash(crate::op_code_hash!())
     .eval(eval)
 }
 

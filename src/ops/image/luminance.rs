@@ -27,7 +27,7 @@ pub fn spec() -> OpSpec {
         .input("image", ANY_IMAGE, "the RGB image (a scalar field passes through)")
         .output("luminance", OutputType::Fixed(SCALAR_T), "the luminance")
         .size_of_input("image")
-        .code(crate::this_file!())
+        .code_hash(crate::op_code_hash!())
         .eval(eval)
 }
 

@@ -65,7 +65,7 @@ pub fn spec() -> OpSpec {
     .optional_input("b", ANY_IMAGE, "the second operand: a scalar field broadcasts over a's channels; unwired: `value`")
     .output("image", OutputType::SameAsInput("a"), "a (op) b")
     .size_of_input("a")
-    .code(crate::this_file!())
+    .code_hash(crate::op_code_hash!())
     .eval(eval)
     .check(check)
 }

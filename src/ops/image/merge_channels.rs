@@ -56,7 +56,7 @@ pub fn spec() -> OpSpec {
     )
     .output("image", OutputType::Computed(output_type), "one channel in all: a scalar field; else an image")
     .size_of_input("channels")
-    .code(crate::this_file!())
+    .code_hash(crate::op_code_hash!())
     .eval(eval)
     .check(check)
 }

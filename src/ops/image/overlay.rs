@@ -36,7 +36,7 @@ pub fn spec() -> OpSpec {
     .input("samples", &[SAMPLES_T], "the samples to draw")
     .output("image", OutputType::Fixed(IMAGE_T), "the image with the samples drawn (RGB)")
     .size_of_input("image")
-    .code(crate::this_file!())
+    .code_hash(crate::op_code_hash!())
     .eval(eval)
 }
 

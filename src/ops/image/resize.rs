@@ -34,7 +34,7 @@ pub fn spec() -> OpSpec {
         .input("image", ANY_IMAGE, "the image to resize")
         .output("image", OutputType::SameAsInput("image"), "the resized image")
         .size(|_, p: ResizeParams| Some((p.width as u64, p.height as u64)))
-        .code(crate::this_file!())
+        .code_hash(crate::op_code_hash!())
         .eval(eval)
         .check(check)
 }

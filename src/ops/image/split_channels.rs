@@ -23,7 +23,7 @@ pub fn spec() -> OpSpec {
         .input("image", ANY_IMAGE, "the image to split")
         .open_ports(SCALAR_T, "one port per channel, named like it: \"split.R\", \"split.A\" (no default port)")
         .size_of_input("image")
-        .code(crate::this_file!())
+        .code_hash(crate::op_code_hash!())
         .eval(eval)
 }
 

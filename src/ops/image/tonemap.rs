@@ -58,7 +58,7 @@ pub fn spec() -> OpSpec {
         .input("image", ANY_IMAGE, "linear radiance")
         .output("image", OutputType::SameAsInput("image"), "display-referred linear values in [0, 1]; alpha unchanged")
         .size_of_input("image")
-        .code(crate::this_file!())
+        .code_hash(crate::op_code_hash!())
         .eval(eval)
 }
 

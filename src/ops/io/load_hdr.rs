@@ -31,7 +31,7 @@ pub fn spec() -> OpSpec {
     )
     .output("image", OutputType::Fixed(IMAGE_T), "the image (RGB, or RGBA for an EXR with alpha)")
     .size(size)
-    .code(crate::this_file!())
+    .code_hash(crate::op_code_hash!())
     .content_key(content_key)
     .eval(eval)
 }

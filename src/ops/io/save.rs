@@ -42,7 +42,7 @@ pub fn spec() -> OpSpec {
             "(.png) take the automatic exposure from this image instead, so several PNGs share one exposure",
         )
         .output("file", OutputType::Fixed(ValueType(&FILE)), "the encoded file (the engine writes it into --out)")
-        .code(crate::this_file!())
+        .code_hash(crate::op_code_hash!())
         .eval(eval)
         .check(check)
 }

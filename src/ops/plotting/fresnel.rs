@@ -29,7 +29,7 @@ pub fn spec() -> OpSpec {
         "Dielectric Fresnel reflectance curves (Rs, Rp, R) with exact Brewster and critical angles",
     )
     .output("curves", OutputType::Fixed(CURVES_T), "Rs, Rp and R against the angle of incidence")
-    .code(crate::this_file!())
+    .code_hash(crate::op_code_hash!())
     .eval(eval)
 }
 

@@ -27,7 +27,7 @@ pub fn spec() -> OpSpec {
     .input("luminance", &[SCALAR_T], "the lat-long luminance (Luminance of the map)")
     .output("cdf", OutputType::Fixed(DISTRIBUTION_T), "the distribution")
     .size_of_input("luminance")
-    .code(crate::this_file!())
+    .code_hash(crate::op_code_hash!())
     .eval(eval)
 }
 

@@ -50,7 +50,7 @@ pub fn spec() -> OpSpec {
         "Draw directions from a modified Phong lobe cos^s around the mirror direction",
     )
     .output("samples", OutputType::Fixed(SAMPLES_T), "the samples")
-    .code(crate::this_file!())
+    .code_hash(crate::op_code_hash!())
     .eval(eval)
 }
 

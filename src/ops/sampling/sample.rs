@@ -31,7 +31,7 @@ pub fn spec() -> OpSpec {
         .input("cdf", &[DISTRIBUTION_T], "the distribution (BuildCdf)")
         .output("samples", OutputType::Fixed(SAMPLES_T), "the samples")
         .size_of_input("cdf")
-        .code(crate::this_file!())
+        .code_hash(crate::op_code_hash!())
         .eval(eval)
 }
 

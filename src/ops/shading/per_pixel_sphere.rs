@@ -47,7 +47,7 @@ pub fn spec() -> OpSpec {
     .output("image", OutputType::Fixed(IMAGE_T), "the relit sphere")
     .size(|_, p: PerPixelParams| Some((p.size as u64, p.size as u64)))
     .check(|ctx, _: PerPixelParams| check_same_size(ctx, "env", "cdf"))
-    .code(crate::this_file!())
+    .code_hash(crate::op_code_hash!())
     .eval(eval)
 }
 

@@ -30,7 +30,7 @@ pub fn spec() -> OpSpec {
     .input("env", &[IMAGE_T], "the lat-long environment (linear RGB)")
     .output("image", OutputType::Fixed(IMAGE_T), "the exactly relit sphere")
     .size(|_, p: ReferenceParams| Some((p.size as u64, p.size as u64)))
-    .code(crate::this_file!())
+    .code_hash(crate::op_code_hash!())
     .eval(eval)
 }
 

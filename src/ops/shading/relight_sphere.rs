@@ -57,7 +57,7 @@ pub fn spec() -> OpSpec {
     .output("image", OutputType::Fixed(IMAGE_T), "the relit sphere")
     .size(|_, p: RelightParams| Some((p.size as u64, p.size as u64)))
     .check(check_grid)
-    .code(crate::this_file!())
+    .code_hash(crate::op_code_hash!())
     .eval(eval)
 }
 

@@ -62,7 +62,7 @@ pub fn spec() -> OpSpec {
         OutputType::Fixed(METRICS_T),
         "the same numbers as flat fields L_l_m_channel (version 1's output)",
     )
-    .code(crate::this_file!())
+    .code_hash(crate::op_code_hash!())
     .eval(eval)
 }
 
