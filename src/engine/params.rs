@@ -121,6 +121,9 @@ fn fmt_bound(v: f64) -> String {
         "inf".into()
     } else if v == f64::NEG_INFINITY {
         "-inf".into()
+    } else if v.abs() >= 1e7 || (v != 0.0 && v.abs() < 1e-4) {
+        // Short scientific form for the extremes (f64::MAX, 1e-30), not 309 digits.
+        format!("{v:e}")
     } else {
         format!("{v}")
     }
