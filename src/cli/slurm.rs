@@ -53,7 +53,7 @@ pub(crate) fn apply_slurm_args(mut lines: Vec<SbatchLine>, args: &[String]) -> R
             Some((k, v)) => (k, Some(v.to_string())),
             None => (a.as_str(), None),
         };
-        let key = key.trim().trim_start_matches("--");
+        let key = key.trim_start_matches("--");
         if key.is_empty() || !key.chars().all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_') {
             return Err(format!("--slurm-arg {a:?}: expected KEY=VALUE or KEY (an sbatch long option name)"));
         }
