@@ -174,7 +174,7 @@ fn emitted_job_array_runs_resubmits_failed_shards_and_matches_one_process() {
         assert!(script.contains(line), "{line:?} missing:\n{script}");
     }
     let abs_out = sb.join(out);
-    assert!(script.contains(&format!("#SBATCH --output={}/slurm/%A_%a.out", abs_out.display())), "{script}");
+    assert!(script.contains(&format!("#SBATCH --output=\"{}/slurm/%A_%a.out\"", abs_out.display())), "{script}");
     assert!(!script.contains("#SBATCH --job-name=hdrflow-batch"), "{script}");
     assert!(abs_out.join("slurm").is_dir() && abs_out.join("shards").is_dir());
     let resubmit = sb.join("job script.sh.resubmit");

@@ -27,6 +27,8 @@ pub(crate) struct SbatchLine {
 impl SbatchLine {
     fn render(&self) -> String {
         match &self.value {
+            // sbatch reads `#SBATCH` lines itself, splitting at blanks outside double quotes.
+            Some(v) if v.contains(char::is_whitespace) => format!("#SBATCH --{}=\"{v}\"", self.key),
             Some(v) => format!("#SBATCH --{}={v}", self.key),
             None => format!("#SBATCH --{}", self.key),
         }
@@ -57,8 +59,8 @@ pub(crate) fn apply_slurm_args(mut lines: Vec<SbatchLine>, args: &[String]) -> R
         if key.is_empty() || !key.chars().all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_') {
             return Err(format!("--slurm-arg {a:?}: expected KEY=VALUE or KEY (an sbatch long option name)"));
         }
-        if value.as_deref().is_some_and(|v| v.contains('\n')) {
-            return Err(format!("--slurm-arg {a:?}: a value cannot span lines"));
+        if value.as_deref().is_some_and(|v| v.contains(['\n', '"'])) {
+            return Err(format!("--slurm-arg {a:?}: a value cannot hold a line break or a double quote"));
         }
         let new = SbatchLine { key: key.to_string(), value };
         match lines.iter_mut().find(|l| l.key == new.key) {
@@ -248,10 +250,12 @@ mod tests {
                 "#SBATCH --exclusive",
             ]
         );
+        let spaced = default_lines(2, 1, Path::new("/o d"));
+        assert_eq!(spaced[3].render(), "#SBATCH --output=\"/o d/slurm/%A_%a.out\"");
         // The last of two values for one key wins.
         let got = apply_slurm_args(vec![], &["time=1".into(), "time=2".into()]).unwrap();
         assert_eq!(got, vec![SbatchLine { key: "time".into(), value: Some("2".into()) }]);
-        for bad in ["=x", "a b=1", "--=1", "t\n=1", "time=a\nb"] {
+        for bad in ["=x", "a b=1", "--=1", "t\n=1", "time=a\nb", "comment=\"x\""] {
             assert!(apply_slurm_args(vec![], &[bad.into()]).is_err(), "{bad:?}");
         }
     }
