@@ -255,6 +255,17 @@ fn a_report_missing_an_item_or_a_bad_option_is_caught() {
     std::fs::write(&r, "{ torn").unwrap();
     assert_eq!(run(&["--failed-shards", "2"]).stdout.trim(), "1");
 
+    // A shard that stops at a failing item reports the items it never started.
+    let mut broken = pfm(16, 8, 1.0);
+    broken.truncate(broken.len() / 2);
+    sb.write(format!("{MAPS}/m0.pfm"), broken);
+    run(&["--shard", "0/2", "--report", "o/shards/shard-0-of-2.json", "--jobs", "1"]).assert_code(1);
+    let rows: serde_json::Value = serde_json::from_slice(&read_file(&sb.join("o/shards/shard-0-of-2.json"))).unwrap();
+    let statuses: Vec<&str> = rows.as_array().unwrap().iter().map(|r| r["status"].as_str().unwrap()).collect();
+    assert_eq!(statuses, ["failed", "not started", "not started"], "{rows}");
+    let o = run(&["--failed-shards", "2"]);
+    assert_eq!(o.stdout.trim(), "0,1", "{}", o.describe());
+
     run(&["--emit-slurm", "j.sh", "--slurm-arg", "bad key=1"]).assert_code(2);
     run(&["--emit-slurm", "j.sh", "--shard", "0/2"]).assert_code(2);
     run(&["--shards", "2"]).assert_code(2);

@@ -259,7 +259,21 @@ pub(crate) fn batch(registry: &Registry, args: &BatchArgs) -> ExitCode {
         eprintln!("error: item {:?} failed: {}", r.item.dir, r.error.as_deref().unwrap_or(""));
     }
     if let Some(path) = &args.report {
-        let json = serde_json::to_string_pretty(&batch::json_rows(&outcome.rows)).expect("rows serialise");
+        let mut rows = batch::json_rows(&outcome.rows);
+        // Items never started (after a failure, without --keep-going) get a row too, so the
+        // report has a status for every item of the shard.
+        if let Some(rows) = rows.as_array_mut() {
+            for it in items.iter().filter(|it| !outcome.rows.iter().any(|r| r.item.index == it.index)) {
+                let values: serde_json::Map<String, serde_json::Value> =
+                    it.values.iter().map(|(k, v)| (k.clone(), v.clone().into())).collect();
+                rows.push(serde_json::json!({
+                    "item": it.dir, "index": it.index, "values": values, "status": "not started",
+                    "ms": 0.0, "error": null, "evaluations": 0, "metrics": {},
+                }));
+            }
+            rows.sort_by_key(|r| r["index"].as_u64());
+        }
+        let json = serde_json::to_string_pretty(&rows).expect("rows serialise");
         let csv_name = match shard {
             Some((i, n)) => format!("batch.{i}-of-{n}.csv"),
             None => "batch.csv".to_string(),
