@@ -9,6 +9,7 @@ use std::time::Instant;
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 
+use super::slurm;
 use crate::batch::{self, Axis, BatchObserver, BatchOptions, Item, ItemRow, ItemStatus};
 use crate::engine::cache::store::{write_atomic, DEFAULT_LIMIT_BYTES};
 use crate::engine::cache::CacheStore;
@@ -61,6 +62,24 @@ pub(crate) struct BatchArgs {
     /// Print only errors.
     #[arg(long, short)]
     quiet: bool,
+    /// Run nothing: write an `sbatch` script FILE running the batch as a Slurm job array (one
+    /// element per shard, reports in DIR/shards/), and FILE.resubmit, which resubmits the shards
+    /// that did not finish. Cache and output folders must be on a filesystem every node sees.
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["shard", "report", "plan", "failed_shards"])]
+    emit_slurm: Option<PathBuf>,
+    /// With --emit-slurm: the number of shards (array elements). Default: the number of items,
+    /// at most 64.
+    #[arg(long, value_name = "N", requires = "emit_slurm")]
+    shards: Option<usize>,
+    /// With --emit-slurm: an `#SBATCH --KEY=VALUE` line (or `--KEY` for KEY alone), replacing the
+    /// default line with the same key (array, job-name, cpus-per-task, output) or added (repeatable).
+    #[arg(long, value_name = "KEY=VALUE", requires = "emit_slurm")]
+    slurm_arg: Vec<String>,
+    /// Run nothing: print the shards (of N) whose report DIR/shards/shard-I-of-N.json is missing,
+    /// lacks an item or has an item neither computed nor cached, as a comma list for
+    /// `sbatch --array=LIST` (empty when every shard finished).
+    #[arg(long, value_name = "N", conflicts_with_all = ["shard", "report", "plan"])]
+    failed_shards: Option<usize>,
 }
 
 fn parse_shard(s: &str) -> Result<(usize, usize), String> {
@@ -143,6 +162,25 @@ pub(crate) fn batch(registry: &Registry, args: &BatchArgs) -> ExitCode {
         Err(e) => return usage(e),
     };
     let total_items = items.len();
+    if let Some(n) = args.failed_shards {
+        if n == 0 {
+            return usage("--failed-shards 0: expected N >= 1".to_string());
+        }
+        let mut failed = Vec::new();
+        for i in 0..n {
+            if let Some(why) = slurm::shard_problem(&items, &args.out, i, n) {
+                if !args.quiet {
+                    eprintln!("shard {i} of {n} not finished: {why}");
+                }
+                failed.push(i);
+            }
+        }
+        if !args.quiet {
+            eprintln!("{} of {n} shards not finished", failed.len());
+        }
+        outln!("{}", slurm::array_list(&failed));
+        return ExitCode::SUCCESS;
+    }
     let shard = match args.shard.as_deref().map(parse_shard).transpose() {
         Ok(s) => s,
         Err(e) => return usage(e),
@@ -164,6 +202,9 @@ pub(crate) fn batch(registry: &Registry, args: &BatchArgs) -> ExitCode {
             return ExitCode::from(2);
         }
     };
+    if let Some(file) = &args.emit_slurm {
+        return emit_slurm(file, total_items, args);
+    }
     if args.plan {
         print_plan(&items, total_items, args);
         return ExitCode::SUCCESS;
@@ -218,7 +259,21 @@ pub(crate) fn batch(registry: &Registry, args: &BatchArgs) -> ExitCode {
         eprintln!("error: item {:?} failed: {}", r.item.dir, r.error.as_deref().unwrap_or(""));
     }
     if let Some(path) = &args.report {
-        let json = serde_json::to_string_pretty(&batch::json_rows(&outcome.rows)).expect("rows serialise");
+        let mut rows = batch::json_rows(&outcome.rows);
+        // Items never started (after a failure, without --keep-going) get a row too, so the
+        // report has a status for every item of the shard.
+        if let Some(rows) = rows.as_array_mut() {
+            for it in items.iter().filter(|it| !outcome.rows.iter().any(|r| r.item.index == it.index)) {
+                let values: serde_json::Map<String, serde_json::Value> =
+                    it.values.iter().map(|(k, v)| (k.clone(), v.clone().into())).collect();
+                rows.push(serde_json::json!({
+                    "item": it.dir, "index": it.index, "values": values, "status": "not started",
+                    "ms": 0.0, "error": null, "evaluations": 0, "metrics": {},
+                }));
+            }
+            rows.sort_by_key(|r| r["index"].as_u64());
+        }
+        let json = serde_json::to_string_pretty(&rows).expect("rows serialise");
         let csv_name = match shard {
             Some((i, n)) => format!("batch.{i}-of-{n}.csv"),
             None => "batch.csv".to_string(),
@@ -250,4 +305,85 @@ fn print_plan(items: &[Item], total: usize, args: &BatchArgs) {
         outln!("{:<6} {:<40} {}", it.index, args.out.join(&it.dir).display(), values.join(" "));
     }
     outln!("{} of {} items (planned; nothing was run)", items.len(), total);
+}
+
+/// `--emit-slurm FILE`: writes the `sbatch` script and FILE.resubmit (mode 755), creates
+/// DIR/slurm and DIR/shards (Slurm does not create the folder of `--output`).
+fn emit_slurm(file: &std::path::Path, total_items: usize, args: &BatchArgs) -> ExitCode {
+    let fail = |e: String| {
+        eprintln!("error: {e}");
+        ExitCode::from(1)
+    };
+    let shards = args.shards.unwrap_or(total_items.clamp(1, 64));
+    if shards == 0 {
+        eprintln!("error: --shards 0: expected N >= 1");
+        return ExitCode::from(2);
+    }
+    let abs = |p: &std::path::Path| std::path::absolute(p).map_err(|e| format!("{}: {e}", p.display()));
+    let paths = (|| -> Result<_, String> {
+        let exe = std::env::current_exe().map_err(|e| format!("the hdrflow executable's path: {e}"))?;
+        let cwd = std::env::current_dir().map_err(|e| format!("the working folder: {e}"))?;
+        let cache = args.cache_dir.clone().unwrap_or_else(CacheStore::default_dir);
+        Ok((exe, cwd, abs(&args.graph)?, abs(&args.out)?, abs(&cache)?, abs(file)?))
+    })();
+    let (exe, cwd, graph, out, cache, file) = match paths {
+        Ok(p) => p,
+        Err(e) => return fail(e),
+    };
+    let mut options = Vec::new();
+    for o in &args.over {
+        options.extend(["--over".to_string(), o.clone()]);
+    }
+    for o in &args.sweep {
+        options.extend(["--sweep".to_string(), o.clone()]);
+    }
+    if args.zip {
+        options.push("--zip".into());
+    }
+    if let Some(t) = &args.item_dir {
+        options.extend(["--item-dir".to_string(), t.clone()]);
+    }
+    if let Some(j) = args.jobs {
+        options.extend(["--jobs".to_string(), j.to_string()]);
+    }
+    options.extend(["--cache-dir".to_string(), cache.to_string_lossy().into_owned()]);
+    options.extend(["--cache-limit-mb".to_string(), args.cache_limit_mb.to_string()]);
+    if args.keep_going {
+        options.push("--keep-going".into());
+    }
+    let cpus = args.jobs.filter(|&j| j > 0).unwrap_or(1);
+    let lines = match slurm::apply_slurm_args(slurm::default_lines(shards, cpus, &out), &args.slurm_arg) {
+        Ok(l) => l,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    let spec = slurm::ScriptSpec { exe, cwd, graph, options, out: out.clone(), shards, lines };
+    for d in [out.join("slurm"), out.join("shards")] {
+        if let Err(e) = std::fs::create_dir_all(&d) {
+            return fail(format!("creating {}: {e}", d.display()));
+        }
+    }
+    let mut resubmit = file.clone().into_os_string();
+    resubmit.push(".resubmit");
+    let resubmit = PathBuf::from(resubmit);
+    for (p, text) in [(&file, spec.sbatch_script()), (&resubmit, spec.resubmit_script(&file))] {
+        if let Err(e) = write_atomic(p, text.as_bytes()) {
+            return fail(format!("writing {}: {e}", p.display()));
+        }
+        use std::os::unix::fs::PermissionsExt;
+        if let Err(e) = std::fs::set_permissions(p, std::fs::Permissions::from_mode(0o755)) {
+            return fail(format!("making {} executable: {e}", p.display()));
+        }
+    }
+    if !args.quiet {
+        eprintln!(
+            "wrote {} ({total_items} items in {shards} shards; submit with `sbatch {}`) and {} (resubmits unfinished shards)",
+            file.display(),
+            file.display(),
+            resubmit.display()
+        );
+    }
+    ExitCode::SUCCESS
 }

@@ -27,6 +27,7 @@ macro_rules! out {
 
 mod batch;
 mod progress;
+mod slurm;
 
 /// A closed pipe ends the program successfully; any other write error is reported.
 pub(crate) fn stdout_failed(e: std::io::Error) -> ! {
