@@ -7,39 +7,12 @@ use std::time::{Duration, Instant};
 
 use common::*;
 
-/// A `w` x `h` PFM (RGB, little-endian) with a gradient scaled by `scale`.
-fn pfm(w: usize, h: usize, scale: f32) -> Vec<u8> {
-    let mut b = format!("PF\n{w} {h}\n-1.0\n").into_bytes();
-    for y in 0..h {
-        for x in 0..w {
-            for c in 0..3 {
-                let v = scale * (1.0 + x as f32 / w as f32 + y as f32 / h as f32 + c as f32 * 0.1);
-                b.extend_from_slice(&v.to_le_bytes());
-            }
-        }
-    }
-    b
-}
-
 /// Six maps `maps/m0.pfm`..`m5.pfm` (`w` x `h`) and a pipeline over them.
 fn library(sb: &Sandbox, w: usize, h: usize) -> PathBuf {
     for i in 0..6 {
-        sb.write(format!("maps/m{i}.pfm"), pfm(w, h, 1.0 + i as f32));
+        sb.write(format!("maps/m{i}.pfm"), common::small_pfm(w, h, 1.0 + i as f32));
     }
-    sb.write(
-        "g.ron",
-        r#"( nodes: {
-  "env":  LoadHdr(path: "maps/m0.pfm"),
-  "flat": Constant(width: 16, height: 8, color: 0.25),
-  "soft": Blur(image: "flat", sigma: 2),
-  "blur": Blur(image: "env", sigma: 3, wrap: true),
-  "e":    Exposure(image: "blur", stops: 0),
-  "diff": Difference(a: "e", b: "env"),
-  "s1":   Save(input: "e", path: "e.pfm"),
-  "s2":   Save(input: "diff.metrics", path: "m.json"),
-  "s3":   Save(input: "soft", path: "soft.pfm"),
-} )"#,
-    )
+    sb.write("g.ron", common::batch_graph("maps/m0.pfm"))
 }
 
 fn batch(sb: &Sandbox, graph: &Path, out: &Path, extra: &[&str]) -> Output {
@@ -157,7 +130,7 @@ fn a_failing_item_is_named_and_stops_the_batch_unless_keep_going() {
     let sb = Sandbox::new();
     let g = library(&sb, 16, 8);
     // m1: a valid header with its pixels cut short.
-    let mut broken = pfm(16, 8, 1.0);
+    let mut broken = common::small_pfm(16, 8, 1.0);
     broken.truncate(broken.len() / 2);
     sb.write("maps/m1.pfm", broken);
     let stop = batch(&sb, &g, &sb.join("a"), &["--jobs", "1"]);

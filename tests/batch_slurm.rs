@@ -11,41 +11,14 @@ use std::time::Duration;
 
 use common::*;
 
-/// A `w` x `h` PFM (RGB, little-endian) with a gradient scaled by `scale`.
-fn pfm(w: usize, h: usize, scale: f32) -> Vec<u8> {
-    let mut b = format!("PF\n{w} {h}\n-1.0\n").into_bytes();
-    for y in 0..h {
-        for x in 0..w {
-            for c in 0..3 {
-                let v = scale * (1.0 + x as f32 / w as f32 + y as f32 / h as f32 + c as f32 * 0.1);
-                b.extend_from_slice(&v.to_le_bytes());
-            }
-        }
-    }
-    b
-}
-
 /// Six maps in a folder whose name has a space and a quote, and a pipeline over them.
 const MAPS: &str = "my 'maps'";
 
 fn library(sb: &Sandbox) {
     for i in 0..6 {
-        sb.write(format!("{MAPS}/m{i}.pfm"), pfm(16, 8, 1.0 + i as f32));
+        sb.write(format!("{MAPS}/m{i}.pfm"), common::small_pfm(16, 8, 1.0 + i as f32));
     }
-    sb.write(
-        "g.ron",
-        r#"( nodes: {
-  "env":  LoadHdr(path: "unused.pfm"),
-  "flat": Constant(width: 16, height: 8, color: 0.25),
-  "soft": Blur(image: "flat", sigma: 2),
-  "blur": Blur(image: "env", sigma: 3, wrap: true),
-  "e":    Exposure(image: "blur", stops: 0),
-  "diff": Difference(a: "e", b: "env"),
-  "s1":   Save(input: "e", path: "e.pfm"),
-  "s2":   Save(input: "diff.metrics", path: "m.json"),
-  "s3":   Save(input: "soft", path: "soft.pfm"),
-} )"#,
-    );
+    sb.write("g.ron", common::batch_graph("unused.pfm"));
 }
 
 /// The fake `sbatch`: `--array=LIST` from the command line, else from the script's `#SBATCH
@@ -256,7 +229,7 @@ fn a_report_missing_an_item_or_a_bad_option_is_caught() {
     assert_eq!(run(&["--failed-shards", "2"]).stdout.trim(), "1");
 
     // A shard that stops at a failing item reports the items it never started.
-    let mut broken = pfm(16, 8, 1.0);
+    let mut broken = common::small_pfm(16, 8, 1.0);
     broken.truncate(broken.len() / 2);
     sb.write(format!("{MAPS}/m0.pfm"), broken);
     run(&["--shard", "0/2", "--report", "o/shards/shard-0-of-2.json", "--jobs", "1"]).assert_code(1);

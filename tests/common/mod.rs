@@ -391,3 +391,36 @@ pub fn skip_missing_data(what: &str) {
     }
     eprintln!("SKIPPED: {what}");
 }
+
+/// A small RGB PFM map (little-endian) whose values grow with x, y and the channel, times
+/// `scale`: a library of distinct maps for the batch tests.
+pub fn small_pfm(w: usize, h: usize, scale: f32) -> Vec<u8> {
+    let mut b = format!("PF\n{w} {h}\n-1.0\n").into_bytes();
+    for y in 0..h {
+        for x in 0..w {
+            for c in 0..3 {
+                let v = scale * (1.0 + x as f32 / w as f32 + y as f32 / h as f32 + c as f32 * 0.1);
+                b.extend_from_slice(&v.to_le_bytes());
+            }
+        }
+    }
+    b
+}
+
+/// The batch tests' pipeline: a map (`env`, at `env_path`) blurred and compared with itself,
+/// beside nodes no swept field reaches (computed once per batch).
+pub fn batch_graph(env_path: &str) -> String {
+    format!(
+        r#"( nodes: {{
+  "env":  LoadHdr(path: "{env_path}"),
+  "flat": Constant(width: 16, height: 8, color: 0.25),
+  "soft": Blur(image: "flat", sigma: 2),
+  "blur": Blur(image: "env", sigma: 3, wrap: true),
+  "e":    Exposure(image: "blur", stops: 0),
+  "diff": Difference(a: "e", b: "env"),
+  "s1":   Save(input: "e", path: "e.pfm"),
+  "s2":   Save(input: "diff.metrics", path: "m.json"),
+  "s3":   Save(input: "soft", path: "soft.pfm"),
+}} )"#
+    )
+}
