@@ -453,24 +453,7 @@ macro_rules! choice {
             }
         }
 
-        impl $crate::engine::params::Param for $name {
-            fn kind(_: Option<(f64, f64)>) -> $crate::engine::params::FieldKind {
-                $crate::engine::params::FieldKind::Choice(<$name as $crate::engine::params::Choice>::NAMES)
-            }
-            fn to_value(&self) -> $crate::engine::params::ParamValue {
-                $crate::engine::params::ParamValue::Choice(
-                    <$name as $crate::engine::params::Choice>::name(*self).to_string(),
-                )
-            }
-            fn from_value(v: &$crate::engine::params::ParamValue) -> Option<Self> {
-                match v {
-                    $crate::engine::params::ParamValue::Choice(s) => {
-                        <$name as $crate::engine::params::Choice>::from_name(s)
-                    }
-                    _ => None,
-                }
-            }
-        }
+        $crate::choice_param!($name);
     };
 }
 

@@ -25,8 +25,6 @@ pub struct SaveOptions {
     pub exposure: f64,
     /// Plot width and height in pixels (curve plots).
     pub plot_size: (u32, u32),
-    /// Extra, type-specific choices (EXR compression, half floats, ...), as `name -> value`.
-    pub extra: Vec<(String, String)>,
 }
 
 /// Encodes a value as a file's bytes (the extension is in the options).

@@ -188,11 +188,6 @@ impl Pipeline {
         v
     }
 
-    /// `node` or `node.port` as a user writes it (the default port has no suffix).
-    pub fn port_label(&self, r: PortRef) -> String {
-        self.nodes[r.node].port_label(r.port)
-    }
-
     /// Graphviz DOT: one box per node (name, operator, ports), edges labelled with input
     /// fields and the port they take.
     pub fn to_dot(&self) -> String {

@@ -22,7 +22,7 @@ use petgraph::graph::DiGraph;
 use super::syntax::{self, Pos, Ron, Spanned};
 use super::{InputWire, Node, Override, Pipeline, Port, PortRef};
 use crate::engine::error::{PipelineError, PipelineErrors};
-use crate::engine::op::{CheckContext, OpSpec, OutputType};
+use crate::engine::op::{check_pixels, CheckContext, OpSpec, OutputType};
 use crate::engine::params::{Arity, FieldKind, FieldSpec, ParamValue, Params};
 use crate::engine::registry::Registry;
 use crate::engine::value::ValueType;
@@ -500,17 +500,6 @@ fn resolve_fields(
     if !ok || !errs.errors.is_empty() {
         return None;
     }
-    // Port indices were taken while open ports were still being added; names are stable, so
-    // recompute them now that every port is known.
-    for (node, refs) in nodes.iter_mut().zip(&all_refs) {
-        for w in &mut node.inputs {
-            if let Some(written) = refs.get(w.field) {
-                for (s, r) in w.sources.iter_mut().zip(written) {
-                    s.port = port_index(&port_names[r.node], &r.port);
-                }
-            }
-        }
-    }
     Some((nodes, all_refs, port_names))
 }
 
@@ -714,8 +703,15 @@ fn infer_types(
             }
         }
         if ports_ok {
+            // The pixel budget, for every node whose output size is known before running.
+            let mut size = spec.size.as_ref().and_then(|f| f(&ctx));
+            if let Some(Err(message)) = size.map(|(w, h)| check_pixels(w, h)) {
+                let (pos, origin) = field_pos(spec.field("width").map(|f| f.name));
+                errs.push_from(&origin, Some(pos), Some(&nodes[i].name), message);
+                size = None;
+            }
             nodes[i].ports = ports;
-            nodes[i].size = spec.size.as_ref().and_then(|f| f(&ctx));
+            nodes[i].size = size;
         }
     }
 }

@@ -12,7 +12,6 @@
 use rayon::prelude::*;
 
 use crate::data::Image;
-use crate::engine::op::{check_pixels, CheckContext, CheckProblem};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
 use crate::engine::value::Value;
 use crate::geometry::latlong;
@@ -41,11 +40,6 @@ pub fn spec() -> OpSpec {
     .size(|_, p: AngularParams| Some((p.width as u64, p.height as u64)))
     .code_hash(crate::op_code_hash!())
     .eval(eval)
-    .check(check)
-}
-
-fn check(_: &CheckContext, p: AngularParams) -> Result<(), CheckProblem> {
-    check_pixels(p.width as u64, p.height as u64).map_err(|m| CheckProblem::at("width", m))
 }
 
 /// Image-plane coordinates (u, v) in [-1, 1] of direction `d` in the angular map.

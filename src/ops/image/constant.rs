@@ -2,7 +2,6 @@
 //! constant environment whose relit sphere is exactly albedo * color).
 
 use crate::data::Image;
-use crate::engine::op::{check_pixels, CheckContext, CheckProblem};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
 use crate::engine::params::Rgb;
 use crate::engine::value::Value;
@@ -28,11 +27,6 @@ pub fn spec() -> OpSpec {
         .size(|_, p: ConstantParams| Some((p.width as u64, p.height as u64)))
         .code_hash(crate::op_code_hash!())
         .eval(eval)
-        .check(check)
-}
-
-fn check(_: &CheckContext, p: ConstantParams) -> Result<(), CheckProblem> {
-    check_pixels(p.width as u64, p.height as u64).map_err(|m| CheckProblem::at("width", m))
 }
 
 fn eval(_: &mut OpContext, p: ConstantParams) -> Result<Value, OpError> {

@@ -8,7 +8,6 @@
 //! an error that names the image's size (nothing is padded or clamped).
 
 use crate::data::Image;
-use crate::engine::op::{check_pixels, CheckContext, CheckProblem};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
 use crate::engine::value::Value;
 use crate::types::ty::*;
@@ -37,11 +36,6 @@ pub fn spec() -> OpSpec {
         .size(|_, p: CropParams| Some((p.width as u64, p.height as u64)))
         .code_hash(crate::op_code_hash!())
         .eval(eval)
-        .check(check)
-}
-
-fn check(_: &CheckContext, p: CropParams) -> Result<(), CheckProblem> {
-    check_pixels(p.width as u64, p.height as u64).map_err(|m| CheckProblem::at("width", m))
 }
 
 /// The rectangle, or an error naming the image's size if it does not fit.

@@ -13,7 +13,6 @@
 use rayon::prelude::*;
 
 use crate::data::Image;
-use crate::engine::op::{check_pixels, CheckContext, CheckProblem};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
 use crate::engine::value::Value;
 use crate::types::ty::*;
@@ -36,11 +35,6 @@ pub fn spec() -> OpSpec {
         .size(|_, p: ResizeParams| Some((p.width as u64, p.height as u64)))
         .code_hash(crate::op_code_hash!())
         .eval(eval)
-        .check(check)
-}
-
-fn check(_: &CheckContext, p: ResizeParams) -> Result<(), CheckProblem> {
-    check_pixels(p.width as u64, p.height as u64).map_err(|m| CheckProblem::at("width", m))
 }
 
 /// For each output index, the (input index, weight) pairs; weights sum to 1.

@@ -96,5 +96,7 @@ fn size(ctx: &CheckContext, p: LoadHdrParams) -> Size {
         Some(name) => formats::builtin::builtin_size(name)?,
         None => formats::header_size(&resolve_path(ctx.base_dir, &p.path.0))?,
     };
-    Some((w as u64, h as u64))
+    // A header beyond the pixel budget is left to the decoder, whose error names the file.
+    let (w, h) = (w as u64, h as u64);
+    w.checked_mul(h).is_some_and(|n| n <= crate::engine::op::MAX_PIXELS).then_some((w, h))
 }

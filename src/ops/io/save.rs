@@ -89,12 +89,8 @@ fn eval(ctx: &mut OpContext, p: SaveParams) -> Result<Value, OpError> {
             exposure += auto_exposure(&crate::types::distribution::pdf_image(d));
         }
     }
-    let options = SaveOptions {
-        ext: p.path.extension(),
-        exposure,
-        plot_size: (p.plot_size[0] as u32, p.plot_size[1] as u32),
-        extra: Vec::new(),
-    };
+    let options =
+        SaveOptions { ext: p.path.extension(), exposure, plot_size: (p.plot_size[0] as u32, p.plot_size[1] as u32) };
     let bytes = save(value, &options).map_err(fail)?;
     Ok(Value::new(FileBlob { rel_path, bytes }))
 }

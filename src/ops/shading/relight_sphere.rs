@@ -66,13 +66,7 @@ pub fn luminance_integral(env: &Image) -> f64 {
     (0..env.height)
         .map(|y| {
             let d_omega = latlong::texel_solid_angle(y, env.width, env.height);
-            let row: f64 = (0..env.width)
-                .map(|x| {
-                    let [r, g, b] = env.rgb(x, y);
-                    0.2126 * r as f64 + 0.7152 * g as f64 + 0.0722 * b as f64
-                })
-                .filter(|v| v.is_finite())
-                .sum();
+            let row: f64 = (0..env.width).map(|x| rec709(env.rgb(x, y))).filter(|v| v.is_finite()).sum();
             row * d_omega
         })
         .sum()
@@ -139,7 +133,7 @@ fn spread_coarse_samples(
             }
         }
         let luminance_total: f64 = match estimator {
-            Estimator::Seed => block.iter().map(|&(x, y, dw)| rec709(env.rgb(x, y)) * dw).sum(),
+            Estimator::Seed => block.iter().map(|&(x, y, dw)| light_luminance(env.rgb(x, y)) * dw).sum(),
             Estimator::Unbiased => 0.0,
         };
         for &(x, y, d_omega) in &block {
@@ -149,7 +143,8 @@ fn spread_coarse_samples(
             let light = match estimator {
                 Estimator::Unbiased => LightSample::unbiased(d, rgb, pdf),
                 Estimator::Seed => {
-                    let share = if luminance_total > 0.0 { rec709(rgb) * d_omega / luminance_total } else { 0.0 };
+                    let share =
+                        if luminance_total > 0.0 { light_luminance(rgb) * d_omega / luminance_total } else { 0.0 };
                     let mut l = LightSample::seed(d, rgb);
                     l.weight = l.weight.map(|w| (w as f64 * share) as f32);
                     l
@@ -162,8 +157,14 @@ fn spread_coarse_samples(
     Ok(lights)
 }
 
+/// Rec. 709 luminance in f64.
 fn rec709(rgb: [f32; 3]) -> f64 {
-    let y = 0.2126 * rgb[0] as f64 + 0.7152 * rgb[1] as f64 + 0.0722 * rgb[2] as f64;
+    0.2126 * rgb[0] as f64 + 0.7152 * rgb[1] as f64 + 0.0722 * rgb[2] as f64
+}
+
+/// Rec. 709 luminance as a light's share: NaN, infinite and negative values count as 0.
+fn light_luminance(rgb: [f32; 3]) -> f64 {
+    let y = rec709(rgb);
     if y.is_finite() && y > 0.0 {
         y
     } else {
