@@ -94,20 +94,6 @@ fn hdrflow_in(sb: &Sandbox, args: &[String]) -> Output {
 
 const RUN: Duration = Duration::from_secs(120);
 
-fn outputs(dir: &Path) -> Vec<(PathBuf, Vec<u8>)> {
-    files_under(dir)
-        .into_iter()
-        .filter(|p| {
-            let s = p.to_string_lossy();
-            !(s.starts_with("batch") || s.starts_with("shards/") || s.starts_with("slurm/"))
-        })
-        .map(|p| {
-            let bytes = read_file(&dir.join(&p));
-            (p, bytes)
-        })
-        .collect()
-}
-
 #[test]
 fn emitted_job_array_runs_resubmits_failed_shards_and_matches_one_process() {
     let sb = Sandbox::new();
@@ -204,9 +190,9 @@ fn emitted_job_array_runs_resubmits_failed_shards_and_matches_one_process() {
 
     // Byte-identical to one process on its own cache.
     hdrflow_in(&sb, &batch_args("reference", "ref cache", &opts)).assert_success();
-    let reference = outputs(&sb.join("reference"));
+    let reference = batch_outputs(&sb.join("reference"));
     assert_eq!(reference.len(), 18, "{:?}", reference.iter().map(|r| &r.0).collect::<Vec<_>>());
-    assert_eq!(outputs(&abs_out), reference);
+    assert_eq!(batch_outputs(&abs_out), reference);
 }
 
 #[test]

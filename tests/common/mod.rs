@@ -424,3 +424,19 @@ pub fn batch_graph(env_path: &str) -> String {
 }} )"#
     )
 }
+
+/// Every item output of a batch folder with its bytes, sorted by path: what two batches must agree
+/// on byte for byte (the batch's own reports, shard reports and Slurm logs left out).
+pub fn batch_outputs(dir: &Path) -> Vec<(PathBuf, Vec<u8>)> {
+    files_under(dir)
+        .into_iter()
+        .filter(|p| {
+            let s = p.to_string_lossy();
+            !(s.starts_with("batch") || s.starts_with("shards/") || s.starts_with("slurm/"))
+        })
+        .map(|p| {
+            let bytes = read_file(&dir.join(&p));
+            (p, bytes)
+        })
+        .collect()
+}
