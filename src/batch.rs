@@ -19,6 +19,11 @@
 //! 5. **Items** run `jobs` at a time, each on its own pool of `threads / jobs` threads, and each
 //!    item's values are dropped when it ends (only its metrics stay): the batch never holds more
 //!    items' values than it runs at once.
+//! 6. **Disk.** Each computed result is stored or not by the cache's persistence policy
+//!    (`engine::cache::policy`: huge cheap intermediates are not). After each item the cache
+//!    folder is pruned to `cache_limit_bytes`, least recently used first, sparing the entries
+//!    of items still running (their leases) and the shared entries that items yet to finish
+//!    will load; each item may add at most that much itself.
 
 use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::path::{Path, PathBuf};
@@ -255,6 +260,8 @@ pub trait BatchObserver: Sync {
 pub struct BatchOptions<'a> {
     pub out_dir: PathBuf,
     pub cache: CacheStore,
+    /// The cache folder is kept within this many bytes while the batch runs (see step 6).
+    pub cache_limit_bytes: u64,
     /// Worker threads in all (None: one per core); up to this many items run at once.
     pub jobs: Option<usize>,
     pub keep_going: bool,
@@ -342,21 +349,38 @@ pub fn run(items: &[Item], pipelines: &[Pipeline], options: &BatchOptions) -> Ba
     for (k, plan) in plans.iter().enumerate() {
         let Some(plan) = plan else { continue };
         let p = &pipelines[k];
+        let shared = |i: usize| plan.keys[i].is_some_and(|key| uses.get(&key).copied().unwrap_or(0) > 1);
+        let item_targets = targets(p);
         let mut names = Vec::new();
         for i in 0..plan.status.len() {
-            if plan.status[i] != NodeStatus::Computed {
+            if plan.status[i] != NodeStatus::Computed || !shared(i) {
                 continue;
             }
-            if let Some(key) = plan.keys[i] {
-                if uses.get(&key).copied().unwrap_or(0) > 1 && claimed.insert(key) {
-                    names.push(p.nodes[i].name.clone());
-                }
+            // Only the frontier is asked for (and so always stored): shared nodes that an item's
+            // own nodes consume or that the item wants. Shared nodes inside the shared part run
+            // too, as their inputs, and are stored only if the persistence policy says so.
+            let frontier = item_targets.contains(&p.nodes[i].name)
+                || p.consumers(i).into_iter().any(|c| plan.status[c] == NodeStatus::Computed && !shared(c));
+            let key = plan.keys[i].expect("shared nodes are keyed");
+            if frontier && claimed.insert(key) {
+                names.push(p.nodes[i].name.clone());
             }
         }
         if !names.is_empty() {
             shared_jobs.push((k, names));
         }
     }
+    // Shared keys stay pinned against pruning until every item that needs them has ended (the
+    // folder may exceed the limit by them: they are what the batch cannot do without).
+    let pinned: Mutex<HashMap<Key, usize>> =
+        Mutex::new(uses.iter().filter(|(_, &n)| n > 1).map(|(k, &n)| (*k, n)).collect());
+    let prune_lock = Mutex::new(());
+    let prune = || {
+        let _one_at_a_time = prune_lock.lock().expect("prune lock");
+        let pins: BTreeSet<Key> = pinned.lock().expect("pinned lock").keys().copied().collect();
+        // Pruning is housekeeping: a failure leaves the folder larger, the results are unchanged.
+        let _ = cache.prune_sparing(options.cache_limit_bytes, &|k| pins.contains(k));
+    };
     let mut shared_evaluations = 0;
     if !shared_jobs.is_empty() {
         options.observer.shared_phase(shared_jobs.iter().map(|j| j.1.len()).sum());
@@ -364,7 +388,9 @@ pub fn run(items: &[Item], pipelines: &[Pipeline], options: &BatchOptions) -> Ba
             let run_options = RunOptions {
                 targets: names.clone(),
                 out_dir: options.out_dir.join(&items[*k].dir),
-                cache: Some(cache.clone()),
+                // What the items will load must be stored even past the limit: evicting or
+                // skipping it would make every item recompute it.
+                cache: Some(cache.fork().with_add_limit(u64::MAX)),
                 jobs: Some(threads),
                 observer: &Silent,
             };
@@ -373,6 +399,7 @@ pub fn run(items: &[Item], pipelines: &[Pipeline], options: &BatchOptions) -> Ba
                 shared_evaluations += o.report.count(NodeStatus::Computed);
             }
         }
+        prune();
     }
 
     let next = AtomicUsize::new(0);
@@ -396,7 +423,7 @@ pub fn run(items: &[Item], pipelines: &[Pipeline], options: &BatchOptions) -> Ba
                 let run_options = RunOptions {
                     targets: targets(p),
                     out_dir: options.out_dir.join(&item.dir),
-                    cache: Some(cache.clone()),
+                    cache: Some(cache.fork()),
                     jobs: Some(per_item),
                     observer: &Silent,
                 };
@@ -435,6 +462,22 @@ pub fn run(items: &[Item], pipelines: &[Pipeline], options: &BatchOptions) -> Ba
                         }
                     }
                 };
+                if let Some(plan) = &plans[k] {
+                    let mut pins = pinned.lock().expect("pinned lock");
+                    let mine: BTreeSet<Key> = (0..plan.status.len())
+                        .filter(|&i| plan.status[i] == NodeStatus::Computed)
+                        .filter_map(|i| plan.keys[i])
+                        .collect();
+                    for key in mine {
+                        if let Some(n) = pins.get_mut(&key) {
+                            *n -= 1;
+                            if *n == 0 {
+                                pins.remove(&key);
+                            }
+                        }
+                    }
+                }
+                prune();
                 options.observer.item_finished(&row);
                 rows.lock().expect("rows lock")[k] = Some(row);
             });

@@ -9,9 +9,9 @@ use std::time::Instant;
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 
-use super::slurm;
+use super::{slurm, PersistArg};
 use crate::batch::{self, Axis, BatchObserver, BatchOptions, Item, ItemRow, ItemStatus};
-use crate::engine::cache::store::{write_atomic, DEFAULT_LIMIT_BYTES};
+use crate::engine::cache::store::{default_max_bytes, write_atomic, DEFAULT_LIMIT_BYTES};
 use crate::engine::cache::CacheStore;
 use crate::engine::registry::Registry;
 
@@ -46,9 +46,14 @@ pub(crate) struct BatchArgs {
     /// Cache folder (default: $HDRFLOW_CACHE_DIR, $XDG_CACHE_HOME/hdrflow or ~/.cache/hdrflow).
     #[arg(long)]
     cache_dir: Option<PathBuf>,
-    /// At most this many MiB of new cache entries per item run.
+    /// Keep the cache folder within this many MiB during the batch: after each item, least
+    /// recently used entries are pruned, sparing those of running items and the shared entries
+    /// that items still to run will load.
     #[arg(long, default_value_t = DEFAULT_LIMIT_BYTES >> 20)]
     cache_limit_mb: u64,
+    /// Which computed results go into the cache (as for `run`): `auto` or `all`.
+    #[arg(long, value_enum, default_value_t = PersistArg::Auto)]
+    persist: PersistArg,
     /// Write one JSON row per item to FILE, and the same rows to DIR/batch.csv
     /// (DIR/batch.I-of-N.csv with --shard).
     #[arg(long)]
@@ -225,10 +230,12 @@ pub(crate) fn batch(registry: &Registry, args: &BatchArgs) -> ExitCode {
     let progress =
         Progress { total: items.len(), quiet: args.quiet, bar, counts: Mutex::new([0; 3]), start: Instant::now() };
     let cache =
-        CacheStore::new(args.cache_dir.clone().unwrap_or_else(CacheStore::default_dir), args.cache_limit_mb << 20);
+        CacheStore::new(args.cache_dir.clone().unwrap_or_else(CacheStore::default_dir), args.cache_limit_mb << 20)
+            .with_policy(args.persist.into());
     let options = BatchOptions {
         out_dir: args.out.clone(),
         cache: cache.clone(),
+        cache_limit_bytes: cache_limit_bytes(args.cache_limit_mb),
         jobs: args.jobs,
         keep_going: args.keep_going,
         observer: &progress,
@@ -287,7 +294,7 @@ pub(crate) fn batch(registry: &Registry, args: &BatchArgs) -> ExitCode {
         }
     }
     if cache.root().is_dir() {
-        if let Err(e) = cache.evict() {
+        if let Err(e) = cache.prune(cache_limit_bytes(args.cache_limit_mb).min(default_max_bytes())) {
             eprintln!("warning: cache pruning: {e}");
         }
     }
@@ -348,6 +355,9 @@ fn emit_slurm(file: &std::path::Path, total_items: usize, args: &BatchArgs) -> E
     }
     options.extend(["--cache-dir".to_string(), cache.to_string_lossy().into_owned()]);
     options.extend(["--cache-limit-mb".to_string(), args.cache_limit_mb.to_string()]);
+    if args.persist == PersistArg::All {
+        options.extend(["--persist".to_string(), "all".to_string()]);
+    }
     if args.keep_going {
         options.push("--keep-going".into());
     }
@@ -386,4 +396,9 @@ fn emit_slurm(file: &std::path::Path, total_items: usize, args: &BatchArgs) -> E
         );
     }
     ExitCode::SUCCESS
+}
+
+/// `--cache-limit-mb` in bytes (saturating: a huge value means no limit, not an overflow).
+fn cache_limit_bytes(mb: u64) -> u64 {
+    mb.saturating_mul(1 << 20)
 }

@@ -44,7 +44,7 @@ use std::process::ExitCode;
 use clap::{Args, Parser, Subcommand};
 
 use crate::engine::cache::store::DEFAULT_LIMIT_BYTES;
-use crate::engine::cache::CacheStore;
+use crate::engine::cache::{CacheStore, PersistPolicy};
 use crate::engine::graph::{Override, Pipeline};
 use crate::engine::registry::Registry;
 use crate::engine::scheduler::{self, NodeStatus, RunOptions};
@@ -170,6 +170,11 @@ struct RunArgs {
     /// pruned to $HDRFLOW_CACHE_MAX_MB (default 4096) after a run, sparing live runs' entries.
     #[arg(long, default_value_t = DEFAULT_LIMIT_BYTES >> 20)]
     cache_limit_mb: u64,
+    /// Which computed results go into the cache: `auto` keeps the run's targets, small results
+    /// and whatever is slower to recompute than to read back (not huge cheap intermediates);
+    /// `all` keeps everything.
+    #[arg(long, value_enum, default_value_t = PersistArg::Auto)]
+    persist: PersistArg,
     /// Worker threads; 0 or absent: one per core.
     #[arg(long)]
     jobs: Option<usize>,
@@ -275,7 +280,24 @@ fn load(registry: &Registry, args: &GraphArgs) -> Result<Pipeline, ExitCode> {
 fn cache_of(args: &RunArgs) -> Option<CacheStore> {
     (!args.no_cache).then(|| {
         CacheStore::new(args.cache_dir.clone().unwrap_or_else(CacheStore::default_dir), args.cache_limit_mb << 20)
+            .with_policy(args.persist.into())
     })
+}
+
+/// `--persist`: which computed results a run stores (see `engine::cache::policy`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub(crate) enum PersistArg {
+    Auto,
+    All,
+}
+
+impl From<PersistArg> for PersistPolicy {
+    fn from(a: PersistArg) -> Self {
+        match a {
+            PersistArg::Auto => PersistPolicy::Auto,
+            PersistArg::All => PersistPolicy::All,
+        }
+    }
 }
 
 fn plan(registry: &Registry, args: &RunArgs) -> ExitCode {

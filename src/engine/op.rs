@@ -39,6 +39,7 @@ pub fn check_same_size(ctx: &CheckContext, a: &'static str, b: &'static str) -> 
         _ => Ok(()),
     }
 }
+pub use crate::engine::cache::Persist;
 use crate::engine::value::{Value, ValueData, ValueType};
 
 /// The engine's image size limit, in pixels: the same 2^28 (268 M) the file readers enforce.
@@ -308,6 +309,8 @@ pub struct OpSpec {
     /// BLAKE3 of the operator's source with comments and blank space removed (see `code`);
     /// zero when not given. It is in the cache key.
     pub code_hash: [u8; 32],
+    /// Whether its large results are worth storing (see `engine::cache::policy`).
+    pub persist: Persist,
 }
 
 impl std::fmt::Debug for OpSpec {
@@ -333,7 +336,15 @@ impl OpSpec {
             check: None,
             size: None,
             code_hash: [0; 32],
+            persist: Persist::Measured,
         }
+    }
+
+    /// How its large results weigh in the cache's store decision (default `Measured`; see
+    /// `engine::cache::policy`).
+    pub fn persist(mut self, persist: Persist) -> Self {
+        self.persist = persist;
+        self
     }
 
     /// Adds a required single input.

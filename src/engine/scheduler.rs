@@ -32,8 +32,8 @@ use std::time::Instant;
 use rayon::prelude::*;
 
 use crate::engine::cache::store::{remove_stale_temporaries, write_atomic};
-use crate::engine::cache::{key_hex, node_key, CacheStore, Key};
-use crate::engine::error::RunError;
+use crate::engine::cache::{key_hex, node_key, policy, CacheStore, Key};
+use crate::engine::error::{CacheError, RunError};
 use crate::engine::graph::Pipeline;
 use crate::engine::op::{OpContext, Outputs};
 use crate::engine::value::{FileBlob, Value};
@@ -89,6 +89,9 @@ pub struct NodeReport {
     pub key: String,
     /// The node's output ports and their value types.
     pub ports: Vec<PortReport>,
+    /// Its results are in the cache after the run: loaded from it, or computed and judged worth
+    /// storing (see `engine::cache::policy`).
+    pub stored: bool,
 }
 
 /// One output port of a node in a report.
@@ -301,6 +304,11 @@ struct Timing {
     ms: f64,
     start_ms: f64,
     thread: Option<usize>,
+    /// Its results are in the cache (loaded from it, or stored after computing).
+    stored: bool,
+    /// What a later run would spend to get its results back without the cache: its own
+    /// compute time plus that of every input chain not stored either (see `cache::policy`).
+    recompute_ms: f64,
 }
 
 /// Everything the workers share.
@@ -309,6 +317,7 @@ struct Shared<'s> {
     options: &'s RunOptions<'s>,
     cache: Option<&'s CacheStore>,
     cache_failed: &'s AtomicBool,
+    limit_warned: &'s AtomicBool,
     start: Instant,
     keys: &'s [Option<Key>],
     content: &'s [Option<Vec<u8>>],
@@ -419,6 +428,7 @@ fn run_in_pool(p: &Pipeline, options: &RunOptions) -> Result<RunOutcome, RunErro
         None => (None, None),
     };
     let cache_failed = AtomicBool::new(false);
+    let limit_warned = AtomicBool::new(false);
 
     let slots: Vec<Vec<Slot>> = p
         .nodes
@@ -462,7 +472,9 @@ fn run_in_pool(p: &Pipeline, options: &RunOptions) -> Result<RunOutcome, RunErro
             match r {
                 Ok(values) => {
                     loaded[i] = Some(values);
-                    timing[i].lock().expect("timing lock").ms = ms;
+                    let mut t = timing[i].lock().expect("timing lock");
+                    t.ms = ms;
+                    t.stored = true;
                 }
                 Err(e) => {
                     if !e.is_empty() {
@@ -519,6 +531,7 @@ fn run_in_pool(p: &Pipeline, options: &RunOptions) -> Result<RunOutcome, RunErro
         options,
         cache,
         cache_failed: &cache_failed,
+        limit_warned: &limit_warned,
         start,
         keys: &keys,
         content: &content,
@@ -676,15 +689,39 @@ fn execute<'s>(s: &'s Shared<'s>, scope: &rayon::Scope<'s>, i: usize) {
         Ok(v) => v,
         Err(e) => return s.fail(e),
     };
+    let compute_ms = t0.elapsed().as_secs_f64() * 1e3;
+    let mut recompute_ms = compute_ms;
+    let mut counted = Vec::new();
+    for src in node.sources() {
+        if !counted.contains(&src.node) {
+            counted.push(src.node);
+            let t = s.timing[src.node].lock().expect("timing lock");
+            if !t.stored {
+                recompute_ms += t.recompute_ms;
+            }
+        }
+    }
+    let mut stored = false;
     if let (Some(cache), Some(key)) = (s.cache, s.keys[i]) {
-        if !s.cache_failed.load(Ordering::Relaxed) {
+        let bytes = values.iter().chain(extra.iter().map(|(_, v)| v)).map(|v| v.approx_bytes() as u64).sum();
+        let worth = policy::worth_storing(cache.policy(), node.spec.persist, s.is_target[i], recompute_ms, bytes);
+        if worth && !s.cache_failed.load(Ordering::Relaxed) {
             let mut named: Vec<(String, Value)> =
                 node.ports.iter().zip(&values).map(|(p, v)| (p.name.to_string(), v.clone())).collect();
             named.extend(extra.iter().cloned());
-            if let Err(e) = cache.put(&key, &named) {
+            match cache.put(&key, &named) {
+                Ok(()) => stored = true,
+                // Past the run's add limit: this entry is skipped, smaller ones may still fit.
+                Err(e @ CacheError::LimitReached { .. }) => {
+                    if !s.limit_warned.swap(true, Ordering::SeqCst) {
+                        obs.warning(&format!("{e}; results past it are not stored"));
+                    }
+                }
                 // One warning for the run, not one per node.
-                if !s.cache_failed.swap(true, Ordering::SeqCst) {
-                    obs.warning(&format!("could not store results in the cache ({e}); going on without storing"));
+                Err(e) => {
+                    if !s.cache_failed.swap(true, Ordering::SeqCst) {
+                        obs.warning(&format!("could not store results in the cache ({e}); going on without storing"));
+                    }
                 }
             }
         }
@@ -696,7 +733,7 @@ fn execute<'s>(s: &'s Shared<'s>, scope: &rayon::Scope<'s>, i: usize) {
         return s.fail(e);
     }
     let elapsed = t0.elapsed().as_secs_f64() * 1e3;
-    let t = Timing { ms: elapsed, start_ms, thread: rayon::current_thread_index() };
+    let t = Timing { ms: elapsed, start_ms, thread: rayon::current_thread_index(), stored, recompute_ms };
     *s.timing[i].lock().expect("timing lock") = t;
     obs.node_finished(&node_report(s.p, i, NodeStatus::Computed, t, s.keys));
     for &c in &s.consumers[i] {
@@ -717,6 +754,7 @@ fn node_report(p: &Pipeline, i: usize, status: NodeStatus, t: Timing, keys: &[Op
         thread: t.thread,
         key: keys[i].map(|k| key_hex(&k)).unwrap_or_default(),
         ports: p.nodes[i].ports.iter().map(|port| PortReport { name: port.name.clone(), ty: port.ty.name() }).collect(),
+        stored: t.stored,
     }
 }
 

@@ -7,10 +7,13 @@
 //! - `codec`: values to bytes and back, with every length checked on the way in.
 //! - `store`: one file per key under the cache folder, written atomically (temporary file then
 //!   rename), checksummed, evicted least-recently-used past a size limit.
+//! - `policy`: which computed results are worth storing at all.
 
 pub mod codec;
 pub mod key;
+pub mod policy;
 pub mod store;
 
 pub use key::{key_hex, node_key, Key};
+pub use policy::{Persist, PersistPolicy};
 pub use store::CacheStore;

@@ -11,8 +11,9 @@
 //! not stored. The folder as a whole is pruned least-recently-used first down to a size
 //! (`prune`, `hdrflow cache prune`, and after every run to the default 4 GiB or
 //! `$HDRFLOW_CACHE_MAX_MB`), but an entry used since the start of a live run is never removed:
-//! each run holds a lease file `<dir>/v1/live/<pid>-<n>` for its duration, and entries whose
-//! time is newer than the oldest live lease are spared. Leases of processes that are gone are
+//! each run holds a lease file `<dir>/v1/live/<pid>-<n>@<host>` for its duration, and entries whose
+//! time is newer than the oldest live lease are spared. On a folder that several machines share,
+//! another machine's lease counts as live for a day. Leases of processes that are gone are
 //! removed. So one run's limit never empties a cache that other pipelines share.
 
 use std::fs;
@@ -23,6 +24,7 @@ use std::time::SystemTime;
 
 use super::codec::{self, CODEC_VERSION};
 use super::key::{key_hex, Key};
+use super::policy::PersistPolicy;
 use crate::engine::error::CacheError;
 use crate::engine::registry::Registry;
 use crate::engine::value::Value;
@@ -49,6 +51,8 @@ pub struct CacheStore {
     add_limit_bytes: u64,
     /// Bytes added through this handle (and its clones).
     added: std::sync::Arc<AtomicU64>,
+    /// Which computed results runs through this handle store.
+    policy: PersistPolicy,
 }
 
 /// A live run's claim on the entries it uses: while it exists, `prune` spares every entry used
@@ -88,7 +92,33 @@ impl CacheStore {
     /// A store under `dir` (created on first write) through which at most `add_limit_bytes`
     /// may be added.
     pub fn new(dir: impl Into<PathBuf>, add_limit_bytes: u64) -> Self {
-        CacheStore { root: dir.into().join("v1"), add_limit_bytes, added: Default::default() }
+        CacheStore {
+            root: dir.into().join("v1"),
+            add_limit_bytes,
+            added: Default::default(),
+            policy: PersistPolicy::default(),
+        }
+    }
+
+    /// The same store with another persistence policy.
+    pub fn with_policy(mut self, policy: PersistPolicy) -> Self {
+        self.policy = policy;
+        self
+    }
+
+    pub fn policy(&self) -> PersistPolicy {
+        self.policy
+    }
+
+    /// The same store with another add limit.
+    pub fn with_add_limit(mut self, bytes: u64) -> Self {
+        self.add_limit_bytes = bytes;
+        self
+    }
+
+    /// A handle on the same folder whose add limit counts from zero again (one per batch item).
+    pub fn fork(&self) -> Self {
+        CacheStore { added: Default::default(), ..self.clone() }
     }
 
     /// Bytes added through this handle so far.
@@ -100,7 +130,8 @@ impl CacheStore {
     pub fn lease(&self) -> Result<Lease, CacheError> {
         let dir = self.root.join("live");
         fs::create_dir_all(&dir).map_err(|source| CacheError::Io { path: dir.clone(), source })?;
-        let path = dir.join(format!("{}-{}", std::process::id(), TMP_COUNTER.fetch_add(1, Ordering::Relaxed)));
+        let path =
+            dir.join(format!("{}-{}@{}", std::process::id(), TMP_COUNTER.fetch_add(1, Ordering::Relaxed), this_host()));
         fs::write(&path, b"").map_err(|source| CacheError::Io { path: path.clone(), source })?;
         Ok(Lease { path })
     }
@@ -113,9 +144,22 @@ impl CacheStore {
         let mut live = 0;
         for e in entries.flatten() {
             let name = e.file_name().to_string_lossy().into_owned();
-            let pid = name.split('-').next().and_then(|p| p.parse::<u32>().ok());
+            // `PID-N@HOST`: only this host's processes can be checked (on a shared filesystem,
+            // another node's lease is live as far as this node can tell).
+            let (local, host) = name.split_once('@').unwrap_or((name.as_str(), ""));
+            let pid = local.split('-').next().and_then(|p| p.parse::<u32>().ok());
             let dead = match pid {
-                Some(pid) if proc_fs => pid != std::process::id() && !Path::new("/proc").join(pid.to_string()).exists(),
+                Some(pid) if proc_fs && host == this_host() => {
+                    pid != std::process::id() && !Path::new("/proc").join(pid.to_string()).exists()
+                }
+                // Another node's lease is trusted for a day: a node that died mid-run must not
+                // pin the shared folder for ever.
+                _ if !host.is_empty() && host != this_host() => e
+                    .metadata()
+                    .and_then(|m| m.modified())
+                    .ok()
+                    .and_then(|t| t.elapsed().ok())
+                    .is_some_and(|age| age.as_secs() > FOREIGN_LEASE_SECS),
                 _ => false,
             };
             if dead {
@@ -261,6 +305,12 @@ impl CacheStore {
     /// Removes least-recently-used entries until the folder holds at most `max_bytes`, sparing
     /// entries used since the start of a live run (see the module documentation).
     pub fn prune(&self, max_bytes: u64) -> Result<EvictionReport, CacheError> {
+        self.prune_sparing(max_bytes, &|_| false)
+    }
+
+    /// [`prune`](Self::prune) that also spares the entries whose key `spare` accepts (a batch
+    /// pins the shared entries its remaining items will load).
+    pub fn prune_sparing(&self, max_bytes: u64, spare: &dyn Fn(&Key) -> bool) -> Result<EvictionReport, CacheError> {
         let (oldest_live, _) = self.oldest_live_lease();
         let mut entries: Vec<(SystemTime, u64, PathBuf)> = Vec::new();
         for (mtime, len, path) in self.entries()? {
@@ -286,6 +336,9 @@ impl CacheStore {
             if oldest_live.is_some_and(|start| mtime >= start) {
                 continue; // in use by a live run
             }
+            if key_of_entry(&path).is_some_and(|k| spare(&k)) {
+                continue;
+            }
             if fs::remove_file(&path).is_ok() {
                 report.removed += 1;
                 report.bytes_after -= len;
@@ -299,6 +352,32 @@ impl CacheStore {
     pub fn evict(&self) -> Result<EvictionReport, CacheError> {
         self.prune(default_max_bytes())
     }
+}
+
+/// How long a lease of another machine counts as live: one day.
+const FOREIGN_LEASE_SECS: u64 = 24 * 3600;
+
+/// This machine's name (Linux), for lease files on a shared cache folder; empty elsewhere.
+fn this_host() -> &'static str {
+    static HOST: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+    HOST.get_or_init(|| {
+        fs::read_to_string("/proc/sys/kernel/hostname")
+            .map(|h| h.trim().chars().filter(|c| c.is_ascii_alphanumeric() || "-._".contains(*c)).collect())
+            .unwrap_or_default()
+    })
+}
+
+/// The key of an entry file `<key hex>.val`.
+fn key_of_entry(path: &Path) -> Option<Key> {
+    let hex = path.file_name()?.to_str()?.strip_suffix(".val")?;
+    if hex.len() != 64 {
+        return None;
+    }
+    let mut key = [0u8; 32];
+    for (i, byte) in key.iter_mut().enumerate() {
+        *byte = u8::from_str_radix(hex.get(2 * i..2 * i + 2)?, 16).ok()?;
+    }
+    Some(key)
 }
 
 fn check_entry(bytes: &[u8]) -> Result<&[u8], String> {
@@ -447,6 +526,26 @@ mod tests {
     }
 
     #[test]
+    fn pinned_keys_are_spared_and_forks_count_from_zero() {
+        let dir = tempfile::tempdir().unwrap();
+        let s = CacheStore::new(dir.path(), 1000);
+        let (pinned, other) = ([3u8; 32], [4u8; 32]);
+        s.put(&pinned, &blob(300)).unwrap();
+        s.put(&other, &blob(300)).unwrap();
+        assert!(s.put(&[5u8; 32], &blob(300)).is_err(), "past the add limit");
+        assert!(s.fork().put(&[5u8; 32], &blob(300)).is_ok(), "a fork has its own limit");
+        for k in [pinned, other, [5u8; 32]] {
+            let f = fs::File::options().write(true).open(s.path_for(&k)).unwrap();
+            f.set_modified(SystemTime::UNIX_EPOCH + std::time::Duration::from_secs(1000)).unwrap();
+        }
+        let report = s.prune_sparing(0, &|k| *k == pinned).unwrap();
+        assert_eq!(report.removed, 2);
+        assert!(s.contains(&pinned) && !s.contains(&other));
+        assert_eq!(key_of_entry(&s.path_for(&pinned)), Some(pinned));
+        assert_eq!(key_of_entry(Path::new("ab/xyz.val")), None);
+    }
+
+    #[test]
     fn a_live_lease_spares_the_entries_used_since_it_was_taken() {
         let dir = tempfile::tempdir().unwrap();
         let s = CacheStore::new(dir.path(), DEFAULT_LIMIT_BYTES);
@@ -465,6 +564,18 @@ mod tests {
         assert_eq!(s.stats().unwrap().live_runs, 0);
         s.clear().unwrap();
         assert!(!s.contains(&used));
+
+        // On a shared folder: another machine's fresh lease is live (its pid means nothing
+        // here), a day-old one is not; this machine's lease of a gone process is not.
+        let live = s.root().join("live");
+        let foreign = live.join("4000000-0@some-other-node");
+        fs::write(&foreign, b"").unwrap();
+        fs::write(live.join(format!("4000001-0@{}", this_host())), b"").unwrap();
+        assert_eq!(s.stats().unwrap().live_runs, 1);
+        let f = fs::File::options().write(true).open(&foreign).unwrap();
+        f.set_modified(SystemTime::now() - std::time::Duration::from_secs(FOREIGN_LEASE_SECS + 60)).unwrap();
+        assert_eq!(s.stats().unwrap().live_runs, 0);
+        assert!(!foreign.exists());
     }
 
     #[test]

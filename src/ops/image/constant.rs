@@ -2,7 +2,7 @@
 //! constant environment whose relit sphere is exactly albedo * color).
 
 use crate::data::Image;
-use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
+use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Persist};
 use crate::engine::params::Rgb;
 use crate::engine::value::Value;
 use crate::types::ty::*;
@@ -25,6 +25,7 @@ pub fn spec() -> OpSpec {
     OpSpec::new("Constant", "image", 1, "An image of a single colour (canvas, or a constant environment)")
         .output("image", OutputType::Fixed(IMAGE_T), "the image")
         .size(|_, p: ConstantParams| Some((p.width as u64, p.height as u64)))
+        .persist(Persist::IfSmall)
         .code_hash(crate::op_code_hash!())
         .eval(eval)
 }

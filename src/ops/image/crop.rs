@@ -8,7 +8,7 @@
 //! an error that names the image's size (nothing is padded or clamped).
 
 use crate::data::Image;
-use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
+use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Persist};
 use crate::engine::value::Value;
 use crate::types::ty::*;
 
@@ -34,6 +34,7 @@ pub fn spec() -> OpSpec {
         .input("image", ANY_IMAGE, "the image to crop")
         .output("image", OutputType::SameAsInput("image"), "the rectangle, same channels")
         .size(|_, p: CropParams| Some((p.width as u64, p.height as u64)))
+        .persist(Persist::IfSmall)
         .code_hash(crate::op_code_hash!())
         .eval(eval)
 }

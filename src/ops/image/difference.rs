@@ -34,7 +34,7 @@ use crate::engine::op::check_same_size;
 use rayon::prelude::*;
 
 use crate::data::{Image, Metrics};
-use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Outputs};
+use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Outputs, Persist};
 use crate::engine::value::Value;
 use crate::types::ty::*;
 
@@ -64,6 +64,7 @@ pub fn spec() -> OpSpec {
         .output("error", OutputType::Fixed(SCALAR_T), "the per-pixel error d, a scalar field `E`")
         .output("metrics", OutputType::Fixed(METRICS_T), "mean, max, rmse of d (and min, pixels, nonfinite)")
         .check(|ctx, _: DifferenceParams| check_same_size(ctx, "a", "b"))
+        .persist(Persist::IfSmall)
         .code_hash(crate::op_code_hash!())
         .eval(eval)
 }

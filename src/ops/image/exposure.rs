@@ -7,7 +7,7 @@
 use rayon::prelude::*;
 
 use crate::data::Image;
-use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
+use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Persist};
 use crate::engine::value::Value;
 use crate::types::ty::*;
 
@@ -24,6 +24,7 @@ pub fn spec() -> OpSpec {
         .input("image", ANY_IMAGE, "the image to scale")
         .output("image", OutputType::SameAsInput("image"), "the scaled image")
         .size_of_input("image")
+        .persist(Persist::IfSmall)
         .code_hash(crate::op_code_hash!())
         .eval(eval)
 }

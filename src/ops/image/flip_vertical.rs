@@ -3,7 +3,7 @@
 //! out(x, y) = image(x, H - 1 - y), every channel (alpha included) and its name kept.
 
 use crate::data::Image;
-use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
+use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Persist};
 use crate::engine::params::NoParams;
 use crate::engine::value::Value;
 use crate::types::ty::*;
@@ -13,6 +13,7 @@ pub fn spec() -> OpSpec {
         .input("image", ANY_IMAGE, "the image to flip")
         .output("image", OutputType::SameAsInput("image"), "the flipped image")
         .size_of_input("image")
+        .persist(Persist::IfSmall)
         .code_hash(crate::op_code_hash!())
         .eval(eval)
 }

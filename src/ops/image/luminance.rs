@@ -6,7 +6,7 @@
 use rayon::prelude::*;
 
 use crate::data::Image;
-use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
+use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Persist};
 use crate::engine::value::Value;
 use crate::types::ty::*;
 
@@ -27,6 +27,7 @@ pub fn spec() -> OpSpec {
         .input("image", ANY_IMAGE, "the RGB image (a scalar field passes through)")
         .output("luminance", OutputType::Fixed(SCALAR_T), "the luminance")
         .size_of_input("image")
+        .persist(Persist::IfSmall)
         .code_hash(crate::op_code_hash!())
         .eval(eval)
 }

@@ -35,7 +35,7 @@
 use rayon::prelude::*;
 
 use crate::data::Image;
-use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec, OutputType};
+use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec, OutputType, Persist};
 use crate::engine::value::Value;
 use crate::types::ty::*;
 
@@ -65,6 +65,7 @@ pub fn spec() -> OpSpec {
     .optional_input("b", ANY_IMAGE, "the second operand: a scalar field broadcasts over a's channels; unwired: `value`")
     .output("image", OutputType::SameAsInput("a"), "a (op) b")
     .size_of_input("a")
+    .persist(Persist::IfSmall)
     .code_hash(crate::op_code_hash!())
     .eval(eval)
     .check(check)

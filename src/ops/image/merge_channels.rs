@@ -26,7 +26,7 @@ use std::collections::BTreeSet;
 use rayon::prelude::*;
 
 use crate::data::Image;
-use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec, OutputType};
+use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec, OutputType, Persist};
 use crate::engine::value::{Value, ValueType};
 use crate::types::ty::*;
 
@@ -56,6 +56,7 @@ pub fn spec() -> OpSpec {
     )
     .output("image", OutputType::Computed(output_type), "one channel in all: a scalar field; else an image")
     .size_of_input("channels")
+    .persist(Persist::IfSmall)
     .code_hash(crate::op_code_hash!())
     .eval(eval)
     .check(check)

@@ -5,7 +5,7 @@
 //! drawn for one resolution can be drawn on a canvas of any other.
 
 use crate::data::{Image, SampleSet};
-use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
+use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Persist};
 use crate::engine::params::Rgb;
 use crate::engine::value::Value;
 use crate::geometry::latlong;
@@ -36,6 +36,7 @@ pub fn spec() -> OpSpec {
     .input("samples", &[SAMPLES_T], "the samples to draw")
     .output("image", OutputType::Fixed(IMAGE_T), "the image with the samples drawn (RGB)")
     .size_of_input("image")
+    .persist(Persist::IfSmall)
     .code_hash(crate::op_code_hash!())
     .eval(eval)
 }

@@ -13,7 +13,7 @@
 //! pipeline, because `"node.port"` splits at the last dot.
 
 use crate::data::Image;
-use crate::engine::op::{OpContext, OpError, OpSpec, Outputs};
+use crate::engine::op::{OpContext, OpError, OpSpec, Outputs, Persist};
 use crate::engine::params::NoParams;
 use crate::engine::value::Value;
 use crate::types::ty::*;
@@ -23,6 +23,7 @@ pub fn spec() -> OpSpec {
         .input("image", ANY_IMAGE, "the image to split")
         .open_ports(SCALAR_T, "one port per channel, named like it: \"split.R\", \"split.A\" (no default port)")
         .size_of_input("image")
+        .persist(Persist::IfSmall)
         .code_hash(crate::op_code_hash!())
         .eval(eval)
 }

@@ -34,7 +34,7 @@
 use rayon::prelude::*;
 
 use crate::data::Image;
-use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
+use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Persist};
 use crate::engine::value::Value;
 use crate::types::ty::*;
 
@@ -58,6 +58,7 @@ pub fn spec() -> OpSpec {
         .input("image", ANY_IMAGE, "linear radiance")
         .output("image", OutputType::SameAsInput("image"), "display-referred linear values in [0, 1]; alpha unchanged")
         .size_of_input("image")
+        .persist(Persist::IfSmall)
         .code_hash(crate::op_code_hash!())
         .eval(eval)
 }

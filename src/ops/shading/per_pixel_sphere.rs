@@ -17,7 +17,7 @@ use super::sphere_view;
 use crate::data::Distribution2D;
 use crate::data::Image;
 use crate::engine::op::check_same_size;
-use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
+use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Persist};
 use crate::engine::params::Rgb;
 use crate::engine::value::Value;
 use crate::maths::per_pixel::{relight_per_pixel, PerPixelStrategy};
@@ -47,6 +47,7 @@ pub fn spec() -> OpSpec {
     .output("image", OutputType::Fixed(IMAGE_T), "the relit sphere")
     .size(|_, p: PerPixelParams| Some((p.size as u64, p.size as u64)))
     .check(|ctx, _: PerPixelParams| check_same_size(ctx, "env", "cdf"))
+    .persist(Persist::Always)
     .code_hash(crate::op_code_hash!())
     .eval(eval)
 }

@@ -10,7 +10,7 @@
 
 use super::sphere_view;
 use crate::data::Image;
-use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
+use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Persist};
 use crate::engine::params::Rgb;
 use crate::engine::value::Value;
 use crate::maths::reference::{first_non_finite, reference_sphere};
@@ -30,6 +30,7 @@ pub fn spec() -> OpSpec {
     .input("env", &[IMAGE_T], "the lat-long environment (linear RGB)")
     .output("image", OutputType::Fixed(IMAGE_T), "the exactly relit sphere")
     .size(|_, p: ReferenceParams| Some((p.size as u64, p.size as u64)))
+    .persist(Persist::Always)
     .code_hash(crate::op_code_hash!())
     .eval(eval)
 }
