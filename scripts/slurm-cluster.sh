@@ -57,6 +57,14 @@ start_cluster() {
     local host
     host=$(hostname -s)
     mkdir -p "$dir"/{etc,state,spool,log,munge,run}
+    chmod 755 "$dir"
+    # munged runs as the munge user: every folder above its own must be world-traversable.
+    local up=$dir
+    while [ "$up" != / ]; do
+        up=$(dirname "$up")
+        [ "$(( 0$(stat -c %a "$up") & 1 ))" = 1 ] \
+            || die "munged (user munge) cannot reach $dir: $up is not world-traversable (chmod o+x $up, or start the cluster elsewhere)"
+    done
 
     # munge: a fresh key, readable by munge only; the socket folder must be world-executable.
     chown munge:munge "$dir/munge"

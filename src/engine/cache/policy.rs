@@ -56,9 +56,9 @@ pub enum PersistPolicy {
 pub const SMALL_ENTRY_BYTES: u64 = 1 << 20;
 
 /// Reading an entry back (file read, BLAKE3 check, decode into a value), in bytes per
-/// millisecond: 500 MB/s, below the 0.9-1.6 GB/s measured for large entries on this project's
-/// 2-core test machine (BENCHMARKS.md, "Cache persistence"), so that a value is dropped only
-/// when recomputing it is clearly the cheaper way back (slower disks only strengthen that).
+/// millisecond: 500 MB/s, a little below the 610 MB/s measured for a 537 MB distribution on
+/// this project's busy 2-core machine (BENCHMARKS.md, "Cache persistence"), so that a value is
+/// dropped only when recomputing it is the cheaper way back.
 pub const RELOAD_BYTES_PER_MS: f64 = 500_000.0;
 
 /// Whether a computed node's results (`bytes` in all) go into the cache.
