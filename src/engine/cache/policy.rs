@@ -32,16 +32,6 @@ pub enum Persist {
     IfSmall,
 }
 
-impl Persist {
-    pub fn word(self) -> &'static str {
-        match self {
-            Persist::Measured => "measured",
-            Persist::Always => "always",
-            Persist::IfSmall => "if small",
-        }
-    }
-}
-
 /// A run's store policy (`--persist`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum PersistPolicy {
