@@ -533,6 +533,57 @@ fn ops(registry: &Registry, name: Option<&str>) -> ExitCode {
                 Persist::IfSmall => "a large result is stored only as a target (one cheap pass per byte)",
             }
         );
+        for port in &spec.outputs {
+            outln!("    -> {:<12} {:<40} {}", port.name, port.ty.describe(), port.doc);
+        }
+        if let Some(open) = &spec.open_ports {
+            outln!("    -> {:<12} {:<40} {}", "<any>", open.ty.to_string(), open.doc);
+        }
+        for f in &spec.fields {
+            outln!("    {:<15} {:<40} {:<22} {}", f.name, f.kind.describe(), f.describe_default(), f.doc);
+        }
+        if spec.name == "LoadHdr" {
+            outln!("    built-in maps (path: \"builtin:NAME\"):");
+            for (n, doc) in crate::formats::builtin::BUILTINS {
+                outln!("      {n:<10} {doc}");
+            }
+        }
+        outln!();
+    }
+    if name.is_none() {
+        outln!("== value types ==");
+        for t in registry.value_types() {
+            let saves = t.spec().save_extensions;
+            let saved = if saves.is_empty() {
+                String::new()
+            } else {
+                format!(" (Save: {})", saves.iter().map(|e| format!(".{e}")).collect::<Vec<_>>().join(" "))
+            };
+            outln!("    {:<14} {}{saved}", t.name(), t.spec().doc);
+        }
+    }
+    ExitCode::SUCCESS
+}
+
+fn bench(args: &BenchArgs) -> ExitCode {
+    use crate::bench::{BenchConfig, MapSpec};
+    let candidates = [
+        ("sky", "builtin:sky".to_string(), false),
+        ("grace", args.data.join("grace_latlong.exr").display().to_string(), true),
+        ("park", args.data.join("rooitou_park_1k.hdr").display().to_string(), false),
+        ("fagans", args.data.join("st_fagans_interior_1k.hdr").display().to_string(), false),
+        ("studio", args.data.join("studio_small_03_1k.hdr").display().to_string(), false),
+    ];
+    let mut maps = Vec::new();
+    for (name, source, flip) in candidates {
+        if !args.maps.is_empty() && !args.maps.iter().any(|m| m == name) {
+            continue;
+        }
+        if !source.starts_with("builtin:") && !std::path::Path::new(&source).is_file() {
+            eprintln!("SKIPPED map {name}: {source} not found");
+            continue;
+        }
+        maps.push(MapSpec { name: name.to_string(), source, flip_vertical: flip });
     }
     if maps.is_empty() {
         eprintln!("error: no map to benchmark");
