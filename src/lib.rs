@@ -2,6 +2,7 @@
 //!
 //! Layers, each using only those below it:
 //! - [`cli`]: the command line, over any registry (`cli::main_with`).
+//! - [`report`]: the HTML page of a run (graph, outputs, nodes, timeline).
 //! - [`ops`]: the built-in operators, one file each, grouped by domain; `ops::builtin_registry`.
 //! - [`types`]: the built-in value types (how each data type is named, cached and saved).
 //! - [`engine`]: pipeline files, validation, the parallel demand-driven scheduler, the cache;
@@ -39,6 +40,7 @@ pub mod geometry;
 pub mod maths;
 pub mod ops;
 pub mod plotting;
+pub mod report;
 pub mod types;
 
 pub use engine::graph::{Override, Pipeline};

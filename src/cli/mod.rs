@@ -28,6 +28,7 @@ macro_rules! out {
 mod batch;
 mod progress;
 mod slurm;
+mod watch;
 
 /// A closed pipe ends the program successfully; any other write error is reported.
 pub(crate) fn stdout_failed(e: std::io::Error) -> ! {
@@ -64,6 +65,8 @@ enum Command {
     Plan(RunArgs),
     /// Run a pipeline over a library of maps and parameter sweeps, one output folder per item.
     Batch(batch::BatchArgs),
+    /// Run a pipeline, then rerun it whenever its file or a file it reads changes.
+    Watch(watch::WatchArgs),
     /// Print the pipeline as a Graphviz DOT graph.
     Dot(GraphArgs),
     /// Benchmark run time against error for every relighting strategy and the peers.
@@ -194,6 +197,11 @@ struct RunArgs {
     /// Print the run report as JSON on stdout (for scripts) instead of the summary.
     #[arg(long)]
     json: bool,
+    /// Write a self-contained HTML page of the run to FILE: the graph coloured by status,
+    /// thumbnails of every image output, metrics, each node's time and cache status, and the
+    /// timeline of the parallel schedule.
+    #[arg(long, value_name = "FILE")]
+    html: Option<PathBuf>,
 }
 
 /// The `hdrflow` command line over the built-in operators.
@@ -249,32 +257,66 @@ where
         Command::Bench(args) => bench(&args),
         Command::Run(args) => run(&registry, &args),
         Command::Batch(args) => batch::batch(&registry, &args),
+        Command::Watch(args) => watch::watch(&registry, &args),
     }
 }
 
 fn load(registry: &Registry, args: &GraphArgs) -> Result<Pipeline, ExitCode> {
+    load_or_message(registry, args).map_err(|message| {
+        eprint!("{message}");
+        ExitCode::from(2)
+    })
+}
+
+/// The pipeline with its `--set` overrides, or every error as the lines to print (exit code 2).
+fn load_or_message(registry: &Registry, args: &GraphArgs) -> Result<Pipeline, String> {
     let mut overrides = Vec::new();
     for s in &args.set {
-        match Override::parse(s) {
-            Ok(o) => overrides.push(o),
-            Err(e) => {
-                eprintln!("error: {e}");
-                return Err(ExitCode::from(2));
-            }
-        }
+        overrides.push(Override::parse(s).map_err(|e| format!("error: {e}\n"))?);
     }
     Pipeline::load(&args.graph, registry, &overrides).map_err(|errors| {
+        let mut message = String::new();
         for e in &errors.0 {
-            eprintln!("error: {e}");
+            message.push_str(&format!("error: {e}\n"));
         }
-        eprintln!(
-            "{} error{} in {}; nothing was run",
+        message.push_str(&format!(
+            "{} error{} in {}; nothing was run\n",
             errors.0.len(),
             if errors.0.len() == 1 { "" } else { "s" },
             args.graph.display()
-        );
-        ExitCode::from(2)
+        ));
+        message
     })
+}
+
+/// Writes the HTML page of a run (`--html`); a failure to write is a warning, not the run's.
+fn write_html(
+    path: &std::path::Path,
+    p: &Pipeline,
+    report: Option<&scheduler::RunReport>,
+    args: &RunArgs,
+    error: Option<String>,
+    refresh_seconds: Option<u32>,
+    subtitle: String,
+) {
+    let page = crate::report::html::Page {
+        title: args.graph.graph.display().to_string(),
+        pipeline: Some(p),
+        report,
+        out_dir: &args.out,
+        error,
+        refresh_seconds,
+        subtitle,
+    };
+    if let Err(e) = crate::report::html::write(path, &page) {
+        eprintln!("warning: writing {}: {e}", path.display());
+    }
+}
+
+/// The wall-clock time of day (UTC), `HH:MM:SS`, for summaries and pages.
+pub(crate) fn now_hms() -> String {
+    let secs = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_secs());
+    format!("{:02}:{:02}:{:02} UTC", secs / 3600 % 24, secs / 60 % 60, secs % 60)
 }
 
 fn cache_of(args: &RunArgs) -> Option<CacheStore> {
@@ -382,6 +424,13 @@ fn run(registry: &Registry, args: &RunArgs) -> ExitCode {
     };
     let outcome = scheduler::run(&p, &options);
     observer.finish();
+    if let Some(html) = &args.html {
+        let (report, error) = match &outcome {
+            Ok(o) => (Some(&o.report), None),
+            Err(e) => (None, Some(format!("error: {e}"))),
+        };
+        write_html(html, &p, report, args, error, None, format!("hdrflow run, {}", now_hms()));
+    }
     let outcome = match outcome {
         Ok(o) => o,
         Err(e) => {

@@ -110,6 +110,10 @@ pub struct RunReport {
     /// Files written into the output folder (unchanged files are not rewritten nor listed).
     #[serde(skip)]
     pub written: Vec<PathBuf>,
+    /// Every file the run's nodes produced, written or already up to date: (node, path relative
+    /// to the output folder), sorted.
+    #[serde(skip)]
+    pub files: Vec<(String, String)>,
 }
 
 impl RunReport {
@@ -328,6 +332,7 @@ struct Shared<'s> {
     abort: &'s AtomicBool,
     first_error: &'s Mutex<Option<RunError>>,
     written: &'s Mutex<Vec<PathBuf>>,
+    files: &'s Mutex<Vec<(String, String)>>,
     /// Nodes whose inputs are all ready, not yet started, by priority (see `enqueue`). Each
     /// entry has one spawned task that starts the best entry at the time it runs.
     ready: &'s Mutex<BinaryHeap<(usize, Reverse<usize>)>>,
@@ -384,6 +389,7 @@ impl Shared<'_> {
     fn store(&self, i: usize, outputs: Vec<Value>) -> Result<(), RunError> {
         for (port, value) in outputs.into_iter().enumerate() {
             if let Some(f) = value.get::<FileBlob>() {
+                self.files.lock().expect("files lock").push((self.p.nodes[i].name.clone(), f.rel_path.clone()));
                 if let Some(path) = write_output(&self.options.out_dir, &f.rel_path, &f.bytes)? {
                     self.written.lock().expect("written lock").push(path);
                 }
@@ -439,6 +445,7 @@ fn run_in_pool(p: &Pipeline, options: &RunOptions) -> Result<RunOutcome, RunErro
         .collect();
     let timing: Vec<Mutex<Timing>> = (0..n).map(|_| Mutex::new(Timing::default())).collect();
     let written: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+    let files: Mutex<Vec<(String, String)>> = Mutex::new(Vec::new());
 
     // Plan, then load cached values; a corrupt entry sends its node back to `Computed`.
     let mut distrust = BTreeSet::new();
@@ -542,6 +549,7 @@ fn run_in_pool(p: &Pipeline, options: &RunOptions) -> Result<RunOutcome, RunErro
         abort: &abort,
         first_error: &first_error,
         written: &written,
+        files: &files,
         ready: &ready,
         is_target: &is_target,
         target_extras: &target_extras,
@@ -586,7 +594,10 @@ fn run_in_pool(p: &Pipeline, options: &RunOptions) -> Result<RunOutcome, RunErro
     }
     let mut written = written.into_inner().expect("written lock");
     written.sort();
-    Ok(RunOutcome { report: RunReport { total_ms: start.elapsed().as_secs_f64() * 1e3, nodes, written }, values })
+    let mut files = files.into_inner().expect("files lock");
+    files.sort();
+    let report = RunReport { total_ms: start.elapsed().as_secs_f64() * 1e3, nodes, written, files };
+    Ok(RunOutcome { report, values })
 }
 
 /// A node's outputs matched to its ports, and what else it produced (open ports no consumer

@@ -21,7 +21,7 @@ use petgraph::graph::{DiGraph, NodeIndex};
 
 use crate::engine::error::{PipelineError, PipelineErrors};
 use crate::engine::op::OpSpec;
-use crate::engine::params::Params;
+use crate::engine::params::{FieldKind, ParamValue, Params};
 use crate::engine::registry::Registry;
 use crate::engine::value::{ValueType, FILE};
 use syntax::Pos;
@@ -190,12 +190,50 @@ impl Pipeline {
 
     /// Graphviz DOT: one box per node (name, operator, ports), edges labelled with input
     /// fields and the port they take.
+    /// The files the pipeline reads: every input-path field's value, resolved against the
+    /// pipeline's folder (`builtin:` names left out), sorted, without repeats.
+    pub fn input_files(&self) -> Vec<PathBuf> {
+        let mut v: Vec<PathBuf> = self
+            .nodes
+            .iter()
+            .flat_map(|n| {
+                n.spec.fields.iter().filter(|f| matches!(f.kind, FieldKind::Path)).filter_map(|f| {
+                    match n.params.values.get(f.name) {
+                        Some(ParamValue::Text(path)) if !path.starts_with("builtin:") => {
+                            Some(crate::engine::op::resolve_path(&self.base_dir, path))
+                        }
+                        _ => None,
+                    }
+                })
+            })
+            .collect();
+        v.sort();
+        v.dedup();
+        v
+    }
+
     pub fn to_dot(&self) -> String {
+        self.to_dot_styled(&|_| Vec::new())
+    }
+
+    /// [`to_dot`](Self::to_dot) with extra attributes per node, `(name, value)` pairs (a run
+    /// report colours nodes by status); a `label` among them replaces the default label.
+    pub fn to_dot_styled(&self, node_attrs: &dyn Fn(usize) -> Vec<(&'static str, String)>) -> String {
         let mut s = String::from("digraph pipeline {\n  rankdir=LR;\n  node [shape=box, fontname=\"sans-serif\"];\n");
-        for n in &self.nodes {
-            let ports: Vec<String> = n.ports.iter().map(|p| format!("{}: {}", p.name, p.ty)).collect();
-            let label = format!("{}\n{} -> {}", n.name, n.spec.name, ports.join(", "));
-            s.push_str(&format!("  {} [label={}];\n", dot_quote(&n.name), dot_quote(&label)));
+        for (i, n) in self.nodes.iter().enumerate() {
+            let extra = node_attrs(i);
+            let label = match extra.iter().find(|(k, _)| *k == "label") {
+                Some((_, l)) => l.clone(),
+                None => {
+                    let ports: Vec<String> = n.ports.iter().map(|p| format!("{}: {}", p.name, p.ty)).collect();
+                    format!("{}\n{} -> {}", n.name, n.spec.name, ports.join(", "))
+                }
+            };
+            let mut attrs = format!("label={}", dot_quote(&label));
+            for (k, v) in extra.iter().filter(|(k, _)| *k != "label") {
+                attrs.push_str(&format!(", {k}={}", dot_quote(v)));
+            }
+            s.push_str(&format!("  {} [{attrs}];\n", dot_quote(&n.name)));
         }
         for n in &self.nodes {
             for w in &n.inputs {
