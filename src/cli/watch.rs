@@ -18,7 +18,8 @@ use std::sync::mpsc::{self, Receiver, RecvTimeoutError};
 use std::time::Duration;
 
 use clap::Args;
-use notify::{RecursiveMode, Watcher};
+use notify::event::{AccessKind, AccessMode, ModifyKind};
+use notify::{EventKind, RecursiveMode, Watcher};
 
 use super::{cache_of, load_or_message, now_hms, progress, write_html, RunArgs};
 use crate::engine::registry::Registry;
@@ -47,8 +48,11 @@ pub(crate) fn watch(registry: &Registry, args: &WatchArgs) -> ExitCode {
         eprintln!("warning: Ctrl-C will not stop the watch cleanly: {e}");
     }
     let mut watcher = match notify::recommended_watcher(move |event: notify::Result<notify::Event>| {
+        // Content changes only: reading a file (ours included, every run) raises access events.
         if let Ok(event) = event {
-            let _ = tx.send(Message::Files(event.paths));
+            if is_change(&event.kind) {
+                let _ = tx.send(Message::Files(event.paths));
+            }
         }
     }) {
         Ok(w) => w,
@@ -107,7 +111,6 @@ fn run_once(
         Ok(p) => p,
         Err(message) => {
             eprint!("{message}");
-            outln!("[{}] run {n}{why}: the pipeline has errors; fix the file and save", now_hms());
             if let Some(html) = &run.html {
                 let page = crate::report::html::Page {
                     title: run.graph.graph.display().to_string(),
@@ -122,6 +125,8 @@ fn run_once(
                     eprintln!("warning: writing {}: {e}", html.display());
                 }
             }
+            // The summary line last: whoever reads it finds the page and report up to date.
+            outln!("[{}] run {n}{why}: the pipeline has errors; fix the file and save", now_hms());
             return previous.to_vec();
         }
     };
@@ -139,6 +144,15 @@ fn run_once(
     match &outcome {
         Ok(o) => {
             let r = &o.report;
+            if let Some(html) = &run.html {
+                write_html(html, &p, Some(r), run, None, Some(1), subtitle);
+            }
+            if let Some(path) = &run.report {
+                let json = serde_json::to_string_pretty(r).expect("report serialises");
+                if let Err(e) = crate::engine::cache::store::write_atomic(path, json.as_bytes()) {
+                    eprintln!("warning: writing report {}: {e}", path.display());
+                }
+            }
             outln!(
                 "[{}] run {n}{why}: {} computed, {} cached, {} not needed; {:.1} ms; {} file{} written",
                 now_hms(),
@@ -149,22 +163,13 @@ fn run_once(
                 r.written.len(),
                 if r.written.len() == 1 { "" } else { "s" }
             );
-            if let Some(html) = &run.html {
-                write_html(html, &p, Some(r), run, None, Some(1), subtitle);
-            }
-            if let Some(path) = &run.report {
-                let json = serde_json::to_string_pretty(r).expect("report serialises");
-                if let Err(e) = crate::engine::cache::store::write_atomic(path, json.as_bytes()) {
-                    eprintln!("warning: writing report {}: {e}", path.display());
-                }
-            }
         }
         Err(e) => {
             eprintln!("error: {e}");
-            outln!("[{}] run {n}{why}: failed; fix the cause and save", now_hms());
             if let Some(html) = &run.html {
                 write_html(html, &p, None, run, Some(format!("error: {e}")), Some(1), subtitle);
             }
+            outln!("[{}] run {n}{why}: failed; fix the cause and save", now_hms());
         }
     }
     if let Some(cache) = options.cache.as_ref().filter(|c| c.root().is_dir()) {
@@ -203,6 +208,17 @@ fn wait_for_change(rx: &Receiver<Message>, files: &[PathBuf], quiet: Duration) -
     changed.sort();
     changed.dedup();
     Some(changed)
+}
+
+/// Whether an event may have changed a file's content: created, written, renamed or removed (not
+/// opened, read or closed after reading, nor a metadata change such as an access time).
+fn is_change(kind: &EventKind) -> bool {
+    match kind {
+        EventKind::Create(_) | EventKind::Remove(_) | EventKind::Any => true,
+        EventKind::Modify(m) => !matches!(m, ModifyKind::Metadata(_)),
+        EventKind::Access(a) => matches!(a, AccessKind::Close(AccessMode::Write)),
+        EventKind::Other => false,
+    }
 }
 
 fn absolute(p: &Path) -> PathBuf {
