@@ -30,17 +30,12 @@ impl Watch {
     fn run_line(&self, n: usize) -> (String, Duration) {
         let start = Instant::now();
         let needle = format!("run {n}");
-        loop {
-            let left = Duration::from_secs(60).saturating_sub(start.elapsed());
-            match self.lines.recv_timeout(left) {
-                Ok(l) if l.contains(&format!("{needle}:")) || l.contains(&format!("{needle} (")) => {
-                    return (l, start.elapsed())
-                }
-                Ok(l) => panic!("expected run {n}, got: {l}"),
-                Err(e) => {
-                    let err: Vec<String> = self.stderr.try_iter().collect();
-                    panic!("no summary line of run {n} ({e}); stderr:\n{}", err.join("\n"))
-                }
+        match self.lines.recv_timeout(Duration::from_secs(60)) {
+            Ok(l) if l.contains(&format!("{needle}:")) || l.contains(&format!("{needle} (")) => (l, start.elapsed()),
+            Ok(l) => panic!("expected run {n}, got: {l}"),
+            Err(e) => {
+                let err: Vec<String> = self.stderr.try_iter().collect();
+                panic!("no summary line of run {n} ({e}); stderr:\n{}", err.join("\n"))
             }
         }
     }
