@@ -37,7 +37,12 @@ pyo3::create_exception!(
     PyValueError,
     "A pipeline that does not validate; the message has one `file:line:col: node \"x\": message` line per problem, `errors` the same as dicts."
 );
-pyo3::create_exception!(hdrflow, RunError, PyRuntimeError, "A run that failed (an operator's error, an output folder that cannot be written, an unknown target).");
+pyo3::create_exception!(
+    hdrflow,
+    RunError,
+    PyRuntimeError,
+    "A run that failed (an operator's error, an output folder that cannot be written, an unknown target)."
+);
 
 /// The process-wide registry: the built-in operators plus those registered from Python.
 static REGISTRY: Mutex<Option<Registry>> = Mutex::new(None);
@@ -364,9 +369,10 @@ fn register_operator(
         return Err(PyValueError::new_err(format!("operator name {name:?}: use letters, digits and _ only")));
     }
     let registry = with_registry(|r| r.clone());
-    let out_ty = find_type(&registry, output)
-        .filter(|t| t.name() == "image" || t.name() == "scalar field")
-        .ok_or_else(|| PyValueError::new_err(format!("output {output:?}: a Python operator returns `image` or `scalar_field`")))?;
+    let out_ty =
+        find_type(&registry, output).filter(|t| t.name() == "image" || t.name() == "scalar field").ok_or_else(
+            || PyValueError::new_err(format!("output {output:?}: a Python operator returns `image` or `scalar_field`")),
+        )?;
     let op_name = leak(name);
     let mut spec = OpSpec::new(op_name, leak(category), version, leak(doc));
     // The function's source and its declared version are in every key (the version is
