@@ -25,7 +25,7 @@ import numpy as np
 from . import _hdrflow
 from ._hdrflow import PipelineError, RunError
 
-__all__ = ["run", "ops", "operator", "Result", "Ron", "PipelineError", "RunError", "value_types"]
+__all__ = ["run", "batch", "ops", "operator", "Result", "Ron", "PipelineError", "RunError", "value_types"]
 
 
 class Ron(str):
@@ -170,6 +170,59 @@ def run(
         arrays,
     )
     return Result(values, json.loads(report), channels)
+
+
+def _axes(spec: Any, over: bool) -> list:
+    """``{"node.field": "glob-or-a,b,c" | [values]}`` (or a list of such pairs) as axes."""
+    if spec is None:
+        return []
+    pairs = spec.items() if isinstance(spec, Mapping) else spec
+    axes = []
+    for label, value in pairs:
+        if isinstance(value, (list, tuple)):
+            # Explicit values: RON text like run(set=...), except that a str path of `over` is
+            # taken as written (as on the command line).
+            values = [str(v) if over and isinstance(v, (str, os.PathLike)) and not isinstance(v, Ron)
+                      else _to_ron(v) for v in value]
+            axes.append((label, [os.fspath(v) if isinstance(v, os.PathLike) else v for v in values], over))
+        else:
+            axes.append((f"{label}={os.fspath(value) if isinstance(value, os.PathLike) else value}", None, over))
+    return axes
+
+
+def batch(
+    graph: Union[str, os.PathLike],
+    over: Any = None,
+    sweep: Any = None,
+    out: Union[str, os.PathLike] = "out",
+    jobs: Optional[int] = None,
+    cache_dir: Optional[Union[str, os.PathLike]] = None,
+    keep_going: bool = False,
+    zip: bool = False,
+    item_dir: Optional[str] = None,
+) -> list:
+    """``hdrflow batch``: runs a pipeline file once per item, each into its own folder of ``out``.
+
+    over: ``{"env.path": "maps/*.hdr"}`` (a glob, or a comma-separated list, as ``--over``) or
+        ``{"env.path": ["a.hdr", "b.hdr"]}``; sweep: ``{"samples.count": [64, 256]}`` or
+        ``{"samples.count": "64,256"}`` (as ``--sweep``). Several axes form their cross product,
+        or their pairing with ``zip=True``. A dict keeps its order; a list of pairs works too.
+    Returns the report rows (``--report``'s JSON): ``item``, ``index``, ``values``, ``status``
+    ("computed", "cached" or "failed"), ``ms``, ``error``, ``evaluations``, ``metrics``. A failed
+    item is a row, not an exception (without ``keep_going`` no new item starts after it);
+    validation errors raise ``PipelineError`` before anything runs.
+    """
+    rows = _hdrflow.run_batch(
+        os.fspath(graph),
+        _axes(over, True) + _axes(sweep, False),
+        bool(zip),
+        item_dir,
+        os.fspath(out),
+        os.fspath(cache_dir) if cache_dir is not None else None,
+        jobs,
+        bool(keep_going),
+    )
+    return json.loads(rows)
 
 
 def ops() -> list:

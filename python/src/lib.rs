@@ -441,12 +441,65 @@ fn eval_python(op: &str, func: &Py<PyAny>, ctx: &mut OpContext) -> Result<Output
     })
 }
 
+/// A batch observer that says nothing (the library never prints).
+struct QuietBatch;
+impl hdrflow::batch::BatchObserver for QuietBatch {}
+
+/// `hdrflow batch` over a pipeline file: `axes` are (`NODE.FIELD=GLOB_OR_LIST` or `NODE.FIELD`,
+/// explicit values or None, `over`). Returns the report rows as JSON text (`--report`'s rows).
+#[pyfunction]
+#[pyo3(signature = (graph, axes, zip, item_dir, out, cache_dir, jobs, keep_going))]
+#[allow(clippy::too_many_arguments)]
+fn run_batch(
+    py: Python<'_>,
+    graph: PathBuf,
+    axes: Vec<(String, Option<Vec<String>>, bool)>,
+    zip: bool,
+    item_dir: Option<String>,
+    out: PathBuf,
+    cache_dir: Option<PathBuf>,
+    jobs: Option<usize>,
+    keep_going: bool,
+) -> PyResult<String> {
+    use hdrflow::batch::{self, Axis, BatchOptions};
+    let mut parsed = Vec::new();
+    for (spec, values, over) in axes {
+        let axis = match values {
+            None => Axis::parse(&spec, over).map_err(PipelineError::new_err)?,
+            Some(values) => {
+                let o = Override::parse(&format!("{spec}=")).map_err(PipelineError::new_err)?;
+                Axis { node: o.node, field: o.field, values, over }
+            }
+        };
+        parsed.push(axis);
+    }
+    let items = batch::items(&parsed, zip, item_dir.as_deref()).map_err(PyValueError::new_err)?;
+    let registry = with_registry(|r| r.clone());
+    let pipelines = py
+        .detach(|| batch::validate(&registry, &graph, &items))
+        .map_err(|errors| PipelineError::new_err(errors.join("\n")))?;
+    scheduler::check_output_dir(&out).map_err(|e| RunError::new_err(e.to_string()))?;
+    let cache = CacheStore::new(cache_dir.unwrap_or_else(CacheStore::default_dir), DEFAULT_LIMIT_BYTES)
+        .with_policy(PersistPolicy::Auto);
+    let options = BatchOptions {
+        out_dir: out,
+        cache,
+        cache_limit_bytes: DEFAULT_LIMIT_BYTES,
+        jobs: jobs.filter(|&j| j > 0),
+        keep_going,
+        observer: &QuietBatch,
+    };
+    let outcome = py.detach(|| batch::run(&items, &pipelines, &options));
+    Ok(batch::json_rows(&outcome.rows).to_string())
+}
+
 #[pymodule]
 fn _hdrflow(m: &Bound<'_, PyModule>) -> PyResult<()> {
     let py = m.py();
     m.add("PipelineError", py.get_type::<PipelineError>())?;
     m.add("RunError", py.get_type::<RunError>())?;
     m.add_function(wrap_pyfunction!(run_pipeline, m)?)?;
+    m.add_function(wrap_pyfunction!(run_batch, m)?)?;
     m.add_function(wrap_pyfunction!(ops, m)?)?;
     m.add_function(wrap_pyfunction!(value_types, m)?)?;
     m.add_function(wrap_pyfunction!(register_operator, m)?)?;
