@@ -387,6 +387,7 @@ fn register_operator(
             k if k.starts_with("input:") => {
                 let tname = &k["input:".len()..];
                 let ty = find_type(&registry, tname)
+                    .filter(|t| t.name() != "file")
                     .ok_or_else(|| PyValueError::new_err(format!("field {field:?}: unknown value type {tname:?}")))?;
                 (FieldKind::Input { types: vec![ty], arity: Arity::One }, None)
             }
@@ -402,11 +403,11 @@ fn register_operator(
             "str" => (FieldKind::Text, default.map(|d| d.extract::<String>().map(ParamValue::Text)).transpose()?),
             other => return Err(PyValueError::new_err(format!("field {field:?}: unknown kind {other:?}"))),
         };
-        spec.fields.push(FieldSpec { name: leak(&field), kind, default, doc: fdoc });
+        spec = spec.field_spec(FieldSpec { name: leak(&field), kind, default, doc: fdoc });
     }
     spec = spec.output("out", OutputType::Fixed(out_ty), "the function's result");
     let func = Arc::new(func);
-    spec.eval = Arc::new(move |ctx: &mut OpContext| eval_python(op_name, &func, ctx));
+    spec = spec.eval_raw(Arc::new(move |ctx: &mut OpContext| eval_python(op_name, &func, ctx)));
     with_registry(|r| {
         r.register(spec);
     });
