@@ -36,6 +36,21 @@ class Ron(str):
     """
 
 
+def _ron_string(s: str) -> str:
+    """A RON string literal: quotes and backslashes escaped, control characters as ``\\u{..}``."""
+    out = []
+    for c in s:
+        if c in '"\\':
+            out.append("\\" + c)
+        elif c == "\n":
+            out.append("\\n")
+        elif ord(c) < 0x20 or ord(c) == 0x7F:
+            out.append(f"\\u{{{ord(c):x}}}")
+        else:
+            out.append(c)
+    return '"' + "".join(out) + '"'
+
+
 def _to_ron(value: Any) -> str:
     """A Python value as RON text (what ``--set NODE.FIELD=VALUE`` takes)."""
     if isinstance(value, Ron):
@@ -50,13 +65,13 @@ def _to_ron(value: Any) -> str:
             raise ValueError(f"{v} cannot be written in a pipeline")
         return repr(v)
     if isinstance(value, str):
-        return json.dumps(value)  # a double-quoted string with RON's escapes
+        return _ron_string(value)
     if isinstance(value, tuple):
         return "(" + ", ".join(_to_ron(v) for v in value) + ")"
     if isinstance(value, list):
         return "[" + ", ".join(_to_ron(v) for v in value) + "]"
     if isinstance(value, os.PathLike):
-        return json.dumps(os.fspath(value))
+        return _ron_string(os.fspath(value))
     raise TypeError(f"cannot write a {type(value).__name__} as a pipeline value")
 
 

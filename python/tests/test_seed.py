@@ -3,6 +3,7 @@
 import subprocess
 
 import numpy as np
+import pytest
 
 import hdrflow
 
@@ -78,3 +79,13 @@ def test_set_overrides_like_the_command_line(root, cache):
     assert r["samples_64"]["x"].shape == (8,)
     r = hdrflow.run(root / "graphs/seed.ron", targets=["lum"], set={"lum.weights": hdrflow.Ron("Mean")}, cache_dir=cache)
     assert r["lum"].shape == (256, 512, 1) and r.channels("lum") == ["Y"]
+
+
+def test_set_writes_python_values_as_ron(root, cache):
+    upright = hdrflow.run(root / "graphs/seed.ron", targets=["env"], cache_dir=cache)["env"]
+    flipped = hdrflow.run(root / "graphs/seed.ron", targets=["env"], cache_dir=cache,
+                          set={"env.path": "builtin:sky", "env.flip_vertical": True})["env"]
+    assert np.array_equal(flipped, upright[::-1])
+    # A str arrives as written, control characters and quotes included (a missing file: RunError).
+    with pytest.raises(hdrflow.RunError, match='nope\t"q: No such file'):
+        hdrflow.run(root / "graphs/seed.ron", targets=["env"], cache_dir=cache, set={"env.path": 'nope\t"q'})
