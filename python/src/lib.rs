@@ -1,12 +1,14 @@
 //! `hdrflow._hdrflow`: the Python extension over the hdrflow library (no second implementation:
 //! pipelines load, validate, run and cache exactly as on the command line).
 //!
-//! The public Python API is `python/hdrflow/__init__.py`; this module gives it four functions:
+//! The public Python API is `python/hdrflow/__init__.py`; this module gives it five functions:
 //! - `run_pipeline`: load (a file or RON text) with `--set` overrides, supply NumPy arrays in place
 //!   of nodes (`Pipeline::provide`), run with the GIL released, and convert the targets' values;
+//! - `run_batch`: `hdrflow batch` (`crate::batch`) over a pipeline file, the GIL released;
 //! - `ops` and `value_types`: the registry's description;
 //! - `register_operator`: a Python function as an operator (`OpSpec` built at run time: fields
-//!   declared from Python, an untyped evaluation that takes the GIL).
+//!   declared from Python with `OpSpec::field_spec`, an untyped evaluation, `OpSpec::eval_raw`,
+//!   that takes the GIL).
 //!
 //! Values come back as NumPy arrays without copying where the engine holds the only reference:
 //! an image's `Vec<f32>` is moved into the array (`PyArray::from_owned_array`).
