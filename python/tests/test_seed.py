@@ -28,9 +28,12 @@ def test_seed_spheres_are_bit_identical_to_the_exr_files_the_command_line_writes
         assert ours.dtype == np.float32 and ours.shape == (256, 256, 3) == theirs.shape
         assert r.channels(node) == ["R", "G", "B"]
         assert np.array_equal(ours.view(np.uint32), theirs.view(np.uint32)), node
-    # Every sphere came back as an image, the samples and curves as dicts.
+    # Every sphere came back as an image, the samples and curves as dicts. The arrays do not
+    # own a copy: each wraps the engine's own buffer, moved to NumPy (its base keeps it alive).
     for n in ["sphere_64", "sphere_256", "sphere_1024", "sphere_1024_seed"]:
         assert r[n].shape == (256, 256, 3)
+        assert not r[n].flags.owndata and type(r[n].base).__name__ == "PySliceContainer"
+        assert r[n].flags.c_contiguous and r[n].flags.writeable
     assert r["samples_64"]["dir"].shape == (64, 3)
     assert set(r["fresnel_in"]) >= {"x", "series", "scalars"}
 
