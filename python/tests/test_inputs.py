@@ -52,3 +52,16 @@ def test_a_one_channel_array_is_a_scalar_field(cache):
         hdrflow.run(GRAPH, targets=["exp"], inputs={"env": np.ones((3, 5))}, cache_dir=cache)
     with pytest.raises(ValueError, match="no node \"nope\""):
         hdrflow.run(GRAPH, inputs={"nope": np.ones((3, 5, 3))}, cache_dir=cache)
+
+
+def test_other_ports_come_back_as_node_dot_port(cache):
+    graph = GRAPH.replace("})", '    "d": Difference(a: "exp", b: "env"),\n})')
+    env = np.full((3, 4, 3), 0.25)
+    r = hdrflow.run(graph, targets=["d"], inputs={"env": env}, cache_dir=cache)
+    assert set(r) == {"d", "d.error", "d.metrics"}
+    assert r["d"].ndim == 3 and r["d"].shape[2] >= 3  # the heat map (with its legend)
+    assert r["d.error"].shape == (3, 4, 1) and r.channels("d.error") == ["E"]
+    assert r["d.metrics"]["max"] == pytest.approx(float(r["d.error"].max()))
+    assert "d.metrics" in r and "d.nope" not in r and len(r) == 3
+    with pytest.raises(KeyError, match="pass targets"):
+        r["exp"]
