@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import inspect
 import json
+import marshal
 import os
 import re
 import textwrap
@@ -289,7 +290,12 @@ def operator(
         try:
             source = textwrap.dedent(inspect.getsource(fn))
         except (OSError, TypeError):
-            source = getattr(fn, "__qualname__", repr(fn))
+            # No source file (python -c, exec): the compiled code stands in for it, so an edit
+            # still changes the key (within one Python version).
+            code = getattr(fn, "__code__", None)
+            if code is None:
+                raise TypeError(f"{name}: a Python function is needed (its source is in the cache key)") from None
+            source = "marshal:" + marshal.dumps(code).hex()
         decl = []
         for field, spec in fields.items():
             if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", field):
