@@ -106,3 +106,23 @@ def test_ops_describes_built_ins_and_python_operators():
     assert [(f["name"], f["kind"], f["default"]) for f in mine["fields"]] == [
         ("image", "input<image>", None), ("gain", "float in [-1.7976931348623157e308, 1.7976931348623157e308]", 1.5)
     ]
+
+
+def test_a_function_without_source_is_keyed_by_its_compiled_code(cache):
+    def define(body):
+        scope = {"hdrflow": hdrflow}
+        exec(
+            "@hdrflow.operator(name='PyExecTest', fields={'image': 'image'})\n"
+            f"def f(image):\n    return {body}\n",
+            scope,
+        )
+
+    graph = '(nodes: {"env": LoadHdr(path: "builtin:sky"), "x": PyExecTest(image: "env")})'
+    env = np.ones((2, 2, 3), np.float32)
+    define("image * 2")
+    assert hdrflow.run(graph, inputs={"env": env}, cache_dir=cache)["x"][0, 0, 0] == 2
+    define("image * 2")
+    assert hdrflow.run(graph, inputs={"env": env}, cache_dir=cache).status("x") == "cached"
+    define("image * 3")
+    r = hdrflow.run(graph, inputs={"env": env}, cache_dir=cache)
+    assert r.status("x") == "computed" and r["x"][0, 0, 0] == 3
