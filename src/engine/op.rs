@@ -399,6 +399,22 @@ impl OpSpec {
         self
     }
 
+    /// Adds a field declared at run time, for an operator whose fields are not a Rust struct
+    /// (the Python bindings' `hdrflow.operator` declares them from a dict). Its name must be
+    /// `'static`; such a caller leaks it once per registration.
+    pub fn field_spec(mut self, field: FieldSpec) -> Self {
+        self.fields.push(field);
+        self
+    }
+
+    /// The evaluation without typed parameters: `f` reads `ctx.params` (validated against the
+    /// declared fields) and returns its outputs itself. For operators declared at run time
+    /// (with [`OpSpec::field_spec`]); a Rust operator uses [`OpSpec::eval`].
+    pub fn eval_raw(mut self, f: EvalFn) -> Self {
+        self.eval = f;
+        self
+    }
+
     /// Cross-field validation with typed parameters.
     pub fn check<P: ParamSet + 'static>(mut self, f: fn(&CheckContext, P) -> Result<(), CheckProblem>) -> Self {
         self.check = Some(Arc::new(move |ctx: &CheckContext| f(ctx, P::from_params(ctx.params))));

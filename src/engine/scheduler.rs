@@ -4,7 +4,9 @@
 //!    their file's content, in parallel).
 //! 2. **Plan** (demand-driven, from the targets back): a needed node whose key is in the cache
 //!    is `Cached` and its inputs are not needed for its sake; otherwise it is `Computed` and its
-//!    inputs are needed. Everything else is `NotNeeded`.
+//!    inputs are needed. Everything else is `NotNeeded`. A node whose value the caller supplied
+//!    (`Pipeline::provide`) is `Provided`: keyed by the value's content, never evaluated, and
+//!    its inputs are not needed for its sake.
 //! 3. **Load** the cached values. An entry that turns out corrupt is reported, dropped, and the
 //!    plan is made again without it, so that node and whatever it needs are computed.
 //! 4. **Run** the `Computed` nodes on a rayon pool: a node starts as soon as its inputs are
@@ -32,7 +34,7 @@ use std::time::Instant;
 use rayon::prelude::*;
 
 use crate::engine::cache::store::{remove_stale_temporaries, write_atomic};
-use crate::engine::cache::{key_hex, node_key, policy, CacheStore, Key};
+use crate::engine::cache::{key_hex, node_key, policy, provided_key, CacheStore, Key};
 use crate::engine::error::{CacheError, RunError};
 use crate::engine::graph::Pipeline;
 use crate::engine::op::{OpContext, Outputs};
@@ -49,6 +51,9 @@ pub enum NodeStatus {
     /// Not needed by the targets (or only needed by a node served from the cache).
     #[serde(rename = "not needed")]
     NotNeeded,
+    /// Its value was supplied by the caller (`Pipeline::provide`): not evaluated.
+    #[serde(rename = "provided")]
+    Provided,
 }
 
 impl NodeStatus {
@@ -57,6 +62,7 @@ impl NodeStatus {
             NodeStatus::Computed => "computed",
             NodeStatus::Cached => "cached",
             NodeStatus::NotNeeded => "not needed",
+            NodeStatus::Provided => "provided",
         }
     }
 }
@@ -166,14 +172,17 @@ fn resolve_targets(p: &Pipeline, targets: &[String]) -> Result<Vec<usize>, RunEr
         .collect()
 }
 
-/// Marks every ancestor of `targets` (inclusive).
+/// Marks every ancestor of `targets` (inclusive), stopping at provided nodes (their value
+/// needs none of their inputs).
 fn ancestors(p: &Pipeline, targets: &[usize]) -> Vec<bool> {
     let mut needed = vec![false; p.nodes.len()];
     let mut stack: Vec<usize> = targets.to_vec();
     while let Some(i) = stack.pop() {
         if !needed[i] {
             needed[i] = true;
-            stack.extend(p.nodes[i].sources().map(|s| s.node));
+            if !p.provided.contains_key(&i) {
+                stack.extend(p.nodes[i].sources().map(|s| s.node));
+            }
         }
     }
     needed
@@ -196,7 +205,7 @@ fn compute_keys_and_content(
         .into_par_iter()
         .map(|i| {
             let node = &p.nodes[i];
-            match (wanted[i], node.spec.content_key) {
+            match (wanted[i] && !p.provided.contains_key(&i), node.spec.content_key) {
                 (true, Some(f)) => f(&node.params, &p.base_dir).map(Some).map_err(|source| RunError::Op {
                     node: node.name.clone(),
                     op: node.spec.name,
@@ -209,6 +218,10 @@ fn compute_keys_and_content(
     let mut keys: Vec<Option<Key>> = vec![None; p.nodes.len()];
     for &i in &p.topo_order {
         if !wanted[i] {
+            continue;
+        }
+        if let Some(value) = p.provided.get(&i) {
+            keys[i] = Some(provided_key(value));
             continue;
         }
         let node = &p.nodes[i];
@@ -252,6 +265,10 @@ fn plan_status(
     let mut status = vec![NodeStatus::NotNeeded; p.nodes.len()];
     for &i in p.topo_order.iter().rev() {
         if !needed[i] {
+            continue;
+        }
+        if p.provided.contains_key(&i) {
+            status[i] = NodeStatus::Provided;
             continue;
         }
         let cached = !distrust.contains(&i)
@@ -564,6 +581,14 @@ fn run_in_pool(p: &Pipeline, options: &RunOptions) -> Result<RunOutcome, RunErro
             shared.store(i, values)?;
             let t = *timing[i].lock().expect("timing lock");
             obs.node_finished(&node_report(p, i, NodeStatus::Cached, t, &keys));
+        }
+    }
+
+    // Provided values go into their slots the same way.
+    for (&i, value) in &p.provided {
+        if status[i] == NodeStatus::Provided {
+            shared.store(i, vec![value.clone()])?;
+            obs.node_finished(&node_report(p, i, NodeStatus::Provided, Timing::default(), &keys));
         }
     }
 

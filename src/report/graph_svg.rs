@@ -16,6 +16,7 @@ pub fn status_colour(status: NodeStatus) -> &'static str {
         NodeStatus::Computed => "#a6e3a1",
         NodeStatus::Cached => "#89b4fa",
         NodeStatus::NotNeeded => "#e5e5e5",
+        NodeStatus::Provided => "#f9e2af",
     }
 }
 

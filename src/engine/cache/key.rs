@@ -71,6 +71,21 @@ pub fn node_key(node: &Node, inputs: &[Vec<(Key, &str)>], content: Option<&[u8]>
     *h.finalize().as_bytes()
 }
 
+/// The key of a value supplied in place of a node's output (`Pipeline::provide`): the value's
+/// type name and its cache payload (for an image: width, height, channel names, then the f32
+/// samples), so the same content gets the same key whatever node or run supplies it.
+pub fn provided_key(value: &crate::engine::value::Value) -> Key {
+    let mut payload = Vec::with_capacity(value.approx_bytes() + 64);
+    value.encode(&mut payload);
+    let mut h = blake3::Hasher::new();
+    h.update(b"hdrflow.provided-value.v1\0");
+    h.update(&ENGINE_SALT);
+    put_str(&mut h, value.value_type().name());
+    h.update(&(payload.len() as u64).to_le_bytes());
+    h.update(&payload);
+    *h.finalize().as_bytes()
+}
+
 fn put_param(h: &mut blake3::Hasher, value: &ParamValue) {
     match value {
         ParamValue::Float(v) => {

@@ -14,6 +14,7 @@ mod validate;
 
 pub use validate::{check_output_path, suggest};
 
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -23,7 +24,7 @@ use crate::engine::error::{PipelineError, PipelineErrors};
 use crate::engine::op::OpSpec;
 use crate::engine::params::{FieldKind, ParamValue, Params};
 use crate::engine::registry::Registry;
-use crate::engine::value::{ValueType, FILE};
+use crate::engine::value::{Value, ValueType, FILE};
 use syntax::Pos;
 
 /// A `--set NODE.FIELD=RON_VALUE` override, applied before validation.
@@ -132,6 +133,9 @@ pub struct Pipeline {
     pub topo_order: Vec<usize>,
     /// The registry it was validated against (the cache decodes values with its types).
     pub registry: Registry,
+    /// Values supplied by the caller in place of nodes' outputs (see [`Pipeline::provide`]):
+    /// node index -> value of its one port.
+    pub provided: BTreeMap<usize, Value>,
 }
 
 impl Pipeline {
@@ -159,6 +163,37 @@ impl Pipeline {
         overrides: &[Override],
     ) -> Result<Pipeline, PipelineErrors> {
         validate::validate(text, source, base_dir, registry, overrides)
+    }
+
+    /// Supplies node `name`'s value before running: the scheduler does not evaluate that node
+    /// (nor what only it needs), uses `value` as its output, and keys it by the value's content
+    /// (`cache::provided_key`), so the cache serves its consumers whenever the same value is
+    /// supplied again. The value must have the type validation gave the node's output, and the
+    /// node must have that one output port (consumers were checked against it). Used by the
+    /// Python bindings to feed a NumPy array in place of a loader.
+    pub fn provide(&mut self, name: &str, value: Value) -> Result<(), String> {
+        let i = self.index_of(name).ok_or_else(|| {
+            let names: Vec<&str> = self.nodes.iter().map(|n| n.name.as_str()).collect();
+            format!("no node {name:?} to provide a value for{}", suggest(name, &names, "nodes"))
+        })?;
+        let node = &self.nodes[i];
+        if node.ports.len() != 1 {
+            return Err(format!(
+                "node {name:?} ({}) has {} output ports; a value can be provided only for a node with one",
+                node.spec.name,
+                node.ports.len()
+            ));
+        }
+        let expected = node.ports[0].ty;
+        if value.value_type() != expected {
+            return Err(format!(
+                "node {name:?} ({}) outputs `{expected}`, but the value provided is `{}`",
+                node.spec.name,
+                value.value_type()
+            ));
+        }
+        self.provided.insert(i, value);
+        Ok(())
     }
 
     pub fn index_of(&self, name: &str) -> Option<usize> {

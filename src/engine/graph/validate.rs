@@ -113,6 +113,7 @@ pub(super) fn validate(
         graph,
         topo_order,
         registry: registry.clone(),
+        provided: Default::default(),
     })
 }
 
