@@ -67,7 +67,8 @@ pub(crate) fn watch(registry: &Registry, args: &WatchArgs) -> ExitCode {
     let mut runs = 0;
     loop {
         runs += 1;
-        files = run_once(registry, args, runs, &changed, &files);
+        let (next, summary) = run_once(registry, args, runs, &changed, &files);
+        files = next;
         let dirs: BTreeSet<PathBuf> = files.iter().filter_map(|f| f.parent().map(Path::to_path_buf)).collect();
         for d in watched_dirs.difference(&dirs) {
             let _ = watcher.unwatch(d);
@@ -78,6 +79,9 @@ pub(crate) fn watch(registry: &Registry, args: &WatchArgs) -> ExitCode {
             }
         }
         watched_dirs = dirs;
+        // The summary line last: whoever reads it finds the page and the report written and
+        // every file watched (a save right after it is seen).
+        outln!("{summary}");
         match wait_for_change(&rx, &files, Duration::from_millis(args.debounce_ms)) {
             Some(c) => changed = c,
             None => {
@@ -89,14 +93,14 @@ pub(crate) fn watch(registry: &Registry, args: &WatchArgs) -> ExitCode {
 }
 
 /// One run; returns the files to watch next (the pipeline file and every file it reads; after a
-/// pipeline error, the previous list, so that fixing any of them reruns).
+/// pipeline error, the previous list, so that fixing any of them reruns) and its summary line.
 fn run_once(
     registry: &Registry,
     args: &WatchArgs,
     n: usize,
     changed: &[PathBuf],
     previous: &[PathBuf],
-) -> Vec<PathBuf> {
+) -> (Vec<PathBuf>, String) {
     let run = &args.run;
     let why = if changed.is_empty() {
         String::new()
@@ -125,9 +129,8 @@ fn run_once(
                     eprintln!("warning: writing {}: {e}", html.display());
                 }
             }
-            // The summary line last: whoever reads it finds the page and report up to date.
-            outln!("[{}] run {n}{why}: the pipeline has errors; fix the file and save", now_hms());
-            return previous.to_vec();
+            let line = format!("[{}] run {n}{why}: the pipeline has errors; fix the file and save", now_hms());
+            return (previous.to_vec(), line);
         }
     };
     let observer = progress::Progress::new(progress::Verbosity::Quiet);
@@ -141,7 +144,7 @@ fn run_once(
     let outcome = scheduler::run(&p, &options);
     observer.finish();
     let subtitle = format!("hdrflow watch: run {n} at {}", now_hms());
-    match &outcome {
+    let line = match &outcome {
         Ok(o) => {
             let r = &o.report;
             if let Some(html) = &run.html {
@@ -153,7 +156,7 @@ fn run_once(
                     eprintln!("warning: writing report {}: {e}", path.display());
                 }
             }
-            outln!(
+            format!(
                 "[{}] run {n}{why}: {} computed, {} cached, {} not needed; {:.1} ms; {} file{} written",
                 now_hms(),
                 r.count(NodeStatus::Computed),
@@ -162,16 +165,16 @@ fn run_once(
                 r.total_ms,
                 r.written.len(),
                 if r.written.len() == 1 { "" } else { "s" }
-            );
+            )
         }
         Err(e) => {
             eprintln!("error: {e}");
             if let Some(html) = &run.html {
                 write_html(html, &p, None, run, Some(format!("error: {e}")), Some(1), subtitle);
             }
-            outln!("[{}] run {n}{why}: failed; fix the cause and save", now_hms());
+            format!("[{}] run {n}{why}: failed; fix the cause and save", now_hms())
         }
-    }
+    };
     if let Some(cache) = options.cache.as_ref().filter(|c| c.root().is_dir()) {
         if let Err(e) = cache.evict() {
             eprintln!("warning: cache pruning: {e}");
@@ -179,7 +182,7 @@ fn run_once(
     }
     let mut files = vec![absolute(&run.graph.graph)];
     files.extend(p.input_files().iter().map(|f| absolute(f)));
-    files
+    (files, line)
 }
 
 /// Blocks until one of `files` changes, then until `quiet` has passed without another event;
