@@ -93,7 +93,7 @@ pub fn pixel_seed(seed: u64, pixel: u64) -> u64 {
 
 /// Radiance of the texel containing `d`.
 #[inline]
-fn radiance(env: &Image, d: DVec3) -> [f64; 3] {
+pub(crate) fn radiance(env: &Image, d: DVec3) -> [f64; 3] {
     let (x, y) = latlong::texel_of_direction(d.to_array(), env.width, env.height);
     env.rgb(x, y).map(|v| v as f64)
 }
@@ -102,7 +102,7 @@ fn radiance(env: &Image, d: DVec3) -> [f64; 3] {
 /// orthonormal basis (b1, b2, n) of Duff et al., "Building an Orthonormal Basis, Revisited",
 /// JCGT 6(1), 2017, listing 3 (glam's `any_orthonormal_pair` is that listing).
 #[inline]
-fn sample_cosine(n: DVec3, u1: f64, u2: f64) -> DVec3 {
+pub(crate) fn sample_cosine(n: DVec3, u1: f64, u2: f64) -> DVec3 {
     let r = u1.sqrt();
     let (s, c) = (2.0 * PI * u2).sin_cos();
     let (lx, ly, lz) = (r * c, r * s, (1.0 - u1).max(0.0).sqrt());
@@ -128,7 +128,7 @@ fn exact_texel_solid_angle(y: usize, w: usize, h: usize) -> f64 {
 /// The continuous environment technique of `Mis`: a texel from `dist`, then a point uniform in
 /// solid angle inside it.
 #[inline]
-fn sample_env_continuous(dist: &Distribution2D, u: [f64; 4]) -> DVec3 {
+pub(crate) fn sample_env_continuous(dist: &Distribution2D, u: [f64; 4]) -> DVec3 {
     let (w, h) = (dist.width, dist.height);
     let (x, y, _) = dist.sample(u[0], u[1]);
     let phi = 2.0 * PI * (x as f64 + u[2]) / w as f64;
@@ -143,7 +143,7 @@ fn sample_env_continuous(dist: &Distribution2D, u: [f64; 4]) -> DVec3 {
 /// Density (per steradian) of [`sample_env_continuous`] at `d`: the probability of the texel
 /// containing `d` over its exact solid angle.
 #[inline]
-fn pdf_env_continuous(dist: &Distribution2D, d: DVec3) -> f64 {
+pub(crate) fn pdf_env_continuous(dist: &Distribution2D, d: DVec3) -> f64 {
     let (x, y) = latlong::texel_of_direction(d.to_array(), dist.width, dist.height);
     let p = dist.texel_probability(x, y) / exact_texel_solid_angle(y, dist.width, dist.height);
     if p.is_finite() && p > 0.0 {
