@@ -468,21 +468,24 @@ mod tests {
 
     /// Under a constant radiance of 1, the pixel at the centre (n = v = r) is exactly
     /// `k_d + k_s`: both lobes integrate to 1 against the cosine about the normal. The midpoint
-    /// sum on a 1024 x 512 map is within 1e-3 of it (measured: a few 1e-5 for s <= 200).
+    /// sum on a 1024 x 512 map is within 1e-3 of it (measured: at worst 3.2e-4 over three views and s <= 200).
     #[test]
     fn constant_map_centre_is_diffuse_plus_specular() {
         let env = Image::from_fn_rgb(1024, 512, |_, _| [1.0; 3]);
         let texels = PackedTexels::new(&env);
+        let mut worst = 0.0f64;
         for view in [latlong::direction_deg(90.0, 90.0), latlong::direction_deg(30.0, 200.0), [0.0, 1.0, 0.0]] {
             for s in [0.0, 1.0, 10.0, 50.0, 200.0] {
                 let brdf = GlossyBrdf { diffuse: [0.3, 0.2, 0.0], specular: [0.7, 0.5, 1.0], exponent: s };
                 let lo = texels.radiance(&brdf, view, view);
-                for ch in 0..3 {
+                for (ch, &l) in lo.iter().enumerate() {
                     let want = brdf.diffuse[ch] + brdf.specular[ch];
-                    assert!((lo[ch] - want).abs() < 1e-3, "view {view:?} s {s} ch {ch}: {} vs {want}", lo[ch]);
+                    worst = worst.max((l - want).abs());
+                    assert!((l - want).abs() < 1e-3, "view {view:?} s {s} ch {ch}: {l} vs {want}");
                 }
             }
         }
+        eprintln!("constant map 1024 x 512, centre pixel: worst |Lo - (k_d + k_s)| = {worst:.1e}");
         // Through the image: the centre pixel of an odd-sized sphere is seen along its normal.
         let view = SphereView::new(33, latlong::direction_deg(90.0, 90.0));
         let brdf = GlossyBrdf { diffuse: [0.25; 3], specular: [0.75; 3], exponent: 50.0 };

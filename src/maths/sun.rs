@@ -13,8 +13,8 @@
 //! 2. **Region.** The sun region `S` is the connected set of texels with `Y > t` (strictly)
 //!    that contains the brightest texel (the first in row-major order among equals). Texels are
 //!    8-connected; columns wrap around (phi is periodic) and, in the first and last rows, a texel
-//!    also touches the three texels facing it across the pole (columns `x + W/2 - 1 ..= x + W/2
-//!    + 1`). If the brightest texel is not above `t` (a uniform map, an all-black map, or a
+//!    also touches the three texels facing it across the pole (columns `x + W/2 - 1` to
+//!    `x + W/2 + 1`, mod W). If the brightest texel is not above `t` (a uniform map, an all-black map, or a
 //!    threshold above the sun), there is no sun: the light has zero radiance and solid angle
 //!    (its direction is the brightest texel's) and the residual is the input.
 //! 3. **Fill.** The ring `R` = the texels outside `S` that touch it (same connectivity). The
