@@ -237,3 +237,22 @@ fn glossy_graph_end_to_end() {
         "the image depends on --jobs"
     );
 }
+
+/// A NaN texel (0 / 0) is an error naming the texel for SunExtract and both glossy renderers,
+/// never NaN pixels or a NaN light.
+#[test]
+fn nan_texels_are_an_error() {
+    let text = r#"( nodes: {
+    "zero": Constant(width: 16, height: 8, color: 0),
+    "env":  Math(a: "zero", op: Div, value: 0),
+    "lum":  Luminance(image: "env"),
+    "cdf":  BuildCdf(luminance: "lum", sanitize: true),
+    "split": SunExtract(env: "env"),
+    "g":    GlossySphere(env: "env", cdf: "cdf", size: 8, spp: 2),
+    "ref":  ReferenceGlossySphere(env: "env", size: 8),
+} )"#;
+    for target in ["split", "g", "ref"] {
+        let err = run(text, &[target]).expect_err("a NaN map must fail");
+        assert!(err.contains("texel (0, 0)") && err.contains("NaN"), "{target}: {err}");
+    }
+}

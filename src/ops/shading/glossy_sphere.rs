@@ -14,7 +14,8 @@
 //! Every strategy is unbiased for the integral of the piecewise-constant map; it converges to
 //! `ReferenceGlossySphere` up to that operator's midpoint rule (O(s h^2), h the texel angle).
 //! Same `size` and `view` fields and defaults as the other sphere renderers. The image is a
-//! pure function of `seed` (per-pixel SplitMix64 streams), whatever `--jobs`.
+//! pure function of `seed` (per-pixel SplitMix64 streams), whatever `--jobs`. NaN or infinite
+//! texels are an error (they would make NaN pixels).
 
 use crate::data::Distribution2D;
 use crate::data::Image;
@@ -58,6 +59,8 @@ pub fn spec() -> OpSpec {
 fn eval(ctx: &mut OpContext, p: GlossySphereParams) -> Result<Value, OpError> {
     let env: &Image = ctx.get("env");
     let dist: &Distribution2D = ctx.get("cdf");
+    // A NaN or infinite texel would make NaN pixels wherever a sample lands on it.
+    super::reference_sphere::check_finite(env)?;
     if (dist.width, dist.height) != (env.width, env.height) {
         return Err(OpError::Invalid(format!(
             "the distribution is over a {}x{} map but env is {}x{}: build it from this env",
