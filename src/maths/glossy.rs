@@ -58,7 +58,7 @@ use rayon::prelude::*;
 
 use crate::data::{Distribution2D, Image};
 use crate::geometry::latlong;
-use crate::maths::per_pixel::{pdf_env_continuous, pixel_seed, radiance, sample_cosine, sample_env_continuous};
+use crate::maths::per_pixel::{pixel_seed, sample_cosine};
 use crate::maths::phong;
 use crate::maths::relight::SphereView;
 use crate::maths::sequences::SplitMix64;
@@ -174,15 +174,6 @@ impl GlossyBrdf {
         std::array::from_fn(|ch| (self.diffuse[ch] / PI + self.specular[ch] * lobe) * c)
     }
 
-    /// The mixture density `p_b(w)` of [`GlossyBrdf::sample`].
-    #[inline]
-    fn pdf(&self, q_d: f64, n: DVec3, r: DVec3, w: DVec3) -> f64 {
-        let cos_part = if q_d > 0.0 { q_d * n.dot(w).max(0.0) / PI } else { 0.0 };
-        let lobe_part =
-            if q_d < 1.0 { (1.0 - q_d) * phong::lobe_pdf(r.to_array(), w.to_array(), self.exponent) } else { 0.0 };
-        cos_part + lobe_part
-    }
-
     /// A direction from the mixture: the diffuse lobe when `u[0] < q_d`, else the Phong lobe.
     #[inline]
     fn sample(&self, q_d: f64, n: DVec3, r: DVec3, u: [f64; 3]) -> DVec3 {
@@ -191,6 +182,36 @@ impl GlossyBrdf {
         } else {
             DVec3::from(phong::sample_lobe(r.to_array(), self.exponent, u[1], u[2]).0)
         }
+    }
+}
+
+/// The environment technique's sample: a texel from `dist`, then a point uniform in solid angle
+/// inside it (`phi` uniform across the column, `cos theta` uniform between the row's edges).
+/// Returns the direction and its texel (the texel drawn, so no lookup is needed).
+#[inline]
+fn sample_env(dist: &Distribution2D, u: [f64; 4]) -> (DVec3, (usize, usize)) {
+    let (w, h) = (dist.width, dist.height);
+    let (x, y, _) = dist.sample(u[0], u[1]);
+    let phi = 2.0 * PI * (x as f64 + u[2]) / w as f64;
+    let c0 = (PI * y as f64 / h as f64).cos();
+    let c1 = (PI * (y + 1) as f64 / h as f64).cos();
+    let ct = c0 + (c1 - c0) * u[3];
+    let st = (1.0 - ct * ct).max(0.0).sqrt();
+    let (sp, cp) = phi.sin_cos();
+    (DVec3::new(-st * sp, ct, st * cp), (x, y))
+}
+
+/// The environment technique's density at any direction of texel (x, y):
+/// `P(texel) / dOmega_exact`, `dOmega_exact = (2 pi / W)(cos theta_top - cos theta_bottom)`.
+#[inline]
+fn env_pdf(dist: &Distribution2D, x: usize, y: usize) -> f64 {
+    let (w, h) = (dist.width, dist.height);
+    let d_omega = (2.0 * PI / w as f64) * ((PI * y as f64 / h as f64).cos() - (PI * (y + 1) as f64 / h as f64).cos());
+    let p = dist.texel_probability(x, y) / d_omega;
+    if p.is_finite() && p > 0.0 {
+        p
+    } else {
+        0.0
     }
 }
 
@@ -214,52 +235,64 @@ pub fn estimate_radiance(
     }
     let n = DVec3::from(n);
     let r = DVec3::from(phong::mirror(v, n.to_array()));
+    let s = brdf.exponent;
+    let spec_norm = (s.max(0.0) + 2.0) / (s.max(0.0) + 1.0);
+    let diffuse = brdf.diffuse.map(|k| k / PI);
+    // For a unit direction `w` in texel (x, y): `L f cos` per channel, `p_e` and `p_b`
+    // (`None` below the surface, where the integrand is 0).
+    let eval = |w: DVec3, (x, y): (usize, usize)| -> Option<([f64; 3], f64, f64)> {
+        let c = n.dot(w);
+        if !(c > 0.0) {
+            return None;
+        }
+        let lobe = phong::lobe_pdf_unit(r, w, s);
+        let l = env.rgb(x, y);
+        let lfc = std::array::from_fn(|ch| l[ch] as f64 * (diffuse[ch] + brdf.specular[ch] * lobe * spec_norm) * c);
+        let p_b = q_d * c / PI + (1.0 - q_d) * lobe;
+        Some((lfc, env_pdf(dist, x, y), p_b))
+    };
+    let texel = |w: DVec3| latlong::texel_of_direction(w.to_array(), env.width, env.height);
+    let brdf_sample = |rng: &mut SplitMix64| brdf.sample(q_d, n, r, [rng.next_f64(), rng.next_f64(), rng.next_f64()]);
+    let env_sample =
+        |rng: &mut SplitMix64| sample_env(dist, [rng.next_f64(), rng.next_f64(), rng.next_f64(), rng.next_f64()]);
     let mut sum = [0.0f64; 3];
-    let mut add = |w: DVec3, k: f64| {
+    let mut add = |lfc: [f64; 3], k: f64| {
         if k > 0.0 && k.is_finite() {
-            let l = radiance(env, w);
-            let fc = brdf.eval_cos(n, r, w);
             for ch in 0..3 {
-                sum[ch] += l[ch] * fc[ch] * k;
+                sum[ch] += lfc[ch] * k;
             }
         }
-    };
-    let env_sample = |rng: &mut SplitMix64| {
-        let w = sample_env_continuous(dist, [rng.next_f64(), rng.next_f64(), rng.next_f64(), rng.next_f64()]);
-        (w, pdf_env_continuous(dist, w))
-    };
-    let brdf_sample = |rng: &mut SplitMix64| {
-        let w = brdf.sample(q_d, n, r, [rng.next_f64(), rng.next_f64(), rng.next_f64()]);
-        (w, brdf.pdf(q_d, n, r, w))
     };
     match strategy {
         GlossyStrategy::Environment => {
             for _ in 0..spp {
-                let (w, p) = env_sample(rng);
-                add(w, 1.0 / (spp as f64 * p));
+                let (w, t) = env_sample(rng);
+                if let Some((lfc, p_e, _)) = eval(w, t) {
+                    add(lfc, 1.0 / (spp as f64 * p_e));
+                }
             }
         }
         GlossyStrategy::Brdf => {
             for _ in 0..spp {
-                let (w, p) = brdf_sample(rng);
-                add(w, 1.0 / (spp as f64 * p));
+                let w = brdf_sample(rng);
+                if let Some((lfc, _, p_b)) = eval(w, texel(w)) {
+                    add(lfc, 1.0 / (spp as f64 * p_b));
+                }
             }
         }
         GlossyStrategy::Mis => {
             let n_e = spp.div_ceil(2) as f64;
             let n_b = (spp / 2) as f64;
             for _ in 0..spp.div_ceil(2) {
-                let (w, p_e) = env_sample(rng);
-                if n.dot(w) > 0.0 && p_e > 0.0 {
-                    let p_b = brdf.pdf(q_d, n, r, w);
-                    add(w, heuristic.weight(n_e * p_e, n_b * p_b) / (n_e * p_e));
+                let (w, t) = env_sample(rng);
+                if let Some((lfc, p_e, p_b)) = eval(w, t) {
+                    add(lfc, heuristic.weight(n_e * p_e, n_b * p_b) / (n_e * p_e));
                 }
             }
             for _ in 0..spp / 2 {
-                let (w, p_b) = brdf_sample(rng);
-                if n.dot(w) > 0.0 && p_b > 0.0 {
-                    let p_e = pdf_env_continuous(dist, w);
-                    add(w, heuristic.weight(n_b * p_b, n_e * p_e) / (n_b * p_b));
+                let w = brdf_sample(rng);
+                if let Some((lfc, p_e, p_b)) = eval(w, texel(w)) {
+                    add(lfc, heuristic.weight(n_b * p_b, n_e * p_e) / (n_b * p_b));
                 }
             }
         }

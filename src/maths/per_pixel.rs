@@ -93,7 +93,7 @@ pub fn pixel_seed(seed: u64, pixel: u64) -> u64 {
 
 /// Radiance of the texel containing `d`.
 #[inline]
-pub(crate) fn radiance(env: &Image, d: DVec3) -> [f64; 3] {
+fn radiance(env: &Image, d: DVec3) -> [f64; 3] {
     let (x, y) = latlong::texel_of_direction(d.to_array(), env.width, env.height);
     env.rgb(x, y).map(|v| v as f64)
 }
@@ -128,7 +128,7 @@ fn exact_texel_solid_angle(y: usize, w: usize, h: usize) -> f64 {
 /// The continuous environment technique of `Mis`: a texel from `dist`, then a point uniform in
 /// solid angle inside it.
 #[inline]
-pub(crate) fn sample_env_continuous(dist: &Distribution2D, u: [f64; 4]) -> DVec3 {
+fn sample_env_continuous(dist: &Distribution2D, u: [f64; 4]) -> DVec3 {
     let (w, h) = (dist.width, dist.height);
     let (x, y, _) = dist.sample(u[0], u[1]);
     let phi = 2.0 * PI * (x as f64 + u[2]) / w as f64;
@@ -143,7 +143,7 @@ pub(crate) fn sample_env_continuous(dist: &Distribution2D, u: [f64; 4]) -> DVec3
 /// Density (per steradian) of [`sample_env_continuous`] at `d`: the probability of the texel
 /// containing `d` over its exact solid angle.
 #[inline]
-pub(crate) fn pdf_env_continuous(dist: &Distribution2D, d: DVec3) -> f64 {
+fn pdf_env_continuous(dist: &Distribution2D, d: DVec3) -> f64 {
     let (x, y) = latlong::texel_of_direction(d.to_array(), dist.width, dist.height);
     let p = dist.texel_probability(x, y) / exact_texel_solid_angle(y, dist.width, dist.height);
     if p.is_finite() && p > 0.0 {
