@@ -7,8 +7,9 @@
 //! of every integral in hdrflow, so "integral" below means `sum_i L_i dOmega_i`):
 //!
 //! 1. **Level.** `m` = the median of the texels' luminances (each texel counted once; the
-//!    element of rank `floor(W H / 2)` in increasing order), or, when that is 0 or less (a map
-//!    more than half black), the mean luminance over the sphere `sum Y dOmega / sum dOmega`.
+//!    element of rank `floor(W H / 2)` in increasing order, rounded to f32), or, when that is 0
+//!    or less (a map more than half black), the mean luminance over the sphere
+//!    `sum Y dOmega / sum dOmega`.
 //!    Threshold `t = m 2^threshold_stops`.
 //! 2. **Region.** The sun region `S` is the connected set of texels with `Y > t` (strictly)
 //!    that contains the brightest texel (the first in row-major order among equals). Texels are
@@ -130,10 +131,12 @@ pub fn extract_sun(env: &Image, threshold_stops: f64) -> SunExtraction {
         area += d_omega * w as f64;
     }
     let mean = weighted / area;
+    // The median of the luminances rounded to f32 (half the memory of an f64 copy; the level
+    // only sets the threshold).
     let median = {
-        let mut v = lum.clone();
+        let mut v: Vec<f32> = lum.iter().map(|&y| y as f32).collect();
         let k = v.len() / 2;
-        *v.select_nth_unstable_by(k, f64::total_cmp).1
+        *v.select_nth_unstable_by(k, f32::total_cmp).1 as f64
     };
     let level = if median > 0.0 { median } else { mean };
     let threshold = level * 2f64.powf(threshold_stops);
