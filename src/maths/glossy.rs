@@ -21,7 +21,7 @@
 //! piecewise-constant map (radiance of the texel containing `w`, `latlong::texel_of_direction`):
 //!
 //! - `Environment`: a texel drawn from the map's `Distribution2D`, then a point uniform in solid
-//!   angle inside it (`per_pixel`'s continuous environment technique); density
+//!   angle inside it (the continuous technique of `PerPixelSphere`'s `Mis`); density
 //!   `p_e(w) = P(texel) / dOmega_exact(texel)`.
 //! - `Brdf`: a lobe chosen with probability proportional to the channel means of `k_d` and
 //!   `k_s` (`q_d = mean(k_d) / (mean(k_d) + mean(k_s))`), then either a cosine-weighted direction
