@@ -372,6 +372,23 @@ mod tests {
     }
 
     #[test]
+    fn grey_and_alpha_map() {
+        // Two channels: grey (the first) and alpha; the fill goes into the grey channel only.
+        let (w, h) = (32, 16);
+        let mut data = Vec::new();
+        for i in 0..w * h {
+            data.extend_from_slice(&[if i == 5 * w + 7 { 500.0 } else { 2.0 }, 0.25]);
+        }
+        let env = Image::with_names(w, h, vec!["Y".into(), "A".into()], data);
+        let s = extract_sun(&env, 3.0);
+        assert_eq!(s.texels, 1);
+        assert_eq!(s.fill, [2.0; 3]);
+        assert!(s.light.radiance.iter().all(|r| (r - 498.0).abs() < 1e-9), "{:?}", s.light.radiance);
+        assert!(s.residual.data.chunks(2).all(|p| p == [2.0, 0.25]));
+        assert!(conservation_error(&env, &s) < 1e-12);
+    }
+
+    #[test]
     fn real_and_random_maps_conserve_their_integral() {
         let mut rng = crate::maths::sequences::SplitMix64::new(3);
         let data: Vec<f32> = (0..200 * 100)
