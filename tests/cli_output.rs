@@ -28,16 +28,16 @@ fn the_seed_run_prints_one_summary_line_and_the_table_only_with_verbose() {
     cold.assert_success();
     let lines: Vec<&str> = cold.stdout.lines().collect();
     assert_eq!(lines.len(), 1, "a default run prints one summary line:\n{}", cold.describe());
-    assert!(lines[0].starts_with("56 nodes: 56 computed, 0 cached, 0 not needed;"), "{}", lines[0]);
-    assert!(lines[0].contains("29 files written"), "{}", lines[0]);
+    assert!(lines[0].starts_with("68 nodes: 68 computed, 0 cached, 0 not needed;"), "{}", lines[0]);
+    assert!(lines[0].contains("37 files written"), "{}", lines[0]);
     assert!(cold.stderr.trim().is_empty(), "off a terminal, no per-node lines without -v:\n{}", cold.stderr);
 
     let warm = run_hdrflow(base);
     assert_eq!(warm.stdout.lines().count(), 1, "{}", warm.describe());
-    assert!(warm.stdout.contains("0 computed, 29 cached, 27 not needed"), "{}", warm.stdout);
+    assert!(warm.stdout.contains("0 computed, 37 cached, 31 not needed"), "{}", warm.stdout);
 
     let verbose = run_hdrflow(base.iter().copied().chain(["-v"]));
-    assert!(verbose.stdout.lines().count() > 56, "-v prints the per-node table:\n{}", verbose.stdout);
+    assert!(verbose.stdout.lines().count() > 68, "-v prints the per-node table:\n{}", verbose.stdout);
     assert!(verbose.stdout.contains("not needed"), "{}", verbose.stdout);
 
     let quiet = run_hdrflow(base.iter().copied().chain(["-q"]));

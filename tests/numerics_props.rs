@@ -959,3 +959,129 @@ fn regression_relight_sphere_accumulation_overflow() {
     let env = Image::from_vec(4, 2, 3, vec![1e36; 4 * 2 * 3]);
     assert_finite_or_clear_error(run_relight_pipeline(&env, 64, "Unbiased", false), "4x2 map of 1e36, 64 samples");
 }
+
+// ---------------------------------------------------------------------------------------------
+// SunExtract and the glossy sphere (issue 12, part B).
+
+/// An RGB map from a grey one: channels (v, v / 2, 2 v), every kind of awkward value kept.
+fn tinted(grey: &Image) -> Image {
+    Image::from_fn_rgb(grey.width, grey.height, |x, y| {
+        let v = grey.pixel(x, y)[0];
+        [v, 0.5 * v, 2.0 * v]
+    })
+}
+
+/// `sum L dOmega` per channel, Neumaier-summed.
+fn integral_rgb(env: &Image) -> [f64; 3] {
+    let mut s: [Sum; 3] = Default::default();
+    for y in 0..env.height {
+        let d_omega = texel_solid_angle(y, env.width, env.height);
+        for x in 0..env.width {
+            let l = env.rgb(x, y);
+            for ch in 0..3 {
+                s[ch].add(l[ch] as f64 * d_omega);
+            }
+        }
+    }
+    [s[0].value(), s[1].value(), s[2].value()]
+}
+
+fn check_sun(env: &Image, stops: f64, what: &str) -> Result<(), TestCaseError> {
+    let s = hdrflow::maths::sun::extract_sun(env, stops);
+    let l = &s.light;
+    prop_assert!(l.radiance.iter().all(|r| r.is_finite() && *r >= 0.0), "{what}: radiance {:?}", l.radiance);
+    prop_assert!(l.solid_angle.is_finite() && l.solid_angle >= 0.0, "{what}: {}", l.solid_angle);
+    prop_assert!((norm(l.direction) - 1.0).abs() < 1e-12, "{what}: direction {:?}", l.direction);
+    prop_assert!(s.residual.data.iter().all(|v| v.is_finite()), "{what}: non-finite residual");
+    let (a, b, p) = (integral_rgb(env), integral_rgb(&s.residual), l.power());
+    for ch in 0..3 {
+        let scale = a[ch].abs().max(f64::MIN_POSITIVE);
+        // Sums of non-negative terms: relative rounding ~1e-15; negative texels can cancel, so
+        // the bound is against the sum of magnitudes there.
+        let mag = integral_rgb(&Image::from_vec(
+            env.width,
+            env.height,
+            env.channels,
+            env.data.iter().map(|v| v.abs()).collect(),
+        ))[ch];
+        prop_assert!(
+            ((b[ch] + p[ch]) - a[ch]).abs() <= 1e-9 * scale.max(mag),
+            "{what} ch {ch}: {} + {} vs {}",
+            b[ch],
+            p[ch],
+            a[ch]
+        );
+    }
+    if s.texels == 0 {
+        prop_assert!(
+            l.radiance == [0.0; 3] && l.solid_angle == 0.0 && s.residual.data == env.data,
+            "{what}: no sun but changed"
+        );
+    }
+    Ok(())
+}
+
+proptest! {
+    #![proptest_config(config(500))]
+
+    /// Every kind of map, sizes 1x1 .. 64x32, any threshold: the integral is conserved per
+    /// channel, the light is finite and non-negative, never NaN; no sun leaves the map alone.
+    #[test]
+    fn sun_extract_conserves_and_stays_finite(
+        w in 1usize..=64,
+        h in 1usize..=32,
+        kind in prop::sample::select(KINDS.to_vec()),
+        seed in any::<u64>(),
+        stops in 0.0f64..64.0,
+    ) {
+        let env = tinted(&make_map(w, h, kind, seed));
+        check_sun(&env, stops, &format!("{kind:?} {w}x{h} stops {stops}"))?;
+    }
+
+    /// Negative texels (10%): the fill is clamped to the region's minimum, so the light is never
+    /// negative, and the integral is still conserved.
+    #[test]
+    fn sun_extract_with_negative_texels(
+        w in 1usize..=48,
+        h in 1usize..=24,
+        seed in any::<u64>(),
+        stops in 0.0f64..8.0,
+    ) {
+        let mut r = SplitMix64::new(seed);
+        let env = Image::from_fn_rgb(w, h, |_, _| [0.0; 3]);
+        let data: Vec<f32> = env.data.iter().map(|_| {
+            let u = r.next_f64();
+            if u < 0.1 { -(10.0 * r.next_f64()) as f32 } else if u > 0.99 { 1e4 } else { r.next_f64() as f32 }
+        }).collect();
+        let env = Image::from_vec(w, h, 3, data);
+        check_sun(&env, stops, &format!("negative {w}x{h} stops {stops}"))?;
+    }
+
+    /// The glossy sphere on every kind of (non-negative) map, exponents 0 .. 1e6, every
+    /// strategy and heuristic: finite and non-negative pixels, and so is the reference.
+    #[test]
+    fn glossy_sphere_is_finite_for_any_map_and_exponent(
+        w in 1usize..=32,
+        h in 1usize..=16,
+        kind in prop::sample::select(KINDS.to_vec()),
+        seed in any::<u64>(),
+        exponent in prop::sample::select(vec![0.0, 1.0, 37.5, 1e3, 1e6]),
+        theta in 0.0f64..180.0,
+        phi in 0.0f64..360.0,
+    ) {
+        use hdrflow::maths::glossy::{glossy_sphere, reference_glossy_sphere, GlossyBrdf, GlossyStrategy, Heuristic};
+        let grey = make_map(w, h, kind, seed);
+        let env = tinted(&grey);
+        let dist = Distribution2D::build(&grey, true, false).unwrap();
+        let view = SphereView::new(6, latlong::direction_deg(theta, phi));
+        let brdf = GlossyBrdf { diffuse: [0.2, 0.1, 0.0], specular: [0.8, 0.5, 0.3], exponent };
+        for strategy in [GlossyStrategy::Environment, GlossyStrategy::Brdf, GlossyStrategy::Mis] {
+            for heuristic in [Heuristic::Power, Heuristic::Balance] {
+                let img = glossy_sphere(&env, &dist, &view, &brdf, strategy, heuristic, 4, seed);
+                prop_assert!(img.data.iter().all(|v| v.is_finite() && *v >= 0.0), "{kind:?} s {exponent} {strategy:?}: {:?}", img.data);
+            }
+        }
+        let r = reference_glossy_sphere(&env, &view, &brdf);
+        prop_assert!(r.data.iter().all(|v| v.is_finite() && *v >= 0.0), "{kind:?} s {exponent} reference");
+    }
+}

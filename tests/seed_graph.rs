@@ -31,6 +31,12 @@ const SEED_FILES: &[&str] = &[
     "fresnel_air_to_glass.csv",
     "fresnel_glass_to_air.csv",
     "fresnel_air_to_glass.json",
+    "glossy_s1.png",
+    "glossy_s10.png",
+    "glossy_s50.png",
+    "glossy_s200.png",
+    "glossy_s10.exr",
+    "glossy_s200.exr",
 ];
 
 /// Runs pipeline text in-process and returns the values of the named targets.

@@ -9,6 +9,7 @@
 //! Writes `results.csv`, one log-log chart per map (`time_error_<map>.png` / `.svg`) and
 //! `summary.md` into the output folder.
 
+pub mod glossy;
 pub mod targets;
 
 use std::fmt::Write as _;

@@ -140,6 +140,18 @@ struct BenchArgs {
     /// Redraw the charts from this results.csv (into --out) without measuring anything.
     #[arg(long, value_name = "RESULTS_CSV")]
     replot: Option<PathBuf>,
+    /// Measure GlossySphere's strategies and SunExtract instead (glossy.csv, glossy.md).
+    #[arg(long)]
+    glossy: bool,
+    /// --glossy: the sphere's size in pixels (its exact reference costs pixels x texels).
+    #[arg(long, default_value_t = 64)]
+    glossy_size: usize,
+    /// --glossy: samples per pixel.
+    #[arg(long, value_delimiter = ',', default_value = "4,16,64,256")]
+    glossy_spp: Vec<usize>,
+    /// --glossy: Phong exponents.
+    #[arg(long, value_delimiter = ',', default_value = "10,200")]
+    exponents: Vec<f64>,
 }
 
 #[derive(Args)]
@@ -637,6 +649,28 @@ fn bench(args: &BenchArgs) -> ExitCode {
     if maps.is_empty() {
         eprintln!("error: no map to benchmark");
         return ExitCode::from(2);
+    }
+    if args.glossy {
+        let config = crate::bench::glossy::GlossyBenchConfig {
+            maps,
+            spp: args.glossy_spp.clone(),
+            exponents: args.exponents.clone(),
+            size: args.glossy_size,
+            repeats: if args.quick { 1 } else { args.repeats },
+            seed: 1,
+            out_dir: args.out.clone(),
+        };
+        eprintln!("hdrflow bench --glossy on {} threads", rayon::current_num_threads());
+        return match crate::bench::glossy::run(&config, &|line| eprintln!("{line}")) {
+            Ok(rows) => {
+                outln!("{} points; wrote {}/glossy.csv and glossy.md", rows.len(), args.out.display());
+                ExitCode::SUCCESS
+            }
+            Err(e) => {
+                eprintln!("error: {e}");
+                ExitCode::from(1)
+            }
+        };
     }
     let config = BenchConfig {
         maps,

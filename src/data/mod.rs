@@ -3,6 +3,7 @@
 pub mod curves;
 pub mod distribution;
 pub mod image;
+pub mod light;
 pub mod metrics;
 pub mod samples;
 pub mod sh;
@@ -10,6 +11,7 @@ pub mod sh;
 pub use curves::Curves;
 pub use distribution::Distribution2D;
 pub use image::Image;
+pub use light::Light;
 pub use metrics::Metrics;
 pub use samples::{Sample, SampleSet};
 pub use sh::{ShCoefficients, ShFrame};

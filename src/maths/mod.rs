@@ -5,6 +5,7 @@
 pub mod chi_square;
 pub mod error_metrics;
 pub mod fresnel;
+pub mod glossy;
 pub mod kernels;
 pub mod per_pixel;
 pub mod phong;
@@ -12,3 +13,4 @@ pub mod reference;
 pub mod relight;
 pub mod sequences;
 pub mod sh;
+pub mod sun;

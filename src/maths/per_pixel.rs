@@ -102,7 +102,7 @@ fn radiance(env: &Image, d: DVec3) -> [f64; 3] {
 /// orthonormal basis (b1, b2, n) of Duff et al., "Building an Orthonormal Basis, Revisited",
 /// JCGT 6(1), 2017, listing 3 (glam's `any_orthonormal_pair` is that listing).
 #[inline]
-fn sample_cosine(n: DVec3, u1: f64, u2: f64) -> DVec3 {
+pub(crate) fn sample_cosine(n: DVec3, u1: f64, u2: f64) -> DVec3 {
     let r = u1.sqrt();
     let (s, c) = (2.0 * PI * u2).sin_cos();
     let (lx, ly, lz) = (r * c, r * s, (1.0 - u1).max(0.0).sqrt());

@@ -122,6 +122,13 @@ pub fn lobe_pdf(axis: V3, dir: V3, exponent: f64) -> f64 {
     pdf_from_one_minus_cos(omc, clean_exponent(exponent))
 }
 
+/// [`lobe_pdf`] for an `axis` and a `dir` that are already unit vectors (not normalised again:
+/// the per-pixel renderers call it for every sample).
+#[inline]
+pub(crate) fn lobe_pdf_unit(axis: DVec3, dir: DVec3, exponent: f64) -> f64 {
+    pdf_from_one_minus_cos(0.5 * (axis - dir).length_squared(), clean_exponent(exponent))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -8,6 +8,7 @@
 
 pub mod image;
 pub mod io;
+pub mod lights;
 pub mod plotting;
 pub mod sampling;
 pub mod shading;
@@ -20,6 +21,7 @@ pub fn register_all(registry: &mut Registry) {
     image::register(registry);
     sampling::register(registry);
     shading::register(registry);
+    lights::register(registry);
     plotting::register(registry);
 }
 

@@ -8,6 +8,7 @@
 pub mod curves;
 pub mod distribution;
 pub mod image;
+pub mod light;
 pub mod metrics;
 pub mod samples;
 pub mod sh;
@@ -18,13 +19,14 @@ use crate::engine::value::ValueType;
 pub use self::image::{IMAGE, SCALAR_FIELD};
 pub use curves::CURVES;
 pub use distribution::DISTRIBUTION;
+pub use light::LIGHT;
 pub use metrics::METRICS;
 pub use samples::SAMPLES;
 pub use sh::SH_COEFFICIENTS;
 
 /// Registers every built-in value type.
 pub fn register_all(r: &mut Registry) {
-    for spec in [&IMAGE, &SCALAR_FIELD, &DISTRIBUTION, &SAMPLES, &CURVES, &METRICS, &SH_COEFFICIENTS] {
+    for spec in [&IMAGE, &SCALAR_FIELD, &DISTRIBUTION, &SAMPLES, &CURVES, &METRICS, &SH_COEFFICIENTS, &LIGHT] {
         r.register_type(spec);
     }
 }
@@ -41,6 +43,7 @@ pub mod ty {
     pub const CURVES_T: ValueType = ValueType(&CURVES);
     pub const METRICS_T: ValueType = ValueType(&METRICS);
     pub const SH_COEFFICIENTS_T: ValueType = ValueType(&SH_COEFFICIENTS);
+    pub const LIGHT_T: ValueType = ValueType(&LIGHT);
     /// Either kind of image.
     pub const ANY_IMAGE: &[ValueType] = &[IMAGE_T, SCALAR_T];
 }

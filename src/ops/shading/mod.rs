@@ -4,7 +4,9 @@
 //! operator's parameter struct with the same ranges and defaults), so that their images compare
 //! pixel for pixel.
 
+pub mod glossy_sphere;
 pub mod per_pixel_sphere;
+pub mod reference_glossy_sphere;
 pub mod reference_sphere;
 pub mod relight_sphere;
 pub mod sh_irradiance;
@@ -13,6 +15,7 @@ pub mod sh_sphere;
 use crate::engine::params::Choice;
 use crate::engine::registry::Registry;
 use crate::geometry::latlong;
+use crate::maths::glossy::{GlossyStrategy, Heuristic};
 use crate::maths::per_pixel::PerPixelStrategy;
 use crate::maths::relight::SphereView;
 
@@ -22,6 +25,8 @@ pub fn register(r: &mut Registry) {
     r.register(sh_irradiance::spec());
     r.register(sh_sphere::spec());
     r.register(per_pixel_sphere::spec());
+    r.register(glossy_sphere::spec());
+    r.register(reference_glossy_sphere::spec());
 }
 
 /// Declares a sphere renderer's parameters: the `size`, `albedo` and `view` every sphere operator
@@ -48,6 +53,36 @@ macro_rules! sphere_params {
 }
 pub(crate) use sphere_params;
 
+/// Declares a glossy sphere renderer's parameters: `size` and `view` as in [`sphere_params!`],
+/// the modified Phong BRDF's `exponent`, `diffuse` and `specular`, then the operator's own
+/// fields (`GlossySphere` and `ReferenceGlossySphere` share them, so their images compare pixel
+/// for pixel).
+macro_rules! glossy_params {
+    ($name:ident { $($rest:tt)* }) => {
+        crate::params! {
+            pub struct $name {
+        /// Phong exponent s of the specular lobe (cos^s of the angle to the mirror direction)
+        #[range(0.0, 1e6)]
+        pub exponent: f64 = 10.0,
+        /// diffuse reflectance k_d (RGB, or a single number for grey): f = k_d / pi + ...
+        #[range(0.0, 1.0)]
+        pub diffuse: Rgb = Rgb([0.2, 0.2, 0.2]),
+        /// specular reflectance k_s: ... + k_s (s + 2) / (2 pi) cos^s(alpha)
+        #[range(0.0, 1.0)]
+        pub specular: Rgb = Rgb([0.8, 0.8, 0.8]),
+        /// image width and height
+        #[range(1, 1 << 14)]
+        pub size: usize = 256,
+        /// camera direction (theta, phi) in degrees, lat-long convention; the seed's is (90, 90)
+        #[range(-360.0, 360.0)]
+        pub view: [f64; 2] = [90.0, 90.0],
+                $($rest)*
+            }
+        }
+    };
+}
+pub(crate) use glossy_params;
+
 /// The sphere seen from `view` = (theta, phi) in degrees, inscribed in a `size` x `size` image.
 pub(crate) fn sphere_view(size: usize, view: [f64; 2]) -> SphereView {
     SphereView::new(size, latlong::direction_deg(view[0], view[1]))
@@ -63,3 +98,25 @@ impl Choice for PerPixelStrategy {
     }
 }
 crate::choice_param!(PerPixelStrategy);
+
+impl Choice for GlossyStrategy {
+    const NAMES: &'static [&'static str] = GlossyStrategy::NAMES;
+    fn from_name(name: &str) -> Option<Self> {
+        GlossyStrategy::from_name(name)
+    }
+    fn name(self) -> &'static str {
+        GlossyStrategy::name(self)
+    }
+}
+crate::choice_param!(GlossyStrategy);
+
+impl Choice for Heuristic {
+    const NAMES: &'static [&'static str] = Heuristic::NAMES;
+    fn from_name(name: &str) -> Option<Self> {
+        Heuristic::from_name(name)
+    }
+    fn name(self) -> &'static str {
+        Heuristic::name(self)
+    }
+}
+crate::choice_param!(Heuristic);

@@ -1,0 +1,9 @@
+//! Lights: analytic lights taken out of (or put into) environment maps.
+
+pub mod sun_extract;
+
+use crate::engine::registry::Registry;
+
+pub fn register(r: &mut Registry) {
+    r.register(sun_extract::spec());
+}

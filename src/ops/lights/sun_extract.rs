@@ -1,0 +1,55 @@
+//! `SunExtract(env, threshold_stops: 8)`: the sun of an environment map as a `light`, and the
+//! map without it, conserving the map's integral exactly (`maths::sun`).
+//!
+//! - The sun region is the connected set of texels (8-connected, wrapping in longitude and
+//!   across the poles) around the brightest texel whose Rec. 709 luminance exceeds
+//!   `m 2^threshold_stops`, where `m` is the **median** texel luminance (the solid-angle-weighted
+//!   mean when the median is 0, i.e. a map more than half black).
+//! - Port `residual`: the map with the region's colour set to the fill colour, the
+//!   solid-angle-weighted mean of the ring of texels around the region (clamped per channel to
+//!   the region's minimum, so the sun is never negative); alpha and other channels kept.
+//! - Port `sun`: direction = the normalised centroid of the region's texel directions weighted by
+//!   the luminance removed; solid_angle = the sum of the region's texel solid angles;
+//!   radiance = (integral over the region - fill integral over the region) / solid_angle, per
+//!   channel.
+//!
+//! So, per channel, `integral(residual) + radiance * solid_angle = integral(env)` by
+//! construction (f64 sums; the tests check 1e-4 relative on every shared real map and on
+//! synthetic ones; it holds to ~1e-12). No texel above the threshold (a uniform or black map):
+//! zero radiance and solid angle, `residual = env`. NaN or infinite texels are an error.
+
+use crate::data::Image;
+use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Outputs};
+use crate::engine::value::Value;
+use crate::maths::sun::extract_sun;
+use crate::ops::shading::reference_sphere::check_finite;
+use crate::types::ty::*;
+
+crate::params! {
+    pub struct SunExtractParams {
+        /// the sun is what exceeds the median luminance by this many stops (x 2^threshold_stops)
+        #[range(0.0, 64.0)]
+        pub threshold_stops: f64 = 8.0,
+    }
+}
+
+pub fn spec() -> OpSpec {
+    OpSpec::new(
+        "SunExtract",
+        "lights",
+        1,
+        "Split an environment into a sun (light) and the map without it, conserving the integral per channel",
+    )
+    .input("env", &[IMAGE_T], "the lat-long environment (linear RGB)")
+    .output("sun", OutputType::Fixed(LIGHT_T), "the sun: direction, solid angle, RGB radiance (zero if none)")
+    .output("residual", OutputType::SameAsInput("env"), "env with the sun's texels filled from around them")
+    .code_hash(crate::op_code_hash!())
+    .eval(eval)
+}
+
+fn eval(ctx: &mut OpContext, p: SunExtractParams) -> Result<Outputs, OpError> {
+    let env: &Image = ctx.get("env");
+    check_finite(env)?;
+    let s = extract_sun(env, p.threshold_stops);
+    Ok(Outputs::new().with("sun", Value::new(s.light)).with("residual", Value::new(s.residual)))
+}

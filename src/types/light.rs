@@ -1,0 +1,86 @@
+//! `light`: a distant light of small solid angle ([`Light`]), as `SunExtract` gives it. Saved as
+//! `.json`: `{"direction": [x, y, z], "solid_angle": sr, "radiance": [r, g, b]}` (numbers as the
+//! shortest decimal that reads back to the same f64; NaN and Inf, which `SunExtract` never
+//! produces, become `null`).
+
+use super::json_num as num;
+use crate::data::Light;
+use crate::engine::cache::codec::{Reader, Writer};
+use crate::engine::value::{SaveOptions, TypeSpec, Value, ValueData, ValueType};
+
+pub static LIGHT: TypeSpec = TypeSpec {
+    name: "light",
+    doc: "a distant light: unit direction, solid angle (sr), RGB radiance",
+    decode,
+    save_extensions: &["json"],
+    save: Some(save),
+};
+
+impl ValueData for Light {
+    fn value_type(&self) -> ValueType {
+        ValueType(&LIGHT)
+    }
+    fn approx_bytes(&self) -> usize {
+        std::mem::size_of::<Light>()
+    }
+    fn summary(&self) -> String {
+        let [x, y, z] = self.direction;
+        format!("a light towards ({x:.4}, {y:.4}, {z:.4}) of {:.3e} sr", self.solid_angle)
+    }
+    fn display(&self) -> Option<String> {
+        let [x, y, z] = self.direction;
+        let [r, g, b] = self.radiance;
+        Some(format!("direction    ({x}, {y}, {z})\nsolid_angle  {}\nradiance     ({r}, {g}, {b})", self.solid_angle))
+    }
+    fn encode(&self, out: &mut Vec<u8>) {
+        let mut w = Writer(out);
+        for v in self.direction.iter().chain([self.solid_angle].iter()).chain(self.radiance.iter()) {
+            w.f64(*v);
+        }
+    }
+}
+
+fn decode(bytes: &[u8]) -> Result<Value, String> {
+    let mut r = Reader::new(bytes);
+    r.need(7 * 8)?;
+    let direction = [r.f64()?, r.f64()?, r.f64()?];
+    let solid_angle = r.f64()?;
+    let radiance = [r.f64()?, r.f64()?, r.f64()?];
+    r.finish()?;
+    Ok(Value::new(Light { direction, solid_angle, radiance }))
+}
+
+/// The JSON text of a light (keys `direction`, `solid_angle`, `radiance`).
+pub fn to_json(l: &Light) -> String {
+    let arr = |v: [f64; 3]| serde_json::Value::Array(v.iter().map(|&x| num(x)).collect());
+    let mut map = serde_json::Map::new();
+    map.insert("direction".into(), arr(l.direction));
+    map.insert("solid_angle".into(), num(l.solid_angle));
+    map.insert("radiance".into(), arr(l.radiance));
+    serde_json::to_string_pretty(&serde_json::Value::Object(map)).expect("JSON of plain values") + "\n"
+}
+
+fn save(value: &Value, _: &SaveOptions) -> Result<Vec<u8>, String> {
+    let l = value.get::<Light>().ok_or("not a light")?;
+    Ok(to_json(l).into_bytes())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn round_trips_and_saves_json() {
+        let l = Light { direction: [0.0, 0.6, -0.8], solid_angle: 1e-3, radiance: [5e4, 4.5e4, 3.8e4] };
+        let mut bytes = Vec::new();
+        l.encode(&mut bytes);
+        let back = decode(&bytes).unwrap();
+        assert_eq!(back.get::<Light>(), Some(&l));
+        assert!(decode(&bytes[..bytes.len() - 1]).is_err());
+        let json: serde_json::Value = serde_json::from_str(&to_json(&l)).unwrap();
+        assert_eq!(json["solid_angle"].as_f64(), Some(1e-3));
+        assert_eq!(json["direction"][2].as_f64(), Some(-0.8));
+        assert_eq!(json["radiance"][0].as_f64(), Some(5e4));
+        assert_eq!(json.as_object().unwrap().len(), 3);
+    }
+}
