@@ -9,6 +9,8 @@
 //! | sample set            | `.csv` (`index,x,y,theta,phi,dx,dy,dz,pdf`), `.json` |
 //! | curves                | `.json`, `.csv`, `.png`, `.svg` (a plot) |
 //! | metrics               | `.json`, `.csv` |
+//! | cube map              | `.exr`, `.pfm`, `.hdr`: one 6S x S strip, faces +X -X +Y -Y +Z -Z |
+//! | mip chain             | the same, one strip per level: the path must contain `{level}` (`spec_{level}.exr`) |
 //!
 //! The operator only encodes: the engine writes the bytes atomically into `--out`, and refuses
 //! paths that are absolute or leave that folder. Encoding is cached like any result.
@@ -34,7 +36,7 @@ crate::params! {
 }
 
 pub fn spec() -> OpSpec {
-    OpSpec::new("Save", "io", 1, "Write a value to a file in the output folder; the format follows the extension")
+    OpSpec::new("Save", "io", 2, "Write a value to a file in the output folder; the format follows the extension")
         .input("input", &[], "the value to write (any type that can be saved: see the type list in `hdrflow ops`)")
         .optional_input(
             "exposure_from",
@@ -56,6 +58,12 @@ fn check(ctx: &CheckContext, p: SaveParams) -> Result<(), CheckProblem> {
     }
     let Some(t) = ctx.input_type("input") else { return Ok(()) };
     let ext = p.path.extension();
+    if t == crate::types::ty::MIP_CHAIN_T && !p.path.0.contains("{level}") {
+        return Err(CheckProblem::at(
+            "path",
+            "a mip chain is saved one file per level: put {level} in the path (e.g. \"spec_{level}.exr\")",
+        ));
+    }
     let ok = t.spec().save_extensions;
     if ok.is_empty() {
         return Err(CheckProblem::at("input", format!("a value of type {t} cannot be saved")));
@@ -91,8 +99,13 @@ fn eval(ctx: &mut OpContext, p: SaveParams) -> Result<Value, OpError> {
     }
     let options =
         SaveOptions { ext: p.path.extension(), exposure, plot_size: (p.plot_size[0] as u32, p.plot_size[1] as u32) };
+    if let Some(chain) = value.get::<crate::data::MipChain>() {
+        let mut files = crate::types::cubemap::save_levels(chain, &rel_path, &options).map_err(fail)?.into_iter();
+        let (first_path, first) = files.next().ok_or_else(|| fail("an empty mip chain".into()))?;
+        return Ok(Value::new(FileBlob { rel_path: first_path, bytes: first, more: files.collect() }));
+    }
     let bytes = save(value, &options).map_err(fail)?;
-    Ok(Value::new(FileBlob { rel_path, bytes }))
+    Ok(Value::new(FileBlob::new(rel_path, bytes)))
 }
 
 /// The stops that bring the 99.5th percentile of the non-black pixels' max channel to 1.0.
