@@ -14,10 +14,11 @@
 //! `dphi (cos theta0 - cos theta1)`; `4 pi dA`). A cell is split:
 //!
 //! - always, while it is larger than a source texel (so no source texel is skipped);
-//! - when its four corners and centre do not fall in one source texel, at least twice more (a
-//!   quarter of a source texel), then further while `spread * Omega(cell) > tol`, where `spread` is
-//!   the largest channel difference between those texels and `tol = 1e-7` times the source's
-//!   integral of its largest channel, down to 1/256 of a source texel.
+//! - when its four corners and centre do not fall in one source texel, and those texels differ:
+//!   once more (down to half a source texel) if their largest channel difference `spread`
+//!   exceeds 1% of their largest value, and further while `spread * Omega(cell) > tol`,
+//!   `tol = 1e-7` times the source's integral of its largest channel, down to 1/256 of a source
+//!   texel.
 //!
 //! A leaf takes the source texel at its centre. The weights of an output texel's cells sum to
 //! its solid angle, so a constant map stays exactly constant (to rounding), and the sphere
@@ -204,7 +205,7 @@ impl Limits {
     fn new<S: SphereSource>(src: &S, out_texel_angle: f64) -> Limits {
         let ratio = out_texel_angle / src.texel_angle();
         let forced = if ratio > 1.0 { ratio.log2().ceil().min(24.0) as u32 } else { 0 };
-        Limits { forced, boundary: forced + 2, max: forced + 8, tol: 1e-7 * src.magnitude() }
+        Limits { forced, boundary: forced + 1, max: forced + 8, tol: 1e-7 * src.magnitude() }
     }
 }
 
@@ -232,18 +233,17 @@ fn integrate<S: SphereSource, F: Footprint>(
     if depth < lim.max {
         let corners = [(p0, q0), (p1, q0), (p0, q1), (p1, q1)].map(|(p, q)| src.texel_of(fp.dir(p, q)));
         if corners.iter().any(|&t| t != c) {
-            if depth < lim.boundary {
-                return split(acc, weight);
-            }
             let vc = src.rgb(c);
             let mut spread = 0.0f64;
+            let mut scale = vc.iter().fold(0.0f64, |m, v| m.max(v.abs()));
             for t in corners {
                 let v = src.rgb(t);
                 for k in 0..3 {
                     spread = spread.max((v[k] - vc[k]).abs());
+                    scale = scale.max(v[k].abs());
                 }
             }
-            if spread * omega > lim.tol {
+            if (depth < lim.boundary && spread > 1e-2 * scale) || spread * omega > lim.tol {
                 return split(acc, weight);
             }
         }
