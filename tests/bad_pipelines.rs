@@ -29,6 +29,7 @@ const EXPECTED_FILES: &[&str] = &[
     "pixel_budget.ron",
     "save_absolute.ron",
     "save_bad_extension.ron",
+    "save_chain_without_level.ron",
     "save_parent_dir.ron",
     "size_mismatch.ron",
     "syntax_error.ron",
