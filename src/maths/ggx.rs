@@ -26,7 +26,10 @@
 //!   S^2)` (filtered importance sampling: J. Krivanek, M. Colbert, "Real-time Shading with Filtered
 //!   Importance Sampling", EGSR 2008, eq. 4 with their bias of 1; GPU Gems 3 ch. 20). The exact
 //!   reference evaluates the same ratio with every source texel as `l`, weighted by its exact
-//!   solid angle. A constant environment gives 1 in both to rounding (white furnace, tested).
+//!   solid angle, with the lobe evaluated at the texel's centre: a quadrature that is accurate
+//!   while the lobe spans several source texels (alpha of a few texel angles). A constant
+//!   environment gives 1 in both to rounding (white furnace, tested); on the smooth built-in
+//!   `linear` map the two agree within 1% at every texel of every level (tested).
 
 use std::f64::consts::PI;
 
