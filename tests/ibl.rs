@@ -96,34 +96,16 @@ fn no_seams_across_face_edges() {
     let s = 16;
     let c = to_cube(&LatLongSource::new(&env), s);
     let at = |f: usize, x: usize, y: usize| c.texel((f * s + y) * s + x)[1] as f64;
-    let mut inside = 0.0f64;
-    for f in 0..6 {
-        for y in 0..s {
-            for x in 1..s {
-                inside = inside.max((at(f, x, y) - at(f, x - 1, y)).abs()).max((at(f, y, x) - at(f, y, x - 1)).abs());
-            }
-        }
-    }
-    let mut across = 0.0f64;
-    let step = 2.0 / s as f64;
-    for f in 0..6 {
-        for i in 0..s {
-            let t = cube::centre(i, s);
-            // The four edges: one texel past each, in the face's plane, lands on the neighbour.
-            for (x, y, a, b) in [
-                (0, i, -1.0 - step / 2.0, t),
-                (s - 1, i, 1.0 + step / 2.0, t),
-                (i, 0, t, -1.0 - step / 2.0),
-                (i, s - 1, t, 1.0 + step / 2.0),
-            ] {
-                let d = cube::face_direction(f, a, b);
-                let (g, gx, gy) = cube::texel_of_direction(d, s);
-                assert_ne!(g, f);
-                across = across.max((at(f, x, y) - at(g, gx, gy)).abs());
-            }
-        }
-    }
+    let (inside, across) = edge_differences(&c);
     assert!(across <= 1.5 * inside, "across edges {across}, inside faces {inside}");
+    // The same holds for every level of the prefiltered chain (sampled and exact).
+    for exact_sum in [false, true] {
+        let chain = prefilter(&c, 3, 256, LobeSequence::Sobol, exact_sum);
+        for (k, level) in chain.levels.iter().enumerate() {
+            let (inside, across) = edge_differences(level);
+            assert!(across <= 1.5 * inside, "exact {exact_sum} level {k}: across {across}, inside {inside}");
+        }
+    }
     // And each texel is the average of L = a + b.d over its footprint: a + b.(mean direction),
     // to 5e-3: the source is piecewise constant at 128x64, and a source texel differs from the
     // linear function by up to |b| times half its diagonal (0.02). A face in the wrong place or
@@ -151,6 +133,37 @@ fn no_seams_across_face_edges() {
             }
         }
     }
+}
+
+/// The largest difference of channel G between neighbours inside a face, and across face edges.
+fn edge_differences(c: &Cubemap) -> (f64, f64) {
+    let s = c.size;
+    let at = |f: usize, x: usize, y: usize| c.texel((f * s + y) * s + x)[1] as f64;
+    let mut inside = 0.0f64;
+    for f in 0..6 {
+        for y in 0..s {
+            for x in 1..s {
+                inside = inside.max((at(f, x, y) - at(f, x - 1, y)).abs()).max((at(f, y, x) - at(f, y, x - 1)).abs());
+            }
+        }
+    }
+    let mut across = 0.0f64;
+    let step = 2.0 / s as f64;
+    for f in 0..6 {
+        for i in 0..s {
+            let t = cube::centre(i, s);
+            for (x, y, a, b) in [
+                (0, i, -1.0 - step / 2.0, t),
+                (s - 1, i, 1.0 + step / 2.0, t),
+                (i, 0, t, -1.0 - step / 2.0),
+                (i, s - 1, t, 1.0 + step / 2.0),
+            ] {
+                let (g, gx, gy) = cube::texel_of_direction(cube::face_direction(f, a, b), s);
+                across = across.max((at(f, x, y) - at(g, gx, gy)).abs());
+            }
+        }
+    }
+    (inside, across)
 }
 
 /// RMS relative error of every level k >= 1 of the sampled chain against the exact one.

