@@ -192,6 +192,59 @@ fn sampled_prefilter_converges_to_exact() {
     assert!(errors[2] < 0.1, "{errors:?}");
 }
 
+fn run(text: &str, targets: &[&str]) -> std::collections::BTreeMap<String, hdrflow::engine::value::Value> {
+    let registry = hdrflow::builtin_registry();
+    let p = hdrflow::engine::graph::Pipeline::parse(text, "test.ron", std::path::Path::new("."), &registry, &[])
+        .unwrap_or_else(|e| panic!("{e}"));
+    let options = hdrflow::engine::scheduler::RunOptions {
+        targets: targets.iter().map(|t| t.to_string()).collect(),
+        out_dir: std::env::temp_dir().join(format!("hdrflow-ibl-test-{}", std::process::id())),
+        cache: None,
+        jobs: Some(2),
+        observer: &hdrflow::engine::scheduler::Silent,
+    };
+    hdrflow::engine::scheduler::run(&p, &options).unwrap_or_else(|e| panic!("{e}")).values
+}
+
+/// The operators themselves, through the engine: a constant environment given as a lat-long map
+/// and as a cube map (of another size) gives 1 everywhere, and the irradiance reports its window.
+#[test]
+fn operators_pass_the_white_furnace() {
+    let values = run(
+        r#"(nodes: {
+            "env":  Constant(width: 32, height: 16, color: 1.0),
+            "cube": LatLongToCubemap(image: "env", size: 12),
+            "spec_ll":   PrefilterSpecular(env: "env", size: 8, levels: 4, samples: 64),
+            "spec_cube": PrefilterSpecular(env: "cube", size: 8, levels: 4, samples: 64, sequence: Hammersley),
+            "spec_ex":   PrefilterSpecular(env: "cube", size: 4, levels: 3, exact: true),
+            "irr_ex":    IrradianceCubemap(env: "env", size: 4, method: Exact),
+            "irr_sh":    IrradianceCubemap(env: "cube", size: 4, order: 4, window: Deringing),
+            "back":      CubemapToLatLong(cubemap: "cube", width: 16, height: 8),
+            "oct":       LatLongToOctahedral(image: "env", size: 8),
+            "oct_back":  OctahedralToLatLong(image: "oct", width: 16, height: 8),
+        })"#,
+        &["spec_ll", "spec_cube", "spec_ex", "irr_ex", "irr_sh", "back", "oct_back"],
+    );
+    for name in ["spec_ll", "spec_cube", "spec_ex"] {
+        let chain = values[name].get::<hdrflow::data::MipChain>().expect("a mip chain");
+        assert_eq!(chain.roughness.first(), Some(&0.0));
+        assert_eq!(chain.roughness.last(), Some(&1.0));
+        for level in &chain.levels {
+            assert!(max_dev_from_one(level) < 1e-3, "{name}");
+        }
+    }
+    for name in ["irr_ex", "irr_sh"] {
+        assert!(max_dev_from_one(values[name].get::<Cubemap>().expect("a cube map")) < 1e-3, "{name}");
+    }
+    let m = values["irr_sh.metrics"].get::<hdrflow::data::Metrics>().expect("metrics");
+    assert_eq!(m.get("window_strength"), Some(0.0));
+    assert!((m.get("min_irradiance").unwrap() - 1.0).abs() < 1e-3, "{m:?}");
+    for name in ["back", "oct_back"] {
+        let img = values[name].get::<Image>().expect("an image");
+        assert!(img.data.iter().all(|v| (v - 1.0).abs() < 1e-5), "{name}");
+    }
+}
+
 #[test]
 fn graph_bakes_every_output() {
     let sb = common::Sandbox::new();
