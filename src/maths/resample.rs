@@ -46,7 +46,8 @@ pub trait SphereSource: Sync {
     fn texel_of(&self, d: DVec3) -> usize;
     /// The RGB value of texel `t`.
     fn rgb(&self, t: usize) -> [f64; 3];
-    /// The angular size (radians) of a typical texel side.
+    /// The angular size (radians) of a small texel side: output cells are split at least down to
+    /// it, so that no source texel falls between a cell's corners and centre unseen.
     fn texel_angle(&self) -> f64;
     /// The integral over the sphere of each texel's largest absolute channel (sets the tolerance).
     fn magnitude(&self) -> f64;
@@ -80,7 +81,7 @@ impl SphereSource for LatLongSource<'_> {
         self.img.rgb(t % self.img.width, t / self.img.width).map(f64::from)
     }
     fn texel_angle(&self) -> f64 {
-        PI / self.img.height as f64
+        (PI / self.img.height as f64).min(2.0 * PI / self.img.width as f64)
     }
     fn magnitude(&self) -> f64 {
         self.magnitude
@@ -110,7 +111,8 @@ impl SphereSource for CubeSource<'_> {
         self.cube.texel(t).map(f64::from)
     }
     fn texel_angle(&self) -> f64 {
-        2.0 / self.cube.size as f64
+        // 2 / S at a face's centre; half that allows for the smaller texels towards the corners.
+        1.0 / self.cube.size as f64
     }
     fn magnitude(&self) -> f64 {
         self.magnitude
@@ -142,7 +144,8 @@ impl SphereSource for OctahedralSource<'_> {
         self.img.rgb(t % self.img.width, t / self.img.width).map(f64::from)
     }
     fn texel_angle(&self) -> f64 {
-        (4.0 * PI).sqrt() / self.img.width as f64
+        // sqrt(4 pi) / N on average; half that allows for the mapping's shear near the diagonals.
+        0.5 * (4.0 * PI).sqrt() / self.img.width as f64
     }
     fn magnitude(&self) -> f64 {
         self.magnitude
