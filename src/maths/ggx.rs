@@ -149,13 +149,12 @@ pub fn basis(n: DVec3) -> (DVec3, DVec3) {
     (DVec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x), DVec3::new(b, sign + n.y * n.y * a, -n.y))
 }
 
-/// Bilinear lookup of a cube map in direction d, seamless: a neighbour texel beyond the face's
+/// Bilinear lookup of a cube map at face point (face, a, b), seamless: a neighbour texel beyond the face's
 /// edge is read from the adjacent face (the texel containing the direction of that neighbour's
 /// centre in the face's plane), so lookups are continuous across edges even on 1 x 1 faces.
-fn bilinear(c: &Cubemap, d: DVec3) -> [f64; 3] {
+fn bilinear(c: &Cubemap, (f, a, b): (usize, f64, f64)) -> [f64; 3] {
     let s = c.size;
     let si = s as i64;
-    let (f, a, b) = cube::direction_to_face(d);
     let fx = (a + 1.0) * 0.5 * s as f64 - 0.5;
     let fy = (b + 1.0) * 0.5 * s as f64 - 0.5;
     let (x0, y0) = (fx.floor(), fy.floor());
@@ -185,11 +184,12 @@ fn trilinear(pyr: &[Cubemap], d: DVec3, lod: f64) -> [f64; 3] {
     let lod = lod.clamp(0.0, top);
     let l0 = lod.floor() as usize;
     let t = lod - l0 as f64;
-    let a = bilinear(&pyr[l0], d);
+    let fab = cube::direction_to_face(d);
+    let a = bilinear(&pyr[l0], fab);
     if t == 0.0 || l0 + 1 >= pyr.len() {
         return a;
     }
-    let b = bilinear(&pyr[l0 + 1], d);
+    let b = bilinear(&pyr[l0 + 1], fab);
     [0, 1, 2].map(|k| a[k] * (1.0 - t) + b[k] * t)
 }
 
