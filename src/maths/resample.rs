@@ -212,10 +212,15 @@ impl Limits {
     }
 }
 
+/// Adds the integral of `src` over the cell `r = [p0, p1, q0, q1]` to `acc` (and its solid angle to
+/// `weight`); `corners` are the source texels at (p0, q0), (p1, q0), (p0, q1), (p1, q1), shared
+/// with the neighbouring cells so that each grid point is looked up once.
+#[allow(clippy::too_many_arguments)]
 fn integrate<S: SphereSource, F: Footprint>(
     src: &S,
     fp: &F,
     r: [f64; 4],
+    corners: [usize; 4],
     depth: u32,
     lim: &Limits,
     acc: &mut [f64; 3],
@@ -223,32 +228,37 @@ fn integrate<S: SphereSource, F: Footprint>(
 ) {
     let [p0, p1, q0, q1] = r;
     let (pm, qm) = (0.5 * (p0 + p1), 0.5 * (q0 + q1));
+    let c = src.texel_of(fp.dir(pm, qm));
     let split = |acc: &mut [f64; 3], weight: &mut f64| {
-        for rr in [[p0, pm, q0, qm], [pm, p1, q0, qm], [p0, pm, qm, q1], [pm, p1, qm, q1]] {
-            integrate(src, fp, rr, depth + 1, lim, acc, weight);
+        let at = |p: f64, q: f64| src.texel_of(fp.dir(p, q));
+        let (eb, el, er, et) = (at(pm, q0), at(p0, qm), at(p1, qm), at(pm, q1));
+        let [c00, c10, c01, c11] = corners;
+        for (rr, cc) in [
+            ([p0, pm, q0, qm], [c00, eb, el, c]),
+            ([pm, p1, q0, qm], [eb, c10, c, er]),
+            ([p0, pm, qm, q1], [el, c, c01, et]),
+            ([pm, p1, qm, q1], [c, er, et, c11]),
+        ] {
+            integrate(src, fp, rr, cc, depth + 1, lim, acc, weight);
         }
     };
     if depth < lim.forced {
         return split(acc, weight);
     }
-    let c = src.texel_of(fp.dir(pm, qm));
     let omega = fp.solid_angle(p0, p1, q0, q1);
-    if depth < lim.max {
-        let corners = [(p0, q0), (p1, q0), (p0, q1), (p1, q1)].map(|(p, q)| src.texel_of(fp.dir(p, q)));
-        if corners.iter().any(|&t| t != c) {
-            let vc = src.rgb(c);
-            let mut spread = 0.0f64;
-            let mut scale = vc.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-            for t in corners {
-                let v = src.rgb(t);
-                for k in 0..3 {
-                    spread = spread.max((v[k] - vc[k]).abs());
-                    scale = scale.max(v[k].abs());
-                }
+    if depth < lim.max && corners.iter().any(|&t| t != c) {
+        let vc = src.rgb(c);
+        let mut spread = 0.0f64;
+        let mut scale = vc.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        for t in corners {
+            let v = src.rgb(t);
+            for k in 0..3 {
+                spread = spread.max((v[k] - vc[k]).abs());
+                scale = scale.max(v[k].abs());
             }
-            if (depth < lim.boundary && spread > 1e-2 * scale) || spread * omega > lim.tol {
-                return split(acc, weight);
-            }
+        }
+        if (depth < lim.boundary && spread > 1e-2 * scale) || spread * omega > lim.tol {
+            return split(acc, weight);
         }
     }
     let v = src.rgb(c);
@@ -261,7 +271,9 @@ fn integrate<S: SphereSource, F: Footprint>(
 fn average<S: SphereSource, F: Footprint>(src: &S, fp: &F, r: [f64; 4], lim: &Limits) -> [f32; 3] {
     let mut acc = [0.0; 3];
     let mut weight = 0.0;
-    integrate(src, fp, r, 0, lim, &mut acc, &mut weight);
+    let [p0, p1, q0, q1] = r;
+    let corners = [(p0, q0), (p1, q0), (p0, q1), (p1, q1)].map(|(p, q)| src.texel_of(fp.dir(p, q)));
+    integrate(src, fp, r, corners, 0, lim, &mut acc, &mut weight);
     if weight > 0.0 {
         acc.map(|v| (v / weight) as f32)
     } else {
