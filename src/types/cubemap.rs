@@ -2,7 +2,8 @@
 //! +X, -X, +Y, -Y, +Z, -Z (axes in `geometry::cubemap`), and a list of them.
 //!
 //! Cache payloads: a cube map is its face size then its 18 S^2 f32 values; a chain is its level
-//! count, then per level its roughness (f64) and its cube map. Saved as `.exr`, `.pfm` or `.hdr`:
+//! count, then per level its roughness (f64) and its cube map. Saved as `.exr`, `.pfm`, `.hdr` or
+//! `.png` (exposure, sRGB, 8-bit: to look at):
 //! a cube map as ONE horizontal strip of its six faces in storage order (6S x S, +X at the left);
 //! a chain as one such strip per level, `Save(path: "spec_{level}.exr")` writing `spec_0.exr`,
 //! `spec_1.exr`, ... (the path must contain `{level}`).
@@ -16,7 +17,7 @@ pub static CUBEMAP: TypeSpec = TypeSpec {
     name: "cube map",
     doc: "six square RGB faces +X, -X, +Y, -Y, +Z, -Z (OpenGL/KTX order, hdrflow's axes); saved as a 6S x S strip",
     decode,
-    save_extensions: &["exr", "pfm", "hdr"],
+    save_extensions: &["exr", "pfm", "hdr", "png"],
     save: Some(save),
 };
 
@@ -24,7 +25,7 @@ pub static MIP_CHAIN: TypeSpec = TypeSpec {
     name: "mip chain",
     doc: "cube maps, level k of face size max(1, size >> k), each with its roughness; saved one strip per level (`{level}` in the path)",
     decode: decode_chain,
-    save_extensions: &["exr", "pfm", "hdr"],
+    save_extensions: &["exr", "pfm", "hdr", "png"],
     save: Some(save_chain_level0),
 };
 

@@ -9,7 +9,7 @@
 //! | sample set            | `.csv` (`index,x,y,theta,phi,dx,dy,dz,pdf`), `.json` |
 //! | curves                | `.json`, `.csv`, `.png`, `.svg` (a plot) |
 //! | metrics               | `.json`, `.csv` |
-//! | cube map              | `.exr`, `.pfm`, `.hdr`: one 6S x S strip, faces +X -X +Y -Y +Z -Z |
+//! | cube map              | `.exr`, `.pfm`, `.hdr`, `.png`: one 6S x S strip, faces +X -X +Y -Y +Z -Z |
 //! | mip chain             | the same, one strip per level: the path must contain `{level}` (`spec_{level}.exr`) |
 //!
 //! The operator only encodes: the engine writes the bytes atomically into `--out`, and refuses
@@ -27,7 +27,7 @@ crate::params! {
         /// exposure in stops applied before the sRGB transfer (.png only)
         #[range(-64.0, 64.0)]
         pub exposure: f64 = 0.0,
-        /// (.png) first scale so the 99.5th percentile of lit pixels' max channel maps to 1
+        /// (.png) first scale so the 99.5th percentile of lit pixels' max channel maps to 1 (a mip chain: of level 0, for every level)
         pub auto_exposure: bool = false,
         /// width and height in pixels of a curve plot (.png, .svg)
         #[range(64.0, 8192.0)]
@@ -95,6 +95,10 @@ fn eval(ctx: &mut OpContext, p: SaveParams) -> Result<Value, OpError> {
             exposure += auto_exposure(img);
         } else if let Some(d) = value.get::<crate::data::Distribution2D>() {
             exposure += auto_exposure(&crate::types::distribution::pdf_image(d));
+        } else if let Some(c) = value.get::<crate::data::Cubemap>() {
+            exposure += auto_exposure(&c.to_strip());
+        } else if let Some(c) = value.get::<crate::data::MipChain>().and_then(|c| c.levels.first()) {
+            exposure += auto_exposure(&c.to_strip());
         }
     }
     let options =
