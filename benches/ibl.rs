@@ -113,6 +113,14 @@ fn main() {
     println!("| IrradianceCubemap Sh order 2 Deringing, 32 cube | {t:.3} s |");
     let (t, _) = median(|| exact(&Texels::from_latlong(&env), 16));
     println!("| IrradianceCubemap Exact, 16 cube | {t:.2} s |");
-    let (t, _) = median(|| brdf_lut(128, 1024, LobeSequence::Hammersley, false));
+    let (t, lut) = median(|| brdf_lut(128, 1024, LobeSequence::Hammersley, false));
     println!("| BrdfLut 128, 1024 samples | {t:.3} s |");
+    let multi = brdf_lut(128, 1024, LobeSequence::Hammersley, true);
+    let top = lut.data.chunks(2).map(|p| p[0] + p[1]).fold(0.0f32, f32::max);
+    let top_multi = multi.data.chunks(2).map(|p| p[1]).fold(0.0f32, f32::max);
+    let low_multi = multi.data.chunks(2).map(|p| p[1]).fold(1.0f32, f32::min);
+    println!(
+        "\nBrdfLut 128: largest scale + bias {top:.6}; multiscatter E[Gv] in [{low_multi:.4}, {top_multi:.6}] \
+         (1 - E[Gv] is the energy multiple scattering adds back)"
+    );
 }

@@ -56,7 +56,8 @@ fn brdf_lut_is_bounded_and_mirror_limit_is_closed_form() {
         worst = worst.max((s[0] + s[1]) as f64).max(m[1] as f64);
         assert!(s.iter().chain(m).all(|v| *v >= 0.0 && v.is_finite()));
     }
-    assert!(worst <= 1.0 + 1e-3, "scale + bias reaches {worst}");
+    // The estimate may pass 1 by its own noise at roughness -> 0 (1.000048 at 128 x 128).
+    assert!(worst <= 1.0 + 1e-4, "scale + bias reaches {worst}");
     // Row 0 is roughness 1/64 (alpha 2.4e-4): a mirror, scale + bias = 1, bias = (1 - n.v)^5.
     for x in 0..size {
         let nov = (x as f64 + 0.5) / size as f64;
