@@ -8,7 +8,7 @@
 //! do; never clamped). `exact: false` estimates it with `samples` GGX samples of the `sequence`
 //! and filtered importance sampling (Krivanek and Colbert 2008: each sample reads the source's
 //! mip pyramid at `lod = 0.5 log2(Omega_s / Omega_p) + 1`, `Omega_s = 1 / (N pdf)`, `Omega_p` the
-//! mean texel solid angle of level 0); `exact: true` sums the same weighted lobe over every source
+//! solid angle of the level-0 texel in the sample's direction); `exact: true` sums the same weighted lobe over every source
 //! texel (the reference; O(6 size^2 x texels of the level) per level). Formulas in `maths::ggx`.
 //! A constant environment gives 1 at every level and texel, both ways, to 1e-3 (tests), and the
 //! error of the estimate against the reference falls as `samples` grows (tests).
