@@ -25,6 +25,7 @@ const EXPECTED_FILES: &[&str] = &[
     "field_twice.ron",
     "missing_field.ron",
     "missing_node.ron",
+    "octahedral_not_square.ron",
     "out_of_range.ron",
     "pixel_budget.ron",
     "save_absolute.ron",
