@@ -16,8 +16,8 @@
 //!   Laplacian of the result for a given strength (Sloan 2008), with `lambda` the smallest
 //!   strength that makes the reconstructed irradiance non-negative in every channel (P.-P. Sloan,
 //!   "Deringing Spherical Harmonics", SIGGRAPH Asia 2017 Technical Briefs, whose criterion this
-//!   is), found by bisection in log(lambda) over the output texels and a fixed 32 x 32 per face
-//!   set of directions. `lambda` is 0 when no ringing goes below zero. As lambda grows only
+//!   is), found by bisection in log(lambda) over the output texels (see [`from_sh`] for outputs
+//!   larger than 64 x 64 per face) and a fixed 32 x 32 per face set of directions. `lambda` is 0 when no ringing goes below zero. As lambda grows only
 //!   band 0 survives, the mean radiance, which is non-negative for a non-negative map, so the
 //!   search always ends (at most 1e12).
 
@@ -242,30 +242,58 @@ pub struct ShReport {
     pub min_windowed: f64,
 }
 
+/// The face size of the output directions that join the fixed check set (larger outputs are
+/// checked after evaluation, see [`from_sh`]).
+const CHECK_SIZE: usize = 64;
+
 /// The SH irradiance / pi cube map of face size `size` from coefficients (World frame).
+///
+/// The window strength and the minima are found on a check set: the texel directions of a cube
+/// of face min(size, 64) and of a 32 cube (at most 30,720 directions, so memory stays below
+/// 25 MB at order 32 whatever `size`). The output is then evaluated texel by texel; with
+/// `Deringing`, output texels that still come out negative (possible between check directions
+/// when size > 64) join the check set and the strength is searched again (at most 4 times), and
+/// the reported minima include every output texel.
 pub fn from_sh(coeffs: &[[f64; 3]], order: usize, kind: ShWindow, size: usize) -> (Cubemap, ShReport) {
-    let out_dirs = cube_directions(size);
-    let n_out = out_dirs.len();
-    let mut dirs = out_dirs;
+    let mut dirs = cube_directions(size.min(CHECK_SIZE));
     dirs.extend(cube_directions(32));
-    let bands = BandSums::new(coeffs, order, &dirs);
+    let out_dirs = cube_directions(size);
     let none = window(ShWindow::None, order, 0.0);
-    let min_unwindowed = bands.min(&none);
-    let strength = match kind {
-        ShWindow::None => 0.0,
-        ShWindow::Hann | ShWindow::Lanczos => 1.0,
-        ShWindow::Deringing => deringing_strength(&bands, order, min_unwindowed),
-    };
-    let w = window(kind, order, strength);
-    let min_windowed = bands.min(&w);
-    let mut out = Cubemap::new(size);
-    out.data.par_chunks_mut(3).enumerate().take(n_out).for_each(|(i, px)| {
-        let v = bands.eval(i, &w);
-        for k in 0..3 {
-            px[k] = v[k] as f32;
+    let mut rounds = 0;
+    loop {
+        let bands = BandSums::new(coeffs, order, &dirs);
+        let min_unwindowed = bands.min(&none);
+        let strength = match kind {
+            ShWindow::None => 0.0,
+            ShWindow::Hann | ShWindow::Lanczos => 1.0,
+            ShWindow::Deringing => deringing_strength(&bands, order, min_unwindowed),
+        };
+        let w = window(kind, order, strength);
+        let mut out = Cubemap::new(size);
+        let mins: Vec<(f64, f64)> = out
+            .data
+            .par_chunks_mut(3)
+            .zip(out_dirs.par_iter())
+            .map(|(px, &d)| {
+                let one = BandSums::new(coeffs, order, &[d]);
+                let v = one.eval(0, &w);
+                for k in 0..3 {
+                    px[k] = v[k] as f32;
+                }
+                let raw = one.eval(0, &none);
+                (v.into_iter().fold(f64::INFINITY, f64::min), raw.into_iter().fold(f64::INFINITY, f64::min))
+            })
+            .collect();
+        let negative: Vec<DVec3> = out_dirs.iter().zip(&mins).filter(|(_, m)| m.0 < 0.0).map(|(d, _)| *d).collect();
+        if kind == ShWindow::Deringing && strength > 0.0 && !negative.is_empty() && rounds < 4 {
+            dirs.extend(negative);
+            rounds += 1;
+            continue;
         }
-    });
-    (out, ShReport { strength, min_unwindowed, min_windowed })
+        let min_windowed = mins.iter().fold(bands.min(&w), |m, x| m.min(x.0));
+        let min_unwindowed = mins.iter().fold(min_unwindowed, |m, x| m.min(x.1));
+        return (out, ShReport { strength, min_unwindowed, min_windowed });
+    }
 }
 
 /// The smallest lambda with a non-negative result (bisection in log lambda, 60 steps).
@@ -339,5 +367,8 @@ mod tests {
         let bands = BandSums::new(&coeffs, 6, &dirs);
         let weaker = window(ShWindow::Deringing, 6, r.strength * 0.9);
         assert!(bands.min(&weaker) < 0.0);
+        // An output larger than the check set is still non-negative at every texel.
+        let (big, r) = from_sh(&coeffs, 6, ShWindow::Deringing, 80);
+        assert!(r.min_windowed >= 0.0 && big.data.iter().all(|&v| v >= 0.0), "{r:?}");
     }
 }
