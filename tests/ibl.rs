@@ -37,7 +37,7 @@ fn white_furnace_prefilter_and_irradiance() {
     for window in [ShWindow::None, ShWindow::Hann, ShWindow::Lanczos, ShWindow::Deringing] {
         for order in [0, 2, 5] {
             let (a, _) = from_sh(&project_latlong(&env, order), order, window, 8);
-            let (b, _) = from_sh(&project_cube(&Texels::from_cube(&c), order), order, window, 8);
+            let (b, _) = from_sh(&project_cube(&c, order), order, window, 8);
             for (src, cm) in [("lat-long", a), ("cube", b)] {
                 let dev = max_dev_from_one(&cm);
                 assert!(dev < 1e-3, "SH irradiance order {order} {window:?} from {src}: {dev}");

@@ -36,15 +36,23 @@ pub const FACE_NAMES: [&str; 6] = ["+X", "-X", "+Y", "-Y", "+Z", "-Z"];
 /// The unit direction of face point (a, b), a and b in [-1, 1].
 #[inline]
 pub fn face_direction(face: usize, a: f64, b: f64) -> DVec3 {
-    let v = match face {
-        0 => DVec3::new(1.0, -b, -a),
-        1 => DVec3::new(-1.0, -b, a),
-        2 => DVec3::new(a, 1.0, b),
-        3 => DVec3::new(a, -1.0, -b),
-        4 => DVec3::new(a, -b, 1.0),
-        _ => DVec3::new(-a, -b, -1.0),
-    };
-    v / v.length()
+    let v = DVec3::new(a, b, 1.0);
+    orient(face, v / v.length())
+}
+
+/// Face `face`'s axes applied to `u = (a, b, 1) * k` (any scale k): the world vector
+/// `k * (the table's direction)`. `face_direction` is `orient` of the normalised `(a, b, 1)`, so
+/// a table of one face's unit vectors serves all six.
+#[inline]
+pub fn orient(face: usize, u: DVec3) -> DVec3 {
+    match face {
+        0 => DVec3::new(u.z, -u.y, -u.x),
+        1 => DVec3::new(-u.z, -u.y, u.x),
+        2 => DVec3::new(u.x, u.z, u.y),
+        3 => DVec3::new(u.x, -u.z, -u.y),
+        4 => DVec3::new(u.x, -u.y, u.z),
+        _ => DVec3::new(-u.x, -u.y, -u.z),
+    }
 }
 
 /// The face and face coordinates (a, b) in [-1, 1] of a direction (need not be normalised; a

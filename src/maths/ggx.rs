@@ -42,6 +42,7 @@ use rayon::prelude::*;
 
 use crate::data::{Cubemap, Image, MipChain};
 use crate::geometry::cubemap as cube;
+use crate::maths::irradiance_cube::Texels;
 use crate::maths::resample::downsample;
 use crate::maths::sequences::{radical_inverse, sobol_2d};
 
@@ -265,14 +266,7 @@ pub fn prefilter_level_fis(pyr: &[Cubemap], size: usize, roughness: f64, pts: &[
 /// One level filtered exactly: the same weighted lobe summed over every source texel.
 pub fn prefilter_level_exact(src: &Cubemap, size: usize, roughness: f64) -> Cubemap {
     let alpha = roughness * roughness;
-    let s = src.size;
-    let omega = cube::face_solid_angles(s);
-    let texels: Vec<(DVec3, f64, [f64; 3])> = (0..src.texel_count())
-        .map(|t| {
-            let (f, y, x) = (t / (s * s), (t / s) % s, t % s);
-            (cube::texel_direction(f, x, y, s), omega[y * s + x], src.texel(t).map(f64::from))
-        })
-        .collect();
+    let texels = Texels::from_cube(src);
     let mut out = Cubemap::new(size);
     out.data.par_chunks_mut(3 * size).enumerate().for_each(|(row, px)| {
         let (f, y) = (row / size, row % size);
@@ -280,18 +274,17 @@ pub fn prefilter_level_exact(src: &Cubemap, size: usize, roughness: f64) -> Cube
             let nrm = cube::texel_direction(f, x, y, size);
             let mut acc = [0.0f64; 3];
             let mut w = 0.0;
-            for &(l, o, v) in &texels {
+            texels.for_each(|l, o, v| {
                 let nol = nrm.dot(l);
-                if nol <= 0.0 {
-                    continue;
+                if nol > 0.0 {
+                    let h = (nrm + l).normalize();
+                    let wt = d_ggx(nrm.dot(h), alpha) * nol * o;
+                    for k in 0..3 {
+                        acc[k] += v[k] * wt;
+                    }
+                    w += wt;
                 }
-                let h = (nrm + l).normalize();
-                let wt = d_ggx(nrm.dot(h), alpha) * nol * o;
-                for k in 0..3 {
-                    acc[k] += v[k] * wt;
-                }
-                w += wt;
-            }
+            });
             for k in 0..3 {
                 px[3 * x + k] = if w > 0.0 { (acc[k] / w) as f32 } else { 0.0 };
             }

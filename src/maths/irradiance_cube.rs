@@ -54,32 +54,64 @@ crate::choice! {
     }
 }
 
-/// An environment as a list of texels: direction, solid angle, RGB.
-pub struct Texels(pub Vec<(DVec3, f64, [f64; 3])>);
+/// An environment read texel by texel (direction, solid angle, RGB) without a per-texel list:
+/// a lat-long map keeps one (sin, cos, solid angle) per row and one (sin, cos) per column, a
+/// cube map one unit vector and solid angle per texel of one face (shared by the six), so the
+/// exact sums need O(W + H) or O(S^2) memory beside the map.
+pub enum Texels<'a> {
+    LatLong { img: &'a Image, rows: Vec<(f64, f64, f64)>, cols: Vec<(f64, f64)> },
+    Cube { cube: &'a Cubemap, face: Vec<(DVec3, f64)> },
+}
 
-impl Texels {
-    pub fn from_latlong(img: &Image) -> Texels {
+impl<'a> Texels<'a> {
+    pub fn from_latlong(img: &'a Image) -> Texels<'a> {
         let (w, h) = (img.width, img.height);
-        let mut v = Vec::with_capacity(w * h);
-        for y in 0..h {
-            let o = latlong::texel_solid_angle(y, w, h);
-            for x in 0..w {
-                v.push((DVec3::from(latlong::texel_direction(x, y, w, h)), o, img.rgb(x, y).map(f64::from)));
+        let rows = (0..h)
+            .map(|y| {
+                let (s, c) = latlong::theta_of_row(y, h).sin_cos();
+                (s, c, latlong::texel_solid_angle(y, w, h))
+            })
+            .collect();
+        let cols = (0..w).map(|x| latlong::phi_of_column(x, w).sin_cos()).collect();
+        Texels::LatLong { img, rows, cols }
+    }
+
+    pub fn from_cube(cube: &'a Cubemap) -> Texels<'a> {
+        let s = cube.size;
+        let omega = cube::face_solid_angles(s);
+        let face = (0..s * s)
+            .map(|t| {
+                let v = DVec3::new(cube::centre(t % s, s), cube::centre(t / s, s), 1.0);
+                (v / v.length(), omega[t])
+            })
+            .collect();
+        Texels::Cube { cube, face }
+    }
+
+    /// Calls `f(direction, solid angle, rgb)` for every texel, in storage order.
+    #[inline]
+    pub fn for_each(&self, mut f: impl FnMut(DVec3, f64, [f64; 3])) {
+        match self {
+            Texels::LatLong { img, rows, cols } => {
+                for (y, &(st, ct, o)) in rows.iter().enumerate() {
+                    let row = img.row(y);
+                    let ch = img.channels;
+                    for (x, &(sp, cp)) in cols.iter().enumerate() {
+                        let p = &row[x * ch..(x + 1) * ch];
+                        let v = if ch < 3 { [p[0]; 3] } else { [p[0], p[1], p[2]] };
+                        f(DVec3::new(-st * sp, ct, st * cp), o, v.map(f64::from));
+                    }
+                }
+            }
+            Texels::Cube { cube, face } => {
+                let n = face.len();
+                for fi in 0..6 {
+                    for (t, &(u, o)) in face.iter().enumerate() {
+                        f(cube::orient(fi, u), o, cube.texel(fi * n + t).map(f64::from));
+                    }
+                }
             }
         }
-        Texels(v)
-    }
-    pub fn from_cube(c: &Cubemap) -> Texels {
-        let s = c.size;
-        let omega = cube::face_solid_angles(s);
-        Texels(
-            (0..c.texel_count())
-                .map(|t| {
-                    let (f, y, x) = (t / (s * s), (t / s) % s, t % s);
-                    (cube::texel_direction(f, x, y, s), omega[y * s + x], c.texel(t).map(f64::from))
-                })
-                .collect(),
-        )
     }
 }
 
@@ -92,7 +124,7 @@ pub fn exact(src: &Texels, size: usize) -> Cubemap {
             let n = cube::texel_direction(f, x, y, size);
             let mut acc = [0.0f64; 3];
             let mut w = 0.0;
-            for &(l, o, v) in &src.0 {
+            src.for_each(|l, o, v| {
                 let c = n.dot(l);
                 if c > 0.0 {
                     let wt = c * o;
@@ -101,7 +133,7 @@ pub fn exact(src: &Texels, size: usize) -> Cubemap {
                     }
                     w += wt;
                 }
-            }
+            });
             for k in 0..3 {
                 px[3 * x + k] = if w > 0.0 { (acc[k] / w) as f32 } else { 0.0 };
             }
@@ -110,17 +142,24 @@ pub fn exact(src: &Texels, size: usize) -> Cubemap {
     out
 }
 
-/// SH coefficients (World frame) of a cube map: `sum_t L_t Y_lm(d_t) Omega_t`.
-pub fn project_cube(src: &Texels, order: usize) -> Vec<[f64; 3]> {
+/// SH coefficients (World frame) of a cube map: `sum_t L_t Y_lm(d_t) Omega_t` (exact texel solid
+/// angles).
+pub fn project_cube(c: &Cubemap, order: usize) -> Vec<[f64; 3]> {
     let n = sh_count(order);
-    src.0
-        .par_chunks(4096)
-        .map(|chunk| {
-            let mut y = vec![0.0; n];
+    let s = c.size;
+    let omega = cube::face_solid_angles(s);
+    // One partial sum per face row, added in storage order: the same bits for any thread count.
+    (0..6 * s)
+        .into_par_iter()
+        .map(|row| {
+            let (f, y) = (row / s, row % s);
+            let mut basis = vec![0.0; n];
             let mut acc = vec![[0.0f64; 3]; n];
-            for &(d, o, v) in chunk {
-                eval_sh_into(ShFrame::World, order, d.into(), &mut y);
-                for (a, &yi) in acc.iter_mut().zip(&y) {
+            for x in 0..s {
+                let (d, o) = (cube::texel_direction(f, x, y, s), omega[y * s + x]);
+                let v = c.texel((f * s + y) * s + x).map(f64::from);
+                eval_sh_into(ShFrame::World, order, d.into(), &mut basis);
+                for (a, &yi) in acc.iter_mut().zip(&basis) {
                     for k in 0..3 {
                         a[k] += v[k] * yi * o;
                     }
@@ -130,13 +169,13 @@ pub fn project_cube(src: &Texels, order: usize) -> Vec<[f64; 3]> {
         })
         .collect::<Vec<_>>()
         .into_iter()
-        .fold(vec![[0.0f64; 3]; n], |mut s, a| {
-            for (si, ai) in s.iter_mut().zip(a) {
+        .fold(vec![[0.0f64; 3]; n], |mut sum, a| {
+            for (si, ai) in sum.iter_mut().zip(a) {
                 for k in 0..3 {
                     si[k] += ai[k];
                 }
             }
-            s
+            sum
         })
 }
 

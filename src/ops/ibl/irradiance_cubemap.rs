@@ -57,15 +57,13 @@ fn eval(ctx: &mut OpContext, p: IrradianceCubemapParams) -> Result<Outputs, OpEr
     let env = ctx.input("env");
     let (texels, coeffs) = if let Some(c) = env.get::<Cubemap>() {
         super::check_cube_finite(c)?;
-        let t = Texels::from_cube(c);
-        let coeffs = (p.method == IrradianceMethod::Sh).then(|| project_cube(&t, p.order));
-        (t, coeffs)
+        let coeffs = (p.method == IrradianceMethod::Sh).then(|| project_cube(c, p.order));
+        (Texels::from_cube(c), coeffs)
     } else {
         let img: &Image = ctx.get("env");
         crate::ops::shading::reference_sphere::check_finite(img)?;
         let coeffs = (p.method == IrradianceMethod::Sh).then(|| project_latlong(img, p.order));
-        let t = if p.method == IrradianceMethod::Exact { Texels::from_latlong(img) } else { Texels(Vec::new()) };
-        (t, coeffs)
+        (Texels::from_latlong(img), coeffs)
     };
     let (cube, metrics) = match coeffs {
         Some(coeffs) => {
