@@ -1,5 +1,6 @@
 //! The data types that flow between operators.
 
+pub mod cubemap;
 pub mod curves;
 pub mod distribution;
 pub mod image;
@@ -8,6 +9,7 @@ pub mod metrics;
 pub mod samples;
 pub mod sh;
 
+pub use cubemap::{Cubemap, MipChain};
 pub use curves::Curves;
 pub use distribution::Distribution2D;
 pub use image::Image;

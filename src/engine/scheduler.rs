@@ -406,9 +406,11 @@ impl Shared<'_> {
     fn store(&self, i: usize, outputs: Vec<Value>) -> Result<(), RunError> {
         for (port, value) in outputs.into_iter().enumerate() {
             if let Some(f) = value.get::<FileBlob>() {
-                self.files.lock().expect("files lock").push((self.p.nodes[i].name.clone(), f.rel_path.clone()));
-                if let Some(path) = write_output(&self.options.out_dir, &f.rel_path, &f.bytes)? {
-                    self.written.lock().expect("written lock").push(path);
+                for (rel_path, bytes) in f.files() {
+                    self.files.lock().expect("files lock").push((self.p.nodes[i].name.clone(), rel_path.to_string()));
+                    if let Some(path) = write_output(&self.options.out_dir, rel_path, bytes)? {
+                        self.written.lock().expect("written lock").push(path);
+                    }
                 }
             }
             let slot = &self.slots[i][port];

@@ -194,11 +194,26 @@ impl Value {
 }
 
 /// An encoded output file: its path relative to the output folder, and its bytes. The engine
-/// writes it into the output folder (atomically, only when the bytes differ).
+/// writes it into the output folder (atomically, only when the bytes differ). A value saved as
+/// several files (a mip chain, one file per level) carries the others in `more`, each with its
+/// path relative to the output folder, written the same way.
 #[derive(Clone, Debug, PartialEq)]
 pub struct FileBlob {
     pub rel_path: String,
     pub bytes: Vec<u8>,
+    pub more: Vec<(String, Vec<u8>)>,
+}
+
+impl FileBlob {
+    /// One file.
+    pub fn new(rel_path: String, bytes: Vec<u8>) -> Self {
+        FileBlob { rel_path, bytes, more: Vec::new() }
+    }
+    /// Every file: the first, then `more`.
+    pub fn files(&self) -> impl Iterator<Item = (&str, &[u8])> {
+        std::iter::once((self.rel_path.as_str(), self.bytes.as_slice()))
+            .chain(self.more.iter().map(|(p, b)| (p.as_str(), b.as_slice())))
+    }
 }
 
 /// The engine's own value type: a file for the output folder (what `Save` produces).
@@ -215,12 +230,17 @@ impl ValueData for FileBlob {
         ValueType(&FILE)
     }
     fn approx_bytes(&self) -> usize {
-        self.bytes.len() + self.rel_path.len()
+        self.files().map(|(p, b)| p.len() + b.len()).sum()
     }
     fn encode(&self, out: &mut Vec<u8>) {
         let mut w = crate::engine::cache::codec::Writer(out);
         w.str(&self.rel_path);
         w.bytes(&self.bytes);
+        w.u64(self.more.len() as u64);
+        for (p, b) in &self.more {
+            w.str(p);
+            w.bytes(b);
+        }
     }
 }
 
@@ -228,6 +248,14 @@ fn decode_file(bytes: &[u8]) -> Result<Value, String> {
     let mut r = crate::engine::cache::codec::Reader::new(bytes);
     let rel_path = r.str()?;
     let data = r.bytes()?.to_vec();
+    let n = r.usize()?;
+    // Each further file takes at least two length words: a hostile count fails here.
+    r.need(n.saturating_mul(16))?;
+    let mut more = Vec::with_capacity(n);
+    for _ in 0..n {
+        let p = r.str()?;
+        more.push((p, r.bytes()?.to_vec()));
+    }
     r.finish()?;
-    Ok(Value::new(FileBlob { rel_path, bytes: data }))
+    Ok(Value::new(FileBlob { rel_path, bytes: data, more }))
 }

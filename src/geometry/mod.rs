@@ -3,7 +3,9 @@
 //! depends on nothing else in the crate, so [`crate::data`] and [`crate::formats`] can use it
 //! without depending on [`crate::maths`].
 
+pub mod cubemap;
 pub mod latlong;
+pub mod octahedral;
 
 use glam::DVec3;
 

@@ -5,12 +5,15 @@
 pub mod chi_square;
 pub mod error_metrics;
 pub mod fresnel;
+pub mod ggx;
 pub mod glossy;
+pub mod irradiance_cube;
 pub mod kernels;
 pub mod per_pixel;
 pub mod phong;
 pub mod reference;
 pub mod relight;
+pub mod resample;
 pub mod sequences;
 pub mod sh;
 pub mod sun;

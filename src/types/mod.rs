@@ -5,6 +5,7 @@
 //! encoders. The engine knows none of them; `register_all` adds them to a registry. A value
 //! type from outside the crate is declared the same way (see `examples/custom_operator.rs`).
 
+pub mod cubemap;
 pub mod curves;
 pub mod distribution;
 pub mod image;
@@ -17,6 +18,7 @@ use crate::engine::registry::Registry;
 use crate::engine::value::ValueType;
 
 pub use self::image::{IMAGE, SCALAR_FIELD};
+pub use cubemap::{CUBEMAP, MIP_CHAIN};
 pub use curves::CURVES;
 pub use distribution::DISTRIBUTION;
 pub use light::LIGHT;
@@ -26,7 +28,18 @@ pub use sh::SH_COEFFICIENTS;
 
 /// Registers every built-in value type.
 pub fn register_all(r: &mut Registry) {
-    for spec in [&IMAGE, &SCALAR_FIELD, &DISTRIBUTION, &SAMPLES, &CURVES, &METRICS, &SH_COEFFICIENTS, &LIGHT] {
+    for spec in [
+        &IMAGE,
+        &SCALAR_FIELD,
+        &DISTRIBUTION,
+        &SAMPLES,
+        &CURVES,
+        &METRICS,
+        &SH_COEFFICIENTS,
+        &LIGHT,
+        &CUBEMAP,
+        &MIP_CHAIN,
+    ] {
         r.register_type(spec);
     }
 }
@@ -44,6 +57,8 @@ pub mod ty {
     pub const METRICS_T: ValueType = ValueType(&METRICS);
     pub const SH_COEFFICIENTS_T: ValueType = ValueType(&SH_COEFFICIENTS);
     pub const LIGHT_T: ValueType = ValueType(&LIGHT);
+    pub const CUBEMAP_T: ValueType = ValueType(&CUBEMAP);
+    pub const MIP_CHAIN_T: ValueType = ValueType(&MIP_CHAIN);
     /// Either kind of image.
     pub const ANY_IMAGE: &[ValueType] = &[IMAGE_T, SCALAR_T];
 }

@@ -174,8 +174,8 @@ mod tests {
     fn entry_round_trip_and_truncation_is_an_error() {
         let registry = Registry::empty();
         let outputs = vec![
-            ("a".to_string(), Value::new(FileBlob { rel_path: "x.png".into(), bytes: vec![1, 2, 3] })),
-            ("b".to_string(), Value::new(FileBlob { rel_path: "y.png".into(), bytes: vec![] })),
+            ("a".to_string(), Value::new(FileBlob::new("x.png".into(), vec![1, 2, 3]))),
+            ("b".to_string(), Value::new(FileBlob::new("y.png".into(), vec![]))),
         ];
         let bytes = encode(&outputs);
         let back = decode(&bytes, &registry).unwrap();

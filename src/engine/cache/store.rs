@@ -468,7 +468,7 @@ mod tests {
     use crate::engine::value::FileBlob;
 
     fn blob(n: usize) -> Vec<(String, Value)> {
-        vec![(String::new(), Value::new(FileBlob { rel_path: "a.bin".into(), bytes: vec![7; n] }))]
+        vec![(String::new(), Value::new(FileBlob::new("a.bin".into(), vec![7; n])))]
     }
 
     fn store() -> (tempfile::TempDir, CacheStore) {

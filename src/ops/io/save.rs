@@ -9,6 +9,8 @@
 //! | sample set            | `.csv` (`index,x,y,theta,phi,dx,dy,dz,pdf`), `.json` |
 //! | curves                | `.json`, `.csv`, `.png`, `.svg` (a plot) |
 //! | metrics               | `.json`, `.csv` |
+//! | cube map              | `.exr`, `.pfm`, `.hdr`, `.png`: one 6S x S strip, faces +X -X +Y -Y +Z -Z |
+//! | mip chain             | the same, one strip per level: the path must contain `{level}` (`spec_{level}.exr`) |
 //!
 //! The operator only encodes: the engine writes the bytes atomically into `--out`, and refuses
 //! paths that are absolute or leave that folder. Encoding is cached like any result.
@@ -25,7 +27,7 @@ crate::params! {
         /// exposure in stops applied before the sRGB transfer (.png only)
         #[range(-64.0, 64.0)]
         pub exposure: f64 = 0.0,
-        /// (.png) first scale so the 99.5th percentile of lit pixels' max channel maps to 1
+        /// (.png) first scale so the 99.5th percentile of lit pixels' max channel maps to 1 (a mip chain: of level 0, for every level)
         pub auto_exposure: bool = false,
         /// width and height in pixels of a curve plot (.png, .svg)
         #[range(64.0, 8192.0)]
@@ -34,7 +36,7 @@ crate::params! {
 }
 
 pub fn spec() -> OpSpec {
-    OpSpec::new("Save", "io", 1, "Write a value to a file in the output folder; the format follows the extension")
+    OpSpec::new("Save", "io", 2, "Write a value to a file in the output folder; the format follows the extension")
         .input("input", &[], "the value to write (any type that can be saved: see the type list in `hdrflow ops`)")
         .optional_input(
             "exposure_from",
@@ -56,6 +58,12 @@ fn check(ctx: &CheckContext, p: SaveParams) -> Result<(), CheckProblem> {
     }
     let Some(t) = ctx.input_type("input") else { return Ok(()) };
     let ext = p.path.extension();
+    if t == crate::types::ty::MIP_CHAIN_T && !p.path.0.contains("{level}") {
+        return Err(CheckProblem::at(
+            "path",
+            "a mip chain is saved one file per level: put {level} in the path (e.g. \"spec_{level}.exr\")",
+        ));
+    }
     let ok = t.spec().save_extensions;
     if ok.is_empty() {
         return Err(CheckProblem::at("input", format!("a value of type {t} cannot be saved")));
@@ -87,12 +95,21 @@ fn eval(ctx: &mut OpContext, p: SaveParams) -> Result<Value, OpError> {
             exposure += auto_exposure(img);
         } else if let Some(d) = value.get::<crate::data::Distribution2D>() {
             exposure += auto_exposure(&crate::types::distribution::pdf_image(d));
+        } else if let Some(c) = value.get::<crate::data::Cubemap>() {
+            exposure += auto_exposure(&c.to_strip());
+        } else if let Some(c) = value.get::<crate::data::MipChain>().and_then(|c| c.levels.first()) {
+            exposure += auto_exposure(&c.to_strip());
         }
     }
     let options =
         SaveOptions { ext: p.path.extension(), exposure, plot_size: (p.plot_size[0] as u32, p.plot_size[1] as u32) };
+    if let Some(chain) = value.get::<crate::data::MipChain>() {
+        let mut files = crate::types::cubemap::save_levels(chain, &rel_path, &options).map_err(fail)?.into_iter();
+        let (first_path, first) = files.next().ok_or_else(|| fail("an empty mip chain".into()))?;
+        return Ok(Value::new(FileBlob { rel_path: first_path, bytes: first, more: files.collect() }));
+    }
     let bytes = save(value, &options).map_err(fail)?;
-    Ok(Value::new(FileBlob { rel_path, bytes }))
+    Ok(Value::new(FileBlob::new(rel_path, bytes)))
 }
 
 /// The stops that bring the 99.5th percentile of the non-black pixels' max channel to 1.0.

@@ -1,0 +1,126 @@
+//! Image-based lighting measurements (numbers recorded in BENCHMARKS.md, "Image-based lighting"):
+//!
+//!     cargo bench --bench ibl            # HDRFLOW_IBL_MAP=path.hdr to choose the map
+//!
+//! 1. energy kept by lat-long -> cube -> lat-long resampling, per map;
+//! 2. `PrefilterSpecular` error against `exact: true` as the sample count grows (a 64 cube, 5
+//!    levels), with the time of each;
+//! 3. wall times of the default-size bakes of a 1024x512 map: the 256 cube, the 256 chain
+//!    (5 levels, 1024 samples), the irradiance (SH and exact), the BRDF texture.
+//!
+//! A plain program (no criterion: one bake takes seconds); each time is the median of 3 runs.
+
+use std::path::Path;
+use std::time::Instant;
+
+use hdrflow::data::{Cubemap, Image};
+use hdrflow::maths::ggx::{brdf_lut, prefilter, LobeSequence};
+use hdrflow::maths::irradiance_cube::{exact, from_sh, project_latlong, ShWindow, Texels};
+use hdrflow::maths::resample::{cube_integral, latlong_integral, to_cube, to_latlong, CubeSource, LatLongSource};
+
+fn median<T>(mut f: impl FnMut() -> T) -> (f64, T) {
+    let mut times = Vec::new();
+    let mut last = None;
+    for _ in 0..3 {
+        let t = Instant::now();
+        last = Some(f());
+        times.push(t.elapsed().as_secs_f64());
+    }
+    times.sort_by(f64::total_cmp);
+    (times[1], last.expect("ran"))
+}
+
+fn load(path: &Path) -> Option<Image> {
+    let bytes = std::fs::read(path).ok()?;
+    let ext = path.extension()?.to_string_lossy().to_lowercase();
+    hdrflow::formats::decode_by_extension(&bytes, &ext).ok()
+}
+
+fn rel(a: [f64; 3], b: [f64; 3]) -> f64 {
+    (0..3).map(|k| ((a[k] - b[k]) / b[k]).abs()).fold(0.0, f64::max)
+}
+
+fn main() {
+    let shared = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data/envmaps");
+    let mut maps: Vec<(String, Image)> =
+        vec![("builtin:sky".into(), hdrflow::formats::builtin::builtin("sky").expect("built-in"))];
+    for name in ["rooitou_park_1k.hdr", "st_fagans_interior_1k.hdr", "studio_small_03_1k.hdr", "grace-new_256x128.hdr"]
+    {
+        if let Some(img) = load(&shared.join(name)) {
+            maps.push((name.into(), img));
+        }
+    }
+    println!("## 1. energy (max over RGB of the relative error of the sphere integral)\n");
+    println!("| map | size | cube 64 | cube 256 | back to lat-long from 256 | time to cube 256 |");
+    println!("|---|---|---|---|---|---|");
+    for (name, img) in &maps {
+        let want = latlong_integral(img);
+        let c64 = to_cube(&LatLongSource::new(img), 64);
+        let (t, c256) = median(|| to_cube(&LatLongSource::new(img), 256));
+        let back = to_latlong(&CubeSource::new(&c256), img.width, img.height);
+        println!(
+            "| {name} | {}x{} | {:.1e} | {:.1e} | {:.1e} | {:.2} s |",
+            img.width,
+            img.height,
+            rel(cube_integral(&c64), want),
+            rel(cube_integral(&c256), want),
+            rel(latlong_integral(&back), want),
+            t
+        );
+    }
+
+    let env: Image = std::env::var("HDRFLOW_IBL_MAP")
+        .ok()
+        .and_then(|p| load(Path::new(&p)))
+        .or_else(|| load(&shared.join("rooitou_park_1k.hdr")))
+        .unwrap_or_else(|| maps[0].1.clone());
+    println!(
+        "\n## 2. PrefilterSpecular error against exact (64 cube, 5 levels, Sobol), map {}x{}\n",
+        env.width, env.height
+    );
+    let src = to_cube(&LatLongSource::new(&env), 64);
+    let t = Instant::now();
+    let reference = prefilter(&src, 5, 1, LobeSequence::Sobol, true);
+    let t_exact = t.elapsed().as_secs_f64();
+    println!("exact: {t_exact:.2} s\n");
+    println!("| samples | RMS relative error, level 1 (r 0.25) | level 2 | level 3 | level 4 | all levels | time |");
+    println!("|---|---|---|---|---|---|---|");
+    for n in [16, 64, 256, 1024, 4096] {
+        let (t, chain) = median(|| prefilter(&src, 5, n, LobeSequence::Sobol, false));
+        let mut cells = Vec::new();
+        let (mut all, mut count) = (0.0, 0.0);
+        for (a, b) in chain.levels.iter().zip(&reference.levels).skip(1) {
+            let (mut s, mut c) = (0.0, 0.0);
+            for (x, y) in a.data.iter().zip(&b.data) {
+                let e = (*x as f64 - *y as f64) / (*y as f64).abs().max(1e-6);
+                s += e * e;
+                c += 1.0;
+            }
+            all += s;
+            count += c;
+            cells.push(format!("{:.4}", (s / c).sqrt()));
+        }
+        println!("| {n} | {} | {:.4} | {t:.3} s |", cells.join(" | "), (all / count).sqrt());
+    }
+
+    println!("\n## 3. bake times, {}x{} map\n", env.width, env.height);
+    let (t_cube, cube256): (f64, Cubemap) = median(|| to_cube(&LatLongSource::new(&env), 256));
+    println!("| step | time |\n|---|---|");
+    println!("| lat-long to 256 cube | {t_cube:.2} s |");
+    let (t, _) = median(|| prefilter(&cube256, 5, 1024, LobeSequence::Sobol, false));
+    println!("| PrefilterSpecular, 256 cube, 5 levels, 1024 samples (from the cube) | {t:.2} s |");
+    let (t, _) = median(|| from_sh(&project_latlong(&env, 2), 2, ShWindow::Deringing, 32));
+    println!("| IrradianceCubemap Sh order 2 Deringing, 32 cube | {t:.3} s |");
+    let (t, _) = median(|| exact(&Texels::from_latlong(&env), 16));
+    println!("| IrradianceCubemap Exact, 16 cube | {t:.2} s |");
+    let (t, lut) = median(|| brdf_lut(128, 1024, LobeSequence::Hammersley, false));
+    println!("| BrdfLut 128, 1024 samples | {t:.3} s |");
+    let multi = brdf_lut(128, 1024, LobeSequence::Hammersley, true);
+    let top = lut.data.chunks(2).map(|p| p[0] + p[1]).fold(0.0f32, f32::max);
+    let top_multi = multi.data.chunks(2).map(|p| p[1]).fold(0.0f32, f32::max);
+    let low_multi = multi.data.chunks(2).map(|p| p[1]).fold(1.0f32, f32::min);
+    println!(
+        "\nBrdfLut 128: largest scale + bias {top:.6}; multiscatter E[Gv] in [{low_multi:.4}, {top_multi:.6}] \
+         (1 - E[Gv] is the energy multiple scattering adds back)"
+    );
+}

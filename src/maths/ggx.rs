@@ -1,0 +1,380 @@
+//! The GGX (Trowbridge-Reitz) microfacet lobe for image-based lighting: its normal distribution,
+//! importance sampling, Smith height-correlated visibility, the split-sum DFG texture, and
+//! specular prefiltering of a cube map (filtered importance sampling and an exact reference).
+//!
+//! Roughness: `roughness` is perceptual (Burley 2012; Karis 2013), `alpha = roughness^2`.
+//!
+//! - `D(h) = alpha^2 / (pi ((n.h)^2 (alpha^2 - 1) + 1)^2)` (Walter et al. 2007, eq. 33).
+//! - Sampling `h` with pdf `D(h) (n.h)`: `cos theta_h = sqrt((1 - u1) / (1 + (alpha^2 - 1) u1))`,
+//!   `phi = 2 pi u2` (Karis 2013, `ImportanceSampleGGX`); the light direction `l = 2 (v.h) h - v`
+//!   has pdf `D(h) (n.h) / (4 (v.h))`.
+//! - Visibility, Smith height-correlated (Heitz 2014, eq. 99; Filament `V_SmithGGXCorrelated`):
+//!   `V = 0.5 / (n.l sqrt((n.v)^2 (1 - alpha^2) + alpha^2) + n.v sqrt((n.l)^2 (1 - alpha^2) + alpha^2))`,
+//!   `V = G / (4 n.l n.v)`.
+//! - The DFG (split-sum) texture (Karis 2013; Filament `DFG.cpp`): with `v = (sqrt(1 - n.v^2), 0,
+//!   n.v)`, `Gv = V 4 (n.l) (v.h) / (n.h)` (the sample weight `f cos / pdf` without Fresnel) and
+//!   `Fc = (1 - v.h)^5`: single scattering stores `scale = E[(1 - Fc) Gv]`, `bias = E[Fc Gv]`, so
+//!   `f0 scale + f90 bias` is the directional albedo with Schlick's Fresnel; the multiscatter form
+//!   (Fdez-Aguera 2019, Filament's `MULTISCATTER` DFG) stores `E[Fc Gv]` and `E[Gv]`:
+//!   `specular = mix(DFG.x, DFG.y, f0)`, and `1 - E[Gv]` is the energy that multiple scattering
+//!   adds back (`1 + f0 (1 / E[Gv] - 1)` in the shader).
+//! - Prefiltering with `n = v = r` (Karis 2013): `out(n) = int L(l) D(h) (n.l)+ dl /
+//!   int D(h) (n.l)+ dl`, the lobe weighted by `n.l` as Filament and Karis do, never clamped.
+//!   Estimated with `l` drawn from `pdf(l) = D(h) / 4` (n = v makes `n.h = v.h`) as
+//!   `sum L(l_i) (n.l_i) / sum (n.l_i)`, where `L(l_i)` is read from the source's mip pyramid at
+//!   level `lod = 0.5 log2(Omega_s / Omega_p) + 1`, `Omega_s = 1 / (N pdf)`, `Omega_p` the solid
+//!   angle of a level-0 texel in direction `l_i`, `(4 / S^2) / (1 + a^2 + b^2)^(3/2)` at face point
+//!   (a, b) (filtered importance sampling: J. Krivanek, M. Colbert, "Real-time Shading with Filtered
+//!   Importance Sampling", EGSR 2008, eq. 4 with their bias of 1; GPU Gems 3 ch. 20; Filament and
+//!   the glTF sampler use the mean texel solid angle instead, which blurs a face's corners less
+//!   than its centre). The exact
+//!   reference evaluates the same ratio with every source texel as `l`, weighted by its exact
+//!   solid angle, with the lobe evaluated at the texel's centre: a quadrature that is accurate
+//!   while the lobe spans several source texels (alpha of a few texel angles). A constant
+//!   environment gives 1 in both to rounding (white furnace, tested); on the smooth built-in
+//!   `linear` map the two agree within 0.9% at every texel of every level (16 cube, 1024 samples;
+//!   tested to 1.5%).
+
+use std::f64::consts::PI;
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use crate::data::{Cubemap, Image, MipChain};
+use crate::geometry::cubemap as cube;
+use crate::maths::irradiance_cube::Texels;
+use crate::maths::resample::downsample;
+use crate::maths::sequences::{radical_inverse, sobol_2d};
+
+crate::choice! {
+    /// The low-discrepancy points the lobe is sampled with.
+    pub enum LobeSequence {
+        /// the 2D Sobol sequence (unscrambled, Gray-code order)
+        Sobol,
+        /// Hammersley: (i / N, radical inverse of i in base 2)
+        Hammersley,
+    }
+}
+
+/// The first `n` points of `seq` in [0, 1)^2.
+pub fn points(seq: LobeSequence, n: usize) -> Vec<[f64; 2]> {
+    (0..n)
+        .map(|i| match seq {
+            LobeSequence::Sobol => sobol_2d(i as u32),
+            LobeSequence::Hammersley => [i as f64 / n as f64, radical_inverse(i as u64, 2)],
+        })
+        .collect()
+}
+
+/// GGX `D` as a function of `n.h` and alpha.
+#[inline]
+pub fn d_ggx(noh: f64, alpha: f64) -> f64 {
+    let a2 = alpha * alpha;
+    let t = noh * noh * (a2 - 1.0) + 1.0;
+    a2 / (PI * t * t)
+}
+
+/// A half vector drawn with pdf `D(h) (n.h)`, in the frame where n = +z.
+#[inline]
+pub fn sample_h(u: [f64; 2], alpha: f64) -> DVec3 {
+    let a2 = alpha * alpha;
+    let cos_t = ((1.0 - u[0]) / (1.0 + (a2 - 1.0) * u[0])).max(0.0).sqrt();
+    let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
+    let phi = 2.0 * PI * u[1];
+    DVec3::new(sin_t * phi.cos(), sin_t * phi.sin(), cos_t)
+}
+
+/// Smith height-correlated visibility `V = G2 / (4 n.l n.v)` (Heitz 2014, eq. 99).
+#[inline]
+pub fn v_smith_correlated(nov: f64, nol: f64, alpha: f64) -> f64 {
+    let a2 = alpha * alpha;
+    let gv = nol * (nov * nov * (1.0 - a2) + a2).sqrt();
+    let gl = nov * (nol * nol * (1.0 - a2) + a2).sqrt();
+    let d = gv + gl;
+    if d > 0.0 {
+        0.5 / d
+    } else {
+        0.0
+    }
+}
+
+/// One DFG texel: (scale, bias), or (E[Fc Gv], E[Gv]) for the multiscatter form, at `n.v` and
+/// perceptual roughness.
+pub fn dfg(nov: f64, roughness: f64, pts: &[[f64; 2]], multiscatter: bool) -> [f64; 2] {
+    let alpha = roughness * roughness;
+    let v = DVec3::new((1.0 - nov * nov).max(0.0).sqrt(), 0.0, nov);
+    let (mut x, mut y) = (0.0, 0.0);
+    for &u in pts {
+        let h = sample_h(u, alpha);
+        let voh = v.dot(h);
+        let l = 2.0 * voh * h - v;
+        let (nol, noh) = (l.z, h.z);
+        if nol > 0.0 && voh > 0.0 && noh > 0.0 {
+            let gv = v_smith_correlated(nov, nol, alpha) * 4.0 * nol * voh / noh;
+            let fc = (1.0 - voh).powi(5);
+            if multiscatter {
+                x += gv * fc;
+                y += gv;
+            } else {
+                x += gv * (1.0 - fc);
+                y += gv * fc;
+            }
+        }
+    }
+    let n = pts.len().max(1) as f64;
+    [x / n, y / n]
+}
+
+/// The size x size DFG texture: column x is `n.v = (x + 0.5) / size`, row y (row 0 at the top) is
+/// perceptual roughness `(y + 0.5) / size`; channels `R`, `G` = (scale, bias), or (E[Fc Gv],
+/// E[Gv]) with `multiscatter`.
+pub fn brdf_lut(size: usize, samples: usize, seq: LobeSequence, multiscatter: bool) -> Image {
+    let pts = points(seq, samples);
+    let mut data = vec![0.0f32; size * size * 2];
+    data.par_chunks_mut(2 * size).enumerate().for_each(|(y, row)| {
+        let rough = (y as f64 + 0.5) / size as f64;
+        for x in 0..size {
+            let nov = (x as f64 + 0.5) / size as f64;
+            let v = dfg(nov, rough, &pts, multiscatter);
+            row[2 * x] = v[0] as f32;
+            row[2 * x + 1] = v[1] as f32;
+        }
+    });
+    Image::with_names(size, size, vec!["R".into(), "G".into()], data)
+}
+
+/// An orthonormal basis (t, b) around unit n (Duff et al., "Building an Orthonormal Basis,
+/// Revisited", JCGT 2017).
+#[inline]
+pub fn basis(n: DVec3) -> (DVec3, DVec3) {
+    let sign = 1.0f64.copysign(n.z);
+    let a = -1.0 / (sign + n.z);
+    let b = n.x * n.y * a;
+    (DVec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x), DVec3::new(b, sign + n.y * n.y * a, -n.y))
+}
+
+/// Bilinear lookup of a cube map at face point (face, a, b), seamless: a neighbour texel beyond the face's
+/// edge is read from the adjacent face (the texel containing the direction of that neighbour's
+/// centre in the face's plane), so lookups are continuous across edges even on 1 x 1 faces.
+fn bilinear(c: &Cubemap, (f, a, b): (usize, f64, f64)) -> [f64; 3] {
+    let s = c.size;
+    let si = s as i64;
+    let fx = (a + 1.0) * 0.5 * s as f64 - 0.5;
+    let fy = (b + 1.0) * 0.5 * s as f64 - 0.5;
+    let (x0, y0) = (fx.floor(), fy.floor());
+    let (tx, ty) = (fx - x0, fy - y0);
+    let (x0, y0) = (x0 as i64, y0 as i64);
+    let at = |x: i64, y: i64| -> [f64; 3] {
+        let t = if (0..si).contains(&x) && (0..si).contains(&y) {
+            (f * s + y as usize) * s + x as usize
+        } else {
+            let ca = (2 * x + 1) as f64 / s as f64 - 1.0;
+            let cb = (2 * y + 1) as f64 / s as f64 - 1.0;
+            cube::texel_index_of_direction(cube::face_direction(f, ca, cb), s)
+        };
+        c.texel(t).map(f64::from)
+    };
+    let (v00, v10, v01, v11) = (at(x0, y0), at(x0 + 1, y0), at(x0, y0 + 1), at(x0 + 1, y0 + 1));
+    let mut out = [0.0; 3];
+    for k in 0..3 {
+        out[k] = (v00[k] * (1.0 - tx) + v10[k] * tx) * (1.0 - ty) + (v01[k] * (1.0 - tx) + v11[k] * tx) * ty;
+    }
+    out
+}
+
+/// Trilinear lookup in a pyramid (level 0 the finest) at a fractional level.
+fn trilinear(pyr: &[Cubemap], d: DVec3, lod_centre: f64) -> [f64; 3] {
+    let top = (pyr.len() - 1) as f64;
+    let fab = cube::direction_to_face(d);
+    // The texel at (a, b) subtends (1 + a^2 + b^2)^(-3/2) of a face-centre texel.
+    let lod = (lod_centre + 0.75 * (1.0 + fab.1 * fab.1 + fab.2 * fab.2).log2()).clamp(0.0, top);
+    let l0 = lod.floor() as usize;
+    let t = lod - l0 as f64;
+    let a = bilinear(&pyr[l0], fab);
+    if t == 0.0 || l0 + 1 >= pyr.len() {
+        return a;
+    }
+    let b = bilinear(&pyr[l0 + 1], fab);
+    [0, 1, 2].map(|k| a[k] * (1.0 - t) + b[k] * t)
+}
+
+/// The source's mip pyramid, down to 1 x 1 faces (each level the solid-angle-weighted 2 x 2 mean).
+pub fn pyramid(src: &Cubemap) -> Vec<Cubemap> {
+    let mut pyr = vec![src.clone()];
+    while pyr.last().map(|c| c.size > 1).unwrap_or(false) {
+        let next = downsample(pyr.last().expect("non-empty"));
+        pyr.push(next);
+    }
+    pyr
+}
+
+/// Perceptual roughness of level k of `levels`: k / (levels - 1) (0 for a single level).
+pub fn level_roughness(k: usize, levels: usize) -> f64 {
+    if levels <= 1 {
+        0.0
+    } else {
+        k as f64 / (levels - 1) as f64
+    }
+}
+
+/// One level filtered with filtered importance sampling.
+pub fn prefilter_level_fis(pyr: &[Cubemap], size: usize, roughness: f64, pts: &[[f64; 2]]) -> Cubemap {
+    let alpha = roughness * roughness;
+    let s0 = pyr[0].size as f64;
+    // The solid angle of a texel at a face's centre (texels elsewhere: see `trilinear`).
+    let omega_p = 4.0 / (s0 * s0);
+    let n = pts.len() as f64;
+    // The samples in the frame n = v = +z: light direction, its cosine, its pyramid level.
+    let lobe: Vec<(DVec3, f64, f64)> = pts
+        .iter()
+        .filter_map(|&u| {
+            let h = sample_h(u, alpha);
+            let l = 2.0 * h.z * h - DVec3::Z;
+            if l.z <= 0.0 {
+                return None;
+            }
+            let pdf = d_ggx(h.z, alpha) / 4.0;
+            let omega_s = 1.0 / (n * pdf);
+            let lod = 0.5 * (omega_s / omega_p).log2() + 1.0;
+            Some((l, l.z, if lod.is_finite() { lod } else { 0.0 }))
+        })
+        .collect();
+    let mut out = Cubemap::new(size);
+    out.data.par_chunks_mut(3 * size).enumerate().for_each(|(row, texels)| {
+        let (f, y) = (row / size, row % size);
+        for x in 0..size {
+            let nrm = cube::texel_direction(f, x, y, size);
+            let (t, b) = basis(nrm);
+            let mut acc = [0.0f64; 3];
+            let mut w = 0.0;
+            for &(l, nol, lod) in &lobe {
+                let d = t * l.x + b * l.y + nrm * l.z;
+                let v = trilinear(pyr, d, lod);
+                for k in 0..3 {
+                    acc[k] += v[k] * nol;
+                }
+                w += nol;
+            }
+            for k in 0..3 {
+                texels[3 * x + k] = if w > 0.0 { (acc[k] / w) as f32 } else { 0.0 };
+            }
+        }
+    });
+    out
+}
+
+/// One level filtered exactly: the same weighted lobe summed over every source texel.
+pub fn prefilter_level_exact(src: &Cubemap, size: usize, roughness: f64) -> Cubemap {
+    let alpha = roughness * roughness;
+    let texels = Texels::from_cube(src);
+    let mut out = Cubemap::new(size);
+    out.data.par_chunks_mut(3 * size).enumerate().for_each(|(row, px)| {
+        let (f, y) = (row / size, row % size);
+        for x in 0..size {
+            let nrm = cube::texel_direction(f, x, y, size);
+            let mut acc = [0.0f64; 3];
+            let mut w = 0.0;
+            texels.for_each(|l, o, v| {
+                let nol = nrm.dot(l);
+                if nol > 0.0 {
+                    let h = (nrm + l).normalize();
+                    let wt = d_ggx(nrm.dot(h), alpha) * nol * o;
+                    for k in 0..3 {
+                        acc[k] += v[k] * wt;
+                    }
+                    w += wt;
+                }
+            });
+            for k in 0..3 {
+                px[3 * x + k] = if w > 0.0 { (acc[k] / w) as f32 } else { 0.0 };
+            }
+        }
+    });
+    out
+}
+
+/// The prefiltered chain of `src` (level 0 is `src` itself): `levels` levels, level k of size
+/// max(1, S >> k) and roughness k / (levels - 1).
+pub fn prefilter(src: &Cubemap, levels: usize, samples: usize, seq: LobeSequence, exact: bool) -> MipChain {
+    let pts = points(seq, samples);
+    let pyr = if exact { Vec::new() } else { pyramid(src) };
+    let mut out = MipChain { levels: Vec::with_capacity(levels), roughness: Vec::with_capacity(levels) };
+    for k in 0..levels {
+        let rough = level_roughness(k, levels);
+        let size = (src.size >> k).max(1);
+        let level = if k == 0 {
+            src.clone()
+        } else if exact {
+            prefilter_level_exact(src, size, rough)
+        } else {
+            prefilter_level_fis(&pyr, size, rough, &pts)
+        };
+        out.levels.push(level);
+        out.roughness.push(rough);
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::formats::builtin::builtin;
+    use crate::maths::resample::{to_cube, LatLongSource};
+
+    #[test]
+    fn lut_bounded_and_smooth_limit() {
+        for multi in [false, true] {
+            let lut = brdf_lut(16, 512, LobeSequence::Sobol, multi);
+            for px in lut.data.chunks(2) {
+                let total = if multi { px[1] } else { px[0] + px[1] };
+                assert!(total <= 1.0 + 1e-6 && px[0] >= 0.0 && px[1] >= 0.0, "{px:?}");
+            }
+        }
+        // roughness -> 0: D is a delta at h = n, Gv -> 1: scale + bias -> 1, bias -> (1 - n.v)^5.
+        let pts = points(LobeSequence::Hammersley, 256);
+        for nov in [0.2, 0.5, 0.9] {
+            let [a, b] = dfg(nov, 0.02, &pts, false);
+            assert!((a + b - 1.0).abs() < 2e-3, "{nov}: {a} + {b}");
+            assert!((b - (1.0 - nov).powi(5)).abs() < 2e-3, "{nov}: {b}");
+        }
+        // The multiscatter form's second channel is the single-scatter scale + bias.
+        let [a, b] = dfg(0.5, 0.7, &pts, false);
+        let [_, e] = dfg(0.5, 0.7, &pts, true);
+        assert!((a + b - e).abs() < 1e-12);
+    }
+
+    #[test]
+    fn white_furnace_fis_and_exact() {
+        let env = builtin("constant").unwrap();
+        let c = to_cube(&LatLongSource::new(&env), 8);
+        for exact in [false, true] {
+            let chain = prefilter(&c, 4, 64, LobeSequence::Sobol, exact);
+            assert_eq!(chain.levels.iter().map(|l| l.size).collect::<Vec<_>>(), vec![8, 4, 2, 1]);
+            for l in &chain.levels {
+                assert!(l.data.iter().all(|&v| (v - 1.0).abs() < 1e-3), "exact {exact}");
+            }
+        }
+    }
+
+    /// On a smooth map the filtered estimate and the exact sum agree closely at every level.
+    #[test]
+    fn fis_matches_exact_on_a_smooth_map() {
+        let env = builtin("linear").unwrap();
+        let c = to_cube(&LatLongSource::new(&env), 16);
+        let fis = prefilter(&c, 4, 1024, LobeSequence::Sobol, false);
+        let ex = prefilter(&c, 4, 1, LobeSequence::Sobol, true);
+        for (k, (a, b)) in fis.levels.iter().zip(&ex.levels).enumerate() {
+            let worst = a.data.iter().zip(&b.data).fold(0.0f64, |m, (x, y)| m.max((x - y).abs() as f64 / *y as f64));
+            // Measured: 0, 0.0049, 0.0043, 0.0090 (levels 0-3).
+            assert!(worst < 1.5e-2, "level {k}: {worst}");
+        }
+    }
+
+    #[test]
+    fn basis_is_orthonormal() {
+        for n in [DVec3::X, DVec3::Y, -DVec3::Z, DVec3::new(0.3, -0.5, 0.8).normalize()] {
+            let (t, b) = basis(n);
+            assert!(t.dot(b).abs() < 1e-12 && t.dot(n).abs() < 1e-12 && (t.cross(b) - n).length() < 1e-12);
+        }
+    }
+}

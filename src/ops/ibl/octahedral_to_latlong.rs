@@ -1,0 +1,51 @@
+//! `OctahedralToLatLong(image, width, height)`: a square equal-area octahedral map (pbrt-v4's
+//! layout, `geometry::octahedral`) as a W x H lat-long RGB map, each texel the solid-angle-weighted
+//! average of the octahedral map over its footprint (`maths::resample`).
+
+use crate::data::Image;
+use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec, OutputType};
+use crate::engine::value::Value;
+use crate::maths::resample::{to_latlong, OctahedralSource};
+use crate::types::ty::*;
+
+crate::params! {
+    pub struct OctahedralToLatLongParams {
+        /// width in texels
+        #[range(1, 65536)]
+        pub width: usize,
+        /// height in texels
+        #[range(1, 65536)]
+        pub height: usize,
+    }
+}
+
+pub fn spec() -> OpSpec {
+    OpSpec::new(
+        "OctahedralToLatLong",
+        "ibl",
+        1,
+        "pbrt-v4 equal-area octahedral map to lat-long map (energy-preserving)",
+    )
+    .input("image", ANY_IMAGE, "the square octahedral map (RGB; one channel is read as grey)")
+    .output("image", OutputType::Fixed(IMAGE_T), "the lat-long RGB map")
+    .size(|_, p: OctahedralToLatLongParams| Some((p.width as u64, p.height as u64)))
+    .check(check)
+    .code_hash(crate::op_code_hash!())
+    .eval(eval)
+}
+
+fn check(ctx: &CheckContext, _: OctahedralToLatLongParams) -> Result<(), CheckProblem> {
+    match ctx.input_size("image") {
+        Some((w, h)) if w != h => Err(CheckProblem::at("image", format!("an octahedral map is square, not {w}x{h}"))),
+        _ => Ok(()),
+    }
+}
+
+fn eval(ctx: &mut OpContext, p: OctahedralToLatLongParams) -> Result<Value, OpError> {
+    let img: &Image = ctx.get("image");
+    if img.width != img.height || img.width == 0 {
+        return Err(OpError::Invalid(format!("an octahedral map is square, not {}x{}", img.width, img.height)));
+    }
+    crate::ops::shading::reference_sphere::check_finite(img)?;
+    Ok(Value::new(to_latlong(&OctahedralSource::new(img), p.width, p.height)))
+}
