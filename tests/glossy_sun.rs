@@ -9,23 +9,12 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 use hdrflow::data::{Image, Light, Metrics};
-use hdrflow::engine::scheduler::{self, RunOptions, Silent};
-use hdrflow::{Pipeline, Value};
+use hdrflow::Value;
 
 use common::{files_under, ron_path, Sandbox};
 
 fn run(text: &str, targets: &[&str]) -> Result<BTreeMap<String, Value>, String> {
-    let registry = hdrflow::builtin_registry();
-    let p = Pipeline::parse(text, "test.ron", Path::new("."), &registry, &[]).map_err(|e| e.to_string())?;
-    let out = std::env::temp_dir().join(format!("hdrflow-glossy-sun-test-{}", std::process::id()));
-    let options = RunOptions {
-        targets: targets.iter().map(|t| t.to_string()).collect(),
-        out_dir: out,
-        cache: None,
-        jobs: Some(2),
-        observer: &Silent,
-    };
-    scheduler::run(&p, &options).map(|o| o.values).map_err(|e| e.to_string())
+    common::run_text(text, targets)
 }
 
 /// `sum L dOmega` per channel with the midpoint solid angles (what `SunExtract` conserves).

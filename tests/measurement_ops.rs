@@ -3,27 +3,15 @@
 //! where every answer is known: `ReferenceSphere` = albedo, `ShSphere` = albedo,
 //! `L_0_0 = 4 pi Y_00 = 2 sqrt(pi)`, `Cosine` per-pixel = albedo exactly.
 
-use std::collections::BTreeMap;
-use std::path::Path;
+mod common;
 
-use hdrflow::engine::graph::Pipeline;
+use std::collections::BTreeMap;
 
 use hdrflow::data::{Image, Metrics, ShCoefficients, ShFrame};
-use hdrflow::engine::scheduler::{self, RunOptions, Silent};
 use hdrflow::engine::value::Value;
 
 fn run(text: &str, targets: &[&str]) -> Result<BTreeMap<String, Value>, String> {
-    let registry = hdrflow::builtin_registry();
-    let p = Pipeline::parse(text, "test.ron", Path::new("."), &registry, &[]).map_err(|e| e.to_string())?;
-    let out = std::env::temp_dir().join(format!("hdrflow-reference-sphere-test-{}", std::process::id()));
-    let options = RunOptions {
-        targets: targets.iter().map(|t| t.to_string()).collect(),
-        out_dir: out,
-        cache: None,
-        jobs: Some(2),
-        observer: &Silent,
-    };
-    scheduler::run(&p, &options).map(|o| o.values).map_err(|e| e.to_string())
+    common::run_text(text, targets)
 }
 
 #[test]

@@ -15,8 +15,6 @@ use std::f64::consts::PI;
 use std::path::Path;
 
 use hdrflow::data::{Metrics, ShCoefficients, ShFrame};
-use hdrflow::engine::graph::Pipeline;
-use hdrflow::engine::scheduler::{self, RunOptions, Silent};
 use hdrflow::engine::value::Value;
 
 /// Ramamoorthi and Hanrahan 2001, Grace Cathedral: L_00, L_1-1, L_10, L_11, L_2-2, L_2-1,
@@ -34,17 +32,7 @@ const GRACE: [[f64; 3]; 9] = [
 ];
 
 fn run(text: &str, targets: &[&str]) -> BTreeMap<String, Value> {
-    let registry = hdrflow::builtin_registry();
-    let p = Pipeline::parse(text, "test.ron", Path::new("."), &registry, &[]).unwrap_or_else(|e| panic!("{e}"));
-    let out = std::env::temp_dir().join(format!("hdrflow-sh-frames-test-{}", std::process::id()));
-    let options = RunOptions {
-        targets: targets.iter().map(|t| t.to_string()).collect(),
-        out_dir: out,
-        cache: None,
-        jobs: Some(2),
-        observer: &Silent,
-    };
-    scheduler::run(&p, &options).unwrap_or_else(|e| panic!("{e}")).values
+    common::run_text(text, targets).unwrap_or_else(|e| panic!("{e}"))
 }
 
 /// The largest difference to the published table after one common scale (their probe's

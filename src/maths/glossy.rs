@@ -454,22 +454,7 @@ pub fn add_light(image: &mut Image, view: &SphereView, brdf: &GlossyBrdf, light:
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn luminance_distribution(env: &Image) -> Distribution2D {
-        let lum: Vec<f32> = (0..env.height)
-            .flat_map(|y| (0..env.width).map(move |x| (x, y)))
-            .map(|(x, y)| {
-                let [r, g, b] = env.rgb(x, y);
-                0.2126 * r + 0.7152 * g + 0.0722 * b
-            })
-            .collect();
-        Distribution2D::build(&Image::from_vec(env.width, env.height, 1, lum), true, false).unwrap()
-    }
-
-    /// Each texel replicated k x k: the same piecewise-constant function, a finer midpoint sum.
-    fn replicate(env: &Image, k: usize) -> Image {
-        Image::from_fn_rgb(env.width * k, env.height * k, |x, y| env.rgb(x / k, y / k))
-    }
+    use crate::maths::test_maps::{luminance_distribution, replicate};
 
     /// A dim sky gradient with a small, very bright sun (a peaky map).
     fn peaky_map(w: usize, h: usize) -> Image {

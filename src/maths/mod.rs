@@ -17,3 +17,27 @@ pub mod resample;
 pub mod sequences;
 pub mod sh;
 pub mod sun;
+
+/// Maps and distributions the unit tests of several modules build alike.
+#[cfg(test)]
+pub(crate) mod test_maps {
+    use crate::data::{Distribution2D, Image};
+
+    /// The sin(theta)-weighted distribution of a map's Rec. 709 luminance.
+    pub fn luminance_distribution(env: &Image) -> Distribution2D {
+        let lum: Vec<f32> = (0..env.height)
+            .flat_map(|y| (0..env.width).map(move |x| (x, y)))
+            .map(|(x, y)| {
+                let [r, g, b] = env.rgb(x, y);
+                0.2126 * r + 0.7152 * g + 0.0722 * b
+            })
+            .collect();
+        Distribution2D::build(&Image::from_vec(env.width, env.height, 1, lum), true, false).unwrap()
+    }
+
+    /// Each texel of `env` replicated k x k: the same piecewise-constant function, so its
+    /// midpoint sum converges to the exact integral over texels (error / k^2).
+    pub fn replicate(env: &Image, k: usize) -> Image {
+        Image::from_fn_rgb(env.width * k, env.height * k, |x, y| env.rgb(x / k, y / k))
+    }
+}

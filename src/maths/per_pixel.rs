@@ -261,23 +261,7 @@ pub fn relight_per_pixel(
 mod tests {
     use super::*;
     use crate::maths::reference::irradiance_exact;
-
-    fn luminance_distribution(env: &Image) -> Distribution2D {
-        let lum: Vec<f32> = (0..env.height)
-            .flat_map(|y| (0..env.width).map(move |x| (x, y)))
-            .map(|(x, y)| {
-                let [r, g, b] = env.rgb(x, y);
-                0.2126 * r + 0.7152 * g + 0.0722 * b
-            })
-            .collect();
-        Distribution2D::build(&Image::from_vec(env.width, env.height, 1, lum), true, false).unwrap()
-    }
-
-    /// Each texel of `env` replicated k x k: the same piecewise-constant function, so its
-    /// midpoint sum converges to the exact integral over texels (error / k^2).
-    fn replicate(env: &Image, k: usize) -> Image {
-        Image::from_fn_rgb(env.width * k, env.height * k, |x, y| env.rgb(x / k, y / k))
-    }
+    use crate::maths::test_maps::{luminance_distribution, replicate};
 
     #[test]
     fn names_and_seeds() {

@@ -440,3 +440,22 @@ pub fn batch_outputs(dir: &Path) -> Vec<(PathBuf, Vec<u8>)> {
         })
         .collect()
 }
+
+/// Runs pipeline text in this process (no cache, two threads) and returns the targets' values
+/// by `node` / `node.port`, or the error as text.
+pub fn run_text(text: &str, targets: &[&str]) -> Result<BTreeMap<String, hdrflow::engine::value::Value>, String> {
+    use hdrflow::engine::scheduler::{self, RunOptions, Silent};
+    static RUNS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+    let registry = hdrflow::builtin_registry();
+    let p = hdrflow::Pipeline::parse(text, "test.ron", Path::new("."), &registry, &[]).map_err(|e| e.to_string())?;
+    let n = RUNS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let out = std::env::temp_dir().join(format!("hdrflow-in-process-{}-{n}", std::process::id()));
+    let options = RunOptions {
+        targets: targets.iter().map(|t| t.to_string()).collect(),
+        out_dir: out,
+        cache: None,
+        jobs: Some(2),
+        observer: &Silent,
+    };
+    scheduler::run(&p, &options).map(|o| o.values).map_err(|e| e.to_string())
+}
