@@ -54,7 +54,7 @@ fn assert_close(got: &[f32], want: &[f32], format: KtxFormat, what: &str) {
 }
 
 /// Checks everything but the texels; returns the reader.
-fn check_file<'a>(bytes: &'a [u8], format: KtxFormat, size: (u32, u32), faces: u32, levels: u32) -> Reader<&'a [u8]> {
+fn check_file(bytes: &[u8], format: KtxFormat, size: (u32, u32), faces: u32, levels: u32) -> Reader<&[u8]> {
     let r = Reader::new(bytes).expect("the ktx2 crate reads the file");
     let h = r.header();
     let (vk, ts) = match format {
