@@ -60,8 +60,11 @@ fn check(ctx: &CheckContext, p: SaveParams) -> Result<(), CheckProblem> {
             "give either auto_exposure (each PNG its own exposure) or exposure_from (one shared exposure), not both",
         ));
     }
-    let Some(t) = ctx.input_type("input") else { return Ok(()) };
     let ext = p.path.extension();
+    if p.ktx_format != KtxFormat::Rgba16f && ext != "ktx2" {
+        return Err(CheckProblem::at("ktx_format", "ktx_format applies to .ktx2 files only"));
+    }
+    let Some(t) = ctx.input_type("input") else { return Ok(()) };
     if t == crate::types::ty::MIP_CHAIN_T && ext != "ktx2" && !p.path.0.contains("{level}") {
         return Err(CheckProblem::at(
             "path",
