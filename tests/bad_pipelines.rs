@@ -31,6 +31,7 @@ const EXPECTED_FILES: &[&str] = &[
     "save_absolute.ron",
     "save_bad_extension.ron",
     "save_chain_without_level.ron",
+    "save_ktx_format_not_ktx2.ron",
     "save_parent_dir.ron",
     "size_mismatch.ron",
     "syntax_error.ron",

@@ -284,7 +284,7 @@ fn graph_bakes_every_output() {
     assert!(report.with_status("computed").is_empty(), "{}", second.describe());
     let files = common::files_under(&out2);
     assert_eq!(common::files_under(&sb.out()), files);
-    assert_eq!(files.len(), 12);
+    assert_eq!(files.len(), 14);
     for name in files {
         assert_eq!(common::read_file(&sb.out().join(&name)), common::read_file(&out2.join(&name)), "{name:?}");
     }

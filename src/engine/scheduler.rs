@@ -298,6 +298,15 @@ pub fn check_output_dir(dir: &Path) -> Result<(), RunError> {
     let probe = dir.join(format!(".hdrflow-write-test-{}", std::process::id()));
     std::fs::write(&probe, b"").map_err(|e| fail(format!("cannot write into it: {e}")))?;
     let _ = std::fs::remove_file(&probe);
+    // A run killed between the write and the removal leaves its probe: remove any such leftover
+    // (another live run's probe may go too, which is harmless: it has already been written).
+    if let Ok(entries) = std::fs::read_dir(dir) {
+        for e in entries.flatten() {
+            if e.file_name().to_string_lossy().starts_with(".hdrflow-write-test-") {
+                let _ = std::fs::remove_file(e.path());
+            }
+        }
+    }
     Ok(())
 }
 

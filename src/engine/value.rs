@@ -25,6 +25,8 @@ pub struct SaveOptions {
     pub exposure: f64,
     /// Plot width and height in pixels (curve plots).
     pub plot_size: (u32, u32),
+    /// Texel format of a `.ktx2` file.
+    pub ktx_format: crate::formats::ktx2::KtxFormat,
 }
 
 /// Encodes a value as a file's bytes (the extension is in the options).

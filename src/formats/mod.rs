@@ -5,6 +5,7 @@
 //! | [`rgbe`]    | Radiance `.hdr` / `.pic` (RGBE)  | yes  | yes   | hand-written, new-style RLE + flat + old `1 1 1 n` |
 //! | [`pfm`]     | Portable Float Map `.pfm`        | yes  | yes   | hand-written (the `image` crate has no PFM) |
 //! | [`exr`]     | OpenEXR `.exr`                   | yes  | yes   | through the `exr` crate, any sample type, any channel order |
+//! | [`ktx2`]    | Khronos KTX 2.0 `.ktx2`          | no   | yes   | RGBA16F/RGBA32F, 2D or cube, mip levels in one file |
 //! | [`png`]     | PNG (8-bit sRGB preview)         | no   | yes   | exposure + sRGB OETF, through the `image` crate |
 //! | [`builtin`] | procedural lat-long maps         | -    | -     | so that everything runs with no data files |
 //!
@@ -19,6 +20,7 @@
 
 pub mod builtin;
 pub mod exr;
+pub mod ktx2;
 pub mod pfm;
 pub mod png;
 pub mod rgbe;

@@ -3,7 +3,8 @@
 //!
 //! Cache payload: width, height, channel names, then the f32 samples. Saved as `.png` (exposure
 //! then sRGB, 8-bit; RGBA keeps alpha), `.exr` (f32, every channel under its name), `.hdr` (RGB)
-//! or `.pfm` (RGB or grey).
+//! or `.pfm` (RGB or grey), `.ktx2` (a 2D texture of one level, RGBA16F or RGBA32F: RGB gets
+//! alpha 1, grey is replicated to RGB; `formats::ktx2`).
 
 use crate::data::Image;
 use crate::engine::cache::codec::{Reader, Writer};
@@ -14,7 +15,7 @@ pub static IMAGE: TypeSpec = TypeSpec {
     name: "image",
     doc: "a float raster of 2 or more named channels (RGB, RGBA, ...), linear radiance",
     decode,
-    save_extensions: &["png", "exr", "hdr", "pfm"],
+    save_extensions: &["png", "exr", "hdr", "pfm", "ktx2"],
     save: Some(save),
 };
 
@@ -22,7 +23,7 @@ pub static SCALAR_FIELD: TypeSpec = TypeSpec {
     name: "scalar field",
     doc: "a one-channel float raster (luminance, weights, masks, one channel of an image)",
     decode,
-    save_extensions: &["png", "exr", "hdr", "pfm"],
+    save_extensions: &["png", "exr", "hdr", "pfm", "ktx2"],
     save: Some(save),
 };
 
@@ -76,6 +77,11 @@ fn decode(bytes: &[u8]) -> Result<Value, String> {
 
 fn save(value: &Value, o: &SaveOptions) -> Result<Vec<u8>, String> {
     let img = value.get::<Image>().ok_or("not an image")?;
+    if o.ext == "ktx2" {
+        let rgba = formats::ktx2::image_rgba(img);
+        let level = formats::ktx2::Level { width: img.width, height: img.height, rgba: &rgba };
+        return formats::ktx2::encode(&[level], 1, o.ktx_format).map_err(|e| e.0);
+    }
     encode_image(img, &o.ext, o.exposure)
 }
 

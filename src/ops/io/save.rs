@@ -1,5 +1,5 @@
 //! `Save(input, path, exposure: 0.0, auto_exposure: false, exposure_from: NODE, plot_size: (800,
-//! 500))`: encode a value as a file in the output folder. `exposure_from` (optional) takes the
+//! 500), ktx_format: Rgba16f)`: encode a value as a file in the output folder. `exposure_from` (optional) takes the
 //! automatic exposure from another image, so that several PNGs (spheres side by side) share one. The format follows the extension and the value's type:
 //!
 //! | value                 | extensions                         |
@@ -11,6 +11,7 @@
 //! | metrics               | `.json`, `.csv` |
 //! | cube map              | `.exr`, `.pfm`, `.hdr`, `.png`: one 6S x S strip, faces +X -X +Y -Y +Z -Z |
 //! | mip chain             | the same, one strip per level: the path must contain `{level}` (`spec_{level}.exr`) |
+//! | image, cube map, mip chain | `.ktx2`: a 2D texture, a cube texture, a cube texture with every level (`ktx_format`) |
 //!
 //! The operator only encodes: the engine writes the bytes atomically into `--out`, and refuses
 //! paths that are absolute or leave that folder. Encoding is cached like any result.
@@ -19,6 +20,7 @@ use crate::data::Image;
 use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec, OutputType};
 use crate::engine::params::OutputPath;
 use crate::engine::value::{FileBlob, SaveOptions, Value, ValueType, FILE};
+use crate::formats::ktx2::KtxFormat;
 
 crate::params! {
     pub struct SaveParams {
@@ -32,6 +34,8 @@ crate::params! {
         /// width and height in pixels of a curve plot (.png, .svg)
         #[range(64.0, 8192.0)]
         pub plot_size: [f64; 2] = [800.0, 500.0],
+        /// (.ktx2) texel format: Rgba16f (VK_FORMAT_R16G16B16A16_SFLOAT, values clamped to +-65504) or Rgba32f (VK_FORMAT_R32G32B32A32_SFLOAT)
+        pub ktx_format: KtxFormat = KtxFormat::Rgba16f,
     }
 }
 
@@ -56,12 +60,15 @@ fn check(ctx: &CheckContext, p: SaveParams) -> Result<(), CheckProblem> {
             "give either auto_exposure (each PNG its own exposure) or exposure_from (one shared exposure), not both",
         ));
     }
-    let Some(t) = ctx.input_type("input") else { return Ok(()) };
     let ext = p.path.extension();
-    if t == crate::types::ty::MIP_CHAIN_T && !p.path.0.contains("{level}") {
+    if p.ktx_format != KtxFormat::Rgba16f && ext != "ktx2" {
+        return Err(CheckProblem::at("ktx_format", "ktx_format applies to .ktx2 files only"));
+    }
+    let Some(t) = ctx.input_type("input") else { return Ok(()) };
+    if t == crate::types::ty::MIP_CHAIN_T && ext != "ktx2" && !p.path.0.contains("{level}") {
         return Err(CheckProblem::at(
             "path",
-            "a mip chain is saved one file per level: put {level} in the path (e.g. \"spec_{level}.exr\")",
+            "a mip chain is saved one file per level: put {level} in the path (e.g. \"spec_{level}.exr\"), or save it as one .ktx2",
         ));
     }
     let ok = t.spec().save_extensions;
@@ -101,9 +108,13 @@ fn eval(ctx: &mut OpContext, p: SaveParams) -> Result<Value, OpError> {
             exposure += auto_exposure(&c.to_strip());
         }
     }
-    let options =
-        SaveOptions { ext: p.path.extension(), exposure, plot_size: (p.plot_size[0] as u32, p.plot_size[1] as u32) };
-    if let Some(chain) = value.get::<crate::data::MipChain>() {
+    let options = SaveOptions {
+        ext: p.path.extension(),
+        exposure,
+        plot_size: (p.plot_size[0] as u32, p.plot_size[1] as u32),
+        ktx_format: p.ktx_format,
+    };
+    if let Some(chain) = value.get::<crate::data::MipChain>().filter(|_| options.ext != "ktx2") {
         let mut files = crate::types::cubemap::save_levels(chain, &rel_path, &options).map_err(fail)?.into_iter();
         let (first_path, first) = files.next().ok_or_else(|| fail("an empty mip chain".into()))?;
         return Ok(Value::new(FileBlob { rel_path: first_path, bytes: first, more: files.collect() }));
