@@ -1,12 +1,14 @@
 //! Image-based lighting measurements (numbers recorded in BENCHMARKS.md, "Image-based lighting"):
 //!
 //!     cargo bench --bench ibl            # HDRFLOW_IBL_MAP=path.hdr to choose the map
+//!     HDRFLOW_IBL_ONLY=sh cargo bench --bench ibl     # section 4 alone
 //!
 //! 1. energy kept by lat-long -> cube -> lat-long resampling, per map;
 //! 2. `PrefilterSpecular` error against `exact: true` as the sample count grows (a 64 cube, 5
 //!    levels), with the time of each;
 //! 3. wall times of the default-size bakes of a 1024x512 map: the 256 cube, the 256 chain
-//!    (5 levels, 1024 samples), the irradiance (SH and exact), the BRDF texture.
+//!    (5 levels, 1024 samples), the irradiance (SH and exact), the BRDF texture;
+//! 4. SH irradiance against the exact irradiance, per map, order and window (a 16 cube).
 //!
 //! A plain program (no criterion: one bake takes seconds); each time is the median of 3 runs.
 
@@ -49,6 +51,10 @@ fn main() {
         if let Some(img) = load(&shared.join(name)) {
             maps.push((name.into(), img));
         }
+    }
+    if std::env::var("HDRFLOW_IBL_ONLY").as_deref() == Ok("sh") {
+        sh_table(&maps);
+        return;
     }
     println!("## 1. energy (max over RGB of the relative error of the sphere integral)\n");
     println!("| map | size | cube 64 | cube 256 | back to lat-long from 256 | time to cube 256 |");
@@ -119,8 +125,46 @@ fn main() {
     let top = lut.data.chunks(2).map(|p| p[0] + p[1]).fold(0.0f32, f32::max);
     let top_multi = multi.data.chunks(2).map(|p| p[1]).fold(0.0f32, f32::max);
     let low_multi = multi.data.chunks(2).map(|p| p[1]).fold(1.0f32, f32::min);
+    sh_table(&maps);
     println!(
         "\nBrdfLut 128: largest scale + bias {top:.6}; multiscatter E[Gv] in [{low_multi:.4}, {top_multi:.6}] \
          (1 - E[Gv] is the energy multiple scattering adds back)"
     );
+}
+
+/// Section 4: `IrradianceCubemap` `Sh` against `Exact` on a 16 cube, for every map, SH order 1 to
+/// 6 and every window: the RMS error over texels and channels relative to the mean exact
+/// irradiance, and the most negative value relative to that mean (ringing).
+fn sh_table(maps: &[(String, Image)]) {
+    const SIZE: usize = 16;
+    let windows = [ShWindow::None, ShWindow::Hann, ShWindow::Lanczos, ShWindow::Deringing];
+    println!("\n## 4. SH irradiance against exact ({SIZE} cube): RMS error / mean, most negative value / mean\n");
+    for (name, img) in maps {
+        let truth = exact(&Texels::from_latlong(img), SIZE);
+        let mean: f64 = truth.data.iter().map(|&v| v as f64).sum::<f64>() / truth.data.len() as f64;
+        println!("{name}:\n\n| order | None | Hann | Lanczos | Deringing (strength) |\n|---|---|---|---|---|");
+        for order in 1..=6 {
+            let coeffs = project_latlong(img, order);
+            let mut cells = Vec::new();
+            for w in windows {
+                let (cube, report) = from_sh(&coeffs, order, w, SIZE);
+                let mut sq = 0.0;
+                let mut lowest = 0.0f64;
+                for (got, want) in cube.data.chunks(3).zip(truth.data.chunks(3)) {
+                    let mut e = 0.0;
+                    for k in 0..3 {
+                        e += ((got[k] - want[k]) as f64).powi(2) / 3.0;
+                        lowest = lowest.min(got[k] as f64 / mean);
+                    }
+                    sq += e;
+                }
+                let rms = (sq / (cube.data.len() / 3) as f64).sqrt() / mean;
+                let strength =
+                    if w == ShWindow::Deringing { format!(" ({:.3})", report.strength) } else { String::new() };
+                cells.push(format!("{rms:.3} / {lowest:.3}{strength}"));
+            }
+            println!("| {order} | {} |", cells.join(" | "));
+        }
+        println!();
+    }
 }
