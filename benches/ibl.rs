@@ -1,14 +1,17 @@
 //! Image-based lighting measurements (numbers recorded in BENCHMARKS.md, "Image-based lighting"):
 //!
 //!     cargo bench --bench ibl            # HDRFLOW_IBL_MAP=path.hdr to choose the map
-//!     HDRFLOW_IBL_ONLY=sh cargo bench --bench ibl     # section 4 alone
+//!     HDRFLOW_IBL_ONLY=sh cargo bench --bench ibl          # section 4 alone
+//!     HDRFLOW_IBL_ONLY=prefilter cargo bench --bench ibl   # section 5 alone
 //!
 //! 1. energy kept by lat-long -> cube -> lat-long resampling, per map;
 //! 2. `PrefilterSpecular` error against `exact: true` as the sample count grows (a 64 cube, 5
 //!    levels), with the time of each;
 //! 3. wall times of the default-size bakes of a 1024x512 map: the 256 cube, the 256 chain
 //!    (5 levels, 1024 samples), the irradiance (SH and exact), the BRDF texture;
-//! 4. SH irradiance against the exact irradiance, per map, order and window (a 16 cube).
+//! 4. SH irradiance against the exact irradiance, per map, order and window (a 16 cube);
+//! 5. `PrefilterSpecular` against `exact: true` on every map, time against error as a log-log
+//!    chart (`docs/bench/prefilter_time_error.svg`).
 //!
 //! A plain program (no criterion: one bake takes seconds); each time is the median of 3 runs.
 
@@ -52,9 +55,10 @@ fn main() {
             maps.push((name.into(), img));
         }
     }
-    if std::env::var("HDRFLOW_IBL_ONLY").as_deref() == Ok("sh") {
-        sh_table(&maps);
-        return;
+    match std::env::var("HDRFLOW_IBL_ONLY").as_deref() {
+        Ok("sh") => return sh_table(&maps),
+        Ok("prefilter") => return prefilter_all_maps(&maps),
+        _ => {}
     }
     println!("## 1. energy (max over RGB of the relative error of the sphere integral)\n");
     println!("| map | size | cube 64 | cube 256 | back to lat-long from 256 | time to cube 256 |");
@@ -125,6 +129,7 @@ fn main() {
     let top = lut.data.chunks(2).map(|p| p[0] + p[1]).fold(0.0f32, f32::max);
     let top_multi = multi.data.chunks(2).map(|p| p[1]).fold(0.0f32, f32::max);
     let low_multi = multi.data.chunks(2).map(|p| p[1]).fold(1.0f32, f32::min);
+    prefilter_all_maps(&maps);
     sh_table(&maps);
     println!(
         "\nBrdfLut 128: largest scale + bias {top:.6}; multiscatter E[Gv] in [{low_multi:.4}, {top_multi:.6}] \
@@ -166,5 +171,55 @@ fn sh_table(maps: &[(String, Image)]) {
             println!("| {order} | {} |", cells.join(" | "));
         }
         println!();
+    }
+}
+
+/// The RMS over texels of levels 1.. of the relative error of `chain` against `reference`.
+fn chain_error(chain: &hdrflow::data::MipChain, reference: &hdrflow::data::MipChain) -> f64 {
+    let (mut sum, mut count) = (0.0f64, 0.0f64);
+    for (a, b) in chain.levels.iter().zip(&reference.levels).skip(1) {
+        for (x, y) in a.data.iter().zip(&b.data) {
+            let y = *y as f64;
+            if y > 0.0 {
+                sum += ((*x as f64 - y) / y).powi(2);
+                count += 1.0;
+            }
+        }
+    }
+    (sum / count.max(1.0)).sqrt()
+}
+
+/// Section 5: every map as a 64 cube, 5 levels, Sobol, 16 to 4096 samples: the RMS relative
+/// error of levels 1-4 against `exact: true` and the time, as a table and a log-log chart.
+fn prefilter_all_maps(maps: &[(String, Image)]) {
+    use hdrflow::plotting::time_error::{plot_svg, Line};
+    let counts = [16, 64, 256, 1024, 4096];
+    println!("\n## 5. PrefilterSpecular against exact on every map (64 cube, levels 1-4): RMS relative error (time)\n");
+    println!("| map | exact | {} |", counts.map(|n| format!("{n} samples")).join(" | "));
+    println!("|---|---|{}", "---|".repeat(counts.len()));
+    let mut lines = Vec::new();
+    for (name, img) in maps {
+        let src = to_cube(&LatLongSource::new(img), 64);
+        let t = Instant::now();
+        let reference = prefilter(&src, 5, 1, LobeSequence::Sobol, true);
+        let t_exact = t.elapsed().as_secs_f64();
+        let mut cells = Vec::new();
+        let mut points = Vec::new();
+        for n in counts {
+            let (t, chain) = median(|| prefilter(&src, 5, n, LobeSequence::Sobol, false));
+            let e = chain_error(&chain, &reference);
+            cells.push(format!("{e:.3} ({t:.2} s)"));
+            points.push((t * 1e3, e));
+        }
+        println!("| {name} | {t_exact:.2} s | {} |", cells.join(" | "));
+        lines.push(Line { name: name.clone(), points });
+    }
+    let out = Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/bench/prefilter_time_error.svg");
+    match plot_svg("PrefilterSpecular, 64 cube: time (ms) against RMS relative error", &lines, 900, 600) {
+        Ok(svg) => match std::fs::write(&out, svg) {
+            Ok(()) => println!("\nchart: {}", out.display()),
+            Err(e) => eprintln!("writing {}: {e}", out.display()),
+        },
+        Err(e) => eprintln!("chart: {e}"),
     }
 }
