@@ -3,6 +3,7 @@
 //!     cargo bench --bench ibl            # HDRFLOW_IBL_MAP=path.hdr to choose the map
 //!     HDRFLOW_IBL_ONLY=sh cargo bench --bench ibl          # section 4 alone
 //!     HDRFLOW_IBL_ONLY=prefilter cargo bench --bench ibl   # section 5 alone
+//!     HDRFLOW_IBL_ONLY=sun cargo bench --bench ibl         # section 6 alone
 //!
 //! 1. energy kept by lat-long -> cube -> lat-long resampling, per map;
 //! 2. `PrefilterSpecular` error against `exact: true` as the sample count grows (a 64 cube, 5
@@ -11,7 +12,9 @@
 //!    (5 levels, 1024 samples), the irradiance (SH and exact), the BRDF texture;
 //! 4. SH irradiance against the exact irradiance, per map, order and window (a 16 cube);
 //! 5. `PrefilterSpecular` against `exact: true` on every map, time against error as a log-log
-//!    chart (`docs/bench/prefilter_time_error.svg`).
+//!    chart (`docs/bench/prefilter_time_error.svg`);
+//! 6. what `SunExtract` does to the prefilter's error: sampled residual plus the sun's exact
+//!    part, against sampling the whole map, at equal samples.
 //!
 //! A plain program (no criterion: one bake takes seconds); each time is the median of 3 runs.
 
@@ -58,6 +61,7 @@ fn main() {
     match std::env::var("HDRFLOW_IBL_ONLY").as_deref() {
         Ok("sh") => return sh_table(&maps),
         Ok("prefilter") => return prefilter_all_maps(&maps),
+        Ok("sun") => return sun_split(&maps),
         _ => {}
     }
     println!("## 1. energy (max over RGB of the relative error of the sphere integral)\n");
@@ -130,6 +134,7 @@ fn main() {
     let top_multi = multi.data.chunks(2).map(|p| p[1]).fold(0.0f32, f32::max);
     let low_multi = multi.data.chunks(2).map(|p| p[1]).fold(1.0f32, f32::min);
     prefilter_all_maps(&maps);
+    sun_split(&maps);
     sh_table(&maps);
     println!(
         "\nBrdfLut 128: largest scale + bias {top:.6}; multiscatter E[Gv] in [{low_multi:.4}, {top_multi:.6}] \
@@ -221,5 +226,48 @@ fn prefilter_all_maps(maps: &[(String, Image)]) {
             Err(e) => eprintln!("writing {}: {e}", out.display()),
         },
         Err(e) => eprintln!("chart: {e}"),
+    }
+}
+
+/// Section 6: the prefilter is a fixed weighted average of the map, so it is linear: exact(map) =
+/// exact(residual) + exact(sun), where `sun = map - residual` is zero outside the sun's texels.
+/// Sampling only the residual and adding the sun's part exactly (what a renderer does with an
+/// analytic light; here through `exact: true` on the sun-only map) is compared with sampling the
+/// whole map, at equal samples, against the exact chain of the whole map.
+fn sun_split(maps: &[(String, Image)]) {
+    let counts = [64, 256, 1024];
+    println!("\n## 6. PrefilterSpecular with SunExtract (64 cube, levels 1-4, RMS relative error against exact)\n");
+    println!("| map | sun share | {} |", counts.map(|n| format!("{n}: whole map / residual + exact sun")).join(" | "));
+    println!("|---|---|{}", "---|".repeat(counts.len()));
+    for (name, img) in maps {
+        let split = hdrflow::maths::sun::extract_sun(img, 8.0);
+        let mut sun_only = img.clone();
+        for (s, r) in sun_only.data.iter_mut().zip(&split.residual.data) {
+            *s -= r;
+        }
+        let whole = to_cube(&LatLongSource::new(img), 64);
+        let residual = to_cube(&LatLongSource::new(&split.residual), 64);
+        let sun = to_cube(&LatLongSource::new(&sun_only), 64);
+        let reference = prefilter(&whole, 5, 1, LobeSequence::Sobol, true);
+        let sun_exact = prefilter(&sun, 5, 1, LobeSequence::Sobol, true);
+        let total = hdrflow::maths::sun::integral(img);
+        let lum = |c: [f64; 3]| 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2];
+        let share = 1.0 - lum(hdrflow::maths::sun::integral(&split.residual)) / lum(total);
+        let mut cells = Vec::new();
+        for n in counts {
+            let plain = prefilter(&whole, 5, n, LobeSequence::Sobol, false);
+            let mut split_chain = prefilter(&residual, 5, n, LobeSequence::Sobol, false);
+            for (level, sun_level) in split_chain.levels.iter_mut().zip(&sun_exact.levels) {
+                for (v, s) in level.data.iter_mut().zip(&sun_level.data) {
+                    *v += s;
+                }
+            }
+            cells.push(format!(
+                "{:.3} / {:.3}",
+                chain_error(&plain, &reference),
+                chain_error(&split_chain, &reference)
+            ));
+        }
+        println!("| {name} | {:.1}% | {} |", 100.0 * share, cells.join(" | "));
     }
 }
