@@ -18,21 +18,25 @@
 //!    before the RGB part is skipped. Its largest resolution level is read.
 //! 3. **Channels.** `R`, `G`, `B` (and `A`, kept as a fourth channel) are picked by name whatever
 //!    their stored order and sample type (f16, f32, u32: all become f32). Luminance/chroma files
-//!    (`Y`, `RY`, `BY`, as OpenEXR's `RgbaOutputFile` writes them) become RGB with OpenEXR's own
+//!    (`Y`, `RY`, `BY` at full resolution) become RGB with OpenEXR's own
 //!    formula (ImfRgbaYca `YCAtoRGBA`): `R = (RY + 1) Y`, `B = (BY + 1) Y`,
 //!    `G = (Y - R yw.x - B yw.z) / yw.y`, `yw` being the luminance weights of the file's
-//!    chromaticities (Rec. 709 when absent); `RY = BY = 0` gives grey `Y`. A subsampled channel
-//!    (x/y sampling 2, usual for `RY`/`BY`) is upsampled **bilinearly** (OpenEXR uses a 27-tap
-//!    horizontal and a 7-tap vertical filter and then `fixSaturation`; the difference is
-//!    confined to chroma edges, see `tests/exr_conformance.rs` for the tolerance). `Y` alone gives
+//!    chromaticities (Rec. 709 when absent); `RY = BY = 0` gives grey `Y`. **Subsampled channels
+//!    are refused** with an error naming them: the `exr` crate (1.74) rejects channel
+//!    subsampling while validating the header, and its decompressors size blocks as if
+//!    unsampled, so the 2x2-subsampled `RY`/`BY` that OpenEXR's `RgbaOutputFile` writes cannot be
+//!    decoded through it. (`full_plane` already upsamples bilinearly, ready for when the crate
+//!    decodes them; OpenEXR itself uses a 27-tap horizontal / 7-tap vertical filter and then
+//!    `fixSaturation`.) `Y` alone gives
 //!    one channel (grey, which is correct). If only some of R/G/B exist, the missing ones are 0.
 //!    No colour channel: an error listing the channels.
 //! 4. **Window.** `Display` (default): the image is the display window; pixels outside the data
 //!    window are 0 (alpha too), data outside the display window is cropped. `Data`: the data
 //!    window as stored.
 //! 5. **Colour space.** `Linear709` (default): RGB is converted from the file's `chromaticities`
-//!    (RGB -> XYZ -> Rec. 709 RGB, with a Bradford adaptation when the white points differ) to
-//!    linear Rec. 709 / D65; no attribute means Rec. 709 already. `AsStored`: values untouched.
+//!    (RGB -> XYZ -> Rec. 709 RGB) to linear Rec. 709; no attribute means Rec. 709 already.
+//!    No chromatic adaptation, as OpenEXR (see `Primaries::to_rec709`: the OpenEXR test set's
+//!    `XYZ.exr`, white E, matches `Rec709.exr` only this way). `AsStored`: values untouched.
 //! 6. **Orientation.** EXR rows run top to bottom (y grows downwards), like ours; nothing is
 //!    flipped. (`grace_latlong.exr` is itself stored upside-down, row 0 = straight down:
 //!    `../shared/data/envmaps/SOURCES.md`. Flipping it is the caller's decision.)
@@ -281,6 +285,21 @@ fn choose_part(meta: &MetaData, options: &DecodeOptions) -> Result<(usize, Strin
             }
         }
     };
+    let subsampled: Vec<String> = meta.headers[chosen.0]
+        .channels
+        .list
+        .iter()
+        .filter(|c| c.sampling.0 != 1 || c.sampling.1 != 1)
+        .map(|c| format!("{} at {}x{}", c.name, c.sampling.0, c.sampling.1))
+        .collect();
+    if !subsampled.is_empty() {
+        return Err(FormatError(format!(
+            "EXR part {} has subsampled channels ({}; as in luminance/chroma files from OpenEXR's \
+             RgbaOutputFile), which the exr crate cannot decode (\"channel subsampling not supported yet\")",
+            chosen.0,
+            subsampled.join(", ")
+        )));
+    }
     if meta.headers[chosen.0].deep {
         return Err(FormatError(format!("EXR part {} is deep data, which is not supported", chosen.0)));
     }
@@ -654,8 +673,7 @@ mod tests {
         channels: Vec<AnyChannel<FlatSamples>>,
         compression: Compression,
     ) -> Layer<AnyChannels<FlatSamples>> {
-        let mut attributes = LayerAttributes::default();
-        attributes.layer_name = name.map(Text::from);
+        let attributes = LayerAttributes { layer_name: name.map(Text::from), ..Default::default() };
         let encoding = Encoding { compression, ..Encoding::SMALL_LOSSLESS };
         Layer::new((w, h), attributes, encoding, AnyChannels::sort(SmallVec::from_vec(channels)))
     }
@@ -694,8 +712,8 @@ mod tests {
         let img = decode(&bytes).unwrap();
         assert_eq!((img.width, img.height, img.channels), (w, h, 3));
         for (i, s) in scale.iter().enumerate() {
-            for k in 0..3 {
-                let want = rgb[k] as f32 * s;
+            for (k, c) in rgb.iter().enumerate() {
+                let want = *c as f32 * s;
                 let got = img.data[i * 3 + k];
                 assert!((got - want).abs() <= 1e-4 * want.abs().max(1.0), "pixel {i} channel {k}: {got} vs {want}");
             }
@@ -841,11 +859,13 @@ mod tests {
     #[test]
     fn display_window_and_colorspace() {
         let (w, h) = (3usize, 2usize);
-        let channels = ["R", "G", "B"].iter().map(|n| channel(n, vec![1.0; w * h], 1)).collect::<Vec<_>>();
+        // XYZ of D65 white.
+        let d65 = [0.3127f32 / 0.3290, 1.0, (1.0 - 0.3127 - 0.3290) / 0.3290];
+        let channels = ["R", "G", "B"].iter().zip(d65).map(|(n, v)| channel(n, vec![v; w * h], 1)).collect::<Vec<_>>();
         let mut l = layer(w, h, None, channels, Compression::ZIP16);
         l.attributes.layer_position = Vec2(2, 1);
         let mut attrs = ImageAttributes::new(::exr::prelude::IntegerBounds::new((0, 0), (4, 4)));
-        // XYZ primaries: R = X, G = Y, B = Z, white E. (1, 1, 1) is white E.
+        // XYZ primaries: R = X, G = Y, B = Z, white E.
         attrs.chromaticities = Some(Chromaticities {
             red: Vec2(1.0, 0.0),
             green: Vec2(0.0, 1.0),
@@ -859,7 +879,7 @@ mod tests {
         for y in 0..4 {
             for x in 0..4 {
                 let inside = (2..4).contains(&x) && (1..3).contains(&y);
-                assert_eq!(img.rgb(x, y), if inside { [1.0; 3] } else { [0.0; 3] }, "({x}, {y})");
+                assert_eq!(img.rgb(x, y), if inside { d65 } else { [0.0; 3] }, "({x}, {y})");
             }
         }
         assert_eq!(header_size(&bytes, &raw), Some((4, 4)));
@@ -867,7 +887,7 @@ mod tests {
         let img = decode_with(&bytes, &data).unwrap();
         assert_eq!((img.width, img.height), (3, 2));
         assert_eq!(header_size(&bytes, &data), Some((3, 2)));
-        // Linear709: white E adapted to D65 is Rec. 709 white (1, 1, 1).
+        // Linear709: the XYZ of D65 white is Rec. 709 white (1, 1, 1).
         let img = decode_with(&bytes, &DecodeOptions { window: Window::Data, ..Default::default() }).unwrap();
         for v in &img.data {
             assert!((v - 1.0).abs() < 2e-3, "{:?}", img.data);
