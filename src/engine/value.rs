@@ -25,6 +25,8 @@ pub struct SaveOptions {
     pub exposure: f64,
     /// Plot width and height in pixels (curve plots).
     pub plot_size: (u32, u32),
+    /// Compression and sample type (EXR only).
+    pub exr: crate::formats::exr::EncodeOptions,
 }
 
 /// Encodes a value as a file's bytes (the extension is in the options).

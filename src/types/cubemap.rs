@@ -77,7 +77,7 @@ fn decode(bytes: &[u8]) -> Result<Value, String> {
 
 fn save(value: &Value, o: &SaveOptions) -> Result<Vec<u8>, String> {
     let c = value.get::<Cubemap>().ok_or("not a cube map")?;
-    encode_image(&c.to_strip(), &o.ext, o.exposure)
+    encode_image(&c.to_strip(), o)
 }
 
 impl ValueData for MipChain {
@@ -120,7 +120,7 @@ fn decode_chain(bytes: &[u8]) -> Result<Value, String> {
 fn save_chain_level0(value: &Value, o: &SaveOptions) -> Result<Vec<u8>, String> {
     let c = value.get::<MipChain>().ok_or("not a mip chain")?;
     let first = c.levels.first().ok_or("an empty mip chain")?;
-    encode_image(&first.to_strip(), &o.ext, o.exposure)
+    encode_image(&first.to_strip(), o)
 }
 
 /// Every level's strip, at `template` with `{level}` replaced by the level number.
@@ -129,9 +129,7 @@ pub fn save_levels(chain: &MipChain, template: &str, o: &SaveOptions) -> Result<
         .levels
         .iter()
         .enumerate()
-        .map(|(k, c)| {
-            Ok((template.replace("{level}", &k.to_string()), encode_image(&c.to_strip(), &o.ext, o.exposure)?))
-        })
+        .map(|(k, c)| Ok((template.replace("{level}", &k.to_string()), encode_image(&c.to_strip(), o)?)))
         .collect()
 }
 

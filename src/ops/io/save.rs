@@ -32,6 +32,10 @@ crate::params! {
         /// width and height in pixels of a curve plot (.png, .svg)
         #[range(64.0, 8192.0)]
         pub plot_size: [f64; 2] = [800.0, 500.0],
+        /// (.exr) Zip (lossless, 16-line blocks), Piz (lossless wavelet), Dwaa (lossy DCT, 32-line blocks) or None
+        pub compression: crate::formats::exr::ExrCompression = crate::formats::exr::ExrCompression::Zip,
+        /// (.exr) store half floats (16-bit; values beyond 65504 become infinite) instead of f32
+        pub half: bool = false,
     }
 }
 
@@ -101,8 +105,12 @@ fn eval(ctx: &mut OpContext, p: SaveParams) -> Result<Value, OpError> {
             exposure += auto_exposure(&c.to_strip());
         }
     }
-    let options =
-        SaveOptions { ext: p.path.extension(), exposure, plot_size: (p.plot_size[0] as u32, p.plot_size[1] as u32) };
+    let options = SaveOptions {
+        ext: p.path.extension(),
+        exposure,
+        plot_size: (p.plot_size[0] as u32, p.plot_size[1] as u32),
+        exr: crate::formats::exr::EncodeOptions { compression: p.compression, half: p.half },
+    };
     if let Some(chain) = value.get::<crate::data::MipChain>() {
         let mut files = crate::types::cubemap::save_levels(chain, &rel_path, &options).map_err(fail)?.into_iter();
         let (first_path, first) = files.next().ok_or_else(|| fail("an empty mip chain".into()))?;
