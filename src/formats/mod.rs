@@ -4,17 +4,22 @@
 //! |-------------|---------------------------------|------|-------|-------|
 //! | [`rgbe`]    | Radiance `.hdr` / `.pic` (RGBE)  | yes  | yes   | hand-written, new-style RLE + flat + old `1 1 1 n` |
 //! | [`pfm`]     | Portable Float Map `.pfm`        | yes  | yes   | hand-written (the `image` crate has no PFM) |
-//! | [`exr`]     | OpenEXR `.exr`                   | yes  | yes   | through the `exr` crate, any sample type, any channel order |
+//! | [`exr`]     | OpenEXR `.exr`                   | yes  | yes   | through the `exr` crate: see its docs for parts, windows, colour, what is refused |
 //! | [`png`]     | PNG (8-bit sRGB preview)         | no   | yes   | exposure + sRGB OETF, through the `image` crate |
 //! | [`builtin`] | procedural lat-long maps         | -    | -     | so that everything runs with no data files |
 //!
-//! Every reader returns a [`crate::data::Image`]: f32 samples, row 0 at the top, 1 or 3 channels.
+//! Every reader returns a [`crate::data::Image`]: f32 samples, row 0 at the top, 1, 3 or 4 (EXR
+//! alpha) channels. [`decode_by_extension_with`] takes [`DecodeOptions`]: the EXR part or layer,
+//! the window (display or data), and the colour space (converted to linear Rec. 709 from EXR
+//! `chromaticities` or Radiance `PRIMARIES`, or as stored).
 //! f32 (not f16) in memory because real suns exceed the half-float maximum of 65504
 //! (`../shared/NOTES.md`, "Formats": the park map's sun is 69120).
 //!
 //! Every reader treats its input as hostile: it never panics, never indexes out of bounds, and
-//! refuses a header that claims more than [`MAX_PIXELS`] pixels, or more pixels than the bytes that
-//! follow could possibly encode, *before* allocating anything proportional to the claimed size.
+//! refuses a header that claims more than [`MAX_PIXELS`] pixels, or more than the bytes that follow
+//! can hold (for RGBE and PFM, whose encodings have a minimum size per pixel; for EXR, whose
+//! compression has no useful bound, a chunk offset table that must fit in the file and point
+//! inside it), *before* allocating anything proportional to the claimed size.
 //! Errors are a plain [`FormatError`] message; the caller adds the file name.
 
 pub mod builtin;
@@ -261,6 +266,30 @@ mod tests {
     fn unknown_extension_lists_supported_ones() {
         let e = decode_by_extension(b"whatever", "jpg").unwrap_err().0;
         assert!(e.contains(".hdr") && e.contains(".pfm") && e.contains(".exr"), "{e}");
+    }
+
+    #[test]
+    fn radiance_primaries_are_converted_unless_as_stored() {
+        let img = Image::from_vec(1, 1, 3, vec![0.5, 0.25, 0.125]);
+        let plain = self::rgbe::encode(&img);
+        let mut with = b"#?RADIANCE\nPRIMARIES= 0.68 0.32 0.265 0.69 0.15 0.06 0.3127 0.3290\n".to_vec();
+        with.extend_from_slice(&plain[plain.iter().position(|&b| b == b'\n').unwrap() + 1..]);
+        let raw = decode_by_extension(&plain, "hdr").unwrap();
+        let stored = decode_by_extension_with(
+            &with,
+            "hdr",
+            &DecodeOptions { colorspace: ColorSpace::AsStored, ..Default::default() },
+        )
+        .unwrap();
+        assert_eq!(stored, raw);
+        let converted = decode_by_extension(&with, "hdr").unwrap();
+        let p3 = Primaries { red: [0.68, 0.32], green: [0.265, 0.69], blue: [0.15, 0.06], white: [0.3127, 0.3290] };
+        let m = p3.to_rec709().unwrap();
+        for k in 0..3 {
+            let want: f64 = (0..3).map(|j| m[k][j] * raw.data[j] as f64).sum();
+            assert!((converted.data[k] as f64 - want).abs() < 1e-6, "{:?}", converted.data);
+        }
+        assert!(self::rgbe::primaries(&plain).is_none());
     }
 
     #[test]
