@@ -285,9 +285,9 @@ mod tests {
         let converted = decode_by_extension(&with, "hdr").unwrap();
         let p3 = Primaries { red: [0.68, 0.32], green: [0.265, 0.69], blue: [0.15, 0.06], white: [0.3127, 0.3290] };
         let m = p3.to_rec709().unwrap();
-        for k in 0..3 {
-            let want: f64 = (0..3).map(|j| m[k][j] * raw.data[j] as f64).sum();
-            assert!((converted.data[k] as f64 - want).abs() < 1e-6, "{:?}", converted.data);
+        for (row, got) in m.iter().zip(&converted.data) {
+            let want: f64 = (0..3).map(|j| row[j] * raw.data[j] as f64).sum();
+            assert!((*got as f64 - want).abs() < 1e-6, "{:?}", converted.data);
         }
         assert!(self::rgbe::primaries(&plain).is_none());
     }
