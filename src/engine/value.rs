@@ -27,6 +27,8 @@ pub struct SaveOptions {
     pub plot_size: (u32, u32),
     /// Texel format of a `.ktx2` file.
     pub ktx_format: crate::formats::ktx2::KtxFormat,
+    /// Compression and sample type (EXR only).
+    pub exr: crate::formats::exr::EncodeOptions,
 }
 
 /// Encodes a value as a file's bytes (the extension is in the options).

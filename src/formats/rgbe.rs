@@ -158,6 +158,35 @@ fn parse_resolution(line: &[u8]) -> Result<(usize, usize, bool, bool), FormatErr
     }
 }
 
+/// The `PRIMARIES= rx ry gx gy bx by wx wy` line of a Radiance header, if any (the last one
+/// wins; a malformed line is ignored). No line: `None`, read as Rec. 709 (Radiance's own default,
+/// 0.640 0.330 0.290 0.600 0.150 0.060 0.333 0.333, differs; most writers mean Rec. 709/sRGB).
+pub fn primaries(bytes: &[u8]) -> Option<super::Primaries> {
+    let mut pos = 0;
+    next_line(bytes, &mut pos)?;
+    let mut found = None;
+    while let Some(line) = next_line(bytes, &mut pos) {
+        if line.is_empty() || looks_like_resolution(line) {
+            break;
+        }
+        if let Some(v) = line.strip_prefix(b"PRIMARIES=") {
+            let v: Vec<f64> = std::str::from_utf8(v)
+                .ok()
+                .map(|s| s.split_whitespace().filter_map(|t| t.parse().ok()).collect())
+                .unwrap_or_default();
+            if v.len() == 8 && v.iter().all(|x| x.is_finite()) {
+                found = Some(super::Primaries {
+                    red: [v[0], v[1]],
+                    green: [v[2], v[3]],
+                    blue: [v[4], v[5]],
+                    white: [v[6], v[7]],
+                });
+            }
+        }
+    }
+    found
+}
+
 /// The image size a Radiance header declares (`width`, `height`), from the file's first bytes.
 pub fn header_size(bytes: &[u8]) -> Result<(usize, usize), FormatError> {
     parse_header(bytes).map(|h| (h.width, h.height))

@@ -82,7 +82,7 @@ fn save(value: &Value, o: &SaveOptions) -> Result<Vec<u8>, String> {
     if o.ext == "ktx2" {
         return encode_ktx2(std::slice::from_ref(c), o);
     }
-    encode_image(&c.to_strip(), &o.ext, o.exposure)
+    encode_image(&c.to_strip(), o)
 }
 
 impl ValueData for MipChain {
@@ -128,7 +128,7 @@ fn save_chain_level0(value: &Value, o: &SaveOptions) -> Result<Vec<u8>, String> 
         return encode_ktx2(&c.levels, o);
     }
     let first = c.levels.first().ok_or("an empty mip chain")?;
-    encode_image(&first.to_strip(), &o.ext, o.exposure)
+    encode_image(&first.to_strip(), o)
 }
 
 /// Cube maps as the levels of one `.ktx2` cube texture (faceCount 6, +X -X +Y -Y +Z -Z, alpha 1);
@@ -149,9 +149,7 @@ pub fn save_levels(chain: &MipChain, template: &str, o: &SaveOptions) -> Result<
         .levels
         .iter()
         .enumerate()
-        .map(|(k, c)| {
-            Ok((template.replace("{level}", &k.to_string()), encode_image(&c.to_strip(), &o.ext, o.exposure)?))
-        })
+        .map(|(k, c)| Ok((template.replace("{level}", &k.to_string()), encode_image(&c.to_strip(), o)?)))
         .collect()
 }
 

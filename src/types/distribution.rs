@@ -72,7 +72,7 @@ fn decode(bytes: &[u8]) -> Result<Value, String> {
 
 fn save(value: &Value, o: &SaveOptions) -> Result<Vec<u8>, String> {
     let d = value.get::<Distribution2D>().ok_or("not a distribution")?;
-    super::image::encode_image(&pdf_image(d), &o.ext, o.exposure)
+    super::image::encode_image(&pdf_image(d), o)
 }
 
 /// The distribution's solid-angle pdf per texel, as a scalar field.

@@ -82,14 +82,15 @@ fn save(value: &Value, o: &SaveOptions) -> Result<Vec<u8>, String> {
         let level = formats::ktx2::Level { width: img.width, height: img.height, rgba: &rgba };
         return formats::ktx2::encode(&[level], 1, o.ktx_format).map_err(|e| e.0);
     }
-    encode_image(img, &o.ext, o.exposure)
+    encode_image(img, o)
 }
 
 /// Encodes an image as a file of the given extension.
-pub fn encode_image(img: &Image, ext: &str, exposure: f64) -> Result<Vec<u8>, String> {
+pub fn encode_image(img: &Image, o: &SaveOptions) -> Result<Vec<u8>, String> {
+    let ext = o.ext.as_str();
     match ext {
-        "png" => formats::png::encode(img, exposure).map_err(|e| e.0),
-        "exr" => formats::exr::encode(img).map_err(|e| e.0),
+        "png" => formats::png::encode(img, o.exposure).map_err(|e| e.0),
+        "exr" => formats::exr::encode_with(img, &o.exr).map_err(|e| e.0),
         "hdr" | "pfm" => {
             // RGBE and PFM hold RGB (PFM also grey): alpha and further channels are dropped.
             let rgb = if img.channels > 3 || img.channels == 2 {

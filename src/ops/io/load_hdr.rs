@@ -19,6 +19,26 @@ crate::params! {
         pub path: InputPath,
         /// flip rows after loading (pbrt's grace_latlong.exr is stored upside down)
         pub flip_vertical: bool = false,
+        /// EXR: the part to read (0-based); -1 = the first part with a colour channel (R, G, B or Y)
+        #[range(-1, 100000)]
+        pub part: i64 = -1,
+        /// EXR: a part name, or a channel-name prefix (`diffuse` for `diffuse.R`); empty = none
+        pub layer: String = String::new(),
+        /// EXR: Display (the display window; outside the data window is black) or Data (as stored)
+        pub window: formats::Window = formats::Window::Display,
+        /// Linear709: convert from the file's primaries (EXR chromaticities, Radiance PRIMARIES) to linear Rec. 709; AsStored: as stored
+        pub colorspace: formats::ColorSpace = formats::ColorSpace::Linear709,
+    }
+}
+
+impl LoadHdrParams {
+    fn options(&self) -> formats::DecodeOptions {
+        formats::DecodeOptions {
+            part: usize::try_from(self.part).ok(),
+            layer: Some(self.layer.clone()).filter(|l| !l.is_empty()),
+            window: self.window,
+            colorspace: self.colorspace,
+        }
     }
 }
 
@@ -76,7 +96,7 @@ fn eval(ctx: &mut OpContext, p: LoadHdrParams) -> Result<Value, OpError> {
                 )));
             }
         }
-        formats::decode_by_extension(&bytes, &extension(&full))
+        formats::decode_by_extension_with(&bytes, &extension(&full), &p.options())
             .map_err(|e| OpError::Format { path: full.clone(), message: e.0 })?
     };
     if image.channels == 1 {
@@ -94,7 +114,7 @@ fn eval(ctx: &mut OpContext, p: LoadHdrParams) -> Result<Value, OpError> {
 fn size(ctx: &CheckContext, p: LoadHdrParams) -> Size {
     let (w, h) = match p.path.0.strip_prefix("builtin:") {
         Some(name) => formats::builtin::builtin_size(name)?,
-        None => formats::header_size(&resolve_path(ctx.base_dir, &p.path.0))?,
+        None => formats::header_size(&resolve_path(ctx.base_dir, &p.path.0), &p.options())?,
     };
     // A header beyond the pixel budget is left to the decoder, whose error names the file.
     let (w, h) = (w as u64, h as u64);

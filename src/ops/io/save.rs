@@ -36,6 +36,10 @@ crate::params! {
         pub plot_size: [f64; 2] = [800.0, 500.0],
         /// (.ktx2) texel format: Rgba16f (VK_FORMAT_R16G16B16A16_SFLOAT, values clamped to +-65504) or Rgba32f (VK_FORMAT_R32G32B32A32_SFLOAT)
         pub ktx_format: KtxFormat = KtxFormat::Rgba16f,
+        /// (.exr) Zip (lossless, 16-line blocks), Piz (lossless wavelet), Dwaa (lossy DCT, 32-line blocks) or None
+        pub compression: crate::formats::exr::ExrCompression = crate::formats::exr::ExrCompression::Zip,
+        /// (.exr) store half floats (16-bit; values beyond 65504 become infinite) instead of f32
+        pub half: bool = false,
     }
 }
 
@@ -113,6 +117,7 @@ fn eval(ctx: &mut OpContext, p: SaveParams) -> Result<Value, OpError> {
         exposure,
         plot_size: (p.plot_size[0] as u32, p.plot_size[1] as u32),
         ktx_format: p.ktx_format,
+        exr: crate::formats::exr::EncodeOptions { compression: p.compression, half: p.half },
     };
     if let Some(chain) = value.get::<crate::data::MipChain>().filter(|_| options.ext != "ktx2") {
         let mut files = crate::types::cubemap::save_levels(chain, &rel_path, &options).map_err(fail)?.into_iter();
