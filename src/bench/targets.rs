@@ -4,6 +4,8 @@
 //!   (given by the issue as 15-20 ms on 2 cores) and against the NumPy peer at the same size.
 //! - `BuildCdf` on a 2048x1024 map, against one pass over its bytes (a sum of its f32 values).
 //! - Decoding a 1024x512 RLE `.hdr`: ours against the `image` crate's decoder.
+//! - Decoding EXR files (PIZ, ZIP, DWAA; real and generated): ours against OpenImageIO
+//!   (`bench/peers/exr_oiio.py`, when `pip install OpenImageIO` has been done), file read included.
 //! - `graphs/seed.ron` on the built-in map: cold (empty cache) and fully cached.
 
 use std::path::Path;
@@ -131,6 +133,12 @@ pub fn measure(data: &Path, peers: Option<&Path>, repeats: usize, log: &dyn Fn(&
         met: Some(ours_ms <= theirs_ms),
     });
 
+    // 3b. EXR decoding against OpenImageIO, file read included on both sides.
+    match exr_against_oiio(data, peers, repeats, log) {
+        Ok(mut targets) => out.append(&mut targets),
+        Err(e) => log(&format!("EXR decode against OpenImageIO skipped: {e}")),
+    }
+
     // 4. The seed graph, cold and cached.
     let registry = crate::ops::builtin_registry();
     let seed = Path::new(env!("CARGO_MANIFEST_DIR")).join("graphs/seed.ron");
@@ -171,6 +179,78 @@ pub fn measure(data: &Path, peers: Option<&Path>, repeats: usize, log: &dyn Fn(&
         goal: "< 100 ms".into(),
         met: Some(k < 100.0),
     });
+    Ok(out)
+}
+
+/// The EXR files of target 3b: OpenEXR's own PIZ test image, the shared ZIP map when present, and
+/// 2048x1024 renderings of the built-in sky written by our encoder in ZIP, PIZ and DWAA.
+fn exr_files(data: &Path, dir: &Path) -> Result<Vec<(String, std::path::PathBuf)>, String> {
+    use crate::formats::exr::{encode_with, EncodeOptions, ExrCompression};
+    let mut files = vec![(
+        "Rec709.exr (OpenEXR test image, PIZ, 610x406)".to_string(),
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/openexr/Rec709.exr"),
+    )];
+    let grace = data.join("grace_latlong.exr");
+    if grace.is_file() {
+        files.push(("grace_latlong.exr (ZIP, 1024x512)".into(), grace));
+    }
+    std::fs::create_dir_all(dir).map_err(|e| e.to_string())?;
+    let sky = resize(&crate::formats::builtin::builtin("sky").expect("built-in"), 2048, 1024);
+    for (name, compression) in
+        [("zip", ExrCompression::Zip), ("piz", ExrCompression::Piz), ("dwaa", ExrCompression::Dwaa)]
+    {
+        let path = dir.join(format!("sky_{name}.exr"));
+        let bytes = encode_with(&sky, &EncodeOptions { compression, half: true }).map_err(|e| e.0)?;
+        std::fs::write(&path, bytes).map_err(|e| e.to_string())?;
+        files.push((format!("sky 2048x1024, half, {} (written by hdrflow)", name.to_uppercase()), path));
+    }
+    Ok(files)
+}
+
+/// Target 3b: each file decoded by us and by OpenImageIO (warm medians, file read included).
+fn exr_against_oiio(
+    data: &Path,
+    peers: Option<&Path>,
+    repeats: usize,
+    log: &dyn Fn(&str),
+) -> Result<Vec<Target>, String> {
+    let peers = peers.ok_or("no peers folder")?;
+    let script = peers.join("exr_oiio.py");
+    let dir = std::env::temp_dir().join(format!("hdrflow-bench-exr-{}", std::process::id()));
+    let files = exr_files(data, &dir)?;
+    let output = std::process::Command::new("python3")
+        .arg(&script)
+        .args(["--repeats", &(repeats * 2).to_string()])
+        .args(files.iter().map(|f| &f.1))
+        .output()
+        .map_err(|e| format!("python3: {e}"))?;
+    if !output.status.success() {
+        let _ = std::fs::remove_dir_all(&dir);
+        return Err(format!(
+            "exr_oiio.py failed (pip install OpenImageIO?): {}",
+            String::from_utf8_lossy(&output.stderr).trim()
+        ));
+    }
+    let json: serde_json::Value = serde_json::from_slice(&output.stdout).map_err(|e| e.to_string())?;
+    let version = json["version"].as_str().unwrap_or("?").to_string();
+    let mut out = Vec::new();
+    for ((name, path), theirs) in files.iter().zip(json["ms"].as_array().ok_or("no ms in the peer's output")?) {
+        let theirs = theirs.as_f64().ok_or("a non-numeric time")?;
+        let (ours, decoded) = time_median(repeats * 2, || {
+            std::fs::read(path)
+                .map_err(|e| e.to_string())
+                .and_then(|b| crate::formats::exr::decode(&b).map_err(|e| e.0))
+        });
+        decoded?;
+        log(&format!("EXR decode {name}: ours {ours:.2} ms, OpenImageIO {version} {theirs:.2} ms"));
+        out.push(Target {
+            name: format!("EXR decode, {name}"),
+            measured: format!("{ours:.2} ms vs OpenImageIO {version} {theirs:.2} ms = {:.2}x its time", ours / theirs),
+            goal: "within 1.5x of OpenImageIO".into(),
+            met: Some(ours <= 1.5 * theirs),
+        });
+    }
+    let _ = std::fs::remove_dir_all(&dir);
     Ok(out)
 }
 
