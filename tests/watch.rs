@@ -137,3 +137,12 @@ fn reruns_only_what_changed_survives_errors_and_stops_on_sigint() {
     let err: String = w.stderr.iter().collect::<Vec<_>>().join("\n");
     assert!(err.contains("watch: stopped after 5 runs"), "{err}");
 }
+
+#[test]
+fn options_for_a_single_run_are_refused() {
+    for flag in [&["--json"][..], &["--print", "s"], &["-v"]] {
+        let mut args = vec!["watch", "g.ron"];
+        args.extend_from_slice(flag);
+        run_hdrflow(&args).assert_code(2).assert_stderr_contains("one summary line per run");
+    }
+}

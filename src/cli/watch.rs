@@ -40,6 +40,11 @@ enum Message {
 }
 
 pub(crate) fn watch(registry: &Registry, args: &WatchArgs) -> ExitCode {
+    // Options whose output is one value for one run make no sense for a stream of runs.
+    if args.run.json || !args.run.print.is_empty() || args.run.verbose {
+        eprintln!("error: watch prints one summary line per run: --json, --print and -v are for `hdrflow run`");
+        return ExitCode::from(2);
+    }
     let (tx, rx) = mpsc::channel::<Message>();
     let stop = tx.clone();
     if let Err(e) = ctrlc::set_handler(move || {
