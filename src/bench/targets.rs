@@ -100,7 +100,7 @@ pub fn measure(data: &Path, peers: Option<&Path>, repeats: usize, log: &dyn Fn(&
         std::hint::black_box(sum);
         let (cdf_ms, dist) = time_median(n, || Distribution2D::build(&big, true, false));
         dist.map_err(|e| e.to_string())?;
-        let mib = big.data.len() * 4 >> 20;
+        let mib = (big.data.len() * 4) >> 20;
         log(&format!("BuildCdf {w}x{h}: {cdf_ms:.2} ms; one pass over its {mib} MiB: {pass_ms:.2} ms"));
         out.push(Target {
             name: format!("BuildCdf {w}x{h} vs one pass over its bytes"),
