@@ -20,6 +20,20 @@ impl Cubemap {
         Cubemap { size, data: vec![0.0; 6 * size * size * 3] }
     }
 
+    /// A cube map of face size `size` whose texel (face, x, y) is `f(face, x, y)`, rows in
+    /// parallel: the loop every resampler and filter over cube texels shares.
+    pub fn from_fn(size: usize, f: impl Fn(usize, usize, usize) -> [f32; 3] + Sync) -> Self {
+        use rayon::prelude::*;
+        let mut out = Cubemap::new(size);
+        out.data.par_chunks_mut(3 * size.max(1)).enumerate().for_each(|(row, texels)| {
+            let (face, y) = (row / size, row % size);
+            for x in 0..size {
+                texels[3 * x..3 * x + 3].copy_from_slice(&f(face, x, y));
+            }
+        });
+        out
+    }
+
     /// Number of texels (6 S^2).
     pub fn texel_count(&self) -> usize {
         6 * self.size * self.size

@@ -42,7 +42,7 @@ use rayon::prelude::*;
 
 use crate::data::{Cubemap, Image, MipChain};
 use crate::geometry::cubemap as cube;
-use crate::maths::irradiance_cube::Texels;
+use crate::maths::irradiance_cube::{normalised, Texels};
 use crate::maths::resample::downsample;
 use crate::maths::sequences::{radical_inverse, sobol_2d};
 
@@ -239,58 +239,38 @@ pub fn prefilter_level_fis(pyr: &[Cubemap], size: usize, roughness: f64, pts: &[
             Some((l, l.z, if lod.is_finite() { lod } else { 0.0 }))
         })
         .collect();
-    let mut out = Cubemap::new(size);
-    out.data.par_chunks_mut(3 * size).enumerate().for_each(|(row, texels)| {
-        let (f, y) = (row / size, row % size);
-        for x in 0..size {
-            let nrm = cube::texel_direction(f, x, y, size);
-            let (t, b) = basis(nrm);
-            let mut acc = [0.0f64; 3];
-            let mut w = 0.0;
-            for &(l, nol, lod) in &lobe {
-                let d = t * l.x + b * l.y + nrm * l.z;
-                let v = trilinear(pyr, d, lod);
-                for k in 0..3 {
-                    acc[k] += v[k] * nol;
-                }
-                w += nol;
-            }
+    Cubemap::from_fn(size, |f, x, y| {
+        let nrm = cube::texel_direction(f, x, y, size);
+        let (t, b) = basis(nrm);
+        let mut acc = [0.0f64; 3];
+        let mut w = 0.0;
+        for &(l, nol, lod) in &lobe {
+            let d = t * l.x + b * l.y + nrm * l.z;
+            let v = trilinear(pyr, d, lod);
             for k in 0..3 {
-                texels[3 * x + k] = if w > 0.0 { (acc[k] / w) as f32 } else { 0.0 };
+                acc[k] += v[k] * nol;
             }
+            w += nol;
         }
-    });
-    out
+        normalised(acc, w)
+    })
 }
 
 /// One level filtered exactly: the same weighted lobe summed over every source texel.
 pub fn prefilter_level_exact(src: &Cubemap, size: usize, roughness: f64) -> Cubemap {
     let alpha = roughness * roughness;
     let texels = Texels::from_cube(src);
-    let mut out = Cubemap::new(size);
-    out.data.par_chunks_mut(3 * size).enumerate().for_each(|(row, px)| {
-        let (f, y) = (row / size, row % size);
-        for x in 0..size {
-            let nrm = cube::texel_direction(f, x, y, size);
-            let mut acc = [0.0f64; 3];
-            let mut w = 0.0;
-            texels.for_each(|l, o, v| {
-                let nol = nrm.dot(l);
-                if nol > 0.0 {
-                    let h = (nrm + l).normalize();
-                    let wt = d_ggx(nrm.dot(h), alpha) * nol * o;
-                    for k in 0..3 {
-                        acc[k] += v[k] * wt;
-                    }
-                    w += wt;
-                }
-            });
-            for k in 0..3 {
-                px[3 * x + k] = if w > 0.0 { (acc[k] / w) as f32 } else { 0.0 };
+    Cubemap::from_fn(size, |f, x, y| {
+        let nrm = cube::texel_direction(f, x, y, size);
+        texels.weighted_mean(|l| {
+            let nol = nrm.dot(l);
+            if nol > 0.0 {
+                d_ggx(nrm.dot((nrm + l).normalize()), alpha) * nol
+            } else {
+                0.0
             }
-        }
-    });
-    out
+        })
+    })
 }
 
 /// The prefiltered chain of `src` (level 0 is `src` itself): `levels` levels, level k of size

@@ -88,6 +88,24 @@ impl<'a> Texels<'a> {
         Texels::Cube { cube, face }
     }
 
+    /// `sum_t L_t w(d_t) Omega_t / sum_t w(d_t) Omega_t` over the texels t whose weight `w` is
+    /// positive (black when none is): the normalised filters of the exact references.
+    pub fn weighted_mean(&self, weight: impl Fn(DVec3) -> f64) -> [f32; 3] {
+        let mut acc = [0.0f64; 3];
+        let mut total = 0.0;
+        self.for_each(|l, o, v| {
+            let w = weight(l);
+            if w > 0.0 {
+                let wt = w * o;
+                for k in 0..3 {
+                    acc[k] += v[k] * wt;
+                }
+                total += wt;
+            }
+        });
+        normalised(acc, total)
+    }
+
     /// Calls `f(direction, solid angle, rgb)` for every texel, in storage order.
     #[inline]
     pub fn for_each(&self, mut f: impl FnMut(DVec3, f64, [f64; 3])) {
@@ -115,31 +133,23 @@ impl<'a> Texels<'a> {
     }
 }
 
-/// The exact irradiance / pi cube map of face size `size`.
+/// `acc / weight` as RGB, black when the weight is not positive.
+#[inline]
+pub fn normalised(acc: [f64; 3], weight: f64) -> [f32; 3] {
+    if weight > 0.0 {
+        acc.map(|v| (v / weight) as f32)
+    } else {
+        [0.0; 3]
+    }
+}
+
+/// The exact irradiance / pi cube map of face size `size`: per texel the cosine-weighted mean
+/// of the map over the hemisphere around its direction.
 pub fn exact(src: &Texels, size: usize) -> Cubemap {
-    let mut out = Cubemap::new(size);
-    out.data.par_chunks_mut(3 * size).enumerate().for_each(|(row, px)| {
-        let (f, y) = (row / size, row % size);
-        for x in 0..size {
-            let n = cube::texel_direction(f, x, y, size);
-            let mut acc = [0.0f64; 3];
-            let mut w = 0.0;
-            src.for_each(|l, o, v| {
-                let c = n.dot(l);
-                if c > 0.0 {
-                    let wt = c * o;
-                    for k in 0..3 {
-                        acc[k] += v[k] * wt;
-                    }
-                    w += wt;
-                }
-            });
-            for k in 0..3 {
-                px[3 * x + k] = if w > 0.0 { (acc[k] / w) as f32 } else { 0.0 };
-            }
-        }
-    });
-    out
+    Cubemap::from_fn(size, |f, x, y| {
+        let n = cube::texel_direction(f, x, y, size);
+        src.weighted_mean(|l| n.dot(l))
+    })
 }
 
 /// SH coefficients (World frame) of a cube map: `sum_t L_t Y_lm(d_t) Omega_t` (exact texel solid

@@ -277,26 +277,16 @@ fn average<S: SphereSource, F: Footprint>(src: &S, fp: &F, r: [f64; 4], lim: &Li
     let [p0, p1, q0, q1] = r;
     let corners = [(p0, q0), (p1, q0), (p0, q1), (p1, q1)].map(|(p, q)| src.texel_of(fp.dir(p, q)));
     integrate(src, fp, r, corners, 0, lim, &mut acc, &mut weight);
-    if weight > 0.0 {
-        acc.map(|v| (v / weight) as f32)
-    } else {
-        [0.0; 3]
-    }
+    crate::maths::irradiance_cube::normalised(acc, weight)
 }
 
 /// The cube map of face size `size` whose texels average `src` over their footprints.
 pub fn to_cube<S: SphereSource>(src: &S, size: usize) -> Cubemap {
-    let mut out = Cubemap::new(size);
     let lim = Limits::new(src, 2.0 / size as f64);
-    out.data.par_chunks_mut(3 * size).enumerate().for_each(|(row, texels)| {
-        let (face, y) = (row / size, row % size);
-        let fp = Face(face);
-        for x in 0..size {
-            let r = [cube::edge(x, size), cube::edge(x + 1, size), cube::edge(y, size), cube::edge(y + 1, size)];
-            texels[3 * x..3 * x + 3].copy_from_slice(&average(src, &fp, r, &lim));
-        }
-    });
-    out
+    Cubemap::from_fn(size, |face, x, y| {
+        let r = [cube::edge(x, size), cube::edge(x + 1, size), cube::edge(y, size), cube::edge(y + 1, size)];
+        average(src, &Face(face), r, &lim)
+    })
 }
 
 /// The W x H lat-long RGB image whose texels average `src` over their footprints.
