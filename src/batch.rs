@@ -420,10 +420,11 @@ pub fn run(items: &[Item], pipelines: &[Pipeline], options: &BatchOptions) -> Ba
                 let p = &pipelines[k];
                 options.observer.item_started(item);
                 let t0 = Instant::now();
+                let item_cache = cache.fork();
                 let run_options = RunOptions {
                     targets: targets(p),
                     out_dir: options.out_dir.join(&item.dir),
-                    cache: Some(cache.fork()),
+                    cache: Some(item_cache.clone()),
                     jobs: Some(per_item),
                     observer: &Silent,
                 };
@@ -477,7 +478,10 @@ pub fn run(items: &[Item], pipelines: &[Pipeline], options: &BatchOptions) -> Ba
                         }
                     }
                 }
-                prune();
+                // The folder only grew if the item stored something (scanning it is not free).
+                if item_cache.added_bytes() > 0 {
+                    prune();
+                }
                 options.observer.item_finished(&row);
                 rows.lock().expect("rows lock")[k] = Some(row);
             });

@@ -304,7 +304,7 @@ fn load_or_message(registry: &Registry, args: &GraphArgs) -> Result<Pipeline, St
 /// Writes the HTML page of a run (`--html`); a failure to write is a warning, not the run's.
 fn write_html(
     path: &std::path::Path,
-    p: &Pipeline,
+    p: Option<&Pipeline>,
     report: Option<&scheduler::RunReport>,
     args: &RunArgs,
     error: Option<String>,
@@ -313,7 +313,7 @@ fn write_html(
 ) {
     let page = crate::report::html::Page {
         title: args.graph.graph.display().to_string(),
-        pipeline: Some(p),
+        pipeline: p,
         report,
         out_dir: &args.out,
         error,
@@ -441,7 +441,7 @@ fn run(registry: &Registry, args: &RunArgs) -> ExitCode {
             Ok(o) => (Some(&o.report), None),
             Err(e) => (None, Some(format!("error: {e}"))),
         };
-        write_html(html, &p, report, args, error, None, format!("hdrflow run, {}", now_hms()));
+        write_html(html, Some(&p), report, args, error, None, format!("hdrflow run, {}", now_hms()));
     }
     let outcome = match outcome {
         Ok(o) => o,
@@ -490,13 +490,19 @@ fn run(registry: &Registry, args: &RunArgs) -> ExitCode {
         }
     }
     if let Some(path) = &args.report {
-        let json = serde_json::to_string_pretty(report).expect("report serialises");
-        if let Err(e) = crate::engine::cache::store::write_atomic(path, json.as_bytes()) {
-            eprintln!("error: writing report {}: {e}", path.display());
+        if let Err(e) = write_report(path, report) {
+            eprintln!("error: {e}");
             return ExitCode::from(1);
         }
     }
     ExitCode::SUCCESS
+}
+
+/// `--report FILE`: the run report as pretty JSON, written atomically.
+pub(crate) fn write_report(path: &std::path::Path, report: &scheduler::RunReport) -> Result<(), String> {
+    let json = serde_json::to_string_pretty(report).expect("report serialises");
+    crate::engine::cache::store::write_atomic(path, json.as_bytes())
+        .map_err(|e| format!("writing report {}: {e}", path.display()))
 }
 
 /// Prints the values a user asked for with `--print` (any type, in full where the type can

@@ -21,7 +21,7 @@ use clap::Args;
 use notify::event::{AccessKind, AccessMode, ModifyKind};
 use notify::{EventKind, RecursiveMode, Watcher};
 
-use super::{cache_of, load_or_message, now_hms, progress, write_html, RunArgs};
+use super::{cache_of, load_or_message, now_hms, progress, write_html, write_report, RunArgs};
 use crate::engine::registry::Registry;
 use crate::engine::scheduler::{self, NodeStatus, RunOptions};
 
@@ -121,18 +121,8 @@ fn run_once(
         Err(message) => {
             eprint!("{message}");
             if let Some(html) = &run.html {
-                let page = crate::report::html::Page {
-                    title: run.graph.graph.display().to_string(),
-                    pipeline: None,
-                    report: None,
-                    out_dir: &run.out,
-                    error: Some(message),
-                    refresh_seconds: Some(1),
-                    subtitle: format!("hdrflow watch: run {n} at {}", now_hms()),
-                };
-                if let Err(e) = crate::report::html::write(html, &page) {
-                    eprintln!("warning: writing {}: {e}", html.display());
-                }
+                let subtitle = format!("hdrflow watch: run {n} at {}", now_hms());
+                write_html(html, None, None, run, Some(message), Some(1), subtitle);
             }
             let line = format!("[{}] run {n}{why}: the pipeline has errors; fix the file and save", now_hms());
             return (previous.to_vec(), line);
@@ -153,12 +143,11 @@ fn run_once(
         Ok(o) => {
             let r = &o.report;
             if let Some(html) = &run.html {
-                write_html(html, &p, Some(r), run, None, Some(1), subtitle);
+                write_html(html, Some(&p), Some(r), run, None, Some(1), subtitle);
             }
             if let Some(path) = &run.report {
-                let json = serde_json::to_string_pretty(r).expect("report serialises");
-                if let Err(e) = crate::engine::cache::store::write_atomic(path, json.as_bytes()) {
-                    eprintln!("warning: writing report {}: {e}", path.display());
+                if let Err(e) = write_report(path, r) {
+                    eprintln!("warning: {e}");
                 }
             }
             format!(
@@ -175,7 +164,7 @@ fn run_once(
         Err(e) => {
             eprintln!("error: {e}");
             if let Some(html) = &run.html {
-                write_html(html, &p, None, run, Some(format!("error: {e}")), Some(1), subtitle);
+                write_html(html, Some(&p), None, run, Some(format!("error: {e}")), Some(1), subtitle);
             }
             format!("[{}] run {n}{why}: failed; fix the cause and save", now_hms())
         }

@@ -32,7 +32,8 @@ pub enum Layout {
 pub fn styled_dot(p: &Pipeline, report: Option<&RunReport>) -> String {
     p.to_dot_styled(&|i| {
         let node = &p.nodes[i];
-        let reported = report.and_then(|r| r.nodes.iter().find(|n| n.name == node.name));
+        // A run's report lists the pipeline's nodes in order.
+        let reported = report.and_then(|r| r.nodes.get(i)).filter(|n| n.name == node.name);
         let fill = reported.map_or("#ffffff", |n| status_colour(n.status));
         let label = match reported {
             Some(n) if n.status == NodeStatus::Computed => format!("{}\n{} {:.1} ms", node.name, node.spec.name, n.ms),
