@@ -5,6 +5,7 @@
 
 pub mod cubemap;
 pub mod latlong;
+pub mod latlong_grid;
 pub mod octahedral;
 
 use glam::DVec3;

@@ -7,6 +7,7 @@ pub mod error_metrics;
 pub mod fresnel;
 pub mod ggx;
 pub mod glossy;
+pub mod guide_table;
 pub mod irradiance_cube;
 pub mod kernels;
 pub mod per_pixel;

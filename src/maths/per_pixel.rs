@@ -44,9 +44,10 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::data::{Distribution2D, Image};
-use crate::geometry::latlong;
+use crate::geometry::latlong_grid::{sincos_turns, LatLongGrid};
+use crate::maths::guide_table::GuidedDistribution;
 use crate::maths::relight::SphereView;
-use crate::maths::sequences::{mix64, SplitMix64};
+use crate::maths::sequences::{mix64, nested_uniform_scramble, sobol_2d_bits, SplitMix64};
 
 /// How each pixel samples the environment (see the module documentation).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -91,22 +92,22 @@ pub fn pixel_seed(seed: u64, pixel: u64) -> u64 {
     mix64(mix64(seed ^ 0x5045_5250_4958_454C).wrapping_add(pixel.wrapping_mul(0x9E37_79B9_7F4A_7C15)))
 }
 
-/// Radiance of the texel containing `d`.
-#[inline]
-fn radiance(env: &Image, d: DVec3) -> [f64; 3] {
-    let (x, y) = latlong::texel_of_direction(d.to_array(), env.width, env.height);
-    env.rgb(x, y).map(|v| v as f64)
-}
-
 /// Malley's method: a cosine-distributed direction around unit `n` (pdf `cos / pi`), in the
 /// orthonormal basis (b1, b2, n) of Duff et al., "Building an Orthonormal Basis, Revisited",
 /// JCGT 6(1), 2017, listing 3 (glam's `any_orthonormal_pair` is that listing).
 #[inline]
 pub(crate) fn sample_cosine(n: DVec3, u1: f64, u2: f64) -> DVec3 {
-    let r = u1.sqrt();
-    let (s, c) = (2.0 * PI * u2).sin_cos();
-    let (lx, ly, lz) = (r * c, r * s, (1.0 - u1).max(0.0).sqrt());
     let (b1, b2) = n.any_orthonormal_pair();
+    cosine_in_basis(n, b1, b2, u1, u2)
+}
+
+/// [`sample_cosine`] with the basis computed once per pixel and no libm trigonometry
+/// ([`sincos_turns`]).
+#[inline]
+fn cosine_in_basis(n: DVec3, b1: DVec3, b2: DVec3, u1: f64, u2: f64) -> DVec3 {
+    let r = u1.sqrt();
+    let (s, c) = sincos_turns(u2);
+    let (lx, ly, lz) = (r * c, r * s, (1.0 - u1).max(0.0).sqrt());
     lx * b1 + ly * b2 + lz * n
 }
 
@@ -115,116 +116,283 @@ pub(crate) fn sample_cosine(n: DVec3, u1: f64, u2: f64) -> DVec3 {
 fn sample_uniform(u1: f64, u2: f64) -> DVec3 {
     let z = 1.0 - 2.0 * u1;
     let r = (1.0 - z * z).max(0.0).sqrt();
-    let (s, c) = (2.0 * PI * u2).sin_cos();
+    let (s, c) = sincos_turns(u2);
     DVec3::new(r * c, r * s, z)
 }
 
-/// Exact solid angle of a texel of row `y`: `(2 pi / W)(cos theta_top - cos theta_bottom)`.
-#[inline]
-fn exact_texel_solid_angle(y: usize, w: usize, h: usize) -> f64 {
-    (2.0 * PI / w as f64) * ((PI * y as f64 / h as f64).cos() - (PI * (y + 1) as f64 / h as f64).cos())
+/// Where a pixel's uniforms come from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PerPixelSequence {
+    /// Independent uniforms from the pixel's SplitMix64 stream.
+    Random,
+    /// Per pixel, Owen-scrambled 2D Sobol points (Burley, "Practical Hash-based Owen
+    /// Scrambling", JCGT 9(4), 2020): each 2D request of a sample (the environment texel, the
+    /// point inside it, the cosine direction) is its own Sobol sequence, scrambled with seeds
+    /// from the pixel's stream, its index shuffled by a nested uniform scramble (Burley's
+    /// padding), so the pairs are independent of each other and every pixel is an independent
+    /// randomised-QMC estimate. With a power-of-two `spp` each pair is a (0, m, 2)-net. The 32
+    /// Sobol bits are completed to 53 with random low bits so every texel of positive
+    /// probability stays reachable. This is the analogue of Mitsuba's `ldsampler`.
+    Sobol,
 }
 
-/// The continuous environment technique of `Mis`: a texel from `dist`, then a point uniform in
-/// solid angle inside it.
-#[inline]
-fn sample_env_continuous(dist: &Distribution2D, u: [f64; 4]) -> DVec3 {
-    let (w, h) = (dist.width, dist.height);
-    let (x, y, _) = dist.sample(u[0], u[1]);
-    let phi = 2.0 * PI * (x as f64 + u[2]) / w as f64;
-    let c0 = (PI * y as f64 / h as f64).cos();
-    let c1 = (PI * (y + 1) as f64 / h as f64).cos();
-    let ct = c0 + (c1 - c0) * u[3];
-    let st = (1.0 - ct * ct).max(0.0).sqrt();
-    let (sp, cp) = phi.sin_cos();
-    DVec3::new(-st * sp, ct, st * cp)
-}
+impl PerPixelSequence {
+    pub const NAMES: &'static [&'static str] = &["Random", "Sobol"];
+    pub const ALL: [PerPixelSequence; 2] = [PerPixelSequence::Random, PerPixelSequence::Sobol];
 
-/// Density (per steradian) of [`sample_env_continuous`] at `d`: the probability of the texel
-/// containing `d` over its exact solid angle.
-#[inline]
-fn pdf_env_continuous(dist: &Distribution2D, d: DVec3) -> f64 {
-    let (x, y) = latlong::texel_of_direction(d.to_array(), dist.width, dist.height);
-    let p = dist.texel_probability(x, y) / exact_texel_solid_angle(y, dist.width, dist.height);
-    if p.is_finite() && p > 0.0 {
-        p
-    } else {
-        0.0
+    pub fn name(self) -> &'static str {
+        Self::NAMES[self as usize]
+    }
+
+    pub fn from_name(name: &str) -> Option<PerPixelSequence> {
+        Self::ALL.iter().copied().find(|s| s.name().eq_ignore_ascii_case(name.trim()))
     }
 }
 
-/// One pixel's irradiance estimate `(1/spp) sum_j F_j` (see the module documentation) at unit
-/// normal `n`, drawing uniforms from `rng`. `spp == 0` gives zeros. `dist` must describe a map
-/// of `env`'s size when the strategy uses it (unchecked here; [`relight_per_pixel`] checks).
-pub fn estimate_irradiance(
-    env: &Image,
-    dist: &Distribution2D,
-    n: [f64; 3],
-    strategy: PerPixelStrategy,
-    spp: usize,
-    rng: &mut SplitMix64,
-) -> [f64; 3] {
-    let n = DVec3::from(n);
-    let mut sum = [0.0f64; 3];
-    let mut add = |l: [f64; 3], k: f64| {
-        for ch in 0..3 {
-            sum[ch] += l[ch] * k;
+/// One pixel's source of 2D uniforms (see [`PerPixelSequence`]).
+struct PixelUniforms {
+    rng: SplitMix64,
+    /// Per 2D request k: (index shuffle seed, x scramble seed, y scramble seed); `None` for
+    /// `Random`.
+    sobol: Option<[[u32; 3]; 3]>,
+}
+
+impl PixelUniforms {
+    fn new(sequence: PerPixelSequence, seed: u64) -> PixelUniforms {
+        let mut rng = SplitMix64::new(seed);
+        let sobol = match sequence {
+            PerPixelSequence::Random => None,
+            PerPixelSequence::Sobol => {
+                let mut seeds = [[0u32; 3]; 3];
+                for s in seeds.iter_mut().flatten() {
+                    *s = (rng.next_u64() >> 32) as u32;
+                }
+                Some(seeds)
+            }
+        };
+        PixelUniforms { rng, sobol }
+    }
+
+    /// The `k`-th 2D request (k < 3) of sample `j`. Request 0 chooses the texel: 53-bit
+    /// uniforms, so that every texel of positive probability can be drawn; the others choose a
+    /// direction (inside a texel, or around the normal), where 32 bits (2.3e-10) are far finer
+    /// than any texel, so `Random` takes both from one 64-bit draw.
+    #[inline]
+    fn pair(&mut self, j: usize, k: usize) -> [f64; 2] {
+        match &self.sobol {
+            None if k == 0 => [self.rng.next_f64(), self.rng.next_f64()],
+            None => {
+                let r = self.rng.next_u64();
+                let unit = |bits: u64| bits as f64 * (1.0 / 4_294_967_296.0);
+                [unit(r >> 32), unit(r & 0xFFFF_FFFF)]
+            }
+            Some(seeds) => {
+                let [shuffle, sx, sy] = seeds[k];
+                let [x, y] = sobol_2d_bits(nested_uniform_scramble(j as u32, shuffle));
+                let low = self.rng.next_u64();
+                let fill = |bits: u32, low21: u64| (((bits as u64) << 21) | low21) as f64 * (1.0 / (1u64 << 53) as f64);
+                [
+                    fill(nested_uniform_scramble(x, sx), low & 0x1F_FFFF),
+                    fill(nested_uniform_scramble(y, sy), (low >> 21) & 0x1F_FFFF),
+                ]
+            }
         }
-    };
-    for _ in 0..spp {
-        match strategy {
-            PerPixelStrategy::Environment => {
-                let (x, y, pdf) = dist.sample(rng.next_f64(), rng.next_f64());
-                if pdf > 0.0 {
-                    let d = DVec3::from(latlong::texel_direction(x, y, env.width, env.height));
-                    let c = n.dot(d).max(0.0);
-                    add(env.rgb(x, y).map(|v| v as f64), c / pdf);
+    }
+}
+
+/// What one texel offers a sample that lands in it: its radiance and the density (per
+/// steradian) of the strategy's environment technique there. 16 bytes, so one cache line holds
+/// four and a sample's texel costs one memory read. The density is stored as f32: a relative
+/// rounding of 6e-8, which biases the estimate by at most that much (the f64 arithmetic around
+/// it is unchanged).
+#[derive(Clone, Copy, Debug, Default)]
+struct TexelRecord {
+    radiance: [f32; 3],
+    pdf: f32,
+}
+
+/// Samples processed per batch: the texels of a batch are found first and read second, so the
+/// processor has a batch's worth of independent memory reads in flight instead of one chain per
+/// sample (the tables exceed the L2 cache on a 1024x512 map).
+const BATCH: usize = 16;
+
+/// What every pixel reads: the lat-long tables, the per-texel records and, when the strategy
+/// draws from the distribution, its guide tables.
+struct Scene<'a> {
+    grid: LatLongGrid,
+    records: Vec<TexelRecord>,
+    width: usize,
+    guided: Option<GuidedDistribution<'a>>,
+}
+
+impl<'a> Scene<'a> {
+    /// Records hold the radiance and, for `Environment`, the midpoint density
+    /// `P(texel) / dOmega_mid` (the pdf of `Distribution2D::sample`), for `Mis` the continuous
+    /// technique's `P(texel) / dOmega_exact`; 0 where that is not a positive finite number.
+    fn new(env: &Image, dist: &'a Distribution2D, strategy: PerPixelStrategy) -> Scene<'a> {
+        let (w, h) = (env.width, env.height);
+        let grid = LatLongGrid::new(w, h);
+        let mut records = vec![TexelRecord::default(); w * h];
+        records.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
+            let solid_angle = match strategy {
+                PerPixelStrategy::Environment => grid.midpoint_solid_angle(y),
+                _ => grid.exact_solid_angle(y),
+            };
+            for (x, r) in row.iter_mut().enumerate() {
+                r.radiance = env.rgb(x, y);
+                if strategy.uses_distribution() {
+                    let p = dist.texel_probability(x, y) / solid_angle;
+                    r.pdf = if p.is_finite() && p > 0.0 { p as f32 } else { 0.0 };
                 }
             }
-            PerPixelStrategy::Cosine => {
-                let w = sample_cosine(n, rng.next_f64(), rng.next_f64());
-                // f / p = L cos / (cos / pi) = pi L.
-                add(radiance(env, w), PI);
+        });
+        let guided = strategy.uses_distribution().then(|| GuidedDistribution::new(dist));
+        Scene { grid, records, width: w, guided }
+    }
+
+    #[inline]
+    fn record(&self, x: usize, y: usize) -> &TexelRecord {
+        &self.records[y * self.width + x]
+    }
+
+    /// One pixel's irradiance estimate `(1/spp) sum_j F_j` (see the module documentation) at
+    /// unit normal `n`, in batches of [`BATCH`] samples (summed in sample order). `spp == 0`
+    /// gives zeros.
+    fn estimate_irradiance(
+        &self,
+        n: DVec3,
+        strategy: PerPixelStrategy,
+        spp: usize,
+        uniforms: &mut PixelUniforms,
+    ) -> [f64; 3] {
+        if spp == 0 {
+            return [0.0; 3];
+        }
+        let mut sum = [0.0f64; 3];
+        let mut add = |l: [f32; 3], k: f64| {
+            for ch in 0..3 {
+                sum[ch] += l[ch] as f64 * k;
             }
-            PerPixelStrategy::Uniform => {
-                let w = sample_uniform(rng.next_f64(), rng.next_f64());
-                add(radiance(env, w), 4.0 * PI * n.dot(w).max(0.0));
+        };
+        let (b1, b2) = n.any_orthonormal_pair();
+        let mut dirs = [DVec3::ZERO; 2 * BATCH];
+        let mut texels = [(0usize, 0usize); 2 * BATCH];
+        let mut later = [[0.0f64; 4]; BATCH];
+        for start in (0..spp).step_by(BATCH) {
+            let count = BATCH.min(spp - start);
+            // Stage 1: directions and the texels they fall in (no reads of the records). The
+            // distribution's searches come first, alone in their loop, so that the batch's
+            // cache misses overlap.
+            match strategy {
+                PerPixelStrategy::Environment => {
+                    let guided = self.guided.as_ref().expect("built for this strategy");
+                    for i in 0..count {
+                        let [u1, u2] = uniforms.pair(start + i, 0);
+                        texels[i] = guided.sample(u1, u2);
+                    }
+                    for i in 0..count {
+                        dirs[i] = DVec3::from(self.grid.centre_direction(texels[i].0, texels[i].1));
+                    }
+                }
+                PerPixelStrategy::Cosine | PerPixelStrategy::Uniform => {
+                    for i in 0..count {
+                        let [u1, u2] = uniforms.pair(start + i, 0);
+                        dirs[i] = if strategy == PerPixelStrategy::Cosine {
+                            cosine_in_basis(n, b1, b2, u1, u2)
+                        } else {
+                            sample_uniform(u1, u2)
+                        };
+                        texels[i] = self.grid.texel_of(dirs[i].to_array());
+                    }
+                }
+                PerPixelStrategy::Mis => {
+                    let guided = self.guided.as_ref().expect("built for this strategy");
+                    for i in 0..count {
+                        let j = start + i;
+                        let [u1, u2] = uniforms.pair(j, 0);
+                        let [u3, u4] = uniforms.pair(j, 1);
+                        let [u5, u6] = uniforms.pair(j, 2);
+                        later[i] = [u3, u4, u5, u6];
+                        // Environment technique: the texel ...
+                        texels[2 * i] = guided.sample(u1, u2);
+                    }
+                    for i in 0..count {
+                        let [u3, u4, u5, u6] = later[i];
+                        // ... then a point uniform in solid angle in it.
+                        let (x, y) = texels[2 * i];
+                        dirs[2 * i] = DVec3::from(self.grid.point_in_texel(x, y, u3, u4));
+                        // Cosine technique: the texel containing the direction.
+                        dirs[2 * i + 1] = cosine_in_basis(n, b1, b2, u5, u6);
+                        texels[2 * i + 1] = self.grid.texel_of(dirs[2 * i + 1].to_array());
+                    }
+                }
             }
-            PerPixelStrategy::Mis => {
-                let u = [rng.next_f64(), rng.next_f64(), rng.next_f64(), rng.next_f64()];
-                let we = sample_env_continuous(dist, u);
-                let wc = sample_cosine(n, rng.next_f64(), rng.next_f64());
-                for w in [we, wc] {
-                    let c = n.dot(w).max(0.0);
-                    if c > 0.0 {
-                        // Balance heuristic: w_i f / p_i = f / (p_e + p_c).
-                        let denom = pdf_env_continuous(dist, w) + c / PI;
-                        add(radiance(env, w), c / denom);
+            // Stage 2: read the texels' records and accumulate, in sample order.
+            for i in 0..count {
+                match strategy {
+                    PerPixelStrategy::Environment => {
+                        let r = self.record(texels[i].0, texels[i].1);
+                        if r.pdf > 0.0 {
+                            add(r.radiance, n.dot(dirs[i]).max(0.0) / r.pdf as f64);
+                        }
+                    }
+                    // f / p = L cos / (cos / pi) = pi L.
+                    PerPixelStrategy::Cosine => add(self.record(texels[i].0, texels[i].1).radiance, PI),
+                    PerPixelStrategy::Uniform => {
+                        add(self.record(texels[i].0, texels[i].1).radiance, 4.0 * PI * n.dot(dirs[i]).max(0.0))
+                    }
+                    PerPixelStrategy::Mis => {
+                        for k in [2 * i, 2 * i + 1] {
+                            let c = n.dot(dirs[k]).max(0.0);
+                            if c > 0.0 {
+                                let r = self.record(texels[k].0, texels[k].1);
+                                // Balance heuristic: w_i f / p_i = f / (p_e + p_c), and
+                                // c / (p_e + c / pi) = pi c / (pi p_e + c): one division.
+                                add(r.radiance, PI * c / (PI * r.pdf as f64 + c));
+                            }
+                        }
                     }
                 }
             }
         }
+        sum.map(|s| s / spp as f64)
     }
-    if spp == 0 {
-        return [0.0; 3];
-    }
-    sum.map(|s| s / spp as f64)
 }
 
-/// Renders the diffuse sphere with per-pixel independent samples: `Lo = (albedo / pi) *`
-/// [`estimate_irradiance`] with `spp` counts at every pixel of `view`'s disc (normals from
-/// [`SphereView::normal_at`]), 0 off the disc; pixel `i = py * size + px` draws from
-/// `SplitMix64::new(pixel_seed(seed, i))`. Rows in parallel; the result does not depend on the
-/// number of threads.
-///
-/// Panics if the strategy uses `dist` and `dist` is not over a map of `env`'s size (the
-/// operator checks this first).
+/// [`relight_per_pixel_with`] with independent random uniforms ([`PerPixelSequence::Random`]).
 pub fn relight_per_pixel(
     env: &Image,
     dist: &Distribution2D,
     view: &SphereView,
     albedo: [f64; 3],
     strategy: PerPixelStrategy,
+    spp: usize,
+    seed: u64,
+) -> Image {
+    relight_per_pixel_with(env, dist, view, albedo, strategy, PerPixelSequence::Random, spp, seed)
+}
+
+/// Renders the diffuse sphere with per-pixel independent samples: `Lo = (albedo / pi) *` the
+/// pixel's irradiance estimate with `spp` counts at every pixel of `view`'s disc (normals from
+/// [`SphereView::normal_at`]), 0 off the disc; pixel `i = py * size + px` draws its uniforms
+/// from `sequence` seeded with [`pixel_seed`]`(seed, i)`. Rows in parallel; the result does not
+/// depend on the number of threads.
+///
+/// Speed (see BENCHMARKS.md): the texel is drawn through guide tables
+/// ([`GuidedDistribution`], the same texel as `Distribution2D::sample`), texel directions,
+/// solid angles and edges come from a [`LatLongGrid`], and directions are mapped to texels
+/// without libm calls, so a sample costs a few table reads and no trigonometry.
+///
+/// Panics if the strategy uses `dist` and `dist` is not over a map of `env`'s size (the
+/// operator checks this first).
+#[allow(clippy::too_many_arguments)]
+pub fn relight_per_pixel_with(
+    env: &Image,
+    dist: &Distribution2D,
+    view: &SphereView,
+    albedo: [f64; 3],
+    strategy: PerPixelStrategy,
+    sequence: PerPixelSequence,
     spp: usize,
     seed: u64,
 ) -> Image {
@@ -243,12 +411,13 @@ pub fn relight_per_pixel(
     if size == 0 || env.width == 0 || env.height == 0 {
         return image;
     }
+    let scene = Scene::new(env, dist, strategy);
     let scale = albedo.map(|a| a / PI);
     image.data.par_chunks_mut(size * 3).enumerate().for_each(|(py, row)| {
         for px in 0..size {
             let Some(n) = view.normal_at(px, py) else { continue };
-            let mut rng = SplitMix64::new(pixel_seed(seed, (py * size + px) as u64));
-            let e = estimate_irradiance(env, dist, n, strategy, spp, &mut rng);
+            let mut uniforms = PixelUniforms::new(sequence, pixel_seed(seed, (py * size + px) as u64));
+            let e = scene.estimate_irradiance(DVec3::from(n), strategy, spp, &mut uniforms);
             for ch in 0..3 {
                 row[px * 3 + ch] = (scale[ch] * e[ch]) as f32;
             }
@@ -260,6 +429,7 @@ pub fn relight_per_pixel(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geometry::latlong;
     use crate::maths::reference::irradiance_exact;
     use crate::maths::test_maps::{luminance_distribution, replicate};
 
@@ -277,8 +447,7 @@ mod tests {
     #[test]
     fn samplers_are_on_the_sphere_and_in_the_right_texel() {
         let mut rng = SplitMix64::new(5);
-        let env = Image::from_fn_rgb(16, 8, |x, y| [(x + 16 * y) as f32 + 1.0, 1.0, 1.0]);
-        let dist = luminance_distribution(&env);
+        let grid = LatLongGrid::new(16, 8);
         for _ in 0..10_000 {
             let n = sample_uniform(rng.next_f64(), rng.next_f64());
             assert!((n.dot(n) - 1.0).abs() < 1e-12);
@@ -286,14 +455,33 @@ mod tests {
             assert!(b1.dot(n).abs() < 1e-12 && b2.dot(n).abs() < 1e-12 && b1.dot(b2).abs() < 1e-12);
             let w = sample_cosine(n, rng.next_f64(), rng.next_f64());
             assert!((w.dot(w) - 1.0).abs() < 1e-12 && w.dot(n) >= -1e-12);
-            let u = [rng.next_f64(), rng.next_f64(), rng.next_f64(), rng.next_f64()];
-            let we = sample_env_continuous(&dist, u);
+            let (x, y) = ((rng.next_f64() * 16.0) as usize, (rng.next_f64() * 8.0) as usize);
+            let we = DVec3::from(grid.point_in_texel(x, y, rng.next_f64(), rng.next_f64()));
             assert!((we.dot(we) - 1.0).abs() < 1e-12);
-            assert!(pdf_env_continuous(&dist, we) > 0.0);
+            assert_eq!(latlong::texel_of_direction(we.to_array(), 16, 8), (x, y));
         }
-        // The exact texel solid angles sum to 4 pi.
-        let total: f64 = (0..8).map(|y| 16.0 * exact_texel_solid_angle(y, 16, 8)).sum();
-        assert!((total - 4.0 * PI).abs() < 1e-12);
+    }
+
+    /// Both sequences give values in [0, 1); Sobol's first 2^m points of a request, per pixel,
+    /// put exactly one point in each of the 2^m columns (a (0, m, 2)-net's 1D projection).
+    #[test]
+    fn sobol_uniforms_are_stratified_per_pixel() {
+        for pixel in 0..20u64 {
+            let mut u = PixelUniforms::new(PerPixelSequence::Sobol, pixel_seed(3, pixel));
+            for k in 0..3 {
+                let mut columns = [0usize; 64];
+                let mut rows = [0usize; 64];
+                for j in 0..64 {
+                    let [a, b] = u.pair(j, k);
+                    assert!((0.0..1.0).contains(&a) && (0.0..1.0).contains(&b));
+                    columns[(a * 64.0) as usize] += 1;
+                    rows[(b * 64.0) as usize] += 1;
+                }
+                assert!(columns.iter().chain(&rows).all(|&c| c == 1), "pixel {pixel} request {k}");
+            }
+        }
+        let mut r = PixelUniforms::new(PerPixelSequence::Random, 1);
+        assert!((0..1000).all(|j| r.pair(j, 0).iter().all(|v| (0.0..1.0).contains(v))));
     }
 
     #[test]
@@ -376,12 +564,12 @@ mod tests {
                 sum3(areas),
                 sum3(centres) / sum3(areas) - 1.0
             );
-            for s in PerPixelStrategy::ALL {
+            for (s, q) in PerPixelStrategy::ALL.into_iter().flat_map(|s| PerPixelSequence::ALL.map(|q| (s, q))) {
                 let want = if s == PerPixelStrategy::Environment { sum3(centres) } else { sum3(areas) };
                 let mut m = 0.0f64;
                 let mut m2 = 0.0f64;
                 for seed in 0..seeds {
-                    let img = relight_per_pixel(&env, &dist, &view, [1.0; 3], s, spp, seed);
+                    let img = relight_per_pixel_with(&env, &dist, &view, [1.0; 3], s, q, spp, seed);
                     let p = img.pixel(px, py);
                     let v = (p[0] + p[1] + p[2]) as f64;
                     m += v;
@@ -391,8 +579,8 @@ mod tests {
                 let var = (m2 / seeds as f64 - mean * mean) * seeds as f64 / (seeds - 1) as f64;
                 let se = (var / seeds as f64).sqrt();
                 let z = (mean - want) / se;
-                eprintln!("  {s:?}: mean {mean:.6}, want {want:.6}, standard error {se:.2e}, z = {z:+.2}");
-                assert!(z.abs() < 3.0, "{s:?} pixel ({px},{py}): z = {z}");
+                eprintln!("  {s:?} {q:?}: mean {mean:.6}, want {want:.6}, standard error {se:.2e}, z = {z:+.2}");
+                assert!(z.abs() < 3.5, "{s:?} {q:?} pixel ({px},{py}): z = {z}");
                 assert!(se < 0.02 * want, "{s:?}: the test is too weak (se {se})");
             }
         }
@@ -406,12 +594,15 @@ mod tests {
         let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
         let two = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap();
         for s in PerPixelStrategy::ALL {
-            let a = one.install(|| relight_per_pixel(&env, &dist, &view, [0.9, 0.7, 0.5], s, 5, 99));
-            let b = two.install(|| relight_per_pixel(&env, &dist, &view, [0.9, 0.7, 0.5], s, 5, 99));
-            assert!(a.data.iter().zip(&b.data).all(|(x, y)| x.to_bits() == y.to_bits()), "{s:?}");
-            assert!(a.data.iter().any(|&v| v > 0.0));
-            let c = two.install(|| relight_per_pixel(&env, &dist, &view, [0.9, 0.7, 0.5], s, 5, 100));
-            assert_ne!(a.data, c.data, "{s:?} ignores its seed");
+            for q in PerPixelSequence::ALL {
+                let render = |seed| relight_per_pixel_with(&env, &dist, &view, [0.9, 0.7, 0.5], s, q, 5, seed);
+                let a = one.install(|| render(99));
+                let b = two.install(|| render(99));
+                assert!(a.data.iter().zip(&b.data).all(|(x, y)| x.to_bits() == y.to_bits()), "{s:?} {q:?}");
+                assert!(a.data.iter().any(|&v| v > 0.0));
+                let c = two.install(|| render(100));
+                assert_ne!(a.data, c.data, "{s:?} {q:?} ignores its seed");
+            }
         }
     }
 
@@ -434,17 +625,35 @@ mod tests {
         assert!(img.data.is_empty());
     }
 
-    /// Timing: `cargo test --release per_pixel_timing -- --ignored --nocapture`.
+    /// Timing: `cargo test --release --lib per_pixel_timing -- --ignored --nocapture` (Grace
+    /// Cathedral from ../shared when present, else the built-in sky; 128x128 at 1024 spp, the
+    /// benchmark's largest per-pixel point).
     #[test]
     #[ignore]
     fn per_pixel_timing() {
-        let sky = crate::formats::builtin::builtin("sky").unwrap();
-        let dist = luminance_distribution(&sky);
-        let view = SphereView::new(256, latlong::direction_deg(90.0, 90.0));
+        let grace = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data/envmaps/grace_latlong.exr");
+        let env = match std::fs::read(&grace) {
+            Ok(bytes) => crate::formats::decode_by_extension(&bytes, "exr").unwrap().flipped_vertical(),
+            Err(_) => crate::formats::builtin::builtin("sky").unwrap(),
+        };
+        let dist = luminance_distribution(&env);
+        let view = SphereView::new(128, latlong::direction_deg(90.0, 90.0));
+        // HDRFLOW_PER_PIXEL_ONLY=Mis,Random runs one configuration (for `perf stat`).
+        let only = std::env::var("HDRFLOW_PER_PIXEL_ONLY").unwrap_or_default();
         for s in PerPixelStrategy::ALL {
-            let t = std::time::Instant::now();
-            std::hint::black_box(relight_per_pixel(&sky, &dist, &view, [0.8; 3], s, 64, 1));
-            eprintln!("per-pixel {s:?} 256x256 x 64 spp on sky 512x256: {:.3} s", t.elapsed().as_secs_f64());
+            for q in PerPixelSequence::ALL {
+                if !only.is_empty() && only != format!("{s:?},{q:?}") {
+                    continue;
+                }
+                let t = std::time::Instant::now();
+                std::hint::black_box(relight_per_pixel_with(&env, &dist, &view, [0.8; 3], s, q, 1024, 1));
+                eprintln!(
+                    "per-pixel {s:?} {q:?} 128x128 x 1024 spp on {}x{}: {:.3} s",
+                    env.width,
+                    env.height,
+                    t.elapsed().as_secs_f64()
+                );
+            }
         }
     }
 }

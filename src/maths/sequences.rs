@@ -249,27 +249,49 @@ const fn sobol_dim1_matrix() -> [u32; 32] {
     v
 }
 
-const SOBOL_DIM1: [u32; 32] = sobol_dim1_matrix();
+/// `sobol_dim1_matrix()` folded byte by byte: entry `[b][v]` is the XOR of `V_{8b+k+1}` over the set bits
+/// k of v, so the matrix-vector product over GF(2) is four lookups (4 KiB) instead of a loop over
+/// the index's bits.
+const fn sobol_dim1_byte_tables() -> [[u32; 256]; 4] {
+    let v = sobol_dim1_matrix();
+    let mut t = [[0u32; 256]; 4];
+    let mut b = 0;
+    while b < 4 {
+        let mut byte = 0;
+        while byte < 256 {
+            let mut acc = 0u32;
+            let mut k = 0;
+            while k < 8 {
+                if byte & (1 << k) != 0 {
+                    acc ^= v[8 * b + k];
+                }
+                k += 1;
+            }
+            t[b][byte] = acc;
+            byte += 1;
+        }
+        b += 1;
+    }
+    t
+}
+
+const SOBOL_DIM1_BYTES: [[u32; 256]; 4] = sobol_dim1_byte_tables();
 
 /// The i-th point of the unscrambled 2D Sobol sequence as 32-bit fractions, in Gray-code order
 /// (Antonov and Saleev 1979): with `g = i XOR (i >> 1)`,
 /// `x = XOR_k g_k 2^(31-k)` (= bit reversal of g: van der Corput base 2) and
-/// `y = XOR_k g_k V_{k+1}` (see `sobol_dim1_matrix`). Gray-code order permutes points only inside
-/// aligned blocks of 2^m, so every such block is the same (0, m, 2)-net as in natural order.
+/// `y = XOR_k g_k V_{k+1}` (see `sobol_dim1_matrix`; computed a byte at a time). Gray-code order
+/// permutes points only inside aligned blocks of 2^m, so every such block is the same
+/// (0, m, 2)-net as in natural order.
 #[inline]
 pub fn sobol_2d_bits(i: u32) -> [u32; 2] {
     let g = i ^ (i >> 1);
     let x = g.reverse_bits();
-    let mut y = 0u32;
-    let mut bits = g;
-    let mut k = 0;
-    while bits != 0 {
-        if bits & 1 != 0 {
-            y ^= SOBOL_DIM1[k];
-        }
-        bits >>= 1;
-        k += 1;
-    }
+    let t = &SOBOL_DIM1_BYTES;
+    let y = t[0][(g & 0xFF) as usize]
+        ^ t[1][((g >> 8) & 0xFF) as usize]
+        ^ t[2][((g >> 16) & 0xFF) as usize]
+        ^ t[3][(g >> 24) as usize];
     [x, y]
 }
 
@@ -450,12 +472,24 @@ mod tests {
     }
 
     #[test]
+    fn sobol_byte_tables_match_the_bit_loop() {
+        let v = sobol_dim1_matrix();
+        let mut rng = SplitMix64::new(8);
+        for k in 0..20_000u32 {
+            let i = if k < 4096 { k } else { rng.next_u64() as u32 };
+            let g = i ^ (i >> 1);
+            let want = (0..32).filter(|b| g >> b & 1 == 1).fold(0u32, |acc, b| acc ^ v[b]);
+            assert_eq!(sobol_2d_bits(i), [g.reverse_bits(), want], "index {i}");
+        }
+    }
+
+    #[test]
     fn sobol_first_points() {
         let expect = [[0.0, 0.0], [0.5, 0.5], [0.75, 0.25], [0.25, 0.75]];
         for (i, e) in expect.iter().enumerate() {
             assert_eq!(sobol_2d(i as u32), *e, "point {i}");
         }
-        assert_eq!(&SOBOL_DIM1[..4], &[0x8000_0000, 0xC000_0000, 0xA000_0000, 0xF000_0000]);
+        assert_eq!(&sobol_dim1_matrix()[..4], &[0x8000_0000, 0xC000_0000, 0xA000_0000, 0xF000_0000]);
     }
 
     /// Every aligned block of 2^m points is a (0, m, 2)-net: one point in every elementary

@@ -16,7 +16,7 @@ use crate::engine::params::Choice;
 use crate::engine::registry::Registry;
 use crate::geometry::latlong;
 use crate::maths::glossy::{GlossyStrategy, Heuristic};
-use crate::maths::per_pixel::PerPixelStrategy;
+use crate::maths::per_pixel::{PerPixelSequence, PerPixelStrategy};
 use crate::maths::relight::SphereView;
 
 pub fn register(r: &mut Registry) {
@@ -98,6 +98,17 @@ impl Choice for PerPixelStrategy {
     }
 }
 crate::choice_param!(PerPixelStrategy);
+
+impl Choice for PerPixelSequence {
+    const NAMES: &'static [&'static str] = PerPixelSequence::NAMES;
+    fn from_name(name: &str) -> Option<Self> {
+        PerPixelSequence::from_name(name)
+    }
+    fn name(self) -> &'static str {
+        PerPixelSequence::name(self)
+    }
+}
+crate::choice_param!(PerPixelSequence);
 
 impl Choice for GlossyStrategy {
     const NAMES: &'static [&'static str] = GlossyStrategy::NAMES;
