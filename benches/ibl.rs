@@ -217,7 +217,7 @@ fn prefilter_all_maps(maps: &[(String, Image)]) {
             points.push((t * 1e3, e));
         }
         println!("| {name} | {t_exact:.2} s | {} |", cells.join(" | "));
-        lines.push(Line { name: name.clone(), points });
+        lines.push(Line { name: name.clone(), points, ci: Vec::new() });
     }
     let out = Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/bench/prefilter_time_error.svg");
     match plot_svg("PrefilterSpecular, 64 cube: time (ms) against RMS relative error", &lines, 900, 600) {

@@ -34,10 +34,21 @@ Map conversion (verified numerically, see README.md and --check):
 Each variant runs in its own child process, so a variant that crashes (llvm_ad_rgb with LLVM < 19
 aborts in LLVM's instruction selection) is recorded in "skipped" without losing the others.
 
+Seeds: `--seeds 1,2,...` renders every (variant, sampler, count) once per seed (default: the
+single `--seed`), one image and one results.json entry per seed, each with its `seed`. The seed
+is `mi.render`'s: independent random streams for `independent`, a new scramble for `ldsampler`.
+
+scalar_rgb and llvm_ad_rgb run the same algorithm (same distribution of images); scalar_rgb is
+about 12x slower. The LLVM variants run first; when one of them rendered, scalar_rgb renders only
+the counts <= --scalar-max-spp (default 256; the others are listed in "skipped"), so that 8 seeds
+at 4096 spp do not cost many minutes per map. Without a working LLVM variant scalar_rgb renders
+every count (subject to --max-render-s).
+
 Timing per (variant, sampler, count): the scene is loaded once per (variant, sampler)
 (`scene_load_ms`); each count is rendered once untimed (warm-up: JIT compilation for LLVM), then
-`--repeats` times, and the median of `mi.render(scene, spp=N, seed=seed)` + conversion to a NumPy
-array is reported (`ms`). Long renders are kept affordable on a small machine: fewer repeats when
+`--repeats` times, on the FIRST seed only, and the median of `mi.render(scene, spp=N, seed=seed)`
++ conversion to a NumPy array is reported (`ms`). The other seeds are rendered once, untimed
+(`ms` null: timing does not depend on the seed). Long renders are kept affordable on a small machine: fewer repeats when
 repeats x one render would exceed --budget-s (the number used is reported as `repeats`), no
 warm-up when the render is predicted (from the previous count, linearly in spp) to take longer
 than --warmup-below-s (`warmup_ms` is then null: a warm-up only hides one-off costs, negligible
@@ -137,6 +148,7 @@ def worker(args):
 
         dr.set_thread_count(args.threads)
     counts = pc.parse_counts(args.counts)
+    seeds = pc.parse_seeds(args.seeds, args.seed)
     view = pc.sphere_view(*pc.parse_pair(args.view))
     albedo = pc.parse_triple(args.albedo)
 
@@ -164,57 +176,70 @@ def worker(args):
         pc.eprint(f"mitsuba {variant} {sampler}: scene loaded in {scene_ms:.0f} ms")
         last = None  # (count, ms) of the previous count, to predict the next render's time
         for count in counts:
+            if args.worker_max_spp and count > args.worker_max_spp:
+                why = (
+                    f"{variant} renders only up to --scalar-max-spp {args.worker_max_spp} when an LLVM variant "
+                    "works (same distribution, ~12x slower)"
+                )
+                pc.eprint(f"mitsuba {variant} {sampler} spp={count}: skipped: {why}")
+                skipped.append({"variant": variant, "sampler": sampler, "count": count, "why": why})
+                continue
             predicted_s = last[1] * 1e-3 * count / last[0] if last else 0.0
             if predicted_s > args.max_render_s:
                 why = f"predicted {predicted_s:.0f} s per render > --max-render-s {args.max_render_s:g}"
                 pc.eprint(f"mitsuba {variant} {sampler} spp={count}: skipped: {why}")
                 skipped.append({"variant": variant, "sampler": sampler, "count": count, "why": why})
                 continue
-            warm_ms = None
-            if predicted_s <= args.warmup_below_s:
-                t0 = time.perf_counter()
-                render_np(mi, scene, count, args.seed)  # warm-up, untimed
-                warm_ms = (time.perf_counter() - t0) * 1e3
-            one_s = warm_ms * 1e-3 if warm_ms is not None else predicted_s
-            repeats = max(1, min(args.repeats, int(args.budget_s / max(one_s, 1e-6))))
-            times = []
-            img = None
-            for _ in range(repeats):
-                t0 = time.perf_counter()
-                img = render_np(mi, scene, count, args.seed)
-                times.append((time.perf_counter() - t0) * 1e3)
-            last = (count, float(np.median(times)))
-            name = f"mitsuba_{variant}_direct_{sampler}_{count}.pfm"
-            pc.write_pfm(os.path.join(args.out_dir, name), img)
-            r = {
-                "strategy": f"mitsuba {variant} direct {sampler}",
-                "variant": variant,
-                "sampler": sampler,
-                "count": count,
-                "ms": float(np.median(times)),
-                "repeats": repeats,
-                "warmup_ms": warm_ms,
-                "scene_load_ms": scene_ms,
-                "image": name,
-            }
-            line = f"{r['strategy']:42s} spp={count:6d}  {r['ms']:10.1f} ms (x{repeats})"
-            if ref is not None:
-                r["rel_rmse_inner"] = pc.relative_rmse(img, ref, inner)
-                line += f"  rel RMSE inner {r['rel_rmse_inner']:.4%}"
-                if count == max(counts):
-                    r["orientation_check"] = {
-                        "as_is": r["rel_rmse_inner"],
-                        "mirror_x": pc.relative_rmse(img[:, ::-1], ref, inner),
-                        "mirror_y": pc.relative_rmse(img[::-1], ref, inner),
-                        "rotate_180": pc.relative_rmse(img[::-1, ::-1], ref, inner),
-                    }
-                    oc = r["orientation_check"]
-                    line += (
-                        f"  [mirrored x {oc['mirror_x']:.1%}, y {oc['mirror_y']:.1%},"
-                        f" 180 {oc['rotate_180']:.1%}]"
-                    )
-            print(line, flush=True)
-            results.append(r)
+            for i, seed in enumerate(seeds):
+                r = {
+                    "strategy": f"mitsuba {variant} direct {sampler}",
+                    "variant": variant,
+                    "sampler": sampler,
+                    "count": count,
+                    "seed": seed,
+                    "ms": None,
+                    "scene_load_ms": scene_ms,
+                }
+                if i == 0:
+                    warm_ms = None
+                    if predicted_s <= args.warmup_below_s:
+                        t0 = time.perf_counter()
+                        render_np(mi, scene, count, seed)  # warm-up, untimed
+                        warm_ms = (time.perf_counter() - t0) * 1e3
+                    one_s = warm_ms * 1e-3 if warm_ms is not None else predicted_s
+                    repeats = max(1, min(args.repeats, int(args.budget_s / max(one_s, 1e-6))))
+                    times = []
+                    img = None
+                    for _ in range(repeats):
+                        t0 = time.perf_counter()
+                        img = render_np(mi, scene, count, seed)
+                        times.append((time.perf_counter() - t0) * 1e3)
+                    last = (count, float(np.median(times)))
+                    r.update({"ms": float(np.median(times)), "repeats": repeats, "warmup_ms": warm_ms})
+                    line = f"{r['strategy']:42s} spp={count:6d} seed {seed}  {r['ms']:10.1f} ms (x{repeats})"
+                else:
+                    img = render_np(mi, scene, count, seed)  # untimed: timing does not depend on the seed
+                    line = f"{r['strategy']:42s} spp={count:6d} seed {seed}  (untimed)"
+                name = f"mitsuba_{variant}_direct_{sampler}_{count}_seed{seed}.pfm"
+                pc.write_pfm(os.path.join(args.out_dir, name), img)
+                r["image"] = name
+                if ref is not None:
+                    r["rel_rmse_inner"] = pc.relative_rmse(img, ref, inner)
+                    line += f"  rel RMSE inner {r['rel_rmse_inner']:.4%}"
+                    if count == max(counts) and i == 0:
+                        r["orientation_check"] = {
+                            "as_is": r["rel_rmse_inner"],
+                            "mirror_x": pc.relative_rmse(img[:, ::-1], ref, inner),
+                            "mirror_y": pc.relative_rmse(img[::-1], ref, inner),
+                            "rotate_180": pc.relative_rmse(img[::-1, ::-1], ref, inner),
+                        }
+                        oc = r["orientation_check"]
+                        line += (
+                            f"  [mirrored x {oc['mirror_x']:.1%}, y {oc['mirror_y']:.1%},"
+                            f" 180 {oc['rotate_180']:.1%}]"
+                        )
+                print(line, flush=True)
+                results.append(r)
     out = {
         "variant": variant,
         "version": mi.__version__,
@@ -248,7 +273,8 @@ def main():
     ap.add_argument("--counts", default="16,64,256,1024,4096", help="samples per pixel")
     ap.add_argument("--view", default="90,90", help="theta,phi in degrees")
     ap.add_argument("--albedo", default="0.8", help="one value or r,g,b")
-    ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--seed", type=int, default=1, help="the seed when --seeds is not given")
+    ap.add_argument("--seeds", help="comma-separated seeds, one image each (the first is timed); overrides --seed")
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--out-dir", required=True)
     ap.add_argument("--variants", default="scalar_rgb,llvm_ad_rgb")
@@ -272,7 +298,14 @@ def main():
     ap.add_argument("--threads", type=int, help="Dr.Jit worker threads (default: one per core)")
     ap.add_argument("--child-timeout-s", type=float, default=7200.0)
     ap.add_argument("--check", action="store_true", help="compare with the exact reference (small maps)")
+    ap.add_argument(
+        "--scalar-max-spp",
+        type=int,
+        default=256,
+        help="when an LLVM variant works, scalar_rgb renders only counts up to this (0: no limit)",
+    )
     ap.add_argument("--worker", help=argparse.SUPPRESS)
+    ap.add_argument("--worker-max-spp", type=int, default=0, help=argparse.SUPPRESS)
     args = ap.parse_args()
 
     if args.worker:
@@ -291,8 +324,15 @@ def main():
 
     version = None
     results, skipped, meta = [], [], {}
-    for variant in [v.strip() for v in args.variants.split(",") if v.strip()]:
+    variants = [v.strip() for v in args.variants.split(",") if v.strip()]
+    # LLVM variants first: when one renders, scalar_rgb (same images, ~12x slower) is limited to
+    # counts <= --scalar-max-spp.
+    variants.sort(key=lambda v: not v.startswith("llvm"))
+    llvm_rendered = False
+    for variant in variants:
         cmd = [sys.executable, os.path.abspath(__file__), "--worker", variant] + sys.argv[1:]
+        if variant.startswith("scalar") and llvm_rendered and args.scalar_max_spp > 0:
+            cmd += ["--worker-max-spp", str(args.scalar_max_spp)]
         side = os.path.join(args.out_dir, f".mitsuba_{variant}.json")
         if os.path.exists(side):
             os.remove(side)
@@ -313,6 +353,7 @@ def main():
             results += part["results"]
             skipped += part["skipped"]
             meta[variant] = {k: part[k] for k in ("load_ms", "prep_ms", "envmap_grid")}
+            llvm_rendered = llvm_rendered or (variant.startswith("llvm") and bool(part["results"]))
         else:
             why = failure_reason(rc, err)
             if variant.startswith("llvm"):
@@ -331,6 +372,7 @@ def main():
         "peer": "mitsuba",
         "version": version,
         "env_upsample": args.env_upsample,
+        "seeds": pc.parse_seeds(args.seeds, args.seed),
         "variants": meta,
         "results": results,
         "skipped": skipped,

@@ -17,9 +17,14 @@ else its threads spin-wait for each other at every chunk's product and the scrip
 times slower (seen here: 4096 samples at 512 x 512, 0.6 s with 1 thread, 3.4-5.2 s with 2 while
 another process was compiling). Benchmark on an idle machine, or pass --threads 1.
 
+Seeds: `--seeds 1,2,...` renders every count once per seed (default: the single `--seed`), one
+image and one results.json entry per (count, seed), each with its `seed`.
+
 Timing: the map load is timed once (`load_ms`); each count is run once untimed (warm-up), then
-`--repeats` times, and the median of CDF + sampling + relighting is reported (`ms`), with the
-median of its relighting part alone (`relight_ms`: normals + the chunked products).
+`--repeats` times, on the FIRST seed only, and the median of CDF + sampling + relighting is
+reported (`ms`), with the median of its relighting part alone (`relight_ms`: normals + the
+chunked products). The other seeds are rendered once, untimed: their `ms` and `relight_ms` are
+null (timing does not depend on the seed).
 --relight-only times the relighting alone (samples drawn once, untimed): then ms = relight_ms.
 
 --check: also computes the exact reference (sum over every texel; small maps only) and reports
@@ -123,10 +128,10 @@ def run(env, size, view, albedo, count, seed):
 
 def run_relight_only(env, size, view, albedo, count, seed, samples):
     """--relight-only: the samples are drawn once (cached in `samples`, untimed)."""
-    if count not in samples:
+    if (count, seed) not in samples:
         func, total, marginal, cond = build_cdf(env)
-        samples[count] = sample(env, func, total, marginal, cond, count, seed)
-    dirs, weights = samples[count]
+        samples[(count, seed)] = sample(env, func, total, marginal, cond, count, seed)
+    dirs, weights = samples[(count, seed)]
     t0 = time.perf_counter()
     img = relight(size, view, albedo, dirs, weights, count)
     ms = (time.perf_counter() - t0) * 1e3
@@ -140,7 +145,8 @@ def main():
     ap.add_argument("--counts", default="16,64,256,1024,4096")
     ap.add_argument("--view", default="90,90", help="theta,phi in degrees")
     ap.add_argument("--albedo", default="0.8", help="one value or r,g,b")
-    ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--seed", type=int, default=1, help="the seed when --seeds is not given")
+    ap.add_argument("--seeds", help="comma-separated seeds, one image each (the first is timed); overrides --seed")
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--out-dir", required=True)
     ap.add_argument("--check", action="store_true", help="compare with the exact reference (small maps)")
@@ -155,6 +161,7 @@ def main():
     args = ap.parse_args()
 
     counts = pc.parse_counts(args.counts)
+    seeds = pc.parse_seeds(args.seeds, args.seed)
     view = pc.sphere_view(*pc.parse_pair(args.view))
     albedo = pc.parse_triple(args.albedo)
     os.makedirs(args.out_dir, exist_ok=True)
@@ -179,40 +186,51 @@ def main():
     results = []
     cache = {}
     for count in counts:
-        if args.relight_only:
-            go = lambda: run_relight_only(env, args.size, view, albedo, count, args.seed, cache)  # noqa: E731
-        else:
-            go = lambda: run(env, args.size, view, albedo, count, args.seed)  # noqa: E731
-        go()  # warm-up, untimed
-        times, relight_times = [], []
-        img = None
-        for _ in range(max(args.repeats, 1)):
-            img, ms, relight_ms = go()
-            times.append(ms)
-            relight_times.append(relight_ms)
-        name = f"numpy_shared_random_{count}.pfm"
-        pc.write_pfm(os.path.join(args.out_dir, name), img)
-        strategy = "numpy shared random" + (" (relight only)" if args.relight_only else "")
-        r = {
-            "strategy": strategy,
-            "count": count,
-            "ms": float(np.median(times)),
-            "relight_ms": float(np.median(relight_times)),
-            "image": name,
-        }
-        line = f"{strategy}  N={count:6d}  {r['ms']:9.2f} ms (relighting {r['relight_ms']:.2f} ms)"
-        if ref is not None:
-            r["rel_rmse_inner"] = pc.relative_rmse(img, ref, inner)
-            r["rel_rmse_disc"] = pc.relative_rmse(img, ref, disc)
-            line += f"  rel RMSE inner {r['rel_rmse_inner']:.4%}  disc {r['rel_rmse_disc']:.4%}"
-        print(line, flush=True)
-        results.append(r)
+        for i, seed in enumerate(seeds):
+            if args.relight_only:
+                go = lambda: run_relight_only(env, args.size, view, albedo, count, seed, cache)  # noqa: E731
+            else:
+                go = lambda: run(env, args.size, view, albedo, count, seed)  # noqa: E731
+            ms = relight_ms = None
+            if i == 0:
+                go()  # warm-up, untimed
+                times, relight_times = [], []
+                img = None
+                for _ in range(max(args.repeats, 1)):
+                    img, t, relight_t = go()
+                    times.append(t)
+                    relight_times.append(relight_t)
+                ms, relight_ms = float(np.median(times)), float(np.median(relight_times))
+            else:
+                img = go()[0]  # untimed: timing does not depend on the seed
+            name = f"numpy_shared_random_{count}_seed{seed}.pfm"
+            pc.write_pfm(os.path.join(args.out_dir, name), img)
+            strategy = "numpy shared random" + (" (relight only)" if args.relight_only else "")
+            r = {
+                "strategy": strategy,
+                "count": count,
+                "seed": seed,
+                "ms": ms,
+                "relight_ms": relight_ms,
+                "image": name,
+            }
+            if ms is not None:
+                line = f"{strategy}  N={count:6d}  seed {seed}  {ms:9.2f} ms (relighting {relight_ms:.2f} ms)"
+            else:
+                line = f"{strategy}  N={count:6d}  seed {seed}  (untimed)"
+            if ref is not None:
+                r["rel_rmse_inner"] = pc.relative_rmse(img, ref, inner)
+                r["rel_rmse_disc"] = pc.relative_rmse(img, ref, disc)
+                line += f"  rel RMSE inner {r['rel_rmse_inner']:.4%}  disc {r['rel_rmse_disc']:.4%}"
+            print(line, flush=True)
+            results.append(r)
 
     out = {
         "peer": "numpy",
         "version": np.__version__,
         "blas_threads": os.environ.get("OPENBLAS_NUM_THREADS", "default"),
         "load_ms": load_ms,
+        "seeds": seeds,
         "results": results,
     }
     if ref is not None:

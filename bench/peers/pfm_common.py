@@ -211,6 +211,15 @@ def parse_counts(s):
     return [int(c) for c in s.split(",") if c.strip()]
 
 
+def parse_seeds(seeds, seed):
+    """The seeds to render: `--seeds 1,2,3` if given (the first one is timed), else [--seed]."""
+    if seeds:
+        out = [int(x) for x in seeds.split(",") if x.strip()]
+        if out:
+            return out
+    return [seed]
+
+
 def parse_pair(s):
     a, b = s.split(",")
     return float(a), float(b)

@@ -2,14 +2,26 @@
 //! user would pick instead (NumPy, Mitsuba 3), plus the issue's point targets.
 //!
 //! For each map: build its distribution and the exact reference sphere (`maths::reference`),
-//! then for each sample count and strategy render the same sphere (same framing), time it (one
-//! warm-up run, then the median of `repeats`), and measure its relative RMSE against the
-//! reference over the inner disc (pixel centres with sx^2 + sy^2 <= 0.9: Mitsuba jitters its
-//! rays inside each pixel, so silhouette pixels would measure coverage, not lighting).
-//! Writes `results.csv`, one log-log chart per map (`time_error_<map>.png` / `.svg`) and
-//! `summary.md` into the output folder.
+//! then for each sample count and strategy render the same sphere (same framing) and measure
+//! its relative RMSE against the reference over the inner disc (pixel centres with
+//! sx^2 + sy^2 <= 0.9: Mitsuba jitters its rays inside each pixel, so silhouette pixels would
+//! measure coverage, not lighting).
+//!
+//! Seeds: every stochastic strategy (the shared sequences, whose seed is the scramble for Sobol
+//! and Halton, the per-pixel strategies and the peers) is rendered with `seeds` independent
+//! seeds, `seed`, `seed + 1`, ..., `seed + seeds - 1`; a point's error is the mean of the
+//! per-seed relative RMSEs, with the half-width of its 95% confidence interval (Student t with
+//! seeds - 1 degrees of freedom, `stats::mean_ci95`). Deterministic strategies (SH, the exact
+//! reference) are rendered once (seeds = 1, CI 0). Timing does not depend on the seed: only the
+//! first seed is timed (one warm-up run, then the median of `repeats`); the others are rendered
+//! once, untimed. Per (map, strategy), the slope b of log(error) = a + b log(N) is fitted over
+//! the counts (`stats::fit_slope`) to show the convergence rate.
+//!
+//! Writes `results.csv`, one log-log chart per map (`time_error_<map>.png` / `.svg`, error bars
+//! = the 95% CI) and `summary.md` into the output folder.
 
 pub mod glossy;
+pub mod stats;
 pub mod targets;
 
 use std::fmt::Write as _;
@@ -52,7 +64,11 @@ pub struct BenchConfig {
     pub albedo: f64,
     /// (theta, phi) in degrees.
     pub view: (f64, f64),
+    /// The first seed; the sweep uses `seed..seed + seeds`.
     pub seed: u64,
+    /// Independent seeds per stochastic point (at least 1): its error is their mean, with a
+    /// 95% confidence interval when there are 2 or more.
+    pub seeds: usize,
     pub out_dir: PathBuf,
     /// Folder with the peers' scripts (`numpy_seed.py`, `mitsuba_sphere.py`); None: no peers.
     pub peers_dir: Option<PathBuf>,
@@ -66,18 +82,44 @@ pub struct BenchRow {
     /// `shared`, `per-pixel`, `sh`, `reference` or `peer`.
     pub family: String,
     pub count: usize,
+    /// Warm median on the first seed.
     pub ms: f64,
+    /// The mean over the seeds of the relative RMSE.
     pub relative_rmse: f64,
+    /// The mean over the seeds of the PSNR (dB).
     pub psnr: f64,
+    /// Half-width of the 95% confidence interval of `relative_rmse`: 0 for a deterministic
+    /// strategy, NaN when unknown (one seed of a stochastic strategy, or an old results.csv).
+    pub rmse_ci95: f64,
+    /// Seeds averaged (1 for a deterministic strategy).
+    pub seeds: usize,
 }
 
 impl BenchRow {
+    /// SH orders and the exact reference: no randomness, one render.
+    pub fn is_deterministic(&self) -> bool {
+        self.family == "sh" || self.family == "reference"
+    }
+
+    /// The error as "mean ± ci95", "deterministic" or the single seed's value.
+    pub fn error_text(&self) -> String {
+        if self.is_deterministic() {
+            format!("{:.4} (deterministic)", self.relative_rmse)
+        } else if self.rmse_ci95.is_finite() {
+            format!("{:.4} ± {:.4}", self.relative_rmse, self.rmse_ci95)
+        } else {
+            format!("{:.4} (1 seed)", self.relative_rmse)
+        }
+    }
+
     /// One line of progress output.
     pub fn describe(&self) -> String {
-        format!(
-            "{:<12} {:<34} {:>5}  {:>9.2} ms  rel. RMSE {:.5}",
-            self.map, self.strategy, self.count, self.ms, self.relative_rmse
-        )
+        let err = if self.is_deterministic() {
+            format!("{:.5} (deterministic)", self.relative_rmse)
+        } else {
+            format!("{:.5} ± {:.5} ({} seeds)", self.relative_rmse, self.rmse_ci95, self.seeds)
+        };
+        format!("{:<12} {:<34} {:>5}  {:>9.2} ms  rel. RMSE {err}", self.map, self.strategy, self.count, self.ms)
     }
 }
 
@@ -138,6 +180,47 @@ fn metric(m: &crate::data::Metrics, name: &str) -> f64 {
     m.get(name).unwrap_or(f64::NAN)
 }
 
+/// The seeds of a sweep: `config.seed`, `config.seed + 1`, ... (`config.seeds` of them, at
+/// least one).
+pub fn seed_list(config: &BenchConfig) -> Vec<u64> {
+    (0..config.seeds.max(1) as u64).map(|i| config.seed.wrapping_add(i)).collect()
+}
+
+/// Renders with every seed: the first timed (one warm-up run, then the median of `repeats`),
+/// the others once, untimed. Returns the median milliseconds and each seed's
+/// (relative RMSE, PSNR) from `score`.
+fn over_seeds(
+    seeds: &[u64],
+    repeats: usize,
+    mut render: impl FnMut(u64) -> Result<Image, String>,
+    score: impl Fn(&Image) -> (f64, f64),
+) -> Result<(f64, Vec<(f64, f64)>), String> {
+    let (ms, first) = time_median(repeats, || render(seeds[0]));
+    let mut errors = vec![score(&first?)];
+    for &seed in &seeds[1..] {
+        errors.push(score(&render(seed)?));
+    }
+    Ok((ms, errors))
+}
+
+/// A row from per-seed (relative RMSE, PSNR) pairs: their means and the 95% CI of the error.
+fn seeded_row(map: &str, strategy: String, family: &str, count: usize, ms: f64, errors: &[(f64, f64)]) -> BenchRow {
+    let rmse: Vec<f64> = errors.iter().map(|e| e.0).collect();
+    let (relative_rmse, rmse_ci95) = stats::mean_ci95(&rmse);
+    let psnr = errors.iter().map(|e| e.1).sum::<f64>() / errors.len().max(1) as f64;
+    BenchRow {
+        map: map.to_string(),
+        strategy,
+        family: family.into(),
+        count,
+        ms,
+        relative_rmse,
+        psnr,
+        rmse_ci95,
+        seeds: errors.len(),
+    }
+}
+
 /// Runs the whole sweep; `log` receives one line per measurement (for progress).
 pub fn run(config: &BenchConfig, log: &dyn Fn(&str)) -> Result<Vec<BenchRow>, String> {
     std::fs::create_dir_all(&config.out_dir).map_err(|e| format!("{}: {e}", config.out_dir.display()))?;
@@ -146,6 +229,7 @@ pub fn run(config: &BenchConfig, log: &dyn Fn(&str)) -> Result<Vec<BenchRow>, St
     let view_dir = latlong::direction_deg(config.view.0, config.view.1);
     let view = SphereView::new(config.size, view_dir);
     let mask = inner_disc_mask(config.size);
+    let seeds = seed_list(config);
     for spec in &config.maps {
         let env = load_map(spec)?;
         let lum = luminance(&env);
@@ -165,41 +249,47 @@ pub fn run(config: &BenchConfig, log: &dyn Fn(&str)) -> Result<Vec<BenchRow>, St
             ms: ref_ms,
             relative_rmse: 0.0,
             psnr: f64::INFINITY,
+            rmse_ci95: 0.0,
+            seeds: 1,
         });
-        let push = |rows: &mut Vec<BenchRow>, strategy: String, family: &str, count: usize, ms: f64, img: &Image| {
+        let score = |img: &Image| {
             let m = image_error(img, &reference, Some(&mask)).unwrap_or_default();
-            let row = BenchRow {
-                map: spec.name.clone(),
-                strategy,
-                family: family.into(),
-                count,
-                ms,
-                relative_rmse: metric(&m, "relative_rmse"),
-                psnr: metric(&m, "psnr"),
-            };
+            (metric(&m, "relative_rmse"), metric(&m, "psnr"))
+        };
+        let push = |rows: &mut Vec<BenchRow>, row: BenchRow| {
             log(&row.describe());
             rows.push(row);
         };
         for &count in &config.counts {
             for seq in [Sequence::Random, Sequence::Stratified, Sequence::Sobol, Sequence::Halton] {
-                let (ms, img) = time_median(config.repeats, || {
-                    let set = draw(&dist, seq, count, config.seed);
-                    relight_shared(&env, &set, config.size, albedo, view_dir, Estimator::Unbiased)
-                });
-                let img = img.map_err(|e| e.to_string())?;
-                push(&mut rows, format!("shared {}", seq_name(seq)), "shared", count, ms, &img);
+                let (ms, errors) = over_seeds(
+                    &seeds,
+                    config.repeats,
+                    |seed| {
+                        let set = draw(&dist, seq, count, seed);
+                        relight_shared(&env, &set, config.size, albedo, view_dir, Estimator::Unbiased)
+                            .map_err(|e| e.to_string())
+                    },
+                    score,
+                )?;
+                push(
+                    &mut rows,
+                    seeded_row(&spec.name, format!("shared {}", seq_name(seq)), "shared", count, ms, &errors),
+                );
             }
-            let (ms, img) = time_median(config.repeats, || {
-                let set = draw(&dist, Sequence::Random, count, config.seed);
-                relight_shared(&env, &set, config.size, albedo, view_dir, Estimator::Seed)
-            });
+            let (ms, errors) = over_seeds(
+                &seeds,
+                config.repeats,
+                |seed| {
+                    let set = draw(&dist, Sequence::Random, count, seed);
+                    relight_shared(&env, &set, config.size, albedo, view_dir, Estimator::Seed)
+                        .map_err(|e| e.to_string())
+                },
+                score,
+            )?;
             push(
                 &mut rows,
-                "shared Random (seed's estimator)".into(),
-                "shared",
-                count,
-                ms,
-                &img.map_err(|e| e.to_string())?,
+                seeded_row(&spec.name, "shared Random (seed's estimator)".into(), "shared", count, ms, &errors),
             );
             // Per-pixel sampling costs `count` samples per pixel: past 1024 spp a point takes
             // minutes on 2 cores and shows nothing new (its slope is set by then).
@@ -214,18 +304,38 @@ pub fn run(config: &BenchConfig, log: &dyn Fn(&str)) -> Result<Vec<BenchRow>, St
             ] {
                 // Runs of a second or more need no more than one timed repeat.
                 let repeats = if count >= 256 { 1 } else { config.repeats };
-                let (ms, img) = time_median(repeats, || {
-                    relight_per_pixel(&env, &dist, &view, albedo, strategy, count, config.seed)
-                });
-                push(&mut rows, format!("per-pixel {}", strategy.name()), "per-pixel", count, ms, &img);
+                let (ms, errors) = over_seeds(
+                    &seeds,
+                    repeats,
+                    |seed| Ok(relight_per_pixel(&env, &dist, &view, albedo, strategy, count, seed)),
+                    score,
+                )?;
+                push(
+                    &mut rows,
+                    seeded_row(&spec.name, format!("per-pixel {}", strategy.name()), "per-pixel", count, ms, &errors),
+                );
             }
         }
         for order in [2usize, 4] {
             let (ms, img) = time_median(config.repeats, || sh::sh_sphere(&env, &view, albedo, order));
-            push(&mut rows, format!("SH order {order}"), "sh", sh::sh_count(order), ms, &img);
+            let mut row =
+                seeded_row(&spec.name, format!("SH order {order}"), "sh", sh::sh_count(order), ms, &[score(&img)]);
+            row.rmse_ci95 = 0.0;
+            push(&mut rows, row);
         }
         if let Some(peers) = &config.peers_dir {
             run_peers(config, spec, &env, &reference, &mask, peers, &mut rows, log)?;
+        }
+        for (strategy, fit) in slopes(&rows, &spec.name) {
+            log(&format!(
+                "{:<12} {:<34} slope {:+.3} ± {:.3} over {} counts (expected {})",
+                spec.name,
+                strategy,
+                fit.slope,
+                fit.std_error,
+                fit.points,
+                expected_slope(&strategy)
+            ));
         }
         write_chart(config, &spec.name, &rows)?;
     }
@@ -233,6 +343,33 @@ pub fn run(config: &BenchConfig, log: &dyn Fn(&str)) -> Result<Vec<BenchRow>, St
     write_atomic(&config.out_dir.join("summary.md"), summary(config, &rows).as_bytes())
         .map_err(|e| format!("summary.md: {e}"))?;
     Ok(rows)
+}
+
+/// The fitted convergence slope of each stochastic strategy on `map`, over its mean errors
+/// (strategies with fewer than 3 usable counts are left out), in the rows' order.
+pub fn slopes(rows: &[BenchRow], map: &str) -> Vec<(String, stats::Slope)> {
+    let mut points: Vec<(&str, Vec<(f64, f64)>)> = Vec::new();
+    for r in rows.iter().filter(|r| r.map == map && !r.is_deterministic()) {
+        match points.iter_mut().find(|(n, _)| *n == r.strategy) {
+            Some((_, p)) => p.push((r.count as f64, r.relative_rmse)),
+            None => points.push((r.strategy.as_str(), vec![(r.count as f64, r.relative_rmse)])),
+        }
+    }
+    points.into_iter().filter_map(|(name, p)| stats::fit_slope(&p).map(|s| (name.to_string(), s))).collect()
+}
+
+/// The slope theory expects for a strategy, by its name: N^-1/2 for independent random
+/// samples, faster for stratified and low-discrepancy ones; the seed's estimator is biased, so
+/// its error levels off at the bias (slope towards 0).
+pub fn expected_slope(strategy: &str) -> &'static str {
+    let s = strategy.to_lowercase();
+    if s.contains("seed's") {
+        "towards 0 (biased: levels off at its bias)"
+    } else if ["stratified", "sobol", "halton", "ldsampler"].iter().any(|k| s.contains(k)) {
+        "faster than -0.5"
+    } else {
+        "-0.5"
+    }
 }
 
 fn seq_name(seq: Sequence) -> &'static str {
@@ -243,6 +380,10 @@ fn seq_name(seq: Sequence) -> &'static str {
         Sequence::Halton => "Halton",
     }
 }
+
+/// A peer's (strategy, count): the timed seed's milliseconds (NaN until seen) and every seed's
+/// (relative RMSE, PSNR).
+type PeerGroup = (String, usize, f64, Vec<(f64, f64)>);
 
 /// Runs the Python peers on the same map (written as PFM), reading back their images.
 #[allow(clippy::too_many_arguments)]
@@ -261,6 +402,7 @@ fn run_peers(
     let env_path = work.join("env.pfm");
     write_atomic(&env_path, &crate::formats::pfm::encode(env)).map_err(|e| e.to_string())?;
     let counts: Vec<String> = config.counts.iter().map(|c| c.to_string()).collect();
+    let seeds = seed_list(config).iter().map(|s| s.to_string()).collect::<Vec<_>>().join(",");
     for script in ["numpy_seed.py", "mitsuba_sphere.py"] {
         let path = peers.join(script);
         if !path.is_file() {
@@ -274,7 +416,7 @@ fn run_peers(
             .arg(&env_path)
             .args(["--size", &config.size.to_string(), "--counts", &counts.join(",")])
             .args(["--view", &format!("{},{}", config.view.0, config.view.1)])
-            .args(["--albedo", &config.albedo.to_string(), "--seed", &config.seed.to_string()])
+            .args(["--albedo", &config.albedo.to_string(), "--seeds", &seeds])
             .args(["--repeats", &config.repeats.to_string()])
             .arg("--out-dir")
             .arg(&out)
@@ -294,9 +436,12 @@ fn run_peers(
             .ok()
             .and_then(|b| serde_json::from_slice(&b).ok())
             .ok_or_else(|| format!("peer {script} wrote no readable results.json"))?;
+        // One entry per (strategy, count, seed); `ms` is on the timed (first) seed's entry
+        // (null on the others). Group by (strategy, count) in order of appearance.
+        let mut groups: Vec<PeerGroup> = Vec::new();
         for r in results["results"].as_array().into_iter().flatten() {
-            let (Some(strategy), Some(count), Some(ms), Some(image)) =
-                (r["strategy"].as_str(), r["count"].as_u64(), r["ms"].as_f64(), r["image"].as_str())
+            let (Some(strategy), Some(count), Some(image)) =
+                (r["strategy"].as_str(), r["count"].as_u64(), r["image"].as_str())
             else {
                 continue;
             };
@@ -305,15 +450,21 @@ fn run_peers(
                 .and_then(|b| crate::formats::pfm::decode(&b).map_err(|e| e.0))
                 .map_err(|e| format!("peer {script} image {image}: {e}"))?;
             let m = image_error(&img, reference, Some(mask)).map_err(|e| format!("peer {script}: {e}"))?;
-            let row = BenchRow {
-                map: spec.name.clone(),
-                strategy: strategy.to_string(),
-                family: "peer".into(),
-                count: count as usize,
-                ms,
-                relative_rmse: metric(&m, "relative_rmse"),
-                psnr: metric(&m, "psnr"),
-            };
+            let error = (metric(&m, "relative_rmse"), metric(&m, "psnr"));
+            let count = count as usize;
+            let ms = r["ms"].as_f64();
+            match groups.iter_mut().find(|g| g.0 == strategy && g.1 == count) {
+                Some(g) => {
+                    g.3.push(error);
+                    if g.2.is_nan() {
+                        g.2 = ms.unwrap_or(f64::NAN);
+                    }
+                }
+                None => groups.push((strategy.to_string(), count, ms.unwrap_or(f64::NAN), vec![error])),
+            }
+        }
+        for (strategy, count, ms, errors) in groups {
+            let row = seeded_row(&spec.name, strategy, "peer", count, ms, &errors);
             log(&row.describe());
             rows.push(row);
         }
@@ -327,25 +478,7 @@ fn run_peers(
 /// Redraws every map's chart from a `results.csv` written by `run` (into the same folder).
 pub fn replot(config: &BenchConfig, csv_path: &Path) -> Result<usize, String> {
     let text = std::fs::read_to_string(csv_path).map_err(|e| format!("{}: {e}", csv_path.display()))?;
-    let mut rows = Vec::new();
-    for (i, line) in text.lines().enumerate().skip(1) {
-        let fields = split_csv_line(line);
-        let c: Vec<&str> = fields.iter().map(String::as_str).collect();
-        let bad =
-            || format!("{}:{}: expected map,strategy,family,count,ms,relative_rmse,psnr", csv_path.display(), i + 1);
-        if c.len() != 7 {
-            return Err(bad());
-        }
-        rows.push(BenchRow {
-            map: c[0].into(),
-            strategy: c[1].into(),
-            family: c[2].into(),
-            count: c[3].parse().map_err(|_| bad())?,
-            ms: c[4].parse().map_err(|_| bad())?,
-            relative_rmse: c[5].parse().map_err(|_| bad())?,
-            psnr: c[6].parse().unwrap_or(f64::NAN),
-        });
-    }
+    let rows = read_csv(&text).map_err(|e| format!("{}:{e}", csv_path.display()))?;
     let mut maps: Vec<String> = rows.iter().map(|r| r.map.clone()).collect();
     maps.dedup();
     for map in &maps {
@@ -354,15 +487,65 @@ pub fn replot(config: &BenchConfig, csv_path: &Path) -> Result<usize, String> {
     Ok(maps.len())
 }
 
+/// Parses a `results.csv`: the current columns
+/// `map,strategy,family,count,ms,relative_rmse,psnr,rmse_ci95,seeds`, or the older files
+/// without the last two (read as one seed: CI 0 for deterministic rows, unknown (NaN) for the
+/// others). Errors name the line.
+pub fn read_csv(text: &str) -> Result<Vec<BenchRow>, String> {
+    let mut rows = Vec::new();
+    for (i, line) in text.lines().enumerate().skip(1) {
+        if line.trim().is_empty() {
+            continue;
+        }
+        let fields = split_csv_line(line);
+        let c: Vec<&str> = fields.iter().map(String::as_str).collect();
+        let bad = || format!("{}: expected map,strategy,family,count,ms,relative_rmse,psnr[,rmse_ci95,seeds]", i + 1);
+        if c.len() != 7 && c.len() != 9 {
+            return Err(bad());
+        }
+        let mut row = BenchRow {
+            map: c[0].into(),
+            strategy: c[1].into(),
+            family: c[2].into(),
+            count: c[3].parse().map_err(|_| bad())?,
+            ms: c[4].parse().map_err(|_| bad())?,
+            relative_rmse: c[5].parse().map_err(|_| bad())?,
+            psnr: c[6].parse().unwrap_or(f64::NAN),
+            rmse_ci95: f64::NAN,
+            seeds: 1,
+        };
+        if c.len() == 9 {
+            row.rmse_ci95 = c[7].parse().map_err(|_| bad())?;
+            row.seeds = c[8].parse().map_err(|_| bad())?;
+        } else if row.is_deterministic() {
+            row.rmse_ci95 = 0.0;
+        }
+        rows.push(row);
+    }
+    Ok(rows)
+}
+
 fn write_chart(config: &BenchConfig, map: &str, rows: &[BenchRow]) -> Result<(), String> {
     let mut lines: Vec<Line> = Vec::new();
     for r in rows.iter().filter(|r| r.map == map && r.family != "reference") {
+        // Deterministic points have no bar; unknown CIs (old files, one seed) neither.
+        let ci = if r.rmse_ci95.is_finite() { r.rmse_ci95 } else { 0.0 };
         match lines.iter_mut().find(|l| l.name == r.strategy) {
-            Some(l) => l.points.push((r.ms, r.relative_rmse)),
-            None => lines.push(Line { name: r.strategy.clone(), points: vec![(r.ms, r.relative_rmse)] }),
+            Some(l) => {
+                l.points.push((r.ms, r.relative_rmse));
+                l.ci.push(ci);
+            }
+            None => lines.push(Line { name: r.strategy.clone(), points: vec![(r.ms, r.relative_rmse)], ci: vec![ci] }),
         }
     }
-    let title = format!("{map}: time against error, {}x{} sphere, 2 cores", config.size, config.size);
+    for (strategy, fit) in slopes(rows, map) {
+        if let Some(l) = lines.iter_mut().find(|l| l.name == strategy) {
+            l.name = format!("{strategy} (slope {:.2})", fit.slope);
+        }
+    }
+    let seeds = rows.iter().filter(|r| r.map == map).map(|r| r.seeds).max().unwrap_or(1);
+    let errors = if seeds > 1 { format!("mean of {seeds} seeds ± 95% CI") } else { "one seed".to_string() };
+    let title = format!("{map}: time against error, {}x{} sphere, 2 cores; {errors}", config.size, config.size);
     let png = time_error::plot_png(&title, &lines, 1000, 680)?;
     let svg = time_error::plot_svg(&title, &lines, 1000, 680)?;
     let stem = config.out_dir.join(format!("time_error_{map}"));
@@ -400,18 +583,20 @@ fn split_csv_line(line: &str) -> Vec<String> {
 }
 
 fn write_csv(path: &Path, rows: &[BenchRow]) -> Result<(), String> {
-    let mut s = String::from("map,strategy,family,count,ms,relative_rmse,psnr\n");
+    let mut s = String::from("map,strategy,family,count,ms,relative_rmse,psnr,rmse_ci95,seeds\n");
     for r in rows {
         let _ = writeln!(
             s,
-            "{},{},{},{},{:.4},{:.6e},{:.3}",
+            "{},{},{},{},{:.4},{:.6e},{:.3},{:.6e},{}",
             csv_field(&r.map),
             csv_field(&r.strategy),
             r.family,
             r.count,
             r.ms,
             r.relative_rmse,
-            r.psnr
+            r.psnr,
+            r.rmse_ci95,
+            r.seeds
         );
     }
     write_atomic(path, s.as_bytes()).map_err(|e| format!("{}: {e}", path.display()))
@@ -441,10 +626,27 @@ pub fn time_to_reach(points: &[(f64, f64)], error: f64) -> Option<f64> {
 /// speed-up of the best hdrflow strategy over each peer at equal error.
 pub fn summary(config: &BenchConfig, rows: &[BenchRow]) -> String {
     let mut s = String::new();
+    let seeds = seed_list(config);
     let _ = writeln!(
         s,
-        "Sphere {}x{}, albedo {}, view ({}, {}) deg, seed {}, warm median of {} runs; relative RMSE over the inner disc.\n",
-        config.size, config.size, config.albedo, config.view.0, config.view.1, config.seed, config.repeats
+        "Sphere {}x{}, albedo {}, view ({}, {}) deg; relative RMSE over the inner disc. Each error is the \
+         mean over {} seed{} ({} to {}; scrambles for Sobol and Halton){}; deterministic strategies (SH) \
+         are rendered once. Times: warm median of {} runs on the first seed.\n",
+        config.size,
+        config.size,
+        config.albedo,
+        config.view.0,
+        config.view.1,
+        seeds.len(),
+        if seeds.len() == 1 { "" } else { "s" },
+        seeds[0],
+        seeds[seeds.len() - 1],
+        if seeds.len() > 1 {
+            " ± the half-width of its 95% confidence interval (Student t, seeds - 1 degrees of freedom)"
+        } else {
+            " (one seed: no confidence interval)"
+        },
+        config.repeats
     );
     let mut maps: Vec<&str> = rows.iter().map(|r| r.map.as_str()).collect();
     maps.dedup();
@@ -475,7 +677,7 @@ pub fn summary(config: &BenchConfig, rows: &[BenchRow]) -> String {
                 .map(|&c| {
                     mine.iter()
                         .find(|r| r.strategy == st && r.count == c)
-                        .map(|r| format!("{:.4} ({:.1} ms)", r.relative_rmse, r.ms))
+                        .map(|r| format!("{} ({:.1} ms)", r.error_text(), r.ms))
                         .unwrap_or_else(|| "-".into())
                 })
                 .collect();
@@ -484,9 +686,32 @@ pub fn summary(config: &BenchConfig, rows: &[BenchRow]) -> String {
         for r in mine.iter().filter(|r| r.family == "sh") {
             let _ = writeln!(
                 s,
-                "\n{} ({} coefficients): relative RMSE {:.4} in {:.1} ms.",
-                r.strategy, r.count, r.relative_rmse, r.ms
+                "\n{} ({} coefficients): relative RMSE {} in {:.1} ms.",
+                r.strategy,
+                r.count,
+                r.error_text(),
+                r.ms
             );
+        }
+        let fits = slopes(rows, map);
+        if !fits.is_empty() {
+            let _ = writeln!(
+                s,
+                "\nFitted convergence slopes: least squares of log(mean error) = a + b log(N) over the counts \
+                 (N = samples, or samples per pixel).\n"
+            );
+            let _ = writeln!(s, "| strategy | slope b | ± std. error | expected | counts fitted |");
+            let _ = writeln!(s, "|---|---|---|---|---|");
+            for (st, fit) in &fits {
+                let _ = writeln!(
+                    s,
+                    "| {st} | {:.3} | {:.3} | {} | {} |",
+                    fit.slope,
+                    fit.std_error,
+                    expected_slope(st),
+                    fit.points
+                );
+            }
         }
         // Equal-error comparison against each peer point.
         let ours: Vec<(&str, Vec<(f64, f64)>)> = {
@@ -506,7 +731,7 @@ pub fn summary(config: &BenchConfig, rows: &[BenchRow]) -> String {
         if !peers.is_empty() {
             let _ = writeln!(
                 s,
-                "\n| peer point | its time | its error | best hdrflow strategy at that error | its time | speed-up |"
+                "\n| peer point | its time | its mean error | best hdrflow strategy at that error | its time | speed-up |"
             );
             let _ = writeln!(s, "|---|---|---|---|---|---|");
             for p in peers {
@@ -518,11 +743,11 @@ pub fn summary(config: &BenchConfig, rows: &[BenchRow]) -> String {
                     Some((name, t)) => {
                         let _ = writeln!(
                             s,
-                            "| {} N={} | {:.1} ms | {:.4} | {} | {:.2} ms | {:.0}x |",
+                            "| {} N={} | {:.1} ms | {} | {} | {:.2} ms | {:.0}x |",
                             p.strategy,
                             p.count,
                             p.ms,
-                            p.relative_rmse,
+                            p.error_text(),
                             name,
                             t,
                             p.ms / t
@@ -531,8 +756,11 @@ pub fn summary(config: &BenchConfig, rows: &[BenchRow]) -> String {
                     None => {
                         let _ = writeln!(
                             s,
-                            "| {} N={} | {:.1} ms | {:.4} | none reaches it in the sweep | - | - |",
-                            p.strategy, p.count, p.ms, p.relative_rmse
+                            "| {} N={} | {:.1} ms | {} | none reaches it in the sweep | - | - |",
+                            p.strategy,
+                            p.count,
+                            p.ms,
+                            p.error_text()
                         );
                     }
                 }
@@ -566,12 +794,13 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let config = BenchConfig {
             maps: vec![MapSpec { name: "constant".into(), source: "builtin:constant".into(), flip_vertical: false }],
-            counts: vec![16, 64],
+            counts: vec![16, 64, 256],
             size: 24,
             repeats: 1,
             albedo: 0.8,
             view: (90.0, 90.0),
             seed: 1,
+            seeds: 4,
             out_dir: dir.path().into(),
             peers_dir: None,
         };
@@ -590,5 +819,70 @@ mod tests {
         for f in ["results.csv", "summary.md", "time_error_constant.png", "time_error_constant.svg"] {
             assert!(dir.path().join(f).is_file(), "{f}");
         }
+        // Four seeds: stochastic points are means with a confidence interval, SH is one
+        // deterministic render.
+        for r in rows.iter().filter(|r| r.strategy == "shared Random") {
+            assert_eq!(r.seeds, 4, "{r:?}");
+            assert!(r.rmse_ci95 > 0.0 && r.rmse_ci95 < r.relative_rmse, "{r:?}");
+        }
+        let per_pixel = rows.iter().find(|r| r.strategy == "per-pixel Environment" && r.count == 16).unwrap();
+        assert!(per_pixel.seeds == 4 && per_pixel.rmse_ci95 > 0.0, "{per_pixel:?}");
+        for r in rows.iter().filter(|r| r.family == "sh") {
+            assert_eq!((r.seeds, r.rmse_ci95), (1, 0.0), "{r:?}");
+            assert!(r.error_text().contains("deterministic"));
+        }
+        // Shared random samples converge as N^-1/2: the fitted slope is near -0.5.
+        let fits = slopes(&rows, "constant");
+        let random = fits.iter().find(|(s, _)| s == "shared Random").unwrap().1;
+        assert!((-0.8..=-0.2).contains(&random.slope), "{random:?}");
+        assert_eq!(random.points, 3);
+        assert!(fits.iter().all(|(s, _)| !s.starts_with("SH")));
+        let summary = std::fs::read_to_string(dir.path().join("summary.md")).unwrap();
+        assert!(
+            summary.contains("Fitted convergence slopes") && summary.contains("| shared Random | -0."),
+            "{summary}"
+        );
+        assert!(summary.contains(" ± "), "{summary}");
+        // results.csv reads back with the new columns.
+        let back = read_csv(&std::fs::read_to_string(dir.path().join("results.csv")).unwrap()).unwrap();
+        assert_eq!(back.len(), rows.len());
+        for (a, b) in back.iter().zip(&rows) {
+            assert_eq!((&a.strategy, a.count, a.seeds), (&b.strategy, b.count, b.seeds));
+            assert!((a.rmse_ci95 - b.rmse_ci95).abs() <= 1e-6 * b.rmse_ci95.abs(), "{a:?} {b:?}");
+        }
+        // One seed: no interval for stochastic points.
+        let one = BenchConfig { seeds: 1, counts: vec![16], out_dir: dir.path().join("one"), ..config };
+        let rows = run(&one, &|_| {}).unwrap();
+        let r = rows.iter().find(|r| r.strategy == "shared Random").unwrap();
+        assert!(r.seeds == 1 && r.rmse_ci95.is_nan(), "{r:?}");
+        assert!(r.error_text().contains("1 seed"));
+    }
+
+    #[test]
+    fn old_results_csv_without_seed_columns_still_reads() {
+        let old = "map,strategy,family,count,ms,relative_rmse,psnr\n\
+                   sky,shared Sobol,shared,16,0.1000,2.5e-2,30.000\n\
+                   sky,SH order 2,sh,9,2.0000,1.0e-2,40.000\n";
+        let rows = read_csv(old).unwrap();
+        assert_eq!(rows.len(), 2);
+        assert_eq!((rows[0].seeds, rows[0].relative_rmse), (1, 0.025));
+        assert!(rows[0].rmse_ci95.is_nan());
+        assert_eq!(rows[1].rmse_ci95, 0.0);
+        let new = "map,strategy,family,count,ms,relative_rmse,psnr,rmse_ci95,seeds\n\
+                   sky,\"shared Sobol, x\",shared,16,0.1000,2.5e-2,30.000,1.5e-3,8\n";
+        let rows = read_csv(new).unwrap();
+        assert_eq!((rows[0].strategy.as_str(), rows[0].seeds, rows[0].rmse_ci95), ("shared Sobol, x", 8, 1.5e-3));
+        assert!(read_csv("h\nsky,a,shared,16,0.1,0.2,30,0.01\n").unwrap_err().starts_with("2:"));
+    }
+
+    #[test]
+    fn expected_slopes_by_strategy() {
+        assert_eq!(expected_slope("shared Random"), "-0.5");
+        assert_eq!(expected_slope("per-pixel Mis"), "-0.5");
+        assert_eq!(expected_slope("mitsuba llvm_ad_rgb direct independent"), "-0.5");
+        assert_eq!(expected_slope("numpy shared random"), "-0.5");
+        assert_eq!(expected_slope("shared Sobol"), "faster than -0.5");
+        assert_eq!(expected_slope("mitsuba scalar_rgb direct ldsampler"), "faster than -0.5");
+        assert!(expected_slope("shared Random (seed's estimator)").contains("biased"));
     }
 }

@@ -119,9 +119,14 @@ struct BenchArgs {
     /// Sphere image size in pixels.
     #[arg(long, default_value_t = 128)]
     size: usize,
-    /// Timed repetitions per point (after one warm-up run); the median is reported.
+    /// Timed repetitions per point (after one warm-up run, on the first seed); the median is
+    /// reported.
     #[arg(long, default_value_t = 5)]
     repeats: usize,
+    /// Independent seeds per stochastic point (1, 2, ..., N; scrambles for Sobol and Halton):
+    /// each error is their mean, with a 95% confidence interval when N >= 2.
+    #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u64).range(1..))]
+    seeds: u64,
     /// Only these maps (names: sky, grace, park, fagans, studio).
     #[arg(long, value_delimiter = ',')]
     maps: Vec<String>,
@@ -131,7 +136,8 @@ struct BenchArgs {
     /// Do not run the peers.
     #[arg(long)]
     no_peers: bool,
-    /// A quick run: counts 16,64,256, 3 repeats, 64x64 sphere, no peers, no targets.
+    /// A quick run: counts 16,64,256, 3 repeats, 64x64 sphere, no peers, no targets (still
+    /// --seeds seeds, 8 by default: 35 s to a minute on 2 cores).
     #[arg(long)]
     quick: bool,
     /// Measure only the point targets (relight speed, BuildCdf, decoding, the seed graph).
@@ -686,6 +692,7 @@ fn bench(args: &BenchArgs) -> ExitCode {
         albedo: 0.8,
         view: (90.0, 90.0),
         seed: 1,
+        seeds: args.seeds as usize,
         out_dir: args.out.clone(),
         peers_dir: (!args.no_peers && !args.quick).then(|| args.peers.clone()),
     };
@@ -701,7 +708,15 @@ fn bench(args: &BenchArgs) -> ExitCode {
             }
         };
     }
-    eprintln!("hdrflow bench on {} threads", rayon::current_num_threads());
+    eprintln!(
+        "hdrflow bench on {} threads; {} seed{} per stochastic point (seeds {} to {}){}",
+        rayon::current_num_threads(),
+        config.seeds,
+        if config.seeds == 1 { "" } else { "s" },
+        config.seed,
+        config.seed + config.seeds as u64 - 1,
+        if args.quick { "; --quick: counts 16,64,256, 64x64 sphere, 3 repeats, no peers, no targets" } else { "" }
+    );
     if !args.quick {
         let peers = (!args.no_peers).then_some(args.peers.as_path());
         match crate::bench::targets::measure(&args.data, peers, config.repeats, &|line| eprintln!("{line}")) {

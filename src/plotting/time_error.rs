@@ -10,6 +10,17 @@ use super::curves_plot::{area_err, render_png, render_svg, FONT, PALETTE};
 pub struct Line {
     pub name: String,
     pub points: Vec<(f64, f64)>,
+    /// Per point, the half-width of the error's confidence interval, drawn as a vertical bar
+    /// error ± ci (its lower end clamped to the axis on the log scale); empty, or 0 or
+    /// non-finite for a point: no bar.
+    pub ci: Vec<f64>,
+}
+
+impl Line {
+    /// The half-width of point `i`'s interval, if it has one to draw.
+    fn ci_at(&self, i: usize) -> Option<f64> {
+        self.ci.get(i).copied().filter(|c| c.is_finite() && *c > 0.0)
+    }
 }
 
 /// Renders the chart as PNG.
@@ -38,7 +49,12 @@ fn decade_range(values: impl Iterator<Item = f64>) -> (f64, f64) {
 fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, title: &str, lines: &[Line]) -> Result<(), String> {
     root.fill(&WHITE).map_err(area_err)?;
     let xs = decade_range(lines.iter().flat_map(|l| l.points.iter().map(|p| p.0)));
-    let ys = decade_range(lines.iter().flat_map(|l| l.points.iter().map(|p| p.1)));
+    // The range holds the points and the upper ends of their bars (lower ends are clamped).
+    let ys = decade_range(
+        lines
+            .iter()
+            .flat_map(|l| l.points.iter().enumerate().flat_map(move |(i, p)| [p.1, p.1 + l.ci_at(i).unwrap_or(0.0)])),
+    );
     let mut chart = ChartBuilder::on(root)
         .caption(title, (FONT, 22))
         .margin(14)
@@ -56,15 +72,36 @@ fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, title: &str, lines: &
         .map_err(area_err)?;
     for (i, line) in lines.iter().enumerate() {
         let color = PALETTE[i % PALETTE.len()];
-        let pts: Vec<(f64, f64)> = line
-            .points
-            .iter()
-            .copied()
-            .filter(|(x, y)| x.is_finite() && y.is_finite() && *x > 0.0 && *y > 0.0)
-            .collect();
+        let keep = |(x, y): (f64, f64)| x.is_finite() && y.is_finite() && x > 0.0 && y > 0.0;
+        let pts: Vec<(f64, f64)> = line.points.iter().copied().filter(|&p| keep(p)).collect();
         if pts.is_empty() {
             continue;
         }
+        // Error bars: mean ± ci; on the log axis the lower end stays above the axis' bottom
+        // (an interval reaching 0 or below is drawn down to the axis).
+        let bars: Vec<(f64, f64, f64)> = line
+            .points
+            .iter()
+            .enumerate()
+            .filter(|&(_, &p)| keep(p))
+            .filter_map(|(i, &(x, y))| line.ci_at(i).map(|c| (x, (y - c).max(ys.0), y + c)))
+            .collect();
+        // A vertical stroke and two caps; the x axis is logarithmic, so a cap spanning x / k to
+        // x k has the same width in pixels everywhere.
+        let k = 1.06;
+        chart
+            .draw_series(bars.into_iter().flat_map(|(x, lo, hi)| {
+                let mut strokes = vec![
+                    PathElement::new(vec![(x, lo), (x, hi)], color.stroke_width(1)),
+                    PathElement::new(vec![(x / k, hi), (x * k, hi)], color.stroke_width(1)),
+                ];
+                // A clamped lower end has no cap: the interval goes on below the axis.
+                if lo > ys.0 {
+                    strokes.push(PathElement::new(vec![(x / k, lo), (x * k, lo)], color.stroke_width(1)));
+                }
+                strokes
+            }))
+            .map_err(area_err)?;
         chart
             .draw_series(LineSeries::new(pts.clone(), color.stroke_width(2)))
             .map_err(area_err)?
@@ -90,13 +127,31 @@ mod tests {
     #[test]
     fn renders_a_log_log_chart() {
         let lines = vec![
-            Line { name: "a".into(), points: vec![(1.0, 0.1), (4.0, 0.05), (16.0, 0.025)] },
-            Line { name: "b".into(), points: vec![(2.0, 0.2), (8.0, 0.02)] },
+            Line { name: "a".into(), points: vec![(1.0, 0.1), (4.0, 0.05), (16.0, 0.025)], ci: vec![0.01, 0.2, 0.0] },
+            Line { name: "b".into(), points: vec![(2.0, 0.2), (8.0, 0.02)], ci: vec![] },
         ];
         let png = plot_png("t", &lines, 640, 400).unwrap();
         let img = image::load_from_memory(&png).unwrap();
         assert_eq!((img.width(), img.height()), (640, 400));
         assert!(plot_svg("t", &lines, 640, 400).unwrap().contains("relative RMSE"));
         assert_eq!(decade_range([0.003, 0.2].into_iter()), (0.001, 1.0));
+    }
+
+    #[test]
+    fn draws_error_bars_clamped_on_the_log_axis() {
+        let with = vec![Line { name: "a".into(), points: vec![(1.0, 0.1), (4.0, 0.05)], ci: vec![0.02, 0.2] }];
+        let without = vec![Line { ci: vec![], ..with[0].clone() }];
+        let zero = vec![Line { ci: vec![0.0, f64::NAN], ..with[0].clone() }];
+        let (a, b, c) = (
+            plot_svg("t", &with, 640, 400).unwrap(),
+            plot_svg("t", &without, 640, 400).unwrap(),
+            plot_svg("t", &zero, 640, 400).unwrap(),
+        );
+        // Two bars, two or three strokes each (the bar and its caps); none for 0 or NaN.
+        let count = |s: &str| s.matches("<line").count() + s.matches("<polyline").count() + s.matches("<path").count();
+        assert!(count(&a) >= count(&b) + 2, "{} vs {}", count(&a), count(&b));
+        assert_eq!(count(&b), count(&c));
+        // The second bar reaches below 0: clamped, nothing non-finite is written.
+        assert!(!a.contains("NaN") && !a.contains("inf"));
     }
 }
