@@ -32,7 +32,7 @@ use crate::data::{Distribution2D, Image};
 use crate::engine::cache::store::write_atomic;
 use crate::geometry::latlong;
 use crate::maths::error_metrics::image_error;
-use crate::maths::per_pixel::{relight_per_pixel, PerPixelStrategy};
+use crate::maths::per_pixel::{relight_per_pixel_with, PerPixelSequence, PerPixelStrategy};
 use crate::maths::reference::reference_sphere;
 use crate::maths::relight::{Estimator, SphereView};
 use crate::maths::sequences::Sequence;
@@ -296,24 +296,26 @@ pub fn run(config: &BenchConfig, log: &dyn Fn(&str)) -> Result<Vec<BenchRow>, St
             if count > PER_PIXEL_MAX_SPP {
                 continue;
             }
-            for strategy in [
-                PerPixelStrategy::Environment,
-                PerPixelStrategy::Cosine,
-                PerPixelStrategy::Uniform,
-                PerPixelStrategy::Mis,
-            ] {
+            // Every strategy with independent uniforms; the two that matter with per-pixel
+            // Owen-scrambled Sobol points too (Mitsuba's `ldsampler` is their peer).
+            let configurations = PerPixelStrategy::ALL
+                .map(|s| (s, PerPixelSequence::Random))
+                .into_iter()
+                .chain([PerPixelStrategy::Environment, PerPixelStrategy::Mis].map(|s| (s, PerPixelSequence::Sobol)));
+            for (strategy, sequence) in configurations {
                 // Runs of a second or more need no more than one timed repeat.
                 let repeats = if count >= 256 { 1 } else { config.repeats };
                 let (ms, errors) = over_seeds(
                     &seeds,
                     repeats,
-                    |seed| Ok(relight_per_pixel(&env, &dist, &view, albedo, strategy, count, seed)),
+                    |seed| Ok(relight_per_pixel_with(&env, &dist, &view, albedo, strategy, sequence, count, seed)),
                     score,
                 )?;
-                push(
-                    &mut rows,
-                    seeded_row(&spec.name, format!("per-pixel {}", strategy.name()), "per-pixel", count, ms, &errors),
-                );
+                let name = match sequence {
+                    PerPixelSequence::Random => format!("per-pixel {}", strategy.name()),
+                    PerPixelSequence::Sobol => format!("per-pixel {} Sobol", strategy.name()),
+                };
+                push(&mut rows, seeded_row(&spec.name, name, "per-pixel", count, ms, &errors));
             }
         }
         for order in [2usize, 4] {
@@ -766,9 +768,61 @@ pub fn summary(config: &BenchConfig, rows: &[BenchRow]) -> String {
                 }
             }
         }
+        per_pixel_against_mitsuba(&mut s, &mine);
         let _ = writeln!(s, "\n![{map}](time_error_{map}.png)\n");
     }
     s
+}
+
+/// The per-pixel table of issue 14: each Mitsuba LLVM point beside `PerPixelSphere` with the
+/// same estimator family at the same spp (`Mis` with random uniforms for `independent`, `Mis
+/// Sobol` for `ldsampler`: both draw one environment and one BSDF sample per spp, combined with
+/// the balance heuristic) and the fastest per-pixel strategy at Mitsuba's error.
+fn per_pixel_against_mitsuba(s: &mut String, mine: &[&BenchRow]) {
+    let mitsuba: Vec<&&BenchRow> = mine.iter().filter(|r| r.family == "peer" && r.strategy.contains("llvm")).collect();
+    if mitsuba.is_empty() {
+        return;
+    }
+    let mut per_pixel: Vec<(&str, Vec<(f64, f64)>)> = Vec::new();
+    for r in mine.iter().filter(|r| r.family == "per-pixel") {
+        match per_pixel.iter_mut().find(|(n, _)| *n == r.strategy) {
+            Some((_, p)) => p.push((r.ms, r.relative_rmse)),
+            None => per_pixel.push((r.strategy.as_str(), vec![(r.ms, r.relative_rmse)])),
+        }
+    }
+    let _ = writeln!(
+        s,
+        "\nPer-pixel sampling against Mitsuba's LLVM variant (time ratio = Mitsuba / hdrflow; above 1 hdrflow is faster):\n"
+    );
+    let _ = writeln!(
+        s,
+        "| Mitsuba point | its time | its mean error | hdrflow at equal spp | its time | its mean error | time ratio | fastest hdrflow per-pixel at Mitsuba's error | its time | time ratio |"
+    );
+    let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|");
+    for p in mitsuba {
+        let twin = if p.strategy.contains("ldsampler") { "per-pixel Mis Sobol" } else { "per-pixel Mis" };
+        let same = mine.iter().find(|r| r.strategy == twin && r.count == p.count);
+        let (same_cells, same_ratio) = match same {
+            Some(r) => (format!("{twin} | {:.1} ms | {}", r.ms, r.error_text()), format!("{:.2}x", p.ms / r.ms)),
+            None => (format!("{twin} | - | -"), "-".into()),
+        };
+        let best = per_pixel
+            .iter()
+            .filter_map(|(name, pts)| time_to_reach(pts, p.relative_rmse).map(|t| (*name, t)))
+            .min_by(|a, b| a.1.total_cmp(&b.1));
+        let best_cells = match best {
+            Some((name, t)) => format!("{name} | {t:.1} ms | {:.2}x", p.ms / t),
+            None => "none reaches it in the sweep | - | -".into(),
+        };
+        let _ = writeln!(
+            s,
+            "| {} N={} | {:.1} ms | {} | {same_cells} | {same_ratio} | {best_cells} |",
+            p.strategy,
+            p.count,
+            p.ms,
+            p.error_text()
+        );
+    }
 }
 
 #[cfg(test)]
