@@ -8,6 +8,8 @@
 //! - Decoding EXR files (PIZ, ZIP, DWAA; real and generated): ours against OpenImageIO
 //!   (`bench/peers/exr_oiio.py`, when `pip install OpenImageIO` has been done), file read included.
 //! - `graphs/seed.ron` on the built-in map: cold (empty cache) and fully cached.
+//! - `ReferenceSphere` 512x512 on a 1024x512 map against the machine's arithmetic floor (the
+//!   clock measured in the same run, the FP pipe model of [`FLOOR_CYCLES_PER_TERM`]).
 
 use std::path::Path;
 use std::time::Instant;
@@ -183,7 +185,91 @@ pub fn measure(data: &Path, peers: Option<&Path>, repeats: usize, log: &dyn Fn(&
         goal: "< 100 ms".into(),
         met: Some(k < 100.0),
     });
+    // 5. ReferenceSphere 512x512 on a 1024x512 map against the machine's arithmetic floor.
+    out.push(reference_against_floor(&maps, log));
     Ok(out)
+}
+
+/// Cycles per (normal, texel) term per core at the floor: the inner loop needs, per term, three
+/// products and two sums for the dot product, a max, and three products and three sums for the
+/// RGB accumulation (12 operations; with FMA: a product, two FMAs, the max and three FMAs, 6 of
+/// them on multiply-capable pipes). AMD Zen 4/5 have 4 FP pipes, 2 of which multiply: either way
+/// 3 cycles per 16 terms with 16-lane (AVX-512) registers.
+const FLOOR_CYCLES_PER_TERM: f64 = 3.0 / 16.0;
+
+/// The core clock, measured: a chain of 10 dependent integer additions per loop iteration (one
+/// cycle each on every x86-64 core; the loop's own counter runs beside it). None off x86_64.
+fn measure_clock_hz() -> Option<f64> {
+    #[cfg(target_arch = "x86_64")]
+    {
+        let iterations = 50_000_000u64;
+        let mut best = f64::INFINITY;
+        for _ in 0..3 {
+            let mut x = 0u64;
+            let t0 = Instant::now();
+            for _ in 0..iterations {
+                // SAFETY: integer additions on a register, no memory access.
+                unsafe {
+                    std::arch::asm!(
+                        "add {0}, 1", "add {0}, 1", "add {0}, 1", "add {0}, 1", "add {0}, 1",
+                        "add {0}, 1", "add {0}, 1", "add {0}, 1", "add {0}, 1", "add {0}, 1",
+                        inout(reg) x,
+                        options(nomem, nostack, pure)
+                    );
+                }
+            }
+            std::hint::black_box(x);
+            best = best.min(t0.elapsed().as_secs_f64());
+        }
+        Some(10.0 * iterations as f64 / best)
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    None
+}
+
+/// Target 5: `ReferenceSphere` 512x512 on a 1024x512 map (Grace Cathedral when present, else the
+/// built-in sky resized) against `terms x FLOOR_CYCLES_PER_TERM / (cores x clock)`, for the
+/// terms it evaluates (after skipping black texels and culled tiles) and for every term.
+fn reference_against_floor(maps: &[(String, Image)], log: &dyn Fn(&str)) -> Target {
+    let (name, env) = match maps.iter().find(|(_, m)| (m.width, m.height) == (1024, 512)) {
+        Some((n, m)) => (n.clone(), m.clone()),
+        None => ("built-in sky resized".to_string(), resize(&maps[0].1, 1024, 512)),
+    };
+    let view = crate::maths::relight::SphereView::new(512, latlong::direction_deg(90.0, 90.0));
+    let (ms, img) = time_median(1, || crate::maths::reference::reference_sphere(&env, &view, [0.8; 3]));
+    std::hint::black_box(img);
+    let (evaluated, all) = crate::maths::reference::reference_work(&env, &view);
+    let cores = rayon::current_num_threads() as f64;
+    let target_name = format!("ReferenceSphere 512x512 on a 1024x512 map ({name})");
+    match measure_clock_hz() {
+        Some(hz) => {
+            let floor_ms = |terms: u64| terms as f64 * FLOOR_CYCLES_PER_TERM / (cores * hz) * 1e3;
+            let (fe, fa) = (floor_ms(evaluated), floor_ms(all));
+            log(&format!(
+                "ReferenceSphere 512x512, {name}: {ms:.0} ms; {evaluated} terms evaluated of {all}; clock {:.2} GHz; floor {fe:.0} ms ({fa:.0} ms for every term)",
+                hz / 1e9
+            ));
+            Target {
+                name: target_name,
+                measured: format!(
+                    "{ms:.0} ms = {:.2}x the floor of its {:.2e} evaluated terms ({fe:.0} ms: 3 cycles per 16 terms, {cores} cores at a measured {:.2} GHz); {:.2}x the floor of all {:.2e} terms ({fa:.0} ms)",
+                    ms / fe,
+                    evaluated as f64,
+                    hz / 1e9,
+                    ms / fa,
+                    all as f64
+                ),
+                goal: "within 1.5x of the arithmetic floor".into(),
+                met: Some(ms <= 1.5 * fe),
+            }
+        }
+        None => Target {
+            name: target_name,
+            measured: format!("{ms:.0} ms ({evaluated} terms; no clock measurement off x86_64)"),
+            goal: "within 1.5x of the arithmetic floor".into(),
+            met: None,
+        },
+    }
 }
 
 /// The EXR files of target 3b: OpenEXR's own PIZ test image, the shared ZIP map when present, and

@@ -65,7 +65,7 @@ use rayon::prelude::*;
 
 use crate::data::Image;
 use crate::geometry::{latlong, unit};
-use crate::maths::kernels::{pack_blocks, Block, Cone, Kernel, LANES};
+use crate::maths::kernels::{lane_total, pack_blocks, Block, Cone, Kernel, LaneSums, LANES};
 use crate::maths::relight::SphereView;
 
 /// Side of the map tiles that texels are packed from, and of the pixel tiles of
@@ -137,16 +137,17 @@ fn pack(env: &Image) -> Packed {
     Packed { blocks, cones }
 }
 
-/// For one chunk of normals: for every tile of `active` (in increasing order), each normal's f32
-/// tile sum added into its f64 accumulator.
+/// For one chunk of normals: for every tile of `active` (in increasing order), each normal's
+/// per-lane f32 tile sums added into its per-lane f64 accumulators; then the lanes summed in f64
+/// into `out`.
 fn sum_tiles(kernel: Kernel, packed: &Packed, active: &[usize], normals: &[[f32; 3]], out: &mut [[f64; 3]]) {
+    let mut lanes: Vec<LaneSums> = vec![[[0.0; LANES]; 3]; normals.len()];
     for &t in active {
         let blocks = &packed.blocks[t * BLOCKS_PER_TILE..(t + 1) * BLOCKS_PER_TILE];
-        kernel.for_each_sum(blocks, normals, |i, s| {
-            for ch in 0..3 {
-                out[i][ch] += s[ch] as f64;
-            }
-        });
+        kernel.accumulate_lanes(blocks, normals, &mut lanes);
+    }
+    for (o, l) in out.iter_mut().zip(&lanes) {
+        *o = lane_total(l);
     }
 }
 
@@ -182,6 +183,27 @@ fn irradiance_exact_with(env: &Image, normals: &[[f64; 3]], kernel: Kernel, cull
         sum_tiles(kernel, &packed, &active, &nf, acc);
     });
     out
+}
+
+/// The work of [`reference_sphere`] on `env` and `view`: `(evaluated, all)`, where `evaluated`
+/// counts the (normal, texel lane) terms the kernels compute after zero texels are skipped and
+/// tiles are culled (padding lanes included), and `all` is disc pixels x W x H, the terms of the
+/// sum written out. For the benchmark's arithmetic floor.
+pub fn reference_work(env: &Image, view: &SphereView) -> (u64, u64) {
+    let normals: Vec<[f64; 3]> = disc_pixels_tiled(view).iter().map(|p| p.1).collect();
+    let all = normals.len() as u64 * (env.width * env.height) as u64;
+    let packed = pack(env);
+    let evaluated = normals
+        .chunks(NORMAL_CHUNK)
+        .map(|ns| {
+            let cone = Cone::around(ns.iter().map(|n| unit(DVec3::from(*n)).unwrap_or(DVec3::NAN)));
+            let kept = (0..packed.cones.len())
+                .filter(|&t| !matches!((&cone, &packed.cones[t]), (Some(c), Some(tile)) if c.hides(tile)))
+                .count();
+            (kept * TILE_TEXELS * ns.len()) as u64
+        })
+        .sum();
+    (evaluated, all)
 }
 
 /// The on-disc pixels of `view` in 16 x 16 tile order: (pixel index, normal).
