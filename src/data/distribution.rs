@@ -198,10 +198,19 @@ fn write_row_cdf(src: &[f32], sum: f64, cdf: &mut [f64]) {
         for (b, o) in (&mut blocks).zip(&mut out) {
             let b: &[f32; 8] = b.try_into().expect("8 texels");
             let local = block_prefix(b);
-            for (o, l) in o.iter_mut().zip(local) {
-                *o = norm(carry + l);
+            let end = carry + local[7];
+            if end == sum {
+                // The block reaches the row's sum: entries equal to it become exactly 1.0.
+                for (o, l) in o.iter_mut().zip(local) {
+                    *o = norm(carry + l);
+                }
+            } else {
+                // Every entry is <= end < sum: no comparison needed (a quarter of the time).
+                for (o, l) in o.iter_mut().zip(local) {
+                    *o = (carry + l) * inv;
+                }
             }
-            carry += local[7];
+            carry = end;
         }
         for (&x, o) in blocks.remainder().iter().zip(out.into_remainder()) {
             carry += x as f64;
