@@ -39,17 +39,20 @@
 //! up to it (a 1e-3 sky texel to the right of a 1e30 sun in the same row) disappears in the f64
 //! running sum: its interval is empty and `sample` can never return it, so its probability and
 //! pdf are 0 (when `func` was stored, the pdf of such a texel was positive although it could
-//! never be sampled). Every texel with a non-empty interval has a positive pdf, and every
-//! sampled texel has a positive weight.
+//! never be sampled). Every texel with a non-empty interval in a row of positive sum has a
+//! positive pdf, and every sampled texel has a positive weight. The row factor is
+//! `row_sum_y / total`, not the marginal CDF's interval (which would lose the precision of a dim
+//! row below bright ones), so a whole row whose sum vanishes in the marginal's running sum keeps
+//! a tiny positive pdf although `sample` never picks it, as before.
 //!
 //! Each row is read twice (it is in cache the second time) and its CDF written once: `row_sum`
 //! finds the row's sum (and, from the sum and the row's minimum, whether it holds a bad texel; a
 //! bad row is redone from a sanitised copy), then `write_row_cdf` writes the normalised running
 //! sums directly, multiplying by `1 / sum`. Both run over blocks of 8 texels so that only one
-//! f64 add per block is on the dependency chain. The CDF buffer is asked to be
-//! backed by transparent huge pages on Linux (`advise_huge_pages`): a fresh buffer of hundreds of
-//! MB is otherwise faulted in and zeroed by the kernel 4 KiB at a time, which at 8192x4096 cost
-//! more than everything else. Measured numbers are in BENCHMARKS.md ("BuildCdf at scale").
+//! f64 add per block is on the dependency chain. The CDF buffer is asked to be backed by
+//! transparent huge pages on Linux (`advise_huge_pages`): a fresh buffer of hundreds of MB is
+//! otherwise faulted in and zeroed by the kernel 4 KiB at a time, which at 8192x4096 cost more
+//! than everything else. Measured numbers are in BENCHMARKS.md ("BuildCdf at scale").
 
 use rayon::prelude::*;
 
