@@ -155,7 +155,7 @@ fn check_distribution(d: &Distribution2D, img: &Image, extra_us: &[f64]) -> Resu
         prop_assert_eq!(row[w], 1.0);
         prop_assert!(row.windows(2).all(|p| p[0] <= p[1]), "row {} CDF not monotone", y);
     }
-    prop_assert!(d.func.iter().chain(&d.row_sums).all(|v| v.is_finite() && *v >= 0.0));
+    prop_assert!(d.weights().iter().chain(&d.row_sums).all(|v| v.is_finite() && *v >= 0.0));
     prop_assert!(d.luminance_integral.is_finite() && d.luminance_integral >= 0.0);
 
     // The map carries light iff some texel is positive.
@@ -172,8 +172,27 @@ fn check_distribution(d: &Distribution2D, img: &Image, extra_us: &[f64]) -> Resu
             prop_assert!(p.is_finite() && p >= 0.0, "pdf({}, {}) = {}", x, y, p);
             integral.add(p * sa);
             prob.add(d.texel_probability(x, y));
-            if d.carries_light && img.data[y * w + x] > 0.0 {
-                prop_assert!(p > 0.0, "lit texel ({}, {}) = {} has pdf 0", x, y, img.data[y * w + x]);
+            if d.carries_light {
+                // A lit texel has a positive pdf unless its weight vanished in the f64 running sum
+                // of its row (below ~2^-53 of the sum before it): then `sample` can never return
+                // it and its pdf is 0 too (module doc of `data::distribution`). A black texel, or
+                // any texel of a black row (whose conditional is uniform), has pdf 0.
+                let row = d.conditional_row(y);
+                let reachable = row[x + 1] > row[x] && d.row_sums[y] > 0.0;
+                prop_assert_eq!(p > 0.0, reachable, "texel ({}, {}) = {}: pdf {}", x, y, img.data[y * w + x], p);
+                if reachable {
+                    prop_assert!(img.data[y * w + x] > 0.0, "black texel ({}, {}) has pdf {}", x, y, p);
+                } else if img.data[y * w + x] > 0.0 {
+                    let before: f64 = img.row(y)[..x].iter().map(|&v| v as f64).sum();
+                    prop_assert!(
+                        (img.data[y * w + x] as f64) < 1e-15 * before,
+                        "lit texel ({}, {}) = {} has pdf 0 (row sum before it {})",
+                        x,
+                        y,
+                        img.data[y * w + x],
+                        before
+                    );
+                }
             }
         }
     }

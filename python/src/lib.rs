@@ -164,7 +164,8 @@ fn value_to_py<'py>(py: Python<'py>, value: Value, out: Option<&Path>) -> PyResu
         d.set_item("width", dist.width)?;
         d.set_item("height", dist.height)?;
         d.set_item("sin_theta", dist.sin_theta)?;
-        let func = Array2::from_shape_vec((dist.height, dist.width), dist.func.clone())
+        // The weights are not stored (issue 14): derived from the conditional CDFs on demand.
+        let func = Array2::from_shape_vec((dist.height, dist.width), dist.weights())
             .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
         d.set_item("func", PyArray2::from_owned_array(py, func))?;
         let cond = Array2::from_shape_vec((dist.height, dist.width + 1), dist.conditional_cdf.clone())

@@ -3,7 +3,7 @@
 //! - `RelightSphere` 512x512 with 1024 shared samples, against the machine's arithmetic floor
 //!   (given by the issue as 15-20 ms on 2 cores) and against the NumPy peer at the same size.
 //! - `BuildCdf` on maps of 2048x1024, 8192x4096 and 16384x8192, against one pass over the
-//!   luminance's bytes (a serial sum of its f32 values).
+//!   luminance's bytes at memory bandwidth (a parallel chunked sum with 16 accumulators).
 //! - Decoding a 1024x512 RLE `.hdr`: ours against the `image` crate's decoder.
 //! - Decoding EXR files (PIZ, ZIP, DWAA; real and generated): ours against OpenImageIO
 //!   (`bench/peers/exr_oiio.py`, when `pip install OpenImageIO` has been done), file read included.
@@ -89,7 +89,8 @@ pub fn measure(data: &Path, peers: Option<&Path>, repeats: usize, log: &dyn Fn(&
     }
 
     // 2. BuildCdf against one pass over the luminance's bytes, at 2048x1024 up to 16384x8192
-    //    (issue 14: it must stay within 3x at every size).
+    //    (issue 14: it must stay within 3x at every size). The pass is the fastest read of every
+    //    byte we have: rayon over chunks, 16 independent accumulators (`one_pass`).
     let base = if grace_path.is_file() {
         load(&grace_path)?
     } else {
@@ -97,15 +98,15 @@ pub fn measure(data: &Path, peers: Option<&Path>, repeats: usize, log: &dyn Fn(&
     };
     for (w, h) in [(2048, 1024), (8192, 4096), (16384, 8192)] {
         let big = luminance(&resize(&base, w, h));
-        let n = if w > 2048 { 3 } else { repeats * 2 };
-        let (pass_ms, sum) = time_median(n, || big.data.iter().map(|&v| v as f64).sum::<f64>());
+        let n = if w > 2048 { 5 } else { repeats * 2 };
+        let (pass_ms, sum) = time_median(n, || one_pass(&big.data));
         std::hint::black_box(sum);
         let (cdf_ms, dist) = time_median(n, || Distribution2D::build(&big, true, false));
         dist.map_err(|e| e.to_string())?;
         let mib = (big.data.len() * 4) >> 20;
-        log(&format!("BuildCdf {w}x{h}: {cdf_ms:.2} ms; one pass over its {mib} MiB: {pass_ms:.2} ms"));
+        log(&format!("BuildCdf {w}x{h}: {cdf_ms:.2} ms; one parallel pass over its {mib} MiB: {pass_ms:.2} ms"));
         out.push(Target {
-            name: format!("BuildCdf {w}x{h} vs one pass over its bytes"),
+            name: format!("BuildCdf {w}x{h} vs one parallel pass over its bytes"),
             measured: format!("{cdf_ms:.2} ms vs {pass_ms:.2} ms = {:.1}x", cdf_ms / pass_ms),
             goal: "within 3x".into(),
             met: Some(cdf_ms / pass_ms <= 3.0),
@@ -342,6 +343,27 @@ fn exr_against_oiio(
     }
     let _ = std::fs::remove_dir_all(&dir);
     Ok(out)
+}
+
+/// Target 2's reference: one pass over every byte of `data` at memory bandwidth, on the same
+/// rayon pool as `BuildCdf` (chunks of 64 Ki values, each summed into 16 independent f32
+/// accumulators so that the compiler vectorises it and no add waits on the previous one; the
+/// chunks' sums in f64).
+fn one_pass(data: &[f32]) -> f64 {
+    use rayon::prelude::*;
+    data.par_chunks(1 << 16)
+        .map(|c| {
+            let mut acc = [0.0f32; 16];
+            let mut blocks = c.chunks_exact(16);
+            for b in &mut blocks {
+                for (a, v) in acc.iter_mut().zip(b) {
+                    *a += v;
+                }
+            }
+            let tail: f64 = blocks.remainder().iter().map(|&v| v as f64).sum();
+            tail + acc.iter().map(|&a| a as f64).sum::<f64>()
+        })
+        .sum()
 }
 
 /// Runs the NumPy peer on `env` at 512x512 with 1024 samples; its warm median in ms.

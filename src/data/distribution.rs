@@ -11,9 +11,11 @@
 //! - intervals are found with `partition_point(|c| c <= u)`: an interval `[c_i, c_{i+1})` of
 //!   zero width can never contain u, so zero-probability rows and columns are skipped, u = 0
 //!   cannot give index -1 (YafaRay #92), and u is clamped to 1 - 2^-53 so u = 1 works;
-//! - the pdf is `func / total` divided by the texel's solid angle, looked up at exactly the texel
-//!   that was sampled (no half-texel offset: the map is piecewise constant over texels whose
-//!   centres are `geometry::latlong`'s theta = pi (y + 1/2) / H, phi = 2 pi (x + 1/2) / W);
+//! - the pdf is the texel's probability divided by its solid angle, looked up at exactly the
+//!   texel that was sampled (no half-texel offset: the map is piecewise constant over texels
+//!   whose centres are `geometry::latlong`'s theta = pi (y + 1/2) / H, phi = 2 pi (x + 1/2) / W);
+//!   the probability is read from the CDFs `sample` uses (below), so it is the probability with
+//!   which `sample` returns the texel;
 //! - an all-black map does not fail: it falls back to uniform sampling over solid angle.
 //!
 //! Texel weights: `w(x, y) = Y(x, y) sin(theta_y)` when `sin_theta` (the sampling density is then
@@ -23,6 +25,34 @@
 //! `pdf = p / dOmega_y`, which for `sin_theta` is `Y W H / (2 pi^2 sum(w))` — pbrt-v3's
 //! `mapPdf / (2 pi^2 sin(theta))` (InfiniteAreaLight::Pdf_Li) with
 //! `mapPdf = Y W H / sum(w)` the density over the unit square.
+//!
+//! Memory (issue 14): the only buffer of the map's size is the conditional CDFs, `H (W + 1)` f64
+//! (8 bytes a texel written for 4 read). pbrt also stores the weights `func` (another 8 bytes a
+//! texel); here a texel's weight and probability are derived from its conditional CDF interval,
+//! `w(x, y) = (C_y[x+1] - C_y[x]) row_sum_y` and `p(x, y) = w(x, y) / total` (`weight`,
+//! `texel_probability`). That is exactly the probability with which `sample` picks the texel (the
+//! length of the u2 interval that maps to it times the row's probability), and it equals
+//! `Y sin(theta_y) / total` up to rounding: the interval's ends carry an absolute error of a few
+//! 2^-53, so the relative error is about `2^-52 C_y[x+1] / (C_y[x+1] - C_y[x])`, i.e. 1e-16 for a
+//! texel that holds a fair share of its row's weight and 1e-6 for one that holds 1e-10 of the
+//! running sum before it. A texel whose weight is below about 2^-53 of the running sum of its row
+//! up to it (a 1e-3 sky texel to the right of a 1e30 sun in the same row) disappears in the f64
+//! running sum: its interval is empty and `sample` can never return it, so its probability and
+//! pdf are 0 (when `func` was stored, the pdf of such a texel was positive although it could
+//! never be sampled). Every texel with a non-empty interval in a row of positive sum has a
+//! positive pdf, and every sampled texel has a positive weight. The row factor is
+//! `row_sum_y / total`, not the marginal CDF's interval (which would lose the precision of a dim
+//! row below bright ones), so a whole row whose sum vanishes in the marginal's running sum keeps
+//! a tiny positive pdf although `sample` never picks it, as before.
+//!
+//! Each row is read twice (it is in cache the second time) and its CDF written once: `row_sum`
+//! finds the row's sum (and, from the sum and the row's minimum, whether it holds a bad texel; a
+//! bad row is redone from a sanitised copy), then `write_row_cdf` writes the normalised running
+//! sums directly, multiplying by `1 / sum`. Both run over blocks of 8 texels so that only one
+//! f64 add per block is on the dependency chain. The CDF buffer is asked to be backed by
+//! transparent huge pages on Linux (`advise_huge_pages`): a fresh buffer of hundreds of MB is
+//! otherwise faulted in and zeroed by the kernel 4 KiB at a time, which at 8192x4096 cost more
+//! than everything else. Measured numbers are in BENCHMARKS.md ("BuildCdf at scale").
 
 use rayon::prelude::*;
 
@@ -48,17 +78,16 @@ pub struct Distribution2D {
     pub height: usize,
     /// Whether the weights include sin(theta) (sampling proportional to luminance x solid angle).
     pub sin_theta: bool,
-    /// Texel weights `w(x, y) = Y sin(theta_y)` (or `Y`), row-major, `width * height`.
-    pub func: Vec<f64>,
     /// `height` rows of `width + 1` entries: row y's CDF over columns, 0.0 .. exactly 1.0,
     /// non-decreasing; uniform `k / W` for a row of zero weight.
     pub conditional_cdf: Vec<f64>,
-    /// Sum of each row's weights (`height` entries).
+    /// Sum of each row's weights (`height` entries): `sin(theta_y)` (or 1) times the f64 sum of
+    /// the row's luminance.
     pub row_sums: Vec<f64>,
     /// CDF over rows (`height + 1` entries, 0.0 .. exactly 1.0). Proportional to `row_sums`, or,
     /// when the map carries no light, to sin(theta_y) (uniform over solid angle).
     pub marginal_cdf: Vec<f64>,
-    /// Sum of `func`.
+    /// Sum of all weights (of `row_sums`).
     pub total: f64,
     /// `sum Y(x, y) dOmega_y`: the integral of the (sanitised) luminance over the sphere.
     pub luminance_integral: f64,
@@ -66,17 +95,21 @@ pub struct Distribution2D {
     pub carries_light: bool,
 }
 
-/// Normalises running sums `cdf[0] = 0, cdf[i+1] = cdf[i] + w_i` into a CDF in place and returns
-/// the sum `cdf[n]`. Entries equal to the sum (every entry after the last non-zero weight)
-/// become exactly 1.0, the others `cdf[i] / sum` (monotone: division by a positive constant is
-/// monotone under rounding, and `cdf[i] <= sum`). A zero (or non-finite) sum gives the uniform
-/// CDF `k / n`. Either way `cdf[0] = 0` and `cdf[n] = 1` exactly.
+/// Normalises non-decreasing running sums `cdf[0] = 0, ..., cdf[n] = sum` into a CDF in place
+/// and returns the sum `cdf[n]`. Entries equal to the sum (every entry after the last non-zero
+/// weight) become exactly 1.0, the others `cdf[i] * (1 / sum)`: monotone (multiplication by a
+/// positive constant is monotone under rounding) and at most 1 (for `cdf[i] < sum`,
+/// `cdf[i] <= sum (1 - 2^-53)` and `fl(1 / sum) <= (1 + 2^-53) / sum`, so the exact product is
+/// below 1), within 1.5 ulp of `cdf[i] / sum`; a multiply instead of a divide per entry, which
+/// vectorises. A zero (or non-finite) sum gives the uniform CDF `k / n`. Either way `cdf[0] = 0`
+/// and `cdf[n] = 1` exactly.
 fn normalise_cdf(cdf: &mut [f64]) -> f64 {
     let n = cdf.len() - 1;
     let sum = cdf[n];
     if sum > 0.0 && sum.is_finite() {
+        let inv = 1.0 / sum;
         for c in cdf.iter_mut() {
-            *c = if *c == sum { 1.0 } else { *c / sum };
+            *c = if *c == sum { 1.0 } else { *c * inv };
         }
     } else {
         for (k, c) in cdf.iter_mut().enumerate() {
@@ -106,6 +139,133 @@ fn clamp_unit(u: f64) -> f64 {
     }
 }
 
+/// Block `b` of 8 texels' own prefix sums, as a small tree that does not depend on the blocks
+/// before it: `[v0, v0+v1, ..., v0+...+v7]` (non-decreasing for non-negative texels, and equal
+/// from the last non-zero texel on).
+#[inline(always)]
+fn block_prefix(b: &[f32; 8]) -> [f64; 8] {
+    let v: [f64; 8] = b.map(f64::from);
+    let (p01, p23, p45, p67) = (v[0] + v[1], v[2] + v[3], v[4] + v[5], v[6] + v[7]);
+    let (p03, p47) = (p01 + p23, p45 + p67);
+    [v[0], p01, p01 + v[2], p03, p03 + v[4], p03 + p45, p03 + (p45 + v[6]), p03 + p47]
+}
+
+/// A row's running sums (as f64): `S_0 = 0` and, for texel `8k + i`, `S = C_k + L_k[i]` where
+/// `L_k = block_prefix(block k)` and `C_{k+1} = C_k + L_k[7]` (texels past the last full block
+/// are added one by one). Only one f64 add per 8 texels is on the dependency chain (a plain
+/// running sum has one per texel, and its latency was the bottleneck). Every `S` is `C_k +` a
+/// non-negative, non-decreasing local sum, so the sums are non-decreasing, a block ends exactly
+/// on the next block's carry, and every sum after the last non-zero texel equals the row's sum
+/// exactly. `row_sum` and `write_row_cdf` both evaluate this, with the same operations in the
+/// same order, so the sum `write_row_cdf` is given is bit for bit its last running sum.
+///
+/// Returns `(sum, min)`, the row's sum and its smallest texel. The row is free of bad texels iff
+/// `sum` is finite (no NaN and no +Inf: an f64 sum of finite f32 values cannot overflow) and
+/// `min >= 0` (no negative and no -Inf; -0.0 passes and adds nothing).
+fn row_sum(src: &[f32]) -> (f64, f32) {
+    let mut carry = 0.0f64;
+    // One minimum per lane, by compare-and-select (`f32::min`'s NaN rule made this loop 3x slower).
+    let mut mins = [f32::INFINITY; 8];
+    let mut blocks = src.chunks_exact(8);
+    for b in &mut blocks {
+        let b: &[f32; 8] = b.try_into().expect("8 texels");
+        for (m, &x) in mins.iter_mut().zip(b) {
+            *m = if x < *m { x } else { *m };
+        }
+        carry += block_prefix(b)[7];
+    }
+    let mut min = mins.iter().fold(f32::INFINITY, |m, &x| if x < m { x } else { m });
+    for &x in blocks.remainder() {
+        min = if x < min { x } else { min };
+        carry += x as f64;
+    }
+    (carry, min)
+}
+
+/// Writes row `src`'s conditional CDF into `cdf` (`src.len() + 1` entries) in one pass, given
+/// `sum = row_sum(src).0`: `S / sum` for each running sum `S` (see `row_sum`), exactly 1.0 where
+/// `S == sum`, as `normalise_cdf` does, but without first storing the sums and reading them back.
+/// A zero (or non-finite) sum gives the uniform CDF. `cdf[0] = 0`, `cdf[n] = 1` exactly.
+fn write_row_cdf(src: &[f32], sum: f64, cdf: &mut [f64]) {
+    let n = src.len();
+    if !(sum > 0.0 && sum.is_finite()) {
+        for (k, c) in cdf.iter_mut().enumerate() {
+            *c = k as f64 / n as f64;
+        }
+    } else {
+        let inv = 1.0 / sum;
+        let norm = |s: f64| if s == sum { 1.0 } else { s * inv };
+        let mut carry = 0.0f64;
+        let mut blocks = src.chunks_exact(8);
+        let mut out = cdf[1..].chunks_exact_mut(8);
+        for (b, o) in (&mut blocks).zip(&mut out) {
+            let b: &[f32; 8] = b.try_into().expect("8 texels");
+            let local = block_prefix(b);
+            let end = carry + local[7];
+            if end == sum {
+                // The block reaches the row's sum: entries equal to it become exactly 1.0.
+                for (o, l) in o.iter_mut().zip(local) {
+                    *o = norm(carry + l);
+                }
+            } else {
+                // Every entry is <= end < sum: no comparison needed (a quarter of the time).
+                for (o, l) in o.iter_mut().zip(local) {
+                    *o = (carry + l) * inv;
+                }
+            }
+            carry = end;
+        }
+        for (&x, o) in blocks.remainder().iter().zip(out.into_remainder()) {
+            carry += x as f64;
+            *o = norm(carry);
+        }
+    }
+    cdf[0] = 0.0;
+    cdf[n] = 1.0;
+}
+
+/// The texel value `build` uses: NaN and negatives (including -Inf) are 0 and +Inf is
+/// `f32::MAX` when sanitising; `None` for a bad texel otherwise.
+fn sanitised(v: f32, sanitize: bool) -> Option<f32> {
+    if v.is_nan() || v < 0.0 || v == f32::INFINITY {
+        if !sanitize {
+            return None;
+        }
+        Some(if v == f32::INFINITY { f32::MAX } else { 0.0 })
+    } else {
+        Some(v)
+    }
+}
+
+/// Asks Linux to back `buf` with transparent huge pages (`madvise(MADV_HUGEPAGE)` on the whole
+/// 4 KiB pages inside it; this machine's THP setting is `madvise`). A large `vec![0.0; n]` is a
+/// fresh `mmap` that the kernel faults in and zeroes page by page on first write: at 8192x4096
+/// the 256 MiB conditional CDF took 65,544 faults and 55 ms to touch with 4 KiB pages, 647
+/// faults and 12.6 ms with 2 MiB pages (and 22 ms vs 1 ms to unmap). Advice only: contents are
+/// unchanged, a failure is ignored, and other systems do nothing.
+#[cfg(target_os = "linux")]
+fn advise_huge_pages(buf: &mut [f64]) {
+    const PAGE: usize = 4096;
+    let bytes = std::mem::size_of_val(buf);
+    if bytes < 4 << 20 {
+        return; // Small buffers come from the allocator's recycled heap, already faulted in.
+    }
+    let start = (buf.as_mut_ptr() as usize).next_multiple_of(PAGE);
+    let end = (buf.as_mut_ptr() as usize + bytes) / PAGE * PAGE;
+    if end > start {
+        // SAFETY: [start, end) lies inside `buf`, which this function borrows mutably, so no
+        // other reference observes it; MADV_HUGEPAGE only sets how the kernel backs the pages
+        // (it never discards or changes their contents, unlike MADV_DONTNEED/FREE), and the
+        // call does not touch memory outside the range. The result is deliberately ignored.
+        unsafe {
+            libc::madvise(start as *mut libc::c_void, end - start, libc::MADV_HUGEPAGE);
+        }
+    }
+}
+
+#[cfg(not(target_os = "linux"))]
+fn advise_huge_pages(_buf: &mut [f64]) {}
+
 impl Distribution2D {
     /// Builds the distribution of a one-channel luminance map (rows in parallel).
     ///
@@ -131,52 +291,40 @@ impl Distribution2D {
             )));
         }
 
-        let mut func = vec![0.0f64; w * h];
+        // The only buffer of the map's size: written once, row by row (see the module docs).
         let mut conditional_cdf = vec![0.0f64; h * (w + 1)];
+        advise_huge_pages(&mut conditional_cdf);
 
-        // Per row: (sum of weights, sum of luminance), or the first bad texel (x, value).
-        let rows: Vec<Result<(f64, f64), (usize, f32)>> = func
-            .par_chunks_mut(w)
-            .zip(conditional_cdf.par_chunks_mut(w + 1))
+        // Per row: the sum of its luminance, or the first bad texel (x, value).
+        let rows: Vec<Result<f64, (usize, f32)>> = conditional_cdf
+            .par_chunks_mut(w + 1)
             .enumerate()
-            .map(|(y, (frow, crow))| {
+            .map(|(y, crow)| {
                 let src = luminance.row(y);
-                let s = if sin_theta { theta_of_row(y, h).sin() } else { 1.0 };
-                let mut running = 0.0f64;
-                let mut lum_sum = 0.0f64;
-                crow[0] = 0.0;
-                for (x, &v) in src.iter().enumerate() {
-                    let lum = if v.is_nan() || v < 0.0 || v == f32::INFINITY {
-                        if !sanitize {
-                            return Err((x, v));
-                        }
-                        if v == f32::INFINITY {
-                            f32::MAX as f64
-                        } else {
-                            0.0
-                        }
-                    } else if v > 0.0 {
-                        v as f64
-                    } else {
-                        0.0 // +0 and -0
-                    };
-                    let wt = lum * s;
-                    frow[x] = wt;
-                    running += wt;
-                    crow[x + 1] = running;
-                    lum_sum += lum;
+                let (sum, min) = row_sum(src);
+                if sum.is_finite() && min >= 0.0 {
+                    write_row_cdf(src, sum, crow);
+                    return Ok(sum);
                 }
-                let row_sum = normalise_cdf(crow);
-                Ok((row_sum, lum_sum))
+                // A bad texel: name the first, or redo the row from its sanitised copy.
+                let mut clean = Vec::with_capacity(w);
+                for (x, &v) in src.iter().enumerate() {
+                    clean.push(sanitised(v, sanitize).ok_or((x, v))?);
+                }
+                let sum = row_sum(&clean).0;
+                write_row_cdf(&clean, sum, crow);
+                Ok(sum)
             })
             .collect();
 
+        // Row weights are Y sin(theta_y) (or Y): the sine is constant along a row, so it scales
+        // the row's sum and cancels out of its conditional CDF.
         let mut row_sums = Vec::with_capacity(h);
         let mut luminance_integral = 0.0f64;
         for (y, r) in rows.into_iter().enumerate() {
             match r {
-                Ok((row_sum, lum_sum)) => {
-                    row_sums.push(row_sum);
+                Ok(lum_sum) => {
+                    row_sums.push(if sin_theta { lum_sum * theta_of_row(y, h).sin() } else { lum_sum });
                     luminance_integral += lum_sum * texel_solid_angle(y, w, h);
                 }
                 Err((x, value)) => return Err(DistributionError::BadTexel { x, y, value }),
@@ -202,7 +350,6 @@ impl Distribution2D {
             width: w,
             height: h,
             sin_theta,
-            func,
             conditional_cdf,
             row_sums,
             marginal_cdf,
@@ -229,15 +376,18 @@ impl Distribution2D {
         (x, y, self.pdf(x, y))
     }
 
-    /// The discrete probability of texel (x, y): `func(x, y) / total` when the map carries light;
-    /// otherwise the fallback's `P(row y) / W`, read from the CDFs (`(M_{y+1} - M_y)(C_{x+1} -
-    /// C_x)`, with uniform conditionals). 0 outside the map.
+    /// The discrete probability of texel (x, y), read from the CDFs that `sample` uses: when the
+    /// map carries light, the width of its interval in row y's conditional CDF times the row's
+    /// probability, `(C_{x+1} - C_x) row_sums[y] / total` (= `w(x, y) / total` up to rounding:
+    /// see the module documentation); otherwise the fallback's `P(row y) / W`, `(M_{y+1} -
+    /// M_y)(C_{x+1} - C_x)` with uniform conditionals. 0 outside the map.
     pub fn texel_probability(&self, x: usize, y: usize) -> f64 {
         if x >= self.width || y >= self.height {
             return 0.0;
         }
         if self.carries_light {
-            self.func[y * self.width + x] / self.total
+            let row = self.conditional_row(y);
+            (row[x + 1] - row[x]) * (self.row_sums[y] / self.total)
         } else {
             let row = self.conditional_row(y);
             (self.marginal_cdf[y + 1] - self.marginal_cdf[y]) * (row[x + 1] - row[x])
@@ -266,10 +416,31 @@ impl Distribution2D {
         self.pdf(x, y)
     }
 
+    /// The weight `w(x, y)` of texel (x, y) as the distribution sees it: row y's sum times the
+    /// width of the texel's conditional CDF interval (`Y sin(theta_y)`, or `Y`, up to rounding; 0
+    /// for a texel whose interval is empty). 0 outside the map.
+    pub fn weight(&self, x: usize, y: usize) -> f64 {
+        if x >= self.width || y >= self.height {
+            return 0.0;
+        }
+        let row = self.conditional_row(y);
+        (row[x + 1] - row[x]) * self.row_sums[y]
+    }
+
+    /// All texel weights, row-major (`width * height`), computed on demand by `weight` (the
+    /// distribution does not store them).
+    pub fn weights(&self) -> Vec<f64> {
+        let mut out = Vec::with_capacity(self.width * self.height);
+        for y in 0..self.height {
+            let row = self.conditional_row(y);
+            out.extend(row.windows(2).map(|c| (c[1] - c[0]) * self.row_sums[y]));
+        }
+        out
+    }
+
     /// Approximate heap plus inline size in bytes.
     pub fn approx_bytes(&self) -> usize {
-        std::mem::size_of::<Self>()
-            + 8 * (self.func.len() + self.conditional_cdf.len() + self.row_sums.len() + self.marginal_cdf.len())
+        std::mem::size_of::<Self>() + 8 * (self.conditional_cdf.len() + self.row_sums.len() + self.marginal_cdf.len())
     }
 }
 
@@ -309,7 +480,7 @@ mod tests {
     }
 
     fn check_invariants(d: &Distribution2D) {
-        assert_eq!(d.func.len(), d.width * d.height);
+        assert_eq!(d.weights().len(), d.width * d.height);
         assert_eq!(d.conditional_cdf.len(), d.height * (d.width + 1));
         assert_eq!(d.row_sums.len(), d.height);
         assert_eq!(d.marginal_cdf.len(), d.height + 1);
@@ -438,7 +609,7 @@ mod tests {
         let mut rng = SplitMix64::new(10);
         for _ in 0..20_000 {
             let (x, y, pdf) = d.sample(rng.next_f64(), rng.next_f64());
-            assert!(d.func[y * 32 + x] > 0.0 && pdf > 0.0);
+            assert!(img.data[y * 32 + x] > 0.0 && d.weight(x, y) > 0.0 && pdf > 0.0);
             assert_ne!(y, 7);
         }
     }
@@ -518,7 +689,8 @@ mod tests {
         assert_eq!(d.texel_probability(2, 1), 0.0);
         assert_eq!(d.texel_probability(0, 3), 0.0);
         assert_eq!(d.texel_probability(3, 2), 0.0);
-        assert_eq!(d.func[4 * w + 1], f32::MAX as f64 * theta_of_row(4, h).sin());
+        let expect = f32::MAX as f64 * theta_of_row(4, h).sin();
+        assert!((d.weight(1, 4) - expect).abs() <= 1e-15 * expect);
         assert!(d.texel_probability(1, 4) > 0.999_999);
         assert!((pdf_integral(&d) - 1.0).abs() < 1e-12);
         assert!(d.luminance_integral.is_finite());
@@ -549,7 +721,7 @@ mod tests {
             assert!(d.total.is_finite() && d.carries_light);
             assert!((pdf_integral(&d) - 1.0).abs() < 1e-12);
             let (x, y, pdf) = d.sample(0.5, 0.5);
-            assert!(pdf.is_finite() && pdf > 0.0 && d.func[y * w + x] > 0.0);
+            assert!(pdf.is_finite() && pdf > 0.0 && img.data[y * w + x] > 0.0);
             // A tiny texel keeps a tiny but positive, finite pdf.
             assert!(d.pdf(0, 0) > 0.0);
         }
@@ -584,11 +756,108 @@ mod tests {
         let one = pool.install(|| Distribution2D::build(&img, true, false).unwrap());
         let many = Distribution2D::build(&img, true, false).unwrap();
         assert_eq!(one, many);
-        assert!(many.approx_bytes() >= 8 * (50 * 25 + 25 * 51 + 25 + 26));
+        assert!(many.approx_bytes() >= 8 * (25 * 51 + 25 + 26));
         // pdf_direction agrees with the texel lookup at texel centres.
         for (x, y) in [(0usize, 0usize), (10, 7), (49, 24)] {
             let dir = crate::geometry::latlong::texel_direction(x, y, 50, 25);
             assert_eq!(many.pdf_direction(dir), many.pdf(x, y));
         }
+    }
+
+    #[test]
+    fn row_cdfs_are_monotone_and_end_on_exactly_one() {
+        let mut rng = SplitMix64::new(5);
+        for n in [1usize, 2, 7, 8, 9, 16, 17, 100] {
+            for trailing in [0, 1, 3, 9] {
+                let mut src: Vec<f32> = (0..n).map(|_| 0.01 + rng.next_f64() as f32).collect();
+                // Trailing zeros (one of them -0.0) after the last non-zero texel.
+                let last = n.saturating_sub(trailing).max(1);
+                for v in &mut src[last..] {
+                    *v = -0.0;
+                }
+                let (sum, min) = row_sum(&src);
+                let serial: f64 = src.iter().map(|&v| v as f64).sum();
+                assert!((sum - serial).abs() <= 1e-15 * serial, "{n}: {sum} vs {serial}");
+                assert!(min >= 0.0);
+                let mut cdf = vec![f64::NAN; n + 1];
+                write_row_cdf(&src, sum, &mut cdf);
+                assert_eq!((cdf[0], cdf[n]), (0.0, 1.0));
+                assert!(cdf.windows(2).all(|p| p[0] <= p[1]), "{n}: {cdf:?}");
+                assert!(cdf[last..].iter().all(|&c| c == 1.0), "{n} {trailing}: {cdf:?}");
+                assert!(cdf[..last].iter().all(|&c| c < 1.0), "{n} {trailing}: {cdf:?}");
+                let mut prefix = 0.0f64;
+                for (x, &v) in src.iter().enumerate() {
+                    prefix += v as f64;
+                    assert!((cdf[x + 1] - prefix / serial).abs() <= 4.0 * f64::EPSILON, "{n}: entry {x}");
+                }
+            }
+        }
+        let mut zero = vec![f64::NAN; 5];
+        write_row_cdf(&[0.0; 4], 0.0, &mut zero);
+        assert_eq!(zero, [0.0, 0.25, 0.5, 0.75, 1.0]);
+        let mut src = vec![1.0f32; 10];
+        src[9] = -1.0;
+        assert!(row_sum(&src).1 < 0.0);
+        src[9] = f32::NAN;
+        assert!(!row_sum(&src).0.is_finite());
+        src[9] = f32::INFINITY;
+        assert!(!row_sum(&src).0.is_finite());
+        src[9] = f32::NEG_INFINITY;
+        assert!(row_sum(&src).1 < 0.0);
+    }
+
+    #[test]
+    fn weights_match_the_luminance_to_rounding() {
+        // Large enough (4.8 MiB of CDF) for `advise_huge_pages` to act.
+        let (w, h) = (1000usize, 600usize);
+        let img = random_map(w, h, 71, Some(10));
+        for sin_theta in [true, false] {
+            let d = build(&img, sin_theta);
+            let weights = d.weights();
+            let mut total = 0.0;
+            for y in 0..h {
+                let s = if sin_theta { theta_of_row(y, h).sin() } else { 1.0 };
+                let row_sum: f64 = img.row(y).iter().map(|&v| v as f64 * s).sum();
+                assert!((d.row_sums[y] - row_sum).abs() <= 1e-13 * row_sum, "row {y}");
+                total += row_sum;
+                for x in 0..w {
+                    let expect = img.data[y * w + x] as f64 * s;
+                    let got = d.weight(x, y);
+                    assert_eq!(got, weights[y * w + x]);
+                    // The interval's ends carry an absolute error of a few 2^-53 of the row sum.
+                    assert!((got - expect).abs() <= 1e-9 * expect + 8.0 * f64::EPSILON * row_sum, "({x}, {y})");
+                    assert_eq!(got > 0.0, expect > 0.0, "({x}, {y})");
+                }
+            }
+            assert!((d.total - total).abs() <= 1e-12 * total);
+        }
+    }
+
+    #[test]
+    fn a_texel_lost_in_the_running_sum_has_pdf_zero_and_is_never_sampled() {
+        // Row 0: a 1e-3 texel after a 1e30 one disappears from the f64 running sum; before it, it
+        // keeps its (tiny) probability.
+        let img = Image::from_vec(2, 2, 1, vec![1e30, 1e-3, 1e-3, 1e30]);
+        let d = build(&img, true);
+        assert_eq!(d.texel_probability(1, 0), 0.0);
+        assert_eq!(d.pdf(1, 0), 0.0);
+        assert!(d.pdf(0, 1) > 0.0 && d.weight(0, 1) > 0.0);
+        let mut rng = SplitMix64::new(8);
+        for _ in 0..10_000 {
+            let (x, y, pdf) = d.sample(rng.next_f64(), rng.next_f64());
+            assert!((x, y) != (1, 0) && pdf > 0.0);
+        }
+    }
+
+    #[test]
+    fn huge_page_advice_keeps_the_contents() {
+        let mut fresh = vec![0.0f64; 3 << 20];
+        advise_huge_pages(&mut fresh);
+        assert!(fresh.iter().all(|&v| v == 0.0));
+        let mut used: Vec<f64> = (0..(3usize << 20) + 5).map(|i| i as f64).collect();
+        advise_huge_pages(&mut used);
+        assert!(used.iter().enumerate().all(|(i, &v)| v == i as f64));
+        advise_huge_pages(&mut used[3..1000]);
+        advise_huge_pages(&mut []);
     }
 }

@@ -1,5 +1,13 @@
 //! `distribution`: a [`Distribution2D`] over a lat-long map. Saved as an image of its
 //! solid-angle pdf per texel.
+//!
+//! Payload: width, height (u64), sin_theta, carries_light (u8), total, luminance_integral (f64),
+//! then the f64 arrays conditional_cdf, row_sums, marginal_cdf. The weights (`func`) are not
+//! stored since issue 14 (they are derived from the CDFs). An entry written with the older
+//! layout, which had `func` before `conditional_cdf`, is never looked up (this file and
+//! `data/distribution.rs` are part of the engine salt in every cache key), and if one were
+//! decoded anyway its first array has `width * height` entries, not `height * (width + 1)`, so
+//! the size check rejects it.
 
 use crate::data::{Distribution2D, Image};
 use crate::engine::cache::codec::{Reader, Writer};
@@ -28,7 +36,6 @@ impl ValueData for Distribution2D {
         w.u8(u8::from(self.carries_light));
         w.f64(self.total);
         w.f64(self.luminance_integral);
-        w.f64s(&self.func);
         w.f64s(&self.conditional_cdf);
         w.f64s(&self.row_sums);
         w.f64s(&self.marginal_cdf);
@@ -43,13 +50,12 @@ fn decode(bytes: &[u8]) -> Result<Value, String> {
     let carries_light = r.u8()? != 0;
     let total = r.f64()?;
     let luminance_integral = r.f64()?;
-    let func = r.f64s()?;
     let conditional_cdf = r.f64s()?;
     let row_sums = r.f64s()?;
     let marginal_cdf = r.f64s()?;
     r.finish()?;
     let n = width.checked_mul(height).ok_or("distribution size overflows")?;
-    if func.len() != n
+    if n == 0
         || Some(conditional_cdf.len()) != height.checked_mul(width + 1)
         || row_sums.len() != height
         || marginal_cdf.len() != height + 1
@@ -60,7 +66,6 @@ fn decode(bytes: &[u8]) -> Result<Value, String> {
         width,
         height,
         sin_theta,
-        func,
         conditional_cdf,
         row_sums,
         marginal_cdf,
