@@ -157,24 +157,69 @@ fn sum_scalar(blocks: &[Block], n: [f32; 3]) -> [f32; 3] {
     [hsum(&acc[0]), hsum(&acc[1]), hsum(&acc[2])]
 }
 
-/// Per-lane f64 accumulators of one normal's sums: `[channel][lane]`. See
-/// [`Kernel::accumulate_lanes`].
-pub type LaneSums = [[f64; LANES]; 3];
+/// Lanes per [`WideBlock`]: one AVX-512 register of f32.
+pub const WIDE: usize = 16;
 
-/// The total of a normal's [`LaneSums`], per channel, the lanes added in one fixed pairwise order
-/// (as [`hsum`], in f64).
-#[inline]
-pub fn lane_total(s: &LaneSums) -> [f64; 3] {
-    s.map(|a| ((a[0] + a[4]) + (a[1] + a[5])) + ((a[2] + a[6]) + (a[3] + a[7])))
+/// `WIDE` lights as structure of arrays, for [`Kernel::accumulate_wide`] (the exact reference's
+/// layout): as [`Block`], twice as wide, aligned for AVX-512 loads.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C, align(64))]
+pub struct WideBlock {
+    pub dx: [f32; WIDE],
+    pub dy: [f32; WIDE],
+    pub dz: [f32; WIDE],
+    pub wr: [f32; WIDE],
+    pub wg: [f32; WIDE],
+    pub wb: [f32; WIDE],
 }
 
-/// The portable lane kernel, reference for the SIMD ones: each lane's f32 sum over `blocks` (the
-/// operations of [`sum_scalar`]) added into `acc` in f64.
+impl WideBlock {
+    /// A block of padding lanes (direction 0, weight 0: they add exactly `+0`).
+    pub const ZERO: WideBlock = WideBlock {
+        dx: [0.0; WIDE],
+        dy: [0.0; WIDE],
+        dz: [0.0; WIDE],
+        wr: [0.0; WIDE],
+        wg: [0.0; WIDE],
+        wb: [0.0; WIDE],
+    };
+}
+
+/// Appends `lights` to `blocks`, `WIDE` per block (light `k` in lane `k % WIDE`), the last block
+/// padded with zero lanes.
+pub fn pack_wide_blocks(lights: impl IntoIterator<Item = ([f32; 3], [f32; 3])>, blocks: &mut Vec<WideBlock>) {
+    for (k, (d, w)) in lights.into_iter().enumerate() {
+        let lane = k % WIDE;
+        if lane == 0 {
+            blocks.push(WideBlock::ZERO);
+        }
+        let b = blocks.last_mut().expect("a block was pushed");
+        (b.dx[lane], b.dy[lane], b.dz[lane]) = (d[0], d[1], d[2]);
+        (b.wr[lane], b.wg[lane], b.wb[lane]) = (w[0], w[1], w[2]);
+    }
+}
+
+/// Per-lane f64 accumulators of one normal's sums: `[channel][lane]`. See
+/// [`Kernel::accumulate_wide`].
+pub type WideSums = [[f64; WIDE]; 3];
+
+/// The total of a normal's [`WideSums`], per channel: the 16 lanes added in one fixed pairwise
+/// order, in f64.
+#[inline]
+pub fn wide_total(s: &WideSums) -> [f64; 3] {
+    s.map(|a| {
+        let q = |i: usize| (a[i] + a[i + 8]) + (a[i + 4] + a[i + 12]);
+        (q(0) + q(1)) + (q(2) + q(3))
+    })
+}
+
+/// The portable wide kernel, reference for the SIMD ones: per lane, the f32 sum over `blocks`
+/// of `max(n . d, 0) w` (the operations of [`sum_scalar`]), added into `acc` in f64.
 #[allow(clippy::needless_range_loop)] // lane l of every array: the SIMD layout, written out
-fn lanes_scalar(blocks: &[Block], n: [f32; 3], acc: &mut LaneSums) {
-    let mut lane = [[0.0f32; LANES]; 3];
+fn wide_scalar(blocks: &[WideBlock], n: [f32; 3], acc: &mut WideSums) {
+    let mut lane = [[0.0f32; WIDE]; 3];
     for b in blocks {
-        for l in 0..LANES {
+        for l in 0..WIDE {
             let d = n[0] * b.dx[l] + n[1] * b.dy[l] + n[2] * b.dz[l];
             let c = if d > 0.0 { d } else { 0.0 };
             lane[0][l] += c * b.wr[l];
@@ -183,7 +228,7 @@ fn lanes_scalar(blocks: &[Block], n: [f32; 3], acc: &mut LaneSums) {
         }
     }
     for ch in 0..3 {
-        for l in 0..LANES {
+        for l in 0..WIDE {
             acc[ch][l] += lane[ch][l] as f64;
         }
     }
@@ -191,7 +236,7 @@ fn lanes_scalar(blocks: &[Block], n: [f32; 3], acc: &mut LaneSums) {
 
 #[cfg(target_arch = "x86_64")]
 mod x86 {
-    use super::{hsum, Block, LaneSums, LANES};
+    use super::{hsum, Block, WideBlock, WideSums, LANES};
     use std::arch::x86_64::*;
 
     /// AVX: `sum_scalar` for two normals at once, one register per block component. The light
@@ -237,7 +282,8 @@ mod x86 {
     /// normals, 16 terms each).
     #[target_feature(enable = "avx512f,avx512dq")]
     pub(super) unsafe fn sum4_avx512(blocks: &[Block], n: [[f32; 3]; 4]) -> [[f32; 3]; 4] {
-        let pair = |lo: f32, hi: f32| _mm512_insertf32x8::<1>(_mm512_castps256_ps512(_mm256_set1_ps(lo)), _mm256_set1_ps(hi));
+        let pair =
+            |lo: f32, hi: f32| _mm512_insertf32x8::<1>(_mm512_castps256_ps512(_mm256_set1_ps(lo)), _mm256_set1_ps(hi));
         let ab = [pair(n[0][0], n[1][0]), pair(n[0][1], n[1][1]), pair(n[0][2], n[1][2])];
         let cd = [pair(n[2][0], n[3][0]), pair(n[2][1], n[3][1]), pair(n[2][2], n[3][2])];
         let zero = _mm512_setzero_ps();
@@ -251,8 +297,14 @@ mod x86 {
             let wr = load(g.wr.as_ptr());
             let wg = load(g.wg.as_ptr());
             let wb = load(g.wb.as_ptr());
-            let d1 = _mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(ab[0], dx), _mm512_mul_ps(ab[1], dy)), _mm512_mul_ps(ab[2], dz));
-            let d2 = _mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(cd[0], dx), _mm512_mul_ps(cd[1], dy)), _mm512_mul_ps(cd[2], dz));
+            let d1 = _mm512_add_ps(
+                _mm512_add_ps(_mm512_mul_ps(ab[0], dx), _mm512_mul_ps(ab[1], dy)),
+                _mm512_mul_ps(ab[2], dz),
+            );
+            let d2 = _mm512_add_ps(
+                _mm512_add_ps(_mm512_mul_ps(cd[0], dx), _mm512_mul_ps(cd[1], dy)),
+                _mm512_mul_ps(cd[2], dz),
+            );
             // VMAXPS returns the second operand when the first is not greater (NaN, -0 -> +0).
             let c1 = _mm512_max_ps(d1, zero);
             let c2 = _mm512_max_ps(d2, zero);
@@ -267,89 +319,85 @@ mod x86 {
         for k in 0..6 {
             _mm512_storeu_ps(lanes[k].as_mut_ptr(), acc[k]);
         }
-        let half = |k: usize, h: usize| -> [f32; LANES] { lanes[k][h * LANES..(h + 1) * LANES].try_into().expect("8 lanes") };
-        let sum = |first: usize, h: usize| [hsum(&half(first, h)), hsum(&half(first + 1, h)), hsum(&half(first + 2, h))];
+        let half =
+            |k: usize, h: usize| -> [f32; LANES] { lanes[k][h * LANES..(h + 1) * LANES].try_into().expect("8 lanes") };
+        let sum =
+            |first: usize, h: usize| [hsum(&half(first, h)), hsum(&half(first + 1, h)), hsum(&half(first + 2, h))];
         [sum(0, 0), sum(0, 1), sum(3, 0), sum(3, 1)]
     }
 
     /// Adds 8 f32 lanes into 8 f64 accumulators (two 4-lane conversions).
     #[target_feature(enable = "avx")]
-    unsafe fn add_lanes_avx(v: __m256, acc: &mut [f64; LANES]) {
+    unsafe fn add_lanes_avx(v: __m256, acc: &mut [f64]) {
         let lo = _mm256_cvtps_pd(_mm256_castps256_ps128(v));
         let hi = _mm256_cvtps_pd(_mm256_extractf128_ps::<1>(v));
         _mm256_storeu_pd(acc.as_mut_ptr(), _mm256_add_pd(_mm256_loadu_pd(acc.as_ptr()), lo));
         _mm256_storeu_pd(acc.as_mut_ptr().add(4), _mm256_add_pd(_mm256_loadu_pd(acc.as_ptr().add(4)), hi));
     }
 
-    /// AVX: `lanes_scalar` for two normals at once (the loop of `sum2_avx`).
+    /// AVX: `wide_scalar` for one normal, each 16-lane component in two registers.
     #[target_feature(enable = "avx")]
-    pub(super) unsafe fn lanes2_avx(blocks: &[Block], a: [f32; 3], b: [f32; 3], acc: [&mut LaneSums; 2]) {
-        let (ax, ay, az) = (_mm256_set1_ps(a[0]), _mm256_set1_ps(a[1]), _mm256_set1_ps(a[2]));
-        let (bx, by, bz) = (_mm256_set1_ps(b[0]), _mm256_set1_ps(b[1]), _mm256_set1_ps(b[2]));
+    pub(super) unsafe fn wide1_avx(blocks: &[WideBlock], n: [f32; 3], acc: &mut WideSums) {
+        let (nx, ny, nz) = (_mm256_set1_ps(n[0]), _mm256_set1_ps(n[1]), _mm256_set1_ps(n[2]));
         let zero = _mm256_setzero_ps();
-        let mut lane = [zero; 6];
+        let mut lane = [zero; 6]; // r lo, r hi, g lo, g hi, b lo, b hi
         for g in blocks {
-            let dx = _mm256_load_ps(g.dx.as_ptr());
-            let dy = _mm256_load_ps(g.dy.as_ptr());
-            let dz = _mm256_load_ps(g.dz.as_ptr());
-            let wr = _mm256_load_ps(g.wr.as_ptr());
-            let wg = _mm256_load_ps(g.wg.as_ptr());
-            let wb = _mm256_load_ps(g.wb.as_ptr());
-            let da = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(ax, dx), _mm256_mul_ps(ay, dy)), _mm256_mul_ps(az, dz));
-            let db = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(bx, dx), _mm256_mul_ps(by, dy)), _mm256_mul_ps(bz, dz));
-            let ca = _mm256_max_ps(da, zero);
-            let cb = _mm256_max_ps(db, zero);
-            lane[0] = _mm256_add_ps(lane[0], _mm256_mul_ps(ca, wr));
-            lane[1] = _mm256_add_ps(lane[1], _mm256_mul_ps(ca, wg));
-            lane[2] = _mm256_add_ps(lane[2], _mm256_mul_ps(ca, wb));
-            lane[3] = _mm256_add_ps(lane[3], _mm256_mul_ps(cb, wr));
-            lane[4] = _mm256_add_ps(lane[4], _mm256_mul_ps(cb, wg));
-            lane[5] = _mm256_add_ps(lane[5], _mm256_mul_ps(cb, wb));
+            for half in 0..2 {
+                let o = 8 * half;
+                let d = _mm256_add_ps(
+                    _mm256_add_ps(
+                        _mm256_mul_ps(nx, _mm256_load_ps(g.dx.as_ptr().add(o))),
+                        _mm256_mul_ps(ny, _mm256_load_ps(g.dy.as_ptr().add(o))),
+                    ),
+                    _mm256_mul_ps(nz, _mm256_load_ps(g.dz.as_ptr().add(o))),
+                );
+                let c = _mm256_max_ps(d, zero);
+                lane[half] = _mm256_add_ps(lane[half], _mm256_mul_ps(c, _mm256_load_ps(g.wr.as_ptr().add(o))));
+                lane[2 + half] = _mm256_add_ps(lane[2 + half], _mm256_mul_ps(c, _mm256_load_ps(g.wg.as_ptr().add(o))));
+                lane[4 + half] = _mm256_add_ps(lane[4 + half], _mm256_mul_ps(c, _mm256_load_ps(g.wb.as_ptr().add(o))));
+            }
         }
-        let [acc_a, acc_b] = acc;
         for ch in 0..3 {
-            add_lanes_avx(lane[ch], &mut acc_a[ch]);
-            add_lanes_avx(lane[3 + ch], &mut acc_b[ch]);
+            add_lanes_avx(lane[2 * ch], &mut acc[ch][..8]);
+            add_lanes_avx(lane[2 * ch + 1], &mut acc[ch][8..]);
         }
     }
 
-    /// AVX-512: `lanes_scalar` for four normals at once (the loop of `sum4_avx512`); each
-    /// register's two halves are converted to f64 and added into their normals' accumulators.
+    /// AVX-512: `wide_scalar` for two normals at once, one register per block component (plain
+    /// aligned loads: a broadcast costs a shuffle, which competes with the adds).
     #[target_feature(enable = "avx512f,avx512dq")]
-    pub(super) unsafe fn lanes4_avx512(blocks: &[Block], n: [[f32; 3]; 4], acc: [&mut LaneSums; 4]) {
-        let pair = |lo: f32, hi: f32| _mm512_insertf32x8::<1>(_mm512_castps256_ps512(_mm256_set1_ps(lo)), _mm256_set1_ps(hi));
-        let ab = [pair(n[0][0], n[1][0]), pair(n[0][1], n[1][1]), pair(n[0][2], n[1][2])];
-        let cd = [pair(n[2][0], n[3][0]), pair(n[2][1], n[3][1]), pair(n[2][2], n[3][2])];
+    pub(super) unsafe fn wide2_avx512(blocks: &[WideBlock], a: [f32; 3], b: [f32; 3], acc: [&mut WideSums; 2]) {
+        let (ax, ay, az) = (_mm512_set1_ps(a[0]), _mm512_set1_ps(a[1]), _mm512_set1_ps(a[2]));
+        let (bx, by, bz) = (_mm512_set1_ps(b[0]), _mm512_set1_ps(b[1]), _mm512_set1_ps(b[2]));
         let zero = _mm512_setzero_ps();
-        let mut lane = [zero; 6];
+        let mut lane = [zero; 6]; // a: r, g, b; b: r, g, b
         for g in blocks {
-            let load = |p: *const f32| _mm512_broadcast_f32x8(_mm256_load_ps(p));
-            let dx = load(g.dx.as_ptr());
-            let dy = load(g.dy.as_ptr());
-            let dz = load(g.dz.as_ptr());
-            let wr = load(g.wr.as_ptr());
-            let wg = load(g.wg.as_ptr());
-            let wb = load(g.wb.as_ptr());
-            let d1 = _mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(ab[0], dx), _mm512_mul_ps(ab[1], dy)), _mm512_mul_ps(ab[2], dz));
-            let d2 = _mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(cd[0], dx), _mm512_mul_ps(cd[1], dy)), _mm512_mul_ps(cd[2], dz));
-            let c1 = _mm512_max_ps(d1, zero);
-            let c2 = _mm512_max_ps(d2, zero);
-            lane[0] = _mm512_add_ps(lane[0], _mm512_mul_ps(c1, wr));
-            lane[1] = _mm512_add_ps(lane[1], _mm512_mul_ps(c1, wg));
-            lane[2] = _mm512_add_ps(lane[2], _mm512_mul_ps(c1, wb));
-            lane[3] = _mm512_add_ps(lane[3], _mm512_mul_ps(c2, wr));
-            lane[4] = _mm512_add_ps(lane[4], _mm512_mul_ps(c2, wg));
-            lane[5] = _mm512_add_ps(lane[5], _mm512_mul_ps(c2, wb));
+            let dx = _mm512_load_ps(g.dx.as_ptr());
+            let dy = _mm512_load_ps(g.dy.as_ptr());
+            let dz = _mm512_load_ps(g.dz.as_ptr());
+            let wr = _mm512_load_ps(g.wr.as_ptr());
+            let wg = _mm512_load_ps(g.wg.as_ptr());
+            let wb = _mm512_load_ps(g.wb.as_ptr());
+            let da = _mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(ax, dx), _mm512_mul_ps(ay, dy)), _mm512_mul_ps(az, dz));
+            let db = _mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(bx, dx), _mm512_mul_ps(by, dy)), _mm512_mul_ps(bz, dz));
+            let ca = _mm512_max_ps(da, zero);
+            let cb = _mm512_max_ps(db, zero);
+            lane[0] = _mm512_add_ps(lane[0], _mm512_mul_ps(ca, wr));
+            lane[1] = _mm512_add_ps(lane[1], _mm512_mul_ps(ca, wg));
+            lane[2] = _mm512_add_ps(lane[2], _mm512_mul_ps(ca, wb));
+            lane[3] = _mm512_add_ps(lane[3], _mm512_mul_ps(cb, wr));
+            lane[4] = _mm512_add_ps(lane[4], _mm512_mul_ps(cb, wg));
+            lane[5] = _mm512_add_ps(lane[5], _mm512_mul_ps(cb, wb));
         }
-        let [a, b, c, d] = acc;
-        let add = |v: __m256, acc: &mut [f64; LANES]| {
+        let [acc_a, acc_b] = acc;
+        let add = |v: __m256, acc: &mut [f64]| {
             _mm512_storeu_pd(acc.as_mut_ptr(), _mm512_add_pd(_mm512_loadu_pd(acc.as_ptr()), _mm512_cvtps_pd(v)));
         };
         for ch in 0..3 {
-            add(_mm512_castps512_ps256(lane[ch]), &mut a[ch]);
-            add(_mm512_extractf32x8_ps::<1>(lane[ch]), &mut b[ch]);
-            add(_mm512_castps512_ps256(lane[3 + ch]), &mut c[ch]);
-            add(_mm512_extractf32x8_ps::<1>(lane[3 + ch]), &mut d[ch]);
+            add(_mm512_castps512_ps256(lane[ch]), &mut acc_a[ch][..8]);
+            add(_mm512_extractf32x8_ps::<1>(lane[ch]), &mut acc_a[ch][8..]);
+            add(_mm512_castps512_ps256(lane[3 + ch]), &mut acc_b[ch][..8]);
+            add(_mm512_extractf32x8_ps::<1>(lane[3 + ch]), &mut acc_b[ch][8..]);
         }
     }
 
@@ -479,46 +527,40 @@ impl Kernel {
 }
 
 impl Kernel {
-    /// For every normal `i`: `acc[i][ch][l] +=` the f32 sum over `blocks` of lane `l`'s terms
-    /// `max(n . d, 0) w_ch` (the operations of [`Kernel::for_each_sum`], without the final sum
-    /// of the lanes), converted to f64. Summing many tiles this way and the lanes once at the end
-    /// ([`lane_total`]) costs two vector operations per tile and channel instead of a horizontal
-    /// sum, and is more accurate. Bit-identical across kernels, as `for_each_sum`; AVX-512 takes
-    /// four normals per pass, AVX two; SSE2-only CPUs use the portable loop.
-    pub fn accumulate_lanes(self, blocks: &[Block], normals: &[[f32; 3]], acc: &mut [LaneSums]) {
+    /// For every normal `i` and lane `l`: `acc[i][ch][l] +=` the f32 sum over `blocks` of lane
+    /// `l`'s terms `max(n . d, 0) w_ch` (the operations of [`Kernel::for_each_sum`], without a
+    /// sum across lanes), converted to f64. Summing many tiles this way and the lanes once at
+    /// the end ([`wide_total`]) costs two vector operations per tile and channel instead of a
+    /// horizontal sum per tile, and is more accurate. Bit-identical across kernels: AVX-512 takes
+    /// two normals per pass, AVX one (two registers per component), SSE2 the portable loop.
+    pub fn accumulate_wide(self, blocks: &[WideBlock], normals: &[[f32; 3]], acc: &mut [WideSums]) {
         assert_eq!(normals.len(), acc.len(), "one accumulator per normal");
         #[cfg(target_arch = "x86_64")]
         {
             let avx512 = is_x86_feature_detected!("avx512f") && is_x86_feature_detected!("avx512dq");
             if self == Kernel::Avx512 && avx512 {
-                let mut quads = normals.chunks_exact(4).zip(acc.chunks_exact_mut(4));
-                for (q, a) in quads.by_ref() {
-                    let [a0, a1, a2, a3] = a else { unreachable!("chunks of 4") };
+                let mut pairs = normals.chunks_exact(2).zip(acc.chunks_exact_mut(2));
+                for (p, a) in pairs.by_ref() {
+                    let [a0, a1] = a else { unreachable!("chunks of 2") };
                     // SAFETY: the CPU has AVX-512 F and DQ (checked above).
-                    unsafe { x86::lanes4_avx512(blocks, [q[0], q[1], q[2], q[3]], [a0, a1, a2, a3]) };
+                    unsafe { x86::wide2_avx512(blocks, p[0], p[1], [a0, a1]) };
                 }
-                let done = normals.len() / 4 * 4;
-                for (n, a) in normals[done..].iter().zip(&mut acc[done..]) {
-                    lanes_scalar(blocks, *n, a);
+                if normals.len() % 2 == 1 {
+                    let last = normals.len() - 1;
+                    wide_scalar(blocks, normals[last], &mut acc[last]);
                 }
                 return;
             }
             if matches!(self, Kernel::Avx | Kernel::Avx512) && is_x86_feature_detected!("avx") {
-                let mut pairs = normals.chunks_exact(2).zip(acc.chunks_exact_mut(2));
-                for (p, a) in pairs.by_ref() {
-                    let [a0, a1] = a else { unreachable!("chunks of 2") };
+                for (n, a) in normals.iter().zip(acc.iter_mut()) {
                     // SAFETY: the CPU has AVX (checked above).
-                    unsafe { x86::lanes2_avx(blocks, p[0], p[1], [a0, a1]) };
-                }
-                let done = normals.len() / 2 * 2;
-                for (n, a) in normals[done..].iter().zip(&mut acc[done..]) {
-                    lanes_scalar(blocks, *n, a);
+                    unsafe { x86::wide1_avx(blocks, *n, a) };
                 }
                 return;
             }
         }
         for (n, a) in normals.iter().zip(acc.iter_mut()) {
-            lanes_scalar(blocks, *n, a);
+            wide_scalar(blocks, *n, a);
         }
     }
 }
@@ -725,6 +767,35 @@ mod tests {
             if !must_be_safe {
                 assert!(leaked > 0, "without a margin some culled pairs should have a positive f32 dot");
             }
+        }
+    }
+}
+
+#[cfg(test)]
+mod timing {
+    use super::*;
+
+    /// Kernel throughput on one hot tile (16 wide blocks, 256 normals):
+    /// `cargo test --release --lib kernel_timing -- --ignored --nocapture`.
+    #[test]
+    #[ignore]
+    fn kernel_timing() {
+        let lights: Vec<([f32; 3], [f32; 3])> =
+            (0..256).map(|i| ([0.6, (i as f32 * 0.01).sin(), 0.8], [1.0, 0.5, 0.25])).collect();
+        let mut blocks = Vec::new();
+        pack_wide_blocks(lights, &mut blocks);
+        let normals: Vec<[f32; 3]> =
+            (0..256).map(|i| [0.0, (i as f32 * 0.003).cos(), (i as f32 * 0.003).sin()]).collect();
+        for kernel in [Kernel::Scalar, Kernel::Avx, Kernel::Avx512] {
+            let mut acc = vec![[[0.0f64; WIDE]; 3]; normals.len()];
+            let reps = 20_000;
+            let t = std::time::Instant::now();
+            for _ in 0..reps {
+                kernel.accumulate_wide(&blocks, &normals, &mut acc);
+            }
+            let terms = (reps * normals.len() * blocks.len() * WIDE) as f64;
+            let s = t.elapsed().as_secs_f64();
+            eprintln!("{kernel:?}: {:.2} terms/ns {}", terms / s * 1e-9, wide_total(&acc[0])[0]);
         }
     }
 }

@@ -648,6 +648,10 @@ mod tests {
                 let avx = relight_with(Kernel::Avx, &view, &lights, scale);
                 assert!(avx.data.iter().zip(&reference.data).all(|(a, b)| a.to_bits() == b.to_bits()));
             }
+            if is_x86_feature_detected!("avx512f") && is_x86_feature_detected!("avx512dq") {
+                let wide = relight_with(Kernel::Avx512, &view, &lights, scale);
+                assert!(wide.data.iter().zip(&reference.data).all(|(a, b)| a.to_bits() == b.to_bits()));
+            }
         }
         assert_eq!(relight(&view, &lights, scale).data, reference.data);
     }
@@ -675,7 +679,7 @@ mod tests {
         #[allow(unused_mut)]
         let mut kernels = vec![Kernel::Scalar];
         #[cfg(target_arch = "x86_64")]
-        kernels.extend([Kernel::Sse2, Kernel::Avx]); // Avx falls back to SSE2 without AVX
+        kernels.extend([Kernel::Sse2, Kernel::Avx, Kernel::Avx512]); // each falls back to what the CPU has
         for (view_dir, size, hash) in pinned {
             for &kernel in &kernels {
                 let img = relight_with(kernel, &SphereView::new(size, view_dir), &lights, [0.01, 0.02, 0.03]);
