@@ -808,7 +808,7 @@ EXPOSURE=2\nFORMAT=32-bit_rle_rgbe\n\n-Y 1 +X 2\n"
                         0 => [1u8, 2, 128, 255][(rng.next() % 4) as usize],
                         _ => rng.next() as u8,
                     };
-                    f.push(if i < 2 && w >= 8 && rng.next() % 2 == 0 { 2 } else { b });
+                    f.push(if i < 2 && w >= 8 && rng.next().is_multiple_of(2) { 2 } else { b });
                 }
                 let _ = decode(&f);
             }

@@ -258,6 +258,7 @@ impl<'a> Scene<'a> {
     /// One pixel's irradiance estimate `(1/spp) sum_j F_j` (see the module documentation) at
     /// unit normal `n`, in batches of [`BATCH`] samples (summed in sample order). `spp == 0`
     /// gives zeros.
+    #[allow(clippy::needless_range_loop)] // sample i of the batch arrays, in two stages
     fn estimate_irradiance(
         &self,
         n: DVec3,

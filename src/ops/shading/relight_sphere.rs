@@ -112,7 +112,7 @@ fn spread_coarse_samples(
     estimator: Estimator,
 ) -> Result<Vec<(u32, LightSample)>, OpError> {
     let (sw, sh) = (set.width as usize, set.height as usize);
-    if sw == 0 || sh == 0 || env.width % sw != 0 || env.height % sh != 0 {
+    if sw == 0 || sh == 0 || !env.width.is_multiple_of(sw) || !env.height.is_multiple_of(sh) {
         return Err(OpError::Invalid(format!(
             "the samples come from a distribution over a {sw}x{sh} map but env is {}x{}: build the distribution \
              from env, or from a Resize of it by an integer factor",
