@@ -36,7 +36,25 @@
 //!
 //! Random numbers: each pixel has its own SplitMix64 stream seeded with
 //! [`pixel_seed`]`(seed, pixel index)`, so the image is a pure function of `seed`, identical
-//! whatever the number of threads (rows run in parallel with rayon).
+//! whatever the number of threads (rows run in parallel with rayon). With
+//! [`PerPixelSequence::Sobol`] the stream seeds the pixel's Owen scrambles instead (same
+//! expectation, lower variance; Mitsuba's `ldsampler` does the same).
+//!
+//! Speed (issue 14; BENCHMARKS.md has the numbers against Mitsuba 3's LLVM variant). A sample
+//! costs a few table reads and no call to libm:
+//! - the texel is drawn by inversion through guide tables ([`GuidedDistribution`]; Chen and
+//!   Asau 1974) rather than two binary searches: the same texel as `Distribution2D::sample` for
+//!   the same uniforms, O(1) expected reads. Not Walker's alias table: inversion keeps a Sobol
+//!   point's stratification across the map, which the alias method scrambles;
+//! - texel-centre directions, edges and solid angles are precomputed per row and column
+//!   ([`LatLongGrid`]); a direction is mapped to its texel by polynomial guesses corrected
+//!   exactly against the edge tables, and `sin`/`cos` of an angle in turns by a polynomial;
+//! - each texel's radiance and technique density sit in one 16-byte record, and samples run in
+//!   batches of 16: first every sample's texel (the distribution's cache misses overlap), then
+//!   the records.
+//!
+//! Not done: SIMD across the samples of a batch (tried: compiling the row loop for AVX2 alone
+//! made it 15% slower here; batches of 64 gained nothing).
 
 use std::f64::consts::PI;
 
