@@ -29,22 +29,22 @@
 //! - culling per tile and per chunk of normals: when every texel of a tile is behind every normal
 //!   of the chunk ([`Cone::hides`], with the margin derived in [`crate::maths::kernels`]), the
 //!   tile's terms are all exactly `+0`, so skipping it changes no bit of the result;
-//! - the inner loop of [`Kernel::accumulate_wide`], without branches (`max(dot, 0) * w`, 16
-//!   lanes): AVX-512 (two normals per pass, one register per component) when the CPU has it, AVX
-//!   (two registers per component) otherwise, the portable loop elsewhere. Every lane performs the
-//!   same f32 operations in the same order (no FMA), so the result is identical on every CPU and
-//!   whatever the number of threads. Each tile adds its 16 lane sums into f64 lane accumulators
-//!   (two vector operations per channel), the lanes are summed once at the end;
+//! - the inner loop of [`Kernel::accumulate_wide`], without branches (`fma(max(dot, 0), w, acc)`,
+//!   16 lanes, 7 vector operations a term): AVX-512 (two normals per pass, one register per
+//!   component) when the CPU has it, AVX with FMA (two registers per component) otherwise, the
+//!   portable loop elsewhere. Every lane performs the same f32 operations in the same order
+//!   (fused multiply-adds, rounded once, on every CPU), so the result is identical on every CPU
+//!   and whatever the number of threads. Each tile adds its 16 lane sums into f64 lane
+//!   accumulators (two vector operations per channel); the lanes are summed once at the end;
 //! - rayon over chunks of normals; within a chunk, tiles outer and normals inner, so a tile's
 //!   blocks (6 KiB) stay in L1 while the chunk's normals use them.
 //!
-//! On the 2-core benchmark machine (AMD Zen 5, AVX-512, 4.0-4.2 GHz measured) a 512 x 512 sphere
-//! against a 1024 x 512 map takes about 2.3 s: 1.5x the arithmetic floor of the terms it
-//! evaluates (3 cycles per 16 terms per core: 12 vector operations per 16 terms over 2 multiply
-//! and 2 add pipes; `hdrflow bench --targets-only` measures both in one run) and 0.9x the floor of
-//! all pixel x texel terms. The kernel itself runs at 3.9 terms per cycle on a hot tile, which is
-//! what the same instruction mix reaches written in C (8.5 cycles per 32 terms): the pipes are
-//! not kept full by this dependency pattern, so the remaining gap to the floor is the hardware's.
+//! On the 2-core benchmark machine (AMD Zen 5, AVX-512, 4.1-4.2 GHz measured) a 512 x 512 sphere
+//! against a 1024 x 512 map takes about 1.9 s: 1.3x the arithmetic floor of the terms it
+//! evaluates (3 cycles per 16 terms per core: with FMA, 6 of the 7 vector operations a term need
+//! the 2 multiply-capable pipes; `hdrflow bench --targets-only` measures both in one run) and
+//! 0.8x the floor of all pixel x texel terms. The kernel itself runs at 4.4 terms per cycle on a
+//! hot tile (18 terms per ns).
 //!
 //! # Accuracy
 //!
@@ -56,8 +56,8 @@
 //!   this only matters for texels that face `n` (or nearly: `n.d > -3e-7`);
 //! - the summation: recursive summation of k terms errs by at most `gamma_{k-1} sum |t_i|`,
 //!   `gamma_k = k u / (1 - k u)` (Higham, *Accuracy and Stability of Numerical Algorithms*, 2nd
-//!   ed., 2002, section 4.2): 15 additions per lane and one rounding for the product: ~16 u =
-//!   1e-6 of `sum_tile |t_i|`;
+//!   ed., 2002, section 4.2): 15 fused additions per lane (the product is not rounded apart): ~16
+//!   u = 1e-6 of `sum_tile |t_i|`;
 //! - the f64 sums of the `W H / 256` tile lane sums add `~(W H / 256) 2^-53` relative: negligible.
 //!
 //! So `|E_computed - E| <= ~1e-6 E_abs + ~3e-7 sum_{i facing n} |L_i| dOmega_i`, where `E_abs`
