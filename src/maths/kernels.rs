@@ -91,46 +91,45 @@ pub const LANES: usize = 8;
 /// anything above ~3.5e-7 is safe; 1e-4 keeps RelightSphere's renders bit for bit as they were).
 pub const CULL_MARGIN: f64 = 1e-4;
 
-/// `LANES` lights as structure of arrays: direction and RGB weight per lane, aligned for AVX
-/// loads. [`Block::ZERO`] is all padding (direction 0, weight 0: adds exactly `+0`).
+/// `N` lights as structure of arrays: direction and RGB weight per lane, aligned for AVX-512
+/// loads. [`SoaBlock::ZERO`] is all padding (direction 0, weight 0: adds exactly `+0`).
 #[derive(Clone, Copy, Debug, PartialEq)]
-#[repr(C, align(32))]
-pub struct Block {
-    pub dx: [f32; LANES],
-    pub dy: [f32; LANES],
-    pub dz: [f32; LANES],
-    pub wr: [f32; LANES],
-    pub wg: [f32; LANES],
-    pub wb: [f32; LANES],
+#[repr(C, align(64))]
+pub struct SoaBlock<const N: usize> {
+    pub dx: [f32; N],
+    pub dy: [f32; N],
+    pub dz: [f32; N],
+    pub wr: [f32; N],
+    pub wg: [f32; N],
+    pub wb: [f32; N],
 }
 
-impl Block {
+impl<const N: usize> SoaBlock<N> {
     /// A block of padding lanes.
-    pub const ZERO: Block = Block {
-        dx: [0.0; LANES],
-        dy: [0.0; LANES],
-        dz: [0.0; LANES],
-        wr: [0.0; LANES],
-        wg: [0.0; LANES],
-        wb: [0.0; LANES],
-    };
+    pub const ZERO: Self =
+        SoaBlock { dx: [0.0; N], dy: [0.0; N], dz: [0.0; N], wr: [0.0; N], wg: [0.0; N], wb: [0.0; N] };
 }
 
-/// Appends `lights` (direction, weight) to `blocks` in order, `LANES` per block (light `k` in
-/// lane `k % LANES`), the last block padded with zero lanes.
-pub fn pack_blocks(lights: impl IntoIterator<Item = ([f32; 3], [f32; 3])>, blocks: &mut Vec<Block>) {
+/// [`LANES`] lights: the layout of [`Kernel::for_each_sum`] (RelightSphere).
+pub type Block = SoaBlock<LANES>;
+
+/// [`WIDE`] lights: the layout of [`Kernel::accumulate_wide`] (the exact reference).
+pub type WideBlock = SoaBlock<WIDE>;
+
+/// Appends `lights` (direction, weight) to `blocks` in order, `N` per block (light `k` in lane
+/// `k % N`), the last block padded with zero lanes.
+pub fn pack_blocks<const N: usize>(
+    lights: impl IntoIterator<Item = ([f32; 3], [f32; 3])>,
+    blocks: &mut Vec<SoaBlock<N>>,
+) {
     for (k, (d, w)) in lights.into_iter().enumerate() {
-        let lane = k % LANES;
+        let lane = k % N;
         if lane == 0 {
-            blocks.push(Block::ZERO);
+            blocks.push(SoaBlock::ZERO);
         }
         let b = blocks.last_mut().expect("a block was pushed");
-        b.dx[lane] = d[0];
-        b.dy[lane] = d[1];
-        b.dz[lane] = d[2];
-        b.wr[lane] = w[0];
-        b.wg[lane] = w[1];
-        b.wb[lane] = w[2];
+        (b.dx[lane], b.dy[lane], b.dz[lane]) = (d[0], d[1], d[2]);
+        (b.wr[lane], b.wg[lane], b.wb[lane]) = (w[0], w[1], w[2]);
     }
 }
 
@@ -159,45 +158,6 @@ fn sum_scalar(blocks: &[Block], n: [f32; 3]) -> [f32; 3] {
 
 /// Lanes per [`WideBlock`]: one AVX-512 register of f32.
 pub const WIDE: usize = 16;
-
-/// `WIDE` lights as structure of arrays, for [`Kernel::accumulate_wide`] (the exact reference's
-/// layout): as [`Block`], twice as wide, aligned for AVX-512 loads.
-#[derive(Clone, Copy, Debug, PartialEq)]
-#[repr(C, align(64))]
-pub struct WideBlock {
-    pub dx: [f32; WIDE],
-    pub dy: [f32; WIDE],
-    pub dz: [f32; WIDE],
-    pub wr: [f32; WIDE],
-    pub wg: [f32; WIDE],
-    pub wb: [f32; WIDE],
-}
-
-impl WideBlock {
-    /// A block of padding lanes (direction 0, weight 0: they add exactly `+0`).
-    pub const ZERO: WideBlock = WideBlock {
-        dx: [0.0; WIDE],
-        dy: [0.0; WIDE],
-        dz: [0.0; WIDE],
-        wr: [0.0; WIDE],
-        wg: [0.0; WIDE],
-        wb: [0.0; WIDE],
-    };
-}
-
-/// Appends `lights` to `blocks`, `WIDE` per block (light `k` in lane `k % WIDE`), the last block
-/// padded with zero lanes.
-pub fn pack_wide_blocks(lights: impl IntoIterator<Item = ([f32; 3], [f32; 3])>, blocks: &mut Vec<WideBlock>) {
-    for (k, (d, w)) in lights.into_iter().enumerate() {
-        let lane = k % WIDE;
-        if lane == 0 {
-            blocks.push(WideBlock::ZERO);
-        }
-        let b = blocks.last_mut().expect("a block was pushed");
-        (b.dx[lane], b.dy[lane], b.dz[lane]) = (d[0], d[1], d[2]);
-        (b.wr[lane], b.wg[lane], b.wb[lane]) = (w[0], w[1], w[2]);
-    }
-}
 
 /// Per-lane f64 accumulators of one normal's sums: `[channel][lane]`. See
 /// [`Kernel::accumulate_wide`].
@@ -251,7 +211,7 @@ mod x86 {
         let zero = _mm256_setzero_ps();
         let mut acc = [zero; 6]; // a: r, g, b; b: r, g, b
         for g in blocks {
-            // Aligned loads: `Block` is `align(32)`.
+            // Aligned loads: `Block` is `align(64)`.
             let dx = _mm256_load_ps(g.dx.as_ptr());
             let dy = _mm256_load_ps(g.dy.as_ptr());
             let dz = _mm256_load_ps(g.dz.as_ptr());
@@ -292,7 +252,7 @@ mod x86 {
         let zero = _mm512_setzero_ps();
         let mut acc = [zero; 6]; // ab: r, g, b; cd: r, g, b
         for g in blocks {
-            // Aligned 256-bit loads (`Block` is `align(32)`), broadcast to both halves.
+            // Aligned 256-bit loads (`Block` is `align(64)`), broadcast to both halves.
             let load = |p: *const f32| _mm512_broadcast_f32x8(_mm256_load_ps(p));
             let dx = load(g.dx.as_ptr());
             let dy = load(g.dy.as_ptr());
@@ -795,7 +755,7 @@ mod timing {
         let lights: Vec<([f32; 3], [f32; 3])> =
             (0..256).map(|i| ([0.6, (i as f32 * 0.01).sin(), 0.8], [1.0, 0.5, 0.25])).collect();
         let mut blocks = Vec::new();
-        pack_wide_blocks(lights, &mut blocks);
+        pack_blocks::<WIDE>(lights, &mut blocks);
         let normals: Vec<[f32; 3]> =
             (0..256).map(|i| [0.0, (i as f32 * 0.003).cos(), (i as f32 * 0.003).sin()]).collect();
         for kernel in [Kernel::Scalar, Kernel::Avx, Kernel::Avx512] {

@@ -76,7 +76,7 @@ use rayon::prelude::*;
 
 use crate::data::Image;
 use crate::geometry::{latlong, unit};
-use crate::maths::kernels::{pack_wide_blocks, wide_total, Cone, Kernel, WideBlock, WideSums, WIDE};
+use crate::maths::kernels::{pack_blocks, wide_total, Cone, Kernel, WideBlock, WideSums, WIDE};
 use crate::maths::relight::SphereView;
 
 /// Side of the map tiles that texels are packed from, and of the pixel tiles of
@@ -140,10 +140,7 @@ fn pack(env: &Image) -> Packed {
 
     let tiles = dirs.len().div_ceil(TILE_TEXELS);
     let mut blocks = Vec::with_capacity(tiles * BLOCKS_PER_TILE);
-    pack_wide_blocks(
-        dirs.iter().zip(&weights).map(|(d, wt)| (d.as_vec3().to_array(), wt.map(|c| c as f32))),
-        &mut blocks,
-    );
+    pack_blocks(dirs.iter().zip(&weights).map(|(d, wt)| (d.as_vec3().to_array(), wt.map(|c| c as f32))), &mut blocks);
     blocks.resize(tiles * BLOCKS_PER_TILE, WideBlock::ZERO);
     let cones = (0..tiles)
         .map(|t| Cone::around(dirs[t * TILE_TEXELS..((t + 1) * TILE_TEXELS).min(dirs.len())].iter().copied()))
