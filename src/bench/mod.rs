@@ -32,7 +32,8 @@ use crate::data::{Distribution2D, Image};
 use crate::engine::cache::store::write_atomic;
 use crate::geometry::latlong;
 use crate::maths::error_metrics::image_error;
-use crate::maths::per_pixel::{relight_per_pixel_with, PerPixelSequence, PerPixelStrategy};
+use crate::maths::glossy::Heuristic;
+use crate::maths::per_pixel::{relight_per_pixel_with, PerPixelOptions, PerPixelSequence, PerPixelStrategy};
 use crate::maths::reference::reference_sphere;
 use crate::maths::relight::{Estimator, SphereView};
 use crate::maths::sequences::Sequence;
@@ -297,24 +298,35 @@ pub fn run(config: &BenchConfig, log: &dyn Fn(&str)) -> Result<Vec<BenchRow>, St
                 continue;
             }
             // Every strategy with independent uniforms; the two that matter with per-pixel
-            // Owen-scrambled Sobol points too (Mitsuba's `ldsampler` is their peer).
+            // Owen-scrambled Sobol points too (Mitsuba's `ldsampler` is their peer); and Mis with
+            // the power heuristic, Mitsuba's `direct` integrator's, with both sequences.
+            let balance = |s: PerPixelStrategy, q: PerPixelSequence| (s, q, Heuristic::Balance);
             let configurations = PerPixelStrategy::ALL
-                .map(|s| (s, PerPixelSequence::Random))
+                .map(|s| balance(s, PerPixelSequence::Random))
                 .into_iter()
-                .chain([PerPixelStrategy::Environment, PerPixelStrategy::Mis].map(|s| (s, PerPixelSequence::Sobol)));
-            for (strategy, sequence) in configurations {
+                .chain(
+                    [PerPixelStrategy::Environment, PerPixelStrategy::Mis].map(|s| balance(s, PerPixelSequence::Sobol)),
+                )
+                .chain(PerPixelSequence::ALL.map(|q| (PerPixelStrategy::Mis, q, Heuristic::Power)));
+            for (strategy, sequence, heuristic) in configurations {
                 // Runs of a second or more need no more than one timed repeat.
                 let repeats = if count >= 256 { 1 } else { config.repeats };
                 let (ms, errors) = over_seeds(
                     &seeds,
                     repeats,
-                    |seed| Ok(relight_per_pixel_with(&env, &dist, &view, albedo, strategy, sequence, count, seed)),
+                    |seed| {
+                        let options = PerPixelOptions { strategy, sequence, heuristic, spp: count, seed };
+                        Ok(relight_per_pixel_with(&env, &dist, &view, albedo, &options))
+                    },
                     score,
                 )?;
-                let name = match sequence {
-                    PerPixelSequence::Random => format!("per-pixel {}", strategy.name()),
-                    PerPixelSequence::Sobol => format!("per-pixel {} Sobol", strategy.name()),
-                };
+                let mut name = format!("per-pixel {}", strategy.name());
+                if heuristic == Heuristic::Power {
+                    name.push_str(" Power");
+                }
+                if sequence == PerPixelSequence::Sobol {
+                    name.push_str(" Sobol");
+                }
                 push(&mut rows, seeded_row(&spec.name, name, "per-pixel", count, ms, &errors));
             }
         }
@@ -775,9 +787,9 @@ pub fn summary(config: &BenchConfig, rows: &[BenchRow]) -> String {
 }
 
 /// The per-pixel table of issue 14: each Mitsuba LLVM point beside `PerPixelSphere` with the
-/// same estimator family at the same spp (`Mis` with random uniforms for `independent`, `Mis
-/// Sobol` for `ldsampler`: both draw one environment and one BSDF sample per spp, combined with
-/// the balance heuristic) and the fastest per-pixel strategy at Mitsuba's error.
+/// same estimator at the same spp (`Mis Power` with random uniforms for `independent`, `Mis
+/// Power Sobol` for `ldsampler`: both draw one environment and one BSDF sample per spp,
+/// combined with the power heuristic) and the fastest per-pixel strategy at Mitsuba's error.
 fn per_pixel_against_mitsuba(s: &mut String, mine: &[&BenchRow]) {
     let mitsuba: Vec<&&BenchRow> = mine.iter().filter(|r| r.family == "peer" && r.strategy.contains("llvm")).collect();
     if mitsuba.is_empty() {
@@ -800,7 +812,7 @@ fn per_pixel_against_mitsuba(s: &mut String, mine: &[&BenchRow]) {
     );
     let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|");
     for p in mitsuba {
-        let twin = if p.strategy.contains("ldsampler") { "per-pixel Mis Sobol" } else { "per-pixel Mis" };
+        let twin = if p.strategy.contains("ldsampler") { "per-pixel Mis Power Sobol" } else { "per-pixel Mis Power" };
         let same = mine.iter().find(|r| r.strategy == twin && r.count == p.count);
         let (same_cells, same_ratio) = match same {
             Some(r) => (format!("{twin} | {:.1} ms | {}", r.ms, r.error_text()), format!("{:.2}x", p.ms / r.ms)),

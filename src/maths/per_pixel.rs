@@ -18,7 +18,8 @@
 //! - `Uniform`: a uniform direction on the sphere (`z = 1 - 2 u1`, `phi = 2 pi u2`; pbrt-v3
 //!   section 13.6.1), pdf `1 / (4 pi)`: `F = 4 pi L(w) max(n.w, 0)`.
 //! - `Mis`: one environment sample and one cosine sample per count, combined with the balance
-//!   heuristic (Veach 1997, section 9.2, multi-sample model, `n_1 = n_2 = 1`):
+//!   heuristic (Veach 1997, section 9.2, multi-sample model, `n_1 = n_2 = 1`; the power
+//!   heuristic on request, [`PerPixelOptions::heuristic`]):
 //!   `F = f(w_e) / (p_e(w_e) + p_c(w_e)) + f(w_c) / (p_e(w_c) + p_c(w_c))`, with
 //!   `f(w) = L(w) max(n.w, 0)` and `p_c(w) = max(n.w, 0) / pi`. So `spp` counts are `2 spp`
 //!   radiance lookups. The balance heuristic needs both densities at every direction, so here the
@@ -63,6 +64,7 @@ use rayon::prelude::*;
 
 use crate::data::{Distribution2D, Image};
 use crate::geometry::latlong_grid::{sincos_turns, LatLongGrid};
+use crate::maths::glossy::Heuristic;
 use crate::maths::guide_table::GuidedDistribution;
 use crate::maths::relight::SphereView;
 use crate::maths::sequences::{mix64, nested_uniform_scramble, sobol_2d_bits, SplitMix64};
@@ -281,6 +283,7 @@ impl<'a> Scene<'a> {
         &self,
         n: DVec3,
         strategy: PerPixelStrategy,
+        heuristic: Heuristic,
         spp: usize,
         uniforms: &mut PixelUniforms,
     ) -> [f64; 3] {
@@ -361,13 +364,21 @@ impl<'a> Scene<'a> {
                         add(self.record(texels[i].0, texels[i].1).radiance, 4.0 * PI * n.dot(dirs[i]).max(0.0))
                     }
                     PerPixelStrategy::Mis => {
-                        for k in [2 * i, 2 * i + 1] {
+                        for (k, from_env) in [(2 * i, true), (2 * i + 1, false)] {
                             let c = n.dot(dirs[k]).max(0.0);
                             if c > 0.0 {
                                 let r = self.record(texels[k].0, texels[k].1);
-                                // Balance heuristic: w_i f / p_i = f / (p_e + p_c), and
-                                // c / (p_e + c / pi) = pi c / (pi p_e + c): one division.
-                                add(r.radiance, PI * c / (PI * r.pdf as f64 + c));
+                                let k_weight = match heuristic {
+                                    // Balance: w_i f / p_i = f / (p_e + p_c), and
+                                    // c / (p_e + c / pi) = pi c / (pi p_e + c): one division.
+                                    Heuristic::Balance => PI * c / (PI * r.pdf as f64 + c),
+                                    // Power: w_i f / p_i = f p_i / (p_e^2 + p_c^2).
+                                    Heuristic::Power => {
+                                        let (pe, pc) = (r.pdf as f64, c / PI);
+                                        c * if from_env { pe } else { pc } / (pe * pe + pc * pc)
+                                    }
+                                };
+                                add(r.radiance, k_weight);
                             }
                         }
                     }
@@ -378,7 +389,21 @@ impl<'a> Scene<'a> {
     }
 }
 
-/// [`relight_per_pixel_with`] with independent random uniforms ([`PerPixelSequence::Random`]).
+/// How [`relight_per_pixel_with`] samples each pixel.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PerPixelOptions {
+    pub strategy: PerPixelStrategy,
+    pub sequence: PerPixelSequence,
+    /// `Mis` only: the balance heuristic (the module documentation's formula) or the power
+    /// heuristic (exponent 2, Veach 1997 section 9.2.2; Mitsuba's `direct` integrator), whose
+    /// sample weights are `f p_own / (p_e^2 + p_c^2)`.
+    pub heuristic: Heuristic,
+    pub spp: usize,
+    pub seed: u64,
+}
+
+/// [`relight_per_pixel_with`] with independent random uniforms ([`PerPixelSequence::Random`])
+/// and, for `Mis`, the balance heuristic.
 pub fn relight_per_pixel(
     env: &Image,
     dist: &Distribution2D,
@@ -388,7 +413,9 @@ pub fn relight_per_pixel(
     spp: usize,
     seed: u64,
 ) -> Image {
-    relight_per_pixel_with(env, dist, view, albedo, strategy, PerPixelSequence::Random, spp, seed)
+    let options =
+        PerPixelOptions { strategy, sequence: PerPixelSequence::Random, heuristic: Heuristic::Balance, spp, seed };
+    relight_per_pixel_with(env, dist, view, albedo, &options)
 }
 
 /// Renders the diffuse sphere with per-pixel independent samples: `Lo = (albedo / pi) *` the
@@ -404,17 +431,14 @@ pub fn relight_per_pixel(
 ///
 /// Panics if the strategy uses `dist` and `dist` is not over a map of `env`'s size (the
 /// operator checks this first).
-#[allow(clippy::too_many_arguments)]
 pub fn relight_per_pixel_with(
     env: &Image,
     dist: &Distribution2D,
     view: &SphereView,
     albedo: [f64; 3],
-    strategy: PerPixelStrategy,
-    sequence: PerPixelSequence,
-    spp: usize,
-    seed: u64,
+    options: &PerPixelOptions,
 ) -> Image {
+    let PerPixelOptions { strategy, sequence, heuristic, spp, seed } = *options;
     if strategy.uses_distribution() {
         assert!(
             dist.width == env.width && dist.height == env.height,
@@ -436,7 +460,7 @@ pub fn relight_per_pixel_with(
         for px in 0..size {
             let Some(n) = view.normal_at(px, py) else { continue };
             let mut uniforms = PixelUniforms::new(sequence, pixel_seed(seed, (py * size + px) as u64));
-            let e = scene.estimate_irradiance(DVec3::from(n), strategy, spp, &mut uniforms);
+            let e = scene.estimate_irradiance(DVec3::from(n), strategy, heuristic, spp, &mut uniforms);
             for ch in 0..3 {
                 row[px * 3 + ch] = (scale[ch] * e[ch]) as f32;
             }
@@ -583,12 +607,18 @@ mod tests {
                 sum3(areas),
                 sum3(centres) / sum3(areas) - 1.0
             );
-            for (s, q) in PerPixelStrategy::ALL.into_iter().flat_map(|s| PerPixelSequence::ALL.map(|q| (s, q))) {
+            let mut configurations: Vec<(PerPixelStrategy, PerPixelSequence, Heuristic)> = PerPixelStrategy::ALL
+                .into_iter()
+                .flat_map(|s| PerPixelSequence::ALL.map(|q| (s, q, Heuristic::Balance)))
+                .collect();
+            configurations.extend(PerPixelSequence::ALL.map(|q| (PerPixelStrategy::Mis, q, Heuristic::Power)));
+            for (s, q, h) in configurations {
                 let want = if s == PerPixelStrategy::Environment { sum3(centres) } else { sum3(areas) };
                 let mut m = 0.0f64;
                 let mut m2 = 0.0f64;
                 for seed in 0..seeds {
-                    let img = relight_per_pixel_with(&env, &dist, &view, [1.0; 3], s, q, spp, seed);
+                    let options = PerPixelOptions { strategy: s, sequence: q, heuristic: h, spp, seed };
+                    let img = relight_per_pixel_with(&env, &dist, &view, [1.0; 3], &options);
                     let p = img.pixel(px, py);
                     let v = (p[0] + p[1] + p[2]) as f64;
                     m += v;
@@ -598,8 +628,8 @@ mod tests {
                 let var = (m2 / seeds as f64 - mean * mean) * seeds as f64 / (seeds - 1) as f64;
                 let se = (var / seeds as f64).sqrt();
                 let z = (mean - want) / se;
-                eprintln!("  {s:?} {q:?}: mean {mean:.6}, want {want:.6}, standard error {se:.2e}, z = {z:+.2}");
-                assert!(z.abs() < 3.5, "{s:?} {q:?} pixel ({px},{py}): z = {z}");
+                eprintln!("  {s:?} {q:?} {h:?}: mean {mean:.6}, want {want:.6}, standard error {se:.2e}, z = {z:+.2}");
+                assert!(z.abs() < 3.5, "{s:?} {q:?} {h:?} pixel ({px},{py}): z = {z}");
                 assert!(se < 0.02 * want, "{s:?}: the test is too weak (se {se})");
             }
         }
@@ -613,14 +643,17 @@ mod tests {
         let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
         let two = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap();
         for s in PerPixelStrategy::ALL {
-            for q in PerPixelSequence::ALL {
-                let render = |seed| relight_per_pixel_with(&env, &dist, &view, [0.9, 0.7, 0.5], s, q, 5, seed);
+            for (q, h) in PerPixelSequence::ALL.into_iter().flat_map(|q| Heuristic::ALL.map(|h| (q, h))) {
+                let render = |seed| {
+                    let options = PerPixelOptions { strategy: s, sequence: q, heuristic: h, spp: 5, seed };
+                    relight_per_pixel_with(&env, &dist, &view, [0.9, 0.7, 0.5], &options)
+                };
                 let a = one.install(|| render(99));
                 let b = two.install(|| render(99));
-                assert!(a.data.iter().zip(&b.data).all(|(x, y)| x.to_bits() == y.to_bits()), "{s:?} {q:?}");
+                assert!(a.data.iter().zip(&b.data).all(|(x, y)| x.to_bits() == y.to_bits()), "{s:?} {q:?} {h:?}");
                 assert!(a.data.iter().any(|&v| v > 0.0));
                 let c = two.install(|| render(100));
-                assert_ne!(a.data, c.data, "{s:?} {q:?} ignores its seed");
+                assert_ne!(a.data, c.data, "{s:?} {q:?} {h:?} ignores its seed");
             }
         }
     }
@@ -665,7 +698,9 @@ mod tests {
                     continue;
                 }
                 let t = std::time::Instant::now();
-                std::hint::black_box(relight_per_pixel_with(&env, &dist, &view, [0.8; 3], s, q, 1024, 1));
+                let options =
+                    PerPixelOptions { strategy: s, sequence: q, heuristic: Heuristic::Balance, spp: 1024, seed: 1 };
+                std::hint::black_box(relight_per_pixel_with(&env, &dist, &view, [0.8; 3], &options));
                 eprintln!(
                     "per-pixel {s:?} {q:?} 128x128 x 1024 spp on {}x{}: {:.3} s",
                     env.width,

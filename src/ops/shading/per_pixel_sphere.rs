@@ -1,11 +1,12 @@
-//! `PerPixelSphere(env, cdf, size: 256, albedo, view, strategy: Environment, sequence: Random, spp: 16, seed: 1)`:
+//! `PerPixelSphere(env, cdf, size: 256, albedo, view, strategy: Environment, sequence: Random, heuristic: Balance, spp: 16, seed: 1)`:
 //! the diffuse sphere rendered as a path tracer renders direct lighting, every pixel with its
 //! own `spp` independent samples (`maths::per_pixel`):
 //! `Lo = (albedo / pi) (1/spp) sum_j L(w_j) max(n.w_j, 0) / pdf(w_j)`.
 //!
 //! - `Environment`: texel centres from `cdf` (expectation: exactly `ReferenceSphere`);
 //! - `Cosine`: cosine-weighted hemisphere (Malley's method); `Uniform`: uniform sphere;
-//! - `Mis`: one environment and one cosine sample per count, balance heuristic (Veach 1997).
+//! - `Mis`: one environment and one cosine sample per count, balance heuristic (Veach 1997), or
+//!   the power heuristic with `heuristic: Power` (as Mitsuba's `direct` integrator).
 //!
 //! `sequence: Sobol` draws each pixel's uniforms from Owen-scrambled Sobol points instead of
 //! independent random numbers (as Mitsuba's `ldsampler`): same expectation, lower error.
@@ -23,7 +24,8 @@ use crate::engine::op::check_same_size;
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Persist};
 use crate::engine::params::Rgb;
 use crate::engine::value::Value;
-use crate::maths::per_pixel::{relight_per_pixel_with, PerPixelSequence, PerPixelStrategy};
+use crate::maths::glossy::Heuristic;
+use crate::maths::per_pixel::{relight_per_pixel_with, PerPixelOptions, PerPixelSequence, PerPixelStrategy};
 use crate::types::ty::*;
 
 super::sphere_params! {
@@ -32,6 +34,8 @@ super::sphere_params! {
         pub strategy: PerPixelStrategy = PerPixelStrategy::Environment,
         /// Random (independent uniforms) or Sobol (per-pixel Owen-scrambled Sobol, as Mitsuba's ldsampler)
         pub sequence: PerPixelSequence = PerPixelSequence::Random,
+        /// Mis only: Balance or Power heuristic (Mitsuba's direct integrator uses Power)
+        pub heuristic: Heuristic = Heuristic::Balance,
         /// samples per pixel (Mis: pairs)
         #[range(1, 1 << 20)]
         pub spp: usize = 16,
@@ -67,5 +71,12 @@ fn eval(ctx: &mut OpContext, p: PerPixelParams) -> Result<Value, OpError> {
         )));
     }
     let view = sphere_view(p.size, p.view);
-    Ok(Value::new(relight_per_pixel_with(env, dist, &view, p.albedo.0, p.strategy, p.sequence, p.spp, p.seed)))
+    let options = PerPixelOptions {
+        strategy: p.strategy,
+        sequence: p.sequence,
+        heuristic: p.heuristic,
+        spp: p.spp,
+        seed: p.seed,
+    };
+    Ok(Value::new(relight_per_pixel_with(env, dist, &view, p.albedo.0, &options)))
 }
