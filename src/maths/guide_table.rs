@@ -84,11 +84,6 @@ impl<'a> GuidedDistribution<'a> {
         GuidedDistribution { dist, marginal_guide, conditional_guide }
     }
 
-    /// The distribution the tables guide.
-    pub fn distribution(&self) -> &'a Distribution2D {
-        self.dist
-    }
-
     /// The texel `Distribution2D::sample(u1, u2)` draws (without its pdf).
     #[inline(always)]
     pub fn sample(&self, u1: f64, u2: f64) -> (usize, usize) {
