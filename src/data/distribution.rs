@@ -131,7 +131,7 @@ fn find_interval(cdf: &[f64], u: f64) -> usize {
 
 /// u clamped into [0, 1 - 2^-53]; NaN becomes 0.
 #[inline]
-fn clamp_unit(u: f64) -> f64 {
+pub(crate) fn clamp_unit(u: f64) -> f64 {
     if u.is_nan() {
         0.0
     } else {

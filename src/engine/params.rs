@@ -457,6 +457,26 @@ macro_rules! choice {
     };
 }
 
+/// Implements [`Choice`] (and [`choice_param!`]) for a type that has its own name table, the
+/// inherent `NAMES`, `name()` and `from_name()` of enums declared below the engine (in `maths`
+/// and `data`, which do not know it): `choice_by_name!(PerPixelStrategy);` in the operators'
+/// module.
+#[macro_export]
+macro_rules! choice_by_name {
+    ($t:ty) => {
+        impl $crate::engine::params::Choice for $t {
+            const NAMES: &'static [&'static str] = <$t>::NAMES;
+            fn from_name(name: &str) -> Option<Self> {
+                <$t>::from_name(name)
+            }
+            fn name(self) -> &'static str {
+                <$t>::name(self)
+            }
+        }
+        $crate::choice_param!($t);
+    };
+}
+
 /// Makes a type that implements [`Choice`] usable as a parameter (`choice!` does this itself;
 /// use it for an enum declared elsewhere, e.g. in `maths`).
 #[macro_export]

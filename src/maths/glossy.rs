@@ -58,59 +58,34 @@ use rayon::prelude::*;
 
 use crate::data::{Distribution2D, Image};
 use crate::geometry::latlong;
-use crate::maths::per_pixel::{pixel_seed, sample_cosine};
+use crate::maths::per_pixel::{assert_distribution_of, pixel_seed, sample_cosine};
 use crate::maths::phong;
 use crate::maths::relight::SphereView;
 use crate::maths::sequences::SplitMix64;
 
-/// How each pixel samples its directions (see the module documentation).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum GlossyStrategy {
-    /// Directions from the environment's distribution (light sampling).
-    Environment,
-    /// Directions from the BRDF: cosine lobe or Phong lobe, chosen by reflectance.
-    Brdf,
-    /// Half of each, combined by multiple importance sampling.
-    Mis,
-}
-
-impl GlossyStrategy {
-    /// The names, in declaration order, as written in pipeline files.
-    pub const NAMES: &'static [&'static str] = &["Environment", "Brdf", "Mis"];
-    pub const ALL: [GlossyStrategy; 3] = [GlossyStrategy::Environment, GlossyStrategy::Brdf, GlossyStrategy::Mis];
-
-    pub fn name(self) -> &'static str {
-        Self::NAMES[self as usize]
-    }
-
-    /// The strategy called `name` (case-insensitive), or `None`.
-    pub fn from_name(name: &str) -> Option<GlossyStrategy> {
-        Self::ALL.iter().copied().find(|s| s.name().eq_ignore_ascii_case(name.trim()))
+named_enum! {
+    /// How each pixel samples its directions (see the module documentation).
+    pub enum GlossyStrategy {
+        /// Directions from the environment's distribution (light sampling).
+        Environment,
+        /// Directions from the BRDF: cosine lobe or Phong lobe, chosen by reflectance.
+        Brdf,
+        /// Half of each, combined by multiple importance sampling.
+        Mis,
     }
 }
 
-/// The MIS weighting heuristic (Veach 1997, section 9.2.2).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Heuristic {
-    /// `w_i = n_i p_i / sum_k n_k p_k`.
-    Balance,
-    /// `w_i = (n_i p_i)^2 / sum_k (n_k p_k)^2` (exponent beta = 2, Veach's recommendation).
-    Power,
+named_enum! {
+    /// The MIS weighting heuristic (Veach 1997, section 9.2.2).
+    pub enum Heuristic {
+        /// `w_i = n_i p_i / sum_k n_k p_k`.
+        Balance,
+        /// `w_i = (n_i p_i)^2 / sum_k (n_k p_k)^2` (exponent beta = 2, Veach's recommendation).
+        Power,
+    }
 }
 
 impl Heuristic {
-    pub const NAMES: &'static [&'static str] = &["Balance", "Power"];
-    pub const ALL: [Heuristic; 2] = [Heuristic::Balance, Heuristic::Power];
-
-    pub fn name(self) -> &'static str {
-        Self::NAMES[self as usize]
-    }
-
-    /// The heuristic called `name` (case-insensitive), or `None`.
-    pub fn from_name(name: &str) -> Option<Heuristic> {
-        Self::ALL.iter().copied().find(|s| s.name().eq_ignore_ascii_case(name.trim()))
-    }
-
     /// The weight of a technique of (count x density) `a` against the other's `b`; 0 when both
     /// are 0.
     #[inline]
@@ -318,14 +293,7 @@ pub fn glossy_sphere(
     spp: usize,
     seed: u64,
 ) -> Image {
-    assert!(
-        dist.width == env.width && dist.height == env.height,
-        "distribution over {}x{} for a {}x{} map",
-        dist.width,
-        dist.height,
-        env.width,
-        env.height
-    );
+    assert_distribution_of(dist, env);
     let size = view.size;
     let mut image = Image::new(size, size, 3);
     if size == 0 || env.width == 0 || env.height == 0 {

@@ -14,6 +14,7 @@
 
 use rayon::prelude::*;
 
+use crate::data::distribution::clamp_unit;
 use crate::data::Distribution2D;
 
 /// Guide tables over a distribution's marginal CDF (H bins) and each row's conditional CDF (W
@@ -53,16 +54,6 @@ fn guided_search(cdf: &[f64], guide: &[u32], u: f64) -> usize {
         i += 1;
     }
     i
-}
-
-/// u clamped into [0, 1 - 2^-53]; NaN becomes 0 (as `Distribution2D::sample`).
-#[inline]
-fn clamp_unit(u: f64) -> f64 {
-    if u.is_nan() {
-        0.0
-    } else {
-        u.clamp(0.0, 1.0 - f64::EPSILON / 2.0)
-    }
 }
 
 impl<'a> GuidedDistribution<'a> {

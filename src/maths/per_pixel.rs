@@ -69,34 +69,21 @@ use crate::maths::guide_table::GuidedDistribution;
 use crate::maths::relight::SphereView;
 use crate::maths::sequences::{mix64, nested_uniform_scramble, sobol_2d_bits, SplitMix64};
 
-/// How each pixel samples the environment (see the module documentation).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum PerPixelStrategy {
-    /// Texel centres drawn from the map's distribution (light sampling).
-    Environment,
-    /// Cosine-weighted hemisphere around the normal (BSDF sampling for a diffuse surface).
-    Cosine,
-    /// Uniform over the sphere.
-    Uniform,
-    /// One `Environment`-like and one `Cosine` sample per count, balance heuristic.
-    Mis,
+named_enum! {
+    /// How each pixel samples the environment (see the module documentation).
+    pub enum PerPixelStrategy {
+        /// Texel centres drawn from the map's distribution (light sampling).
+        Environment,
+        /// Cosine-weighted hemisphere around the normal (BSDF sampling for a diffuse surface).
+        Cosine,
+        /// Uniform over the sphere.
+        Uniform,
+        /// One `Environment`-like and one `Cosine` sample per count, MIS.
+        Mis,
+    }
 }
 
 impl PerPixelStrategy {
-    /// The names, in declaration order, as written in pipeline files.
-    pub const NAMES: &'static [&'static str] = &["Environment", "Cosine", "Uniform", "Mis"];
-    pub const ALL: [PerPixelStrategy; 4] =
-        [PerPixelStrategy::Environment, PerPixelStrategy::Cosine, PerPixelStrategy::Uniform, PerPixelStrategy::Mis];
-
-    pub fn name(self) -> &'static str {
-        Self::NAMES[self as usize]
-    }
-
-    /// The strategy called `name` (case-insensitive), or `None`.
-    pub fn from_name(name: &str) -> Option<PerPixelStrategy> {
-        Self::ALL.iter().copied().find(|s| s.name().eq_ignore_ascii_case(name.trim()))
-    }
-
     /// Whether the strategy draws from the environment's distribution.
     pub fn uses_distribution(self) -> bool {
         matches!(self, PerPixelStrategy::Environment | PerPixelStrategy::Mis)
@@ -140,33 +127,34 @@ fn sample_uniform(u1: f64, u2: f64) -> DVec3 {
     DVec3::new(r * c, r * s, z)
 }
 
-/// Where a pixel's uniforms come from.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum PerPixelSequence {
-    /// Independent uniforms from the pixel's SplitMix64 stream.
-    Random,
-    /// Per pixel, Owen-scrambled 2D Sobol points (Burley, "Practical Hash-based Owen
-    /// Scrambling", JCGT 9(4), 2020): each 2D request of a sample (the environment texel, the
-    /// point inside it, the cosine direction) is its own Sobol sequence, scrambled with seeds
-    /// from the pixel's stream, its index shuffled by a nested uniform scramble (Burley's
-    /// padding), so the pairs are independent of each other and every pixel is an independent
-    /// randomised-QMC estimate. With a power-of-two `spp` each pair is a (0, m, 2)-net. The 32
-    /// Sobol bits are completed to 53 with random low bits so every texel of positive
-    /// probability stays reachable. This is the analogue of Mitsuba's `ldsampler`.
-    Sobol,
+named_enum! {
+    /// Where a pixel's uniforms come from.
+    pub enum PerPixelSequence {
+        /// Independent uniforms from the pixel's SplitMix64 stream.
+        Random,
+        /// Per pixel, Owen-scrambled 2D Sobol points (Burley, "Practical Hash-based Owen
+        /// Scrambling", JCGT 9(4), 2020): each 2D request of a sample (the environment texel, the
+        /// point inside it, the cosine direction) is its own Sobol sequence, scrambled with seeds
+        /// from the pixel's stream, its index shuffled by a nested uniform scramble (Burley's
+        /// padding), so the pairs are independent of each other and every pixel is an independent
+        /// randomised-QMC estimate. With a power-of-two `spp` each pair is a (0, m, 2)-net. The 32
+        /// Sobol bits are completed to 53 with random low bits so every texel of positive
+        /// probability stays reachable. This is the analogue of Mitsuba's `ldsampler`.
+        Sobol,
+    }
 }
 
-impl PerPixelSequence {
-    pub const NAMES: &'static [&'static str] = &["Random", "Sobol"];
-    pub const ALL: [PerPixelSequence; 2] = [PerPixelSequence::Random, PerPixelSequence::Sobol];
-
-    pub fn name(self) -> &'static str {
-        Self::NAMES[self as usize]
-    }
-
-    pub fn from_name(name: &str) -> Option<PerPixelSequence> {
-        Self::ALL.iter().copied().find(|s| s.name().eq_ignore_ascii_case(name.trim()))
-    }
+/// Panics unless `dist` is over a map of `env`'s size (the operators check this first, with a
+/// friendly error; the renderers index `env` with the texels `dist` draws).
+pub(crate) fn assert_distribution_of(dist: &Distribution2D, env: &Image) {
+    assert!(
+        dist.width == env.width && dist.height == env.height,
+        "distribution over {}x{} for a {}x{} map",
+        dist.width,
+        dist.height,
+        env.width,
+        env.height
+    );
 }
 
 /// One pixel's source of 2D uniforms (see [`PerPixelSequence`]).
@@ -239,9 +227,10 @@ const BATCH: usize = 16;
 /// What every pixel reads: the lat-long tables, the per-texel records and, when the strategy
 /// draws from the distribution, its guide tables.
 struct Scene<'a> {
+    env: &'a Image,
     grid: LatLongGrid,
+    /// Empty for the strategies that need no density (`Cosine`, `Uniform`: they read `env`).
     records: Vec<TexelRecord>,
-    width: usize,
     guided: Option<GuidedDistribution<'a>>,
 }
 
@@ -249,30 +238,30 @@ impl<'a> Scene<'a> {
     /// Records hold the radiance and, for `Environment`, the midpoint density
     /// `P(texel) / dOmega_mid` (the pdf of `Distribution2D::sample`), for `Mis` the continuous
     /// technique's `P(texel) / dOmega_exact`; 0 where that is not a positive finite number.
-    fn new(env: &Image, dist: &'a Distribution2D, strategy: PerPixelStrategy) -> Scene<'a> {
+    /// Built only for the strategies that draw from the distribution.
+    fn new(env: &'a Image, dist: &'a Distribution2D, strategy: PerPixelStrategy) -> Scene<'a> {
         let (w, h) = (env.width, env.height);
         let grid = LatLongGrid::new(w, h);
-        let mut records = vec![TexelRecord::default(); w * h];
-        records.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
+        let uses_distribution = strategy.uses_distribution();
+        let mut records = vec![TexelRecord::default(); if uses_distribution { w * h } else { 0 }];
+        records.par_chunks_mut(w.max(1)).enumerate().for_each(|(y, row)| {
             let solid_angle = match strategy {
                 PerPixelStrategy::Environment => grid.midpoint_solid_angle(y),
                 _ => grid.exact_solid_angle(y),
             };
             for (x, r) in row.iter_mut().enumerate() {
-                r.radiance = env.rgb(x, y);
-                if strategy.uses_distribution() {
-                    let p = dist.texel_probability(x, y) / solid_angle;
-                    r.pdf = if p.is_finite() && p > 0.0 { p as f32 } else { 0.0 };
-                }
+                let p = dist.texel_probability(x, y) / solid_angle;
+                *r =
+                    TexelRecord { radiance: env.rgb(x, y), pdf: if p.is_finite() && p > 0.0 { p as f32 } else { 0.0 } };
             }
         });
-        let guided = strategy.uses_distribution().then(|| GuidedDistribution::new(dist));
-        Scene { grid, records, width: w, guided }
+        let guided = uses_distribution.then(|| GuidedDistribution::new(dist));
+        Scene { env, grid, records, guided }
     }
 
     #[inline]
     fn record(&self, x: usize, y: usize) -> &TexelRecord {
-        &self.records[y * self.width + x]
+        &self.records[y * self.env.width + x]
     }
 
     /// One pixel's irradiance estimate `(1/spp) sum_j F_j` (see the module documentation) at
@@ -359,9 +348,9 @@ impl<'a> Scene<'a> {
                         }
                     }
                     // f / p = L cos / (cos / pi) = pi L.
-                    PerPixelStrategy::Cosine => add(self.record(texels[i].0, texels[i].1).radiance, PI),
+                    PerPixelStrategy::Cosine => add(self.env.rgb(texels[i].0, texels[i].1), PI),
                     PerPixelStrategy::Uniform => {
-                        add(self.record(texels[i].0, texels[i].1).radiance, 4.0 * PI * n.dot(dirs[i]).max(0.0))
+                        add(self.env.rgb(texels[i].0, texels[i].1), 4.0 * PI * n.dot(dirs[i]).max(0.0))
                     }
                     PerPixelStrategy::Mis => {
                         for (k, from_env) in [(2 * i, true), (2 * i + 1, false)] {
@@ -440,14 +429,7 @@ pub fn relight_per_pixel_with(
 ) -> Image {
     let PerPixelOptions { strategy, sequence, heuristic, spp, seed } = *options;
     if strategy.uses_distribution() {
-        assert!(
-            dist.width == env.width && dist.height == env.height,
-            "distribution over {}x{} for a {}x{} map",
-            dist.width,
-            dist.height,
-            env.width,
-            env.height
-        );
+        assert_distribution_of(dist, env);
     }
     let size = view.size;
     let mut image = Image::new(size, size, 3);

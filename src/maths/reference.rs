@@ -75,7 +75,8 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::data::Image;
-use crate::geometry::{latlong, unit};
+use crate::geometry::latlong_grid::LatLongGrid;
+use crate::geometry::unit;
 use crate::maths::kernels::{pack_blocks, wide_total, Cone, Kernel, WideBlock, WideSums, WIDE};
 use crate::maths::relight::SphereView;
 
@@ -111,27 +112,22 @@ pub fn first_non_finite(env: &Image) -> Option<(usize, usize, f32)> {
 /// Packs the non-zero texels of `env` tile by tile into blocks (see the module documentation).
 fn pack(env: &Image) -> Packed {
     let (w, h) = (env.width, env.height);
-    // Row and column trigonometry once: d = (-sin t sin p, cos t, sin t cos p).
-    let rows: Vec<(f64, f64, f64)> = (0..h)
-        .map(|y| {
-            let (st, ct) = latlong::theta_of_row(y, h).sin_cos();
-            (st, ct, latlong::texel_solid_angle(y, w, h))
-        })
-        .collect();
-    let cols: Vec<(f64, f64)> = (0..w).map(|x| latlong::phi_of_column(x, w).sin_cos()).collect();
+    // Row and column trigonometry once (texel directions and solid angles from the tables).
+    let grid = LatLongGrid::new(w, h);
 
     // Texel stream in tile order, zero texels skipped: (direction, L * dOmega).
     let mut dirs: Vec<DVec3> = Vec::new();
     let mut weights: Vec<[f64; 3]> = Vec::new();
     for ty in (0..h).step_by(TILE) {
         for tx in (0..w).step_by(TILE) {
-            for (y, &(st, ct, d_omega)) in rows.iter().enumerate().skip(ty).take(TILE) {
-                for (x, &(sp, cp)) in cols.iter().enumerate().skip(tx).take(TILE) {
+            for y in ty..(ty + TILE).min(h) {
+                let d_omega = grid.midpoint_solid_angle(y);
+                for x in tx..(tx + TILE).min(w) {
                     let l = env.rgb(x, y);
                     if l == [0.0f32; 3] {
                         continue;
                     }
-                    dirs.push(DVec3::new(-st * sp, ct, st * cp));
+                    dirs.push(DVec3::from(grid.centre_direction(x, y)));
                     weights.push(l.map(|c| c as f64 * d_omega));
                 }
             }
@@ -255,6 +251,7 @@ pub fn reference_sphere(env: &Image, view: &SphereView, albedo: [f64; 3]) -> Ima
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
+    use crate::geometry::latlong;
     use crate::maths::sequences::SplitMix64;
 
     fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {

@@ -9,16 +9,7 @@ use crate::engine::value::Value;
 use crate::maths::resample::{to_latlong, CubeSource};
 use crate::types::ty::*;
 
-crate::params! {
-    pub struct CubemapToLatLongParams {
-        /// width in texels
-        #[range(1, 65536)]
-        pub width: usize,
-        /// height in texels
-        #[range(1, 65536)]
-        pub height: usize,
-    }
-}
+use super::LatLongSizeParams;
 
 pub fn spec() -> OpSpec {
     OpSpec::new(
@@ -29,12 +20,12 @@ pub fn spec() -> OpSpec {
     )
     .input("cubemap", &[CUBEMAP_T], "the cube map")
     .output("image", OutputType::Fixed(IMAGE_T), "the lat-long RGB map")
-    .size(|_, p: CubemapToLatLongParams| Some((p.width as u64, p.height as u64)))
+    .size(|_, p: LatLongSizeParams| Some((p.width as u64, p.height as u64)))
     .code_hash(crate::op_code_hash!())
     .eval(eval)
 }
 
-fn eval(ctx: &mut OpContext, p: CubemapToLatLongParams) -> Result<Value, OpError> {
+fn eval(ctx: &mut OpContext, p: LatLongSizeParams) -> Result<Value, OpError> {
     let c: &Cubemap = ctx.get("cubemap");
     super::check_cube_finite(c)?;
     Ok(Value::new(to_latlong(&CubeSource::new(c), p.width, p.height)))

@@ -16,6 +16,19 @@ use crate::engine::op::{OpContext, OpError};
 use crate::engine::registry::Registry;
 use crate::maths::resample::{to_cube, CubeSource, LatLongSource};
 
+crate::params! {
+    /// The output size of the operators that make a lat-long map (`CubemapToLatLong`,
+    /// `OctahedralToLatLong`).
+    pub struct LatLongSizeParams {
+        /// width in texels
+        #[range(1, 65536)]
+        pub width: usize,
+        /// height in texels
+        #[range(1, 65536)]
+        pub height: usize,
+    }
+}
+
 pub fn register(r: &mut Registry) {
     r.register(latlong_to_cubemap::spec());
     r.register(cubemap_to_latlong::spec());

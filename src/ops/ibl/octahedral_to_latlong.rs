@@ -8,16 +8,7 @@ use crate::engine::value::Value;
 use crate::maths::resample::{to_latlong, OctahedralSource};
 use crate::types::ty::*;
 
-crate::params! {
-    pub struct OctahedralToLatLongParams {
-        /// width in texels
-        #[range(1, 65536)]
-        pub width: usize,
-        /// height in texels
-        #[range(1, 65536)]
-        pub height: usize,
-    }
-}
+use super::LatLongSizeParams;
 
 pub fn spec() -> OpSpec {
     OpSpec::new(
@@ -28,20 +19,20 @@ pub fn spec() -> OpSpec {
     )
     .input("image", ANY_IMAGE, "the square octahedral map (RGB; one channel is read as grey)")
     .output("image", OutputType::Fixed(IMAGE_T), "the lat-long RGB map")
-    .size(|_, p: OctahedralToLatLongParams| Some((p.width as u64, p.height as u64)))
+    .size(|_, p: LatLongSizeParams| Some((p.width as u64, p.height as u64)))
     .check(check)
     .code_hash(crate::op_code_hash!())
     .eval(eval)
 }
 
-fn check(ctx: &CheckContext, _: OctahedralToLatLongParams) -> Result<(), CheckProblem> {
+fn check(ctx: &CheckContext, _: LatLongSizeParams) -> Result<(), CheckProblem> {
     match ctx.input_size("image") {
         Some((w, h)) if w != h => Err(CheckProblem::at("image", format!("an octahedral map is square, not {w}x{h}"))),
         _ => Ok(()),
     }
 }
 
-fn eval(ctx: &mut OpContext, p: OctahedralToLatLongParams) -> Result<Value, OpError> {
+fn eval(ctx: &mut OpContext, p: LatLongSizeParams) -> Result<Value, OpError> {
     let img: &Image = ctx.get("image");
     if img.width != img.height || img.width == 0 {
         return Err(OpError::Invalid(format!("an octahedral map is square, not {}x{}", img.width, img.height)));

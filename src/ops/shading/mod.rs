@@ -12,7 +12,6 @@ pub mod relight_sphere;
 pub mod sh_irradiance;
 pub mod sh_sphere;
 
-use crate::engine::params::Choice;
 use crate::engine::registry::Registry;
 use crate::geometry::latlong;
 use crate::maths::glossy::{GlossyStrategy, Heuristic};
@@ -88,46 +87,7 @@ pub(crate) fn sphere_view(size: usize, view: [f64; 2]) -> SphereView {
     SphereView::new(size, latlong::direction_deg(view[0], view[1]))
 }
 
-impl Choice for PerPixelStrategy {
-    const NAMES: &'static [&'static str] = PerPixelStrategy::NAMES;
-    fn from_name(name: &str) -> Option<Self> {
-        PerPixelStrategy::from_name(name)
-    }
-    fn name(self) -> &'static str {
-        PerPixelStrategy::name(self)
-    }
-}
-crate::choice_param!(PerPixelStrategy);
-
-impl Choice for PerPixelSequence {
-    const NAMES: &'static [&'static str] = PerPixelSequence::NAMES;
-    fn from_name(name: &str) -> Option<Self> {
-        PerPixelSequence::from_name(name)
-    }
-    fn name(self) -> &'static str {
-        PerPixelSequence::name(self)
-    }
-}
-crate::choice_param!(PerPixelSequence);
-
-impl Choice for GlossyStrategy {
-    const NAMES: &'static [&'static str] = GlossyStrategy::NAMES;
-    fn from_name(name: &str) -> Option<Self> {
-        GlossyStrategy::from_name(name)
-    }
-    fn name(self) -> &'static str {
-        GlossyStrategy::name(self)
-    }
-}
-crate::choice_param!(GlossyStrategy);
-
-impl Choice for Heuristic {
-    const NAMES: &'static [&'static str] = Heuristic::NAMES;
-    fn from_name(name: &str) -> Option<Self> {
-        Heuristic::from_name(name)
-    }
-    fn name(self) -> &'static str {
-        Heuristic::name(self)
-    }
-}
-crate::choice_param!(Heuristic);
+crate::choice_by_name!(PerPixelStrategy);
+crate::choice_by_name!(PerPixelSequence);
+crate::choice_by_name!(GlossyStrategy);
+crate::choice_by_name!(Heuristic);

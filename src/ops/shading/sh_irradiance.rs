@@ -22,21 +22,11 @@
 use super::reference_sphere::check_finite;
 use crate::data::{Image, Metrics, ShCoefficients, ShFrame};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Outputs};
-use crate::engine::params::Choice;
 use crate::engine::value::Value;
 use crate::maths::sh::{coefficient_name, project, sh_lm};
 use crate::types::ty::*;
 
-impl Choice for ShFrame {
-    const NAMES: &'static [&'static str] = ShFrame::NAMES;
-    fn from_name(name: &str) -> Option<Self> {
-        ShFrame::from_name(name)
-    }
-    fn name(self) -> &'static str {
-        ShFrame::name(self)
-    }
-}
-crate::choice_param!(ShFrame);
+crate::choice_by_name!(ShFrame);
 
 crate::params! {
     pub struct ShIrradianceParams {
