@@ -18,16 +18,16 @@
 //!    before the RGB part is skipped. Its largest resolution level is read.
 //! 3. **Channels.** `R`, `G`, `B` (and `A`, kept as a fourth channel) are picked by name whatever
 //!    their stored order and sample type (f16, f32, u32: all become f32). Luminance/chroma files
-//!    (`Y`, `RY`, `BY` at full resolution) become RGB with OpenEXR's own
-//!    formula (ImfRgbaYca `YCAtoRGBA`): `R = (RY + 1) Y`, `B = (BY + 1) Y`,
+//!    (`Y`, `RY`, `BY`) become RGB. **2x2-subsampled chroma**, the layout OpenEXR's
+//!    `RgbaOutputFile` writes, goes through OpenEXR's own reconstruction ([`super::yca`]: its
+//!    filters, clamping, half rounding and saturation fix, bit for bit; the subsampled channels
+//!    are decoded by our patch of the `exr` crate, `vendor/exr/PATCHES.md`). Full-resolution
+//!    chroma (which `RgbaInputFile` refuses) uses OpenEXR's per-pixel formula
+//!    (ImfRgbaYca `YCAtoRGBA`): `R = (RY + 1) Y`, `B = (BY + 1) Y`,
 //!    `G = (Y - R yw.x - B yw.z) / yw.y`, `yw` being the luminance weights of the file's
-//!    chromaticities (Rec. 709 when absent); `RY = BY = 0` gives grey `Y`. **Subsampled channels
-//!    are refused** with an error naming them: the `exr` crate (1.74) rejects channel
-//!    subsampling while validating the header, and its decompressors size blocks as if
-//!    unsampled, so the 2x2-subsampled `RY`/`BY` that OpenEXR's `RgbaOutputFile` writes cannot be
-//!    decoded through it. (`full_plane` already upsamples bilinearly, ready for when the crate
-//!    decodes them; OpenEXR itself uses a 27-tap horizontal / 7-tap vertical filter and then
-//!    `fixSaturation`.) `Y` alone gives
+//!    chromaticities (Rec. 709 when absent); `RY = BY = 0` gives grey `Y`. Any other subsampled
+//!    channel is upsampled bilinearly (OpenEXR's `InputFile` refuses to read one into a
+//!    full-resolution buffer). `Y` alone gives
 //!    one channel (grey, which is correct). If only some of R/G/B exist, the missing ones are 0.
 //!    No colour channel: an error listing the channels.
 //! 4. **Window.** `Display` (default): the image is the display window; pixels outside the data
@@ -285,21 +285,6 @@ fn choose_part(meta: &MetaData, options: &DecodeOptions) -> Result<(usize, Strin
             }
         }
     };
-    let subsampled: Vec<String> = meta.headers[chosen.0]
-        .channels
-        .list
-        .iter()
-        .filter(|c| c.sampling.0 != 1 || c.sampling.1 != 1)
-        .map(|c| format!("{} at {}x{}", c.name, c.sampling.0, c.sampling.1))
-        .collect();
-    if !subsampled.is_empty() {
-        return Err(FormatError(format!(
-            "EXR part {} has subsampled channels ({}; as in luminance/chroma files from OpenEXR's \
-             RgbaOutputFile), which the exr crate cannot decode (\"channel subsampling not supported yet\")",
-            chosen.0,
-            subsampled.join(", ")
-        )));
-    }
     if meta.headers[chosen.0].deep {
         return Err(FormatError(format!("EXR part {} is deep data, which is not supported", chosen.0)));
     }
@@ -312,14 +297,18 @@ fn choose_part(meta: &MetaData, options: &DecodeOptions) -> Result<(usize, Strin
     Ok(chosen)
 }
 
-/// One channel's samples as f32 at full resolution (bilinear upsampling of a subsampled one).
-fn full_plane(channel: &AnyChannel<FlatSamples>, w: usize, h: usize) -> Result<Vec<f32>, FormatError> {
-    let samples = &channel.sample_data;
-    let values: Vec<f32> = match samples {
+/// One channel's samples as f32, in its own sample grid.
+fn channel_values(channel: &AnyChannel<FlatSamples>) -> Vec<f32> {
+    match &channel.sample_data {
         FlatSamples::F16(v) => v.iter().map(|x| x.to_f32()).collect(),
         FlatSamples::F32(v) => v.clone(),
         FlatSamples::U32(v) => v.iter().map(|&x| x as f32).collect(),
-    };
+    }
+}
+
+/// One channel's samples as f32 at full resolution (bilinear upsampling of a subsampled one).
+fn full_plane(channel: &AnyChannel<FlatSamples>, w: usize, h: usize) -> Result<Vec<f32>, FormatError> {
+    let values = channel_values(channel);
     let (sx, sy) = (channel.sampling.0.max(1), channel.sampling.1.max(1));
     let (cw, ch) = (w / sx, h / sy);
     if values.len() != cw * ch || (sx > 1 || sy > 1) && (cw == 0 || ch == 0) {
@@ -413,32 +402,57 @@ fn decode_inner(bytes: &[u8], options: &DecodeOptions) -> Result<Image, FormatEr
         let zero = vec![0.0; pixels];
         let (r, g, b) = (r.unwrap_or_else(|| zero.clone()), g.unwrap_or_else(|| zero.clone()), b.unwrap_or(zero));
         interleave(&[Some(r), Some(g), Some(b), plane(find("A"))?])
-    } else if let Some(y) = plane(yi)? {
-        let (ry, by) = (plane(find("RY"))?, plane(find("BY"))?);
-        if ry.is_none() && by.is_none() {
-            interleave(&[Some(y), None, None, None])
-        } else {
-            let yw = primaries.luminance_weights();
-            let zero = vec![0.0; pixels];
-            let (ry, by) = (ry.unwrap_or_else(|| zero.clone()), by.unwrap_or(zero));
-            let (mut r, mut g, mut b) =
-                (Vec::with_capacity(pixels), Vec::with_capacity(pixels), Vec::with_capacity(pixels));
-            for i in 0..pixels {
-                let (yv, ryv, byv) = (y[i] as f64, ry[i] as f64, by[i] as f64);
-                if ryv == 0.0 && byv == 0.0 {
-                    r.push(yv as f32);
-                    g.push(yv as f32);
-                    b.push(yv as f32);
-                } else {
-                    let rv = (ryv + 1.0) * yv;
-                    let bv = (byv + 1.0) * yv;
-                    let gv = (yv - rv * yw[0] - bv * yw[2]) / yw[1];
-                    r.push(rv as f32);
-                    g.push(gv as f32);
-                    b.push(bv as f32);
-                }
+    } else if let Some(yi) = yi {
+        let (ryi, byi) = (find("RY"), find("BY"));
+        let sampled_2x2 = |i: Option<usize>| i.is_some_and(|i| list[i].sampling == ::exr::math::Vec2(2, 2));
+        if sampled_2x2(ryi) && sampled_2x2(byi) {
+            // What `RgbaOutputFile` writes: OpenEXR's own reconstruction, bit for bit, on the
+            // channels rounded to half as its `Rgba` frame buffer holds them.
+            let half_plane = |i: Option<usize>| -> Vec<f32> {
+                i.map_or_else(Vec::new, |i| super::yca::round_to_half(channel_values(&list[i])))
+            };
+            let (y, ry, by) = (half_plane(Some(yi)), half_plane(ryi), half_plane(byi));
+            let chroma = (w / 2) * (h / 2);
+            if w % 2 != 0 || h % 2 != 0 || y.len() != pixels || ry.len() != chroma || by.len() != chroma {
+                return Err(FormatError(format!(
+                    "EXR luminance/chroma part {part}: {}, {} and {} samples for {w}x{h} pixels",
+                    y.len(),
+                    ry.len(),
+                    by.len()
+                )));
             }
-            interleave(&[Some(r), Some(g), Some(b), plane(find("A"))?])
+            let rgb = super::yca::YcaPlanes { width: w, height: h, y: &y, ry: &ry, by: &by }.to_rgb(&primaries);
+            let plane_of = |k: usize| Some(rgb.iter().skip(k).step_by(3).copied().collect::<Vec<f32>>());
+            interleave(&[plane_of(0), plane_of(1), plane_of(2), plane(find("A"))?])
+        } else {
+            let y = full_plane(&list[yi], w, h)?;
+            let (ry, by) = (plane(ryi)?, plane(byi)?);
+            if ry.is_none() && by.is_none() {
+                interleave(&[Some(y), None, None, None])
+            } else {
+                // Full-resolution chroma (which `RgbaInputFile` refuses): `YCAtoRGBA` per pixel.
+                let yw = primaries.luminance_weights();
+                let zero = vec![0.0; pixels];
+                let (ry, by) = (ry.unwrap_or_else(|| zero.clone()), by.unwrap_or(zero));
+                let (mut r, mut g, mut b) =
+                    (Vec::with_capacity(pixels), Vec::with_capacity(pixels), Vec::with_capacity(pixels));
+                for i in 0..pixels {
+                    let (yv, ryv, byv) = (y[i] as f64, ry[i] as f64, by[i] as f64);
+                    if ryv == 0.0 && byv == 0.0 {
+                        r.push(yv as f32);
+                        g.push(yv as f32);
+                        b.push(yv as f32);
+                    } else {
+                        let rv = (ryv + 1.0) * yv;
+                        let bv = (byv + 1.0) * yv;
+                        let gv = (yv - rv * yw[0] - bv * yw[2]) / yw[1];
+                        r.push(rv as f32);
+                        g.push(gv as f32);
+                        b.push(bv as f32);
+                    }
+                }
+                interleave(&[Some(r), Some(g), Some(b), plane(find("A"))?])
+            }
         }
     } else {
         return Err(FormatError(format!(

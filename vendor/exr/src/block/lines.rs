@@ -74,62 +74,81 @@ impl LineIndex {
         block: BlockIndex,
         channels: &ChannelList,
     ) -> impl Iterator<Item = (Range<usize>, LineIndex)> {
+        // hdrflow patch: subsampled channels. A block stores, for each of its rows y and each
+        // channel (in order), the channel's samples of that row if `y % y_sampling == 0` (y relative
+        // to the data window, whose position every sampling factor divides), `width / x_sampling`
+        // of them. A line's position and sample count are in the channel's own sample grid.
+        struct ChannelLine {
+            bytes_per_line: usize,
+            sampling: Vec2<usize>,
+        }
+
         struct LineIter {
             layer: usize,
             level: Vec2<usize>,
             width: usize,
             end_y: usize,
             x: usize,
-            channel_sizes: SmallVec<[usize; 8]>,
+            channels: SmallVec<[ChannelLine; 8]>,
             byte: usize,
             channel: usize,
             y: usize,
         }
 
-        // FIXME what about sub sampling??
+        impl LineIter {
+            fn advance(&mut self) {
+                self.channel += 1;
+                if self.channel == self.channels.len() {
+                    self.channel = 0;
+                    self.y += 1;
+                }
+            }
+        }
 
         impl Iterator for LineIter {
             type Item = (Range<usize>, LineIndex);
 
-            // TODO size hint?
-
             fn next(&mut self) -> Option<Self::Item> {
-                if self.y < self.end_y {
-                    // compute return value before incrementing
-                    let byte_len = self.channel_sizes[self.channel];
+                while self.y < self.end_y {
+                    let channel = &self.channels[self.channel];
+                    let sampling = channel.sampling;
+                    if self.y % sampling.y() != 0 {
+                        self.advance();
+                        continue;
+                    }
+
+                    let byte_len = channel.bytes_per_line;
                     let return_value = (
                         (self.byte..self.byte + byte_len),
                         LineIndex {
                             channel: self.channel,
                             layer: self.layer,
                             level: self.level,
-                            position: Vec2(self.x, self.y),
-                            sample_count: self.width,
+                            position: Vec2(self.x / sampling.x(), self.y / sampling.y()),
+                            sample_count: self.width / sampling.x(),
                         },
                     );
 
-                    {
-                        // increment indices
-                        self.byte += byte_len;
-                        self.channel += 1;
-
-                        if self.channel == self.channel_sizes.len() {
-                            self.channel = 0;
-                            self.y += 1;
-                        }
-                    }
-
-                    Some(return_value)
-                } else {
-                    None
+                    self.byte += byte_len;
+                    self.advance();
+                    return Some(return_value);
                 }
+
+                None
             }
         }
 
-        let channel_line_sizes: SmallVec<[usize; 8]> = channels
+        let channels: SmallVec<[ChannelLine; 8]> = channels
             .list
             .iter()
-            .map(move |channel| block.pixel_size.0 * channel.sample_type.bytes_per_sample()) // FIXME is it fewer samples per tile or just fewer tiles for sampled images???
+            .map(move |channel| {
+                let sampling = Vec2(channel.sampling.x().max(1), channel.sampling.y().max(1));
+                ChannelLine {
+                    bytes_per_line: block.pixel_size.0 / sampling.x()
+                        * channel.sample_type.bytes_per_sample(),
+                    sampling,
+                }
+            })
             .collect();
 
         LineIter {
@@ -138,7 +157,7 @@ impl LineIndex {
             width: block.pixel_size.0,
             x: block.pixel_position.0,
             end_y: block.pixel_position.y() + block.pixel_size.height(),
-            channel_sizes: channel_line_sizes,
+            channels,
 
             byte: 0,
             channel: 0,

@@ -183,7 +183,10 @@ impl UncompressedBlock {
 
         let header: &Header = headers.get(index.layer).expect("block layer index bug");
 
-        let expected_byte_size = header.channels.bytes_per_pixel * self.index.pixel_size.area(); // TODO sampling??
+        let expected_byte_size = header.channels.byte_size_of_section(crate::meta::attribute::IntegerBounds::new(
+            self.index.pixel_position.to_i32(),
+            self.index.pixel_size,
+        )); // hdrflow patch: with subsampling
         if expected_byte_size != data.len() {
             return Err(Error::invalid(format!(
                 "decompressed block byte size mismatch: expected {} bytes but got {} bytes",
@@ -281,7 +284,10 @@ impl UncompressedBlock {
         block_index: BlockIndex,
         mut extract_line: impl FnMut(LineRefMut<'_>),
     ) -> Vec<u8> {
-        let byte_count = block_index.pixel_size.area() * channels.bytes_per_pixel;
+        let byte_count = channels.byte_size_of_section(crate::meta::attribute::IntegerBounds::new(
+            block_index.pixel_position.to_i32(),
+            block_index.pixel_size,
+        )); // hdrflow patch: with subsampling
         let mut block_bytes = vec![0_u8; byte_count];
 
         for (byte_range, line_index) in LineIndex::lines_in_block(block_index, channels) {

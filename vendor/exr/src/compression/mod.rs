@@ -289,7 +289,7 @@ impl Compression {
             assert!(self.supports_deep_data());
         }
 
-        let expected_byte_size = pixel_section.size.area() * header.channels.bytes_per_pixel; // FIXME this needs to account for subsampling anywhere
+        let expected_byte_size = header.channels.byte_size_of_section(pixel_section); // hdrflow patch: with subsampling
 
         // note: always true where self == Uncompressed
         if compressed_le.len() == expected_byte_size {

@@ -1183,11 +1183,11 @@ impl ChannelDescription {
             return Err(Error::invalid("channel sampling factor not dividing data window size"));
         }
 
-        if self.sampling != Vec2(1, 1) {
-            // TODO this must only be implemented in the crate::image module and child
-            // modules,      should not be too difficult
-
-            return Err(Error::unsupported("channel subsampling not supported yet"));
+        // hdrflow patch: subsampled channels of flat scan line images are decoded
+        // (`ChannelList::byte_size_of_section`, `LineIndex::lines_in_block`). Tiled and deep
+        // images cannot be subsampled (OpenEXR refuses them too), strict or not.
+        if !allow_sampling && self.sampling != Vec2(1, 1) {
+            return Err(Error::invalid("subsampling is only allowed in flat scan line images"));
         }
 
         Ok(())
@@ -1195,6 +1195,28 @@ impl ChannelDescription {
 }
 
 impl ChannelList {
+    /// hdrflow patch: the number of uncompressed bytes of the pixel section `section` (in data
+    /// window coordinates, i.e. relative to the data window's origin, which every sampling factor
+    /// divides), with subsampling: per channel, the sampled rows times the sampled columns
+    /// (OpenEXR's `numSamples`). Equals `section.size.area() * bytes_per_pixel` without it.
+    pub fn byte_size_of_section(&self, section: IntegerBounds) -> usize {
+        self.list
+            .iter()
+            .map(|channel| {
+                let count = |start: i32, size: usize, sampling: usize| -> usize {
+                    let sampling = sampling.max(1) as i64;
+                    let (start, end) = (i64::from(start), i64::from(start) + size as i64);
+                    // multiples of `sampling` in [start, end)
+                    (end - 1).div_euclid(sampling).saturating_sub((start - 1).div_euclid(sampling)).max(0)
+                        as usize
+                };
+                count(section.position.x(), section.size.width(), channel.sampling.x())
+                    * count(section.position.y(), section.size.height(), channel.sampling.y())
+                    * channel.sample_type.bytes_per_sample()
+            })
+            .sum()
+    }
+
     /// Number of bytes this would consume in an exr file.
     pub fn byte_size(&self) -> usize {
         self.list.iter().map(ChannelDescription::byte_size).sum::<usize>()

@@ -278,7 +278,7 @@ pub fn decompress(
 ) -> Result<ByteVec> {
     debug_assert_eq!(
         expected_byte_size,
-        rectangle.size.area() * channels.bytes_per_pixel,
+        channels.byte_size_of_section(rectangle),
         "expected byte size does not match header" // TODO compute instead of passing argument?
     );
 
@@ -300,7 +300,8 @@ pub fn decompress(
             y_sampling: channel.sampling.y(),
             sample_type: channel.sample_type,
             quantize_linearly: channel.quantize_linearly,
-            samples_per_pixel: channel.sampling.area(),
+            // hdrflow patch: `resolution` is already the subsampled grid; one sample each.
+            samples_per_pixel: 1,
         };
 
         tmp_read_index += channel.resolution.area()
@@ -529,7 +530,8 @@ pub fn compress(
             resolution: number_samples,
             sample_type: channel.sample_type,
             quantize_linearly: channel.quantize_linearly,
-            samples_per_pixel: channel.sampling.area(),
+            // hdrflow patch: `resolution` is already the subsampled grid; one sample each.
+            samples_per_pixel: 1,
         };
 
         tmp_end_index += byte_count;

@@ -72,7 +72,13 @@ impl ReadSamples for ReadFlatSamples {
         header: &Header,
         channel: &ChannelDescription,
     ) -> Result<Self::Reader> {
-        self.create_samples_level_reader(header, channel, Vec2(0, 0), header.layer_size)
+        // hdrflow patch: a subsampled channel has its own, smaller sample grid.
+        self.create_samples_level_reader(
+            header,
+            channel,
+            Vec2(0, 0),
+            header.layer_size / channel.sampling,
+        )
     }
 }
 

@@ -184,6 +184,12 @@ ReadChannels<'s> for CollectPixels<InnerChannels, Pixel, PixelStorage, CreatePix
     fn create_channels_reader(&'s self, header: &Header) -> Result<Self::Reader> {
         if header.deep { return Err(Error::invalid("`SpecificChannels` does not support deep data yet")) }
 
+        // hdrflow patch: subsampled channels are decoded by `all_channels()` (each in its own
+        // sample grid); reading them as full-resolution pixels would need reconstruction.
+        if header.channels.list.iter().any(|channel| channel.sampling != Vec2(1, 1)) {
+            return Err(Error::unsupported("subsampled channels (read them with `all_channels()`)"))
+        }
+
         let pixel_reader = self.read_channels.create_recursive_reader(&header.channels)?;
         let channel_descriptions = pixel_reader.get_descriptions().into_non_recursive();// TODO not call this twice
 

@@ -1,0 +1,110 @@
+// Expected values for the luminance/chroma files of tests/exr_conformance.rs, computed ONCE with
+// OpenEXR's own C++ library (`RgbaInputFile`, which reconstructs subsampled chroma), so that CI
+// compares without the oracle installed. OpenEXR 3.1.5 (Debian's libopenexr-dev) was used:
+//
+//     apt-get install libopenexr-dev g++ pkg-config
+//     g++ -O2 -o /tmp/yca-oracle scripts/exr-yca-oracle.cpp $(pkg-config --cflags --libs OpenEXR)
+//     /tmp/yca-oracle --write tests/data/openexr/Rec709.exr tests/data/openexr/yc
+//     /tmp/yca-oracle tests/data/openexr/Rec709_YC.exr tests/data/openexr/XYZ_YC.exr \
+//         tests/data/openexr/yc/*.exr > tests/data/openexr/expected-yca.json
+//
+// `--write IN DIR` writes, with `RgbaOutputFile` and `WRITE_YC`, a 96x64 crop of IN (from pixel
+// 300, 200: foliage and sky) in every compression OpenEXR has, as DIR/yc_<compression>.exr: the
+// luminance/chroma layout through each of the exr crate's decompressors.
+//
+// Per file: the data window's size; per channel R, G, B the mean (double, over finite values);
+// the values at a 9x7 grid of pixels that includes the first and last rows and columns (where
+// OpenEXR pads and clamps); and FNV-1a 64 of every pixel's R, G, B half bits in row order, so
+// the test can check the whole image bit for bit from one number.
+#include <ImfArray.h>
+#include <ImfHeader.h>
+#include <ImfRgbaFile.h>
+
+#include <cinttypes>
+#include <cmath>
+#include <cstdio>
+#include <string>
+
+static int write_crops(const char *in, const char *dir) {
+    Imf::RgbaInputFile src(in);
+    Imath::Box2i dw = src.dataWindow();
+    int w = dw.max.x - dw.min.x + 1, h = dw.max.y - dw.min.y + 1;
+    Imf::Array2D<Imf::Rgba> px(h, w);
+    src.setFrameBuffer(&px[0][0] - dw.min.x - dw.min.y * w, 1, w);
+    src.readPixels(dw.min.y, dw.max.y);
+    const int cw = 96, ch = 64, x0 = 300, y0 = 200;
+    Imf::Array2D<Imf::Rgba> crop(ch, cw);
+    for (int y = 0; y < ch; ++y)
+        for (int x = 0; x < cw; ++x) crop[y][x] = px[y0 + y][x0 + x];
+    const struct {
+        Imf::Compression c;
+        const char *name;
+    } all[] = {{Imf::NO_COMPRESSION, "none"}, {Imf::RLE_COMPRESSION, "rle"},   {Imf::ZIPS_COMPRESSION, "zips"},
+               {Imf::ZIP_COMPRESSION, "zip"},   {Imf::PIZ_COMPRESSION, "piz"},   {Imf::PXR24_COMPRESSION, "pxr24"},
+               {Imf::B44_COMPRESSION, "b44"},   {Imf::B44A_COMPRESSION, "b44a"}, {Imf::DWAA_COMPRESSION, "dwaa"},
+               {Imf::DWAB_COMPRESSION, "dwab"}};
+    for (const auto &c : all) {
+        char path[4096];
+        std::snprintf(path, sizeof path, "%s/yc_%s.exr", dir, c.name);
+        Imf::Header header(cw, ch);
+        header.compression() = c.c;
+        Imf::RgbaOutputFile out(path, header, Imf::WRITE_YC);
+        out.setFrameBuffer(&crop[0][0], 1, cw);
+        out.writePixels(ch);
+    }
+    return 0;
+}
+
+int main(int argc, char **argv) {
+    if (argc == 4 && std::string(argv[1]) == "--write") return write_crops(argv[2], argv[3]);
+    std::printf("{\n \"oracle\": \"OpenEXR %s RgbaInputFile\",\n \"files\": {", OPENEXR_VERSION_STRING);
+    for (int f = 1; f < argc; ++f) {
+        Imf::RgbaInputFile file(argv[f]);
+        Imath::Box2i dw = file.dataWindow();
+        int w = dw.max.x - dw.min.x + 1, h = dw.max.y - dw.min.y + 1;
+        Imf::Array2D<Imf::Rgba> px(h, w);
+        file.setFrameBuffer(&px[0][0] - dw.min.x - dw.min.y * w, 1, w);
+        file.readPixels(dw.min.y, dw.max.y);
+
+        uint64_t hash = 1469598103934665603ull;
+        double sum[3] = {0, 0, 0};
+        long count[3] = {0, 0, 0};
+        for (int y = 0; y < h; ++y)
+            for (int x = 0; x < w; ++x) {
+                const Imf::Rgba &p = px[y][x];
+                const half c[3] = {p.r, p.g, p.b};
+                for (int k = 0; k < 3; ++k) {
+                    uint16_t bits = c[k].bits();
+                    for (int b = 0; b < 2; ++b) {
+                        hash ^= (bits >> (8 * b)) & 0xff;
+                        hash *= 1099511628211ull;
+                    }
+                    float v = c[k];
+                    if (std::isfinite(v)) {
+                        sum[k] += v;
+                        ++count[k];
+                    }
+                }
+            }
+
+        const char *base = argv[f];
+        for (const char *s = argv[f]; *s; ++s)
+            if (*s == '/') base = s + 1;
+        std::printf("%s\n  \"%s\": {\n   \"size\": [%d, %d],\n   \"fnv1a64_rgb_half_bits\": \"%016" PRIx64 "\",\n",
+                    f > 1 ? "," : "", base, w, h, hash);
+        std::printf("   \"mean\": [%.17g, %.17g, %.17g],\n   \"samples\": [", sum[0] / count[0], sum[1] / count[1],
+                    sum[2] / count[2]);
+        bool first = true;
+        for (int j = 0; j < 7; ++j)
+            for (int i = 0; i < 9; ++i) {
+                int x = (int)std::lround(i * (w - 1) / 8.0), y = (int)std::lround(j * (h - 1) / 6.0);
+                const Imf::Rgba &p = px[y][x];
+                std::printf("%s\n    [%d, %d, %.9g, %.9g, %.9g]", first ? "" : ",", x, y, (float)p.r, (float)p.g,
+                            (float)p.b);
+                first = false;
+            }
+        std::printf("\n   ]\n  }");
+    }
+    std::printf("\n }\n}\n");
+    return 0;
+}
