@@ -6,7 +6,7 @@
 //! - Raw channels of RGB files (`colorspace: AsStored`, `window: Data`): exact (f16 -> f32 is exact).
 //! - Luminance/chroma files `Rec709_YC`, `XYZ_YC` (RY/BY subsampled 2x2): their raw channels
 //!   exactly, in their own sample grids; their RGB bit for bit as OpenEXR's `RgbaInputFile`
-//!   reconstructs it (`scripts/exr-yca-oracle.cpp` -> `expected-yca.json`: a hash of every
+//!   reconstructs it (`scripts/openexr-cpp-oracle.cpp` -> `expected-yca.json`: a hash of every
 //!   pixel's half bits, 63 pixels including the borders, the means).
 //! - "Displayed properly, all four images should look the same" (the set's README): `XYZ` read as
 //!   linear Rec. 709 (chromaticities R=X, G=Y, B=Z, white E: XYZ -> Rec. 709, no white
@@ -86,7 +86,7 @@ fn expected_yca() -> Value {
 }
 
 /// FNV-1a 64 over every pixel's R, G, B as half bits (little-endian bytes), in row order: what
-/// `scripts/exr-yca-oracle.cpp` computed over OpenEXR's own output.
+/// `scripts/openexr-cpp-oracle.cpp` computed over OpenEXR's own output.
 fn fnv1a64_rgb_half_bits(img: &Image) -> String {
     let mut hash: u64 = 1469598103934665603;
     for px in img.data.chunks_exact(img.channels) {
@@ -140,7 +140,7 @@ fn subsampled_channels_decode_to_the_stored_samples() {
 
 #[test]
 fn subsampled_luminance_chroma_files_match_openexrs_reconstruction_bit_for_bit() {
-    // `RgbaInputFile`'s output (scripts/exr-yca-oracle.cpp, OpenEXR 3.1.5): the whole image by
+    // `RgbaInputFile`'s output (scripts/openexr-cpp-oracle.cpp, OpenEXR 3.1.5): the whole image by
     // hash, 63 pixels including the borders by value, and the channel means.
     // Also a crop of Rec709.exr that OpenEXR wrote as luminance/chroma in each of its ten
     // compressions (tests/data/openexr/yc/): every decompressor on subsampled channels.
@@ -219,4 +219,27 @@ fn display_window_places_the_data_window() {
     // Outside the data window: black (the display window starts at 0, 0; the data at 30, 40).
     assert_eq!(img.rgb(0, 0), [0.0; 3]);
     assert_eq!(img.rgb(img.width - 1, img.height - 1), [0.0; 3]);
+}
+
+#[test]
+fn a_flat_part_behind_a_deep_part_is_read() {
+    // deep_then_flat.exr (written by OpenEXR 3.1.5, scripts/openexr-cpp-oracle.cpp): part 0
+    // "depth" is deep scan lines, part 1 "beauty" half RGB with R = x/64, G = y/32,
+    // B = (x+y)/128 (exact in half).
+    let name = "deep_then_flat.exr";
+    let check = |img: &Image| {
+        assert_eq!((img.width, img.height, img.channels), (64, 32, 3));
+        for y in 0..32 {
+            for x in 0..64 {
+                let want = [x as f32 / 64.0, y as f32 / 32.0, (x + y) as f32 / 128.0];
+                assert_eq!(img.rgb(x, y), want, "({x}, {y})");
+            }
+        }
+    };
+    check(&load(name, &DecodeOptions::default()));
+    check(&load(name, &DecodeOptions { layer: Some("beauty".into()), ..Default::default() }));
+    check(&load(name, &DecodeOptions { part: Some(1), ..Default::default() }));
+    let bytes = std::fs::read(format!("{DIR}/{name}")).unwrap();
+    let e = decode_with(&bytes, &DecodeOptions { part: Some(0), ..Default::default() }).unwrap_err().0;
+    assert!(e.contains("part 0") && e.contains("deep"), "{e}");
 }

@@ -40,8 +40,9 @@
 //! 6. **Orientation.** EXR rows run top to bottom (y grows downwards), like ours; nothing is
 //!    flipped. (`grace_latlong.exr` is itself stored upside-down, row 0 = straight down:
 //!    `../shared/data/envmaps/SOURCES.md`. Flipping it is the caller's decision.)
-//! 7. **Refused.** Deep data (the `exr` crate reads no deep data: a file with any deep part is
-//!    refused, naming the part). A single-part file whose `type` attribute says `deepscanline`
+//! 7. **Refused.** Deep data: a deep part is refused when chosen, naming it; in a multi-part
+//!    file the flat parts beside deep ones are read (only the chosen part's chunks are read:
+//!    `read_part`; our patch of the `exr` crate lets such files pass its validation). A single-part file whose `type` attribute says `deepscanline`
 //!    or `deeptile` while the version field's deep bit is clear is flat (OpenEXR reads it): the
 //!    attribute is dropped from an in-memory copy and the file read as flat.
 //!
@@ -288,27 +289,97 @@ fn choose_part(meta: &MetaData, options: &DecodeOptions) -> Result<(usize, Strin
     if meta.headers[chosen.0].deep {
         return Err(FormatError(format!("EXR part {} is deep data, which is not supported", chosen.0)));
     }
-    if meta.headers.iter().any(|h| h.deep) {
-        return Err(FormatError(format!(
-            "EXR file has deep-data parts, which the exr crate cannot read even to skip them ({})",
-            describe()
-        )));
-    }
     Ok(chosen)
 }
 
-/// One channel's samples as f32, in its own sample grid.
-fn channel_values(channel: &AnyChannel<FlatSamples>) -> Vec<f32> {
-    match &channel.sample_data {
-        FlatSamples::F16(v) => v.iter().map(|x| x.to_f32()).collect(),
-        FlatSamples::F32(v) => v.clone(),
-        FlatSamples::U32(v) => v.iter().map(|&x| x as f32).collect(),
+/// One channel of the chosen part as decoded: f32 samples in the channel's own sample grid
+/// (`width / sampling.0` x `height / sampling.1`).
+struct DecodedChannel {
+    name: String,
+    sampling: (usize, usize),
+    values: Vec<f32>,
+}
+
+/// Decodes the largest resolution level of part `part` only, through the `exr` crate's block
+/// API: the other parts' chunks (deep ones included) are never read, and the chunks are
+/// decompressed on our rayon pool (the crate's image reader builds a thread pool per call and
+/// decodes every part).
+fn read_part(bytes: &[u8], part: usize, parallel: bool) -> Result<(usize, usize, Vec<DecodedChannel>), FormatError> {
+    use ::exr::block::chunk::Chunk;
+    use ::exr::block::UncompressedBlock;
+    use rayon::prelude::*;
+
+    let failed = |e: ::exr::error::Error| FormatError(format!("EXR decoding failed: {e}"));
+    let reader = ::exr::block::read(Cursor::new(bytes), false).map_err(failed)?;
+    let meta = reader.meta_data().clone();
+    let header = &meta.headers[part];
+    let (w, h) = (header.layer_size.0, header.layer_size.1);
+    let chunks = reader
+        .filter_chunks(false, |_, tile, block| block.layer == part && tile.is_largest_resolution_level())
+        .map_err(failed)?;
+    let chunks: Vec<Chunk> = chunks.collect::<Result<_, _>>().map_err(failed)?;
+
+    // Each block, decompressed and converted to f32 in its lines' order.
+    let decode = |chunk: Chunk| -> Result<(::exr::block::BlockIndex, Vec<f32>), FormatError> {
+        let block = UncompressedBlock::decompress_chunk(chunk, &meta, false).map_err(failed)?;
+        let mut values = Vec::with_capacity(block.data.len() / 2);
+        for line in block.lines(&header.channels) {
+            let bytes = line.value;
+            match header.channels.list[line.location.channel].sample_type {
+                SampleType::F16 => values.extend(
+                    bytes
+                        .chunks_exact(2)
+                        .map(|b| ::exr::prelude::f16::from_bits(u16::from_ne_bytes([b[0], b[1]])).to_f32()),
+                ),
+                SampleType::F32 => {
+                    values.extend(bytes.chunks_exact(4).map(|b| f32::from_ne_bytes([b[0], b[1], b[2], b[3]])))
+                }
+                SampleType::U32 => {
+                    values.extend(bytes.chunks_exact(4).map(|b| u32::from_ne_bytes([b[0], b[1], b[2], b[3]]) as f32))
+                }
+            }
+        }
+        Ok((block.index, values))
+    };
+    let blocks: Vec<_> = if parallel {
+        chunks.into_par_iter().map(decode).collect::<Result<_, _>>()?
+    } else {
+        chunks.into_iter().map(decode).collect::<Result<_, _>>()?
+    };
+
+    let mut channels: Vec<DecodedChannel> = header
+        .channels
+        .list
+        .iter()
+        .map(|c| {
+            let sampling = (c.sampling.0.max(1), c.sampling.1.max(1));
+            DecodedChannel {
+                name: c.name.to_string(),
+                sampling,
+                values: vec![0.0; (w / sampling.0) * (h / sampling.1)],
+            }
+        })
+        .collect();
+    for (index, values) in blocks {
+        let mut at = 0;
+        for (_, line) in ::exr::block::lines::LineIndex::lines_in_block(index, &header.channels) {
+            let channel = &mut channels[line.channel];
+            let cw = w / channel.sampling.0;
+            let start = line.position.1 * cw + line.position.0;
+            let target = channel
+                .values
+                .get_mut(start..start + line.sample_count)
+                .ok_or_else(|| FormatError(format!("EXR block outside part {part}'s data window")))?;
+            target.copy_from_slice(&values[at..at + line.sample_count]);
+            at += line.sample_count;
+        }
     }
+    Ok((w, h, channels))
 }
 
 /// One channel's samples as f32 at full resolution (bilinear upsampling of a subsampled one).
-fn full_plane(channel: &AnyChannel<FlatSamples>, w: usize, h: usize) -> Result<Vec<f32>, FormatError> {
-    let values = channel_values(channel);
+fn full_plane(channel: &DecodedChannel, w: usize, h: usize) -> Result<Vec<f32>, FormatError> {
+    let values = channel.values.clone();
     let (sx, sy) = (channel.sampling.0.max(1), channel.sampling.1.max(1));
     let (cw, ch) = (w / sx, h / sy);
     if values.len() != cw * ch || (sx > 1 || sy > 1) && (cw == 0 || ch == 0) {
@@ -363,23 +434,14 @@ fn decode_inner(bytes: &[u8], options: &DecodeOptions) -> Result<Image, FormatEr
     let largest = check_sizes(bytes, &meta, options.window)?;
     let (part, prefix) = choose_part(&meta, options)?;
 
-    let mut reader =
-        ::exr::prelude::read().no_deep_data().largest_resolution_level().all_channels().all_layers().all_attributes();
-    if largest < PARALLEL_MIN_PIXELS {
-        reader = reader.non_parallel();
-    }
-    let image =
-        reader.from_buffered(Cursor::new(bytes)).map_err(|e| FormatError(format!("EXR decoding failed: {e}")))?;
-    let layer = image.layer_data.get(part).ok_or_else(|| FormatError(format!("EXR part {part} was not decoded")))?;
+    let (w, h, list) = read_part(bytes, part, largest >= PARALLEL_MIN_PIXELS)?;
     let header = &meta.headers[part];
 
-    let (w, h) = (layer.size.0, layer.size.1);
     let pixels = w
         .checked_mul(h)
         .filter(|&p| p > 0 && p <= MAX_PIXELS)
         .ok_or_else(|| FormatError(format!("bad EXR layer size {w}x{h}")))?;
-    let list = &layer.channel_data.list;
-    let names: Vec<String> = list.iter().map(|c| c.name.to_string()).collect();
+    let names: Vec<String> = list.iter().map(|c| c.name.clone()).collect();
     let find = |want: &str| -> Option<usize> {
         if prefix.is_empty() {
             names.iter().position(|n| n == want).or_else(|| {
@@ -404,12 +466,12 @@ fn decode_inner(bytes: &[u8], options: &DecodeOptions) -> Result<Image, FormatEr
         interleave(&[Some(r), Some(g), Some(b), plane(find("A"))?])
     } else if let Some(yi) = yi {
         let (ryi, byi) = (find("RY"), find("BY"));
-        let sampled_2x2 = |i: Option<usize>| i.is_some_and(|i| list[i].sampling == ::exr::math::Vec2(2, 2));
+        let sampled_2x2 = |i: Option<usize>| i.is_some_and(|i| list[i].sampling == (2, 2));
         if sampled_2x2(ryi) && sampled_2x2(byi) {
             // What `RgbaOutputFile` writes: OpenEXR's own reconstruction, bit for bit, on the
             // channels rounded to half as its `Rgba` frame buffer holds them.
             let half_plane = |i: Option<usize>| -> Vec<f32> {
-                i.map_or_else(Vec::new, |i| super::yca::round_to_half(channel_values(&list[i])))
+                i.map_or_else(Vec::new, |i| super::yca::round_to_half(list[i].values.clone()))
             };
             let (y, ry, by) = (half_plane(Some(yi)), half_plane(ryi), half_plane(byi));
             let chroma = (w / 2) * (h / 2);
@@ -728,6 +790,10 @@ mod tests {
         c
     }
 
+    fn decoded(name: &str, values: Vec<f32>, sampling: usize) -> DecodedChannel {
+        DecodedChannel { name: name.to_string(), sampling: (sampling, sampling), values }
+    }
+
     fn layer(
         w: usize,
         h: usize,
@@ -801,7 +867,7 @@ mod tests {
         let (w, h) = (6usize, 4usize);
         // RY varies along x: samples at x = 0, 2, 4 are 0, 0.2, 0.4; along y: + 1 on row 2.
         let ry: Vec<f32> = (0..(h / 2)).flat_map(|j| [0.0f32, 0.2, 0.4].map(|v| v + j as f32)).collect();
-        let plane = full_plane(&channel("RY", ry, 2), w, h).unwrap();
+        let plane = full_plane(&decoded("RY", ry, 2), w, h).unwrap();
         let want_row = [0.0f32, 0.1, 0.2, 0.3, 0.4, 0.4];
         for y in 0..h {
             let add = [0.0f32, 0.5, 1.0, 1.0][y];
@@ -809,7 +875,7 @@ mod tests {
                 assert!((plane[y * w + x] - want_row[x] - add).abs() < 1e-6, "{plane:?}");
             }
         }
-        assert!(full_plane(&channel("RY", vec![0.0; 5], 2), w, h).is_err());
+        assert!(full_plane(&decoded("RY", vec![0.0; 5], 2), w, h).is_err());
     }
 
     #[test]

@@ -23,7 +23,7 @@
 //! Every intermediate OpenEXR stores in a `half` (`Rgba` is four halves) is rounded to half here
 //! too, and f32 arithmetic keeps OpenEXR's order of operations (no fused multiply-add), so the
 //! output matches `RgbaInputFile` bit for bit; `tests/exr_conformance.rs` checks that against
-//! values OpenEXR itself computed (`scripts/exr-yca-oracle.cpp`).
+//! values OpenEXR itself computed (`scripts/openexr-cpp-oracle.cpp`).
 
 use ::exr::prelude::f16;
 

@@ -424,7 +424,7 @@ impl MetaData {
         pedantic: bool,
     ) -> Result<Self> {
         let meta_data = Self::read_unvalidated_from_buffered_peekable(read, !pedantic)?;
-        Self::validate(meta_data.headers.as_slice(), pedantic)?;
+        Self::validate_for_reading(meta_data.headers.as_slice(), pedantic)?;
         Ok(meta_data)
     }
 
@@ -511,6 +511,29 @@ impl MetaData {
         self.collect_ordered_blocks(move |block_index| UncompressedBlock {
             index: block_index,
             data: get_block_data(block_index),
+        })
+    }
+
+    /// hdrflow patch: validation for reading. Deep parts are allowed in the file so that the
+    /// flat parts beside them can be read (their chunks are skipped by the block filter; the
+    /// image readers refuse or skip deep layers); only the flat headers are validated.
+    pub fn validate_for_reading(headers: &[Header], pedantic: bool) -> Result<Requirements> {
+        if !headers.iter().any(|header| header.deep) {
+            return Self::validate(headers, pedantic);
+        }
+        if headers.len() < 2 {
+            return Err(Error::unsupported("deep data not supported yet"));
+        }
+        let mut long_names = false;
+        for header in headers.iter().filter(|header| !header.deep) {
+            header.validate(true, &mut long_names, pedantic)?;
+        }
+        Ok(Requirements {
+            file_format_version: 2,
+            has_long_names: long_names,
+            is_single_layer_and_tiled: false,
+            has_multiple_layers: true,
+            has_deep_data: true,
         })
     }
 

@@ -147,6 +147,12 @@ where
     type Reader = AllLayersReader<C::Reader>;
 
     fn create_layers_reader(&'s self, headers: &[Header]) -> Result<Self::Reader> {
+        // hdrflow patch: deep parts now pass meta data validation (so that the flat parts of
+        // such files can be read); reading all layers still cannot represent them.
+        if headers.iter().any(|header| header.deep) {
+            return Err(Error::unsupported("deep data not supported yet"));
+        }
+
         let readers: Result<_> = headers
             .iter()
             .map(|header| {
@@ -206,6 +212,7 @@ where
         headers
             .iter()
             .enumerate()
+            .filter(|(_, header)| !header.deep) // hdrflow patch: skip deep layers
             .filter_map(|(index, header)| {
                 self.read_channels
                     .create_channels_reader(header)

@@ -3,22 +3,37 @@
 // compares without the oracle installed. OpenEXR 3.1.5 (Debian's libopenexr-dev) was used:
 //
 //     apt-get install libopenexr-dev g++ pkg-config
-//     g++ -O2 -o /tmp/yca-oracle scripts/exr-yca-oracle.cpp $(pkg-config --cflags --libs OpenEXR)
-//     /tmp/yca-oracle --write tests/data/openexr/Rec709.exr tests/data/openexr/yc
-//     /tmp/yca-oracle tests/data/openexr/Rec709_YC.exr tests/data/openexr/XYZ_YC.exr \
+//     g++ -O2 -o /tmp/openexr-oracle scripts/openexr-cpp-oracle.cpp $(pkg-config --cflags --libs OpenEXR)
+//     /tmp/openexr-oracle --write tests/data/openexr/Rec709.exr tests/data/openexr/yc
+//     /tmp/openexr-oracle --write-deep-multipart tests/data/openexr/deep_then_flat.exr
+//     /tmp/openexr-oracle tests/data/openexr/Rec709_YC.exr tests/data/openexr/XYZ_YC.exr \
 //         tests/data/openexr/yc/*.exr > tests/data/openexr/expected-yca.json
 //
 // `--write IN DIR` writes, with `RgbaOutputFile` and `WRITE_YC`, a 96x64 crop of IN (from pixel
 // 300, 200: foliage and sky) in every compression OpenEXR has, as DIR/yc_<compression>.exr: the
 // luminance/chroma layout through each of the exr crate's decompressors.
 //
+// `--write-deep-multipart OUT` writes a two-part file: part 0 "depth", deep scan lines (one
+// float Z and a varying number of samples per pixel, ZIPS), part 1 "beauty", flat half RGB
+// (ZIP) with R = x / 64, G = y / 32, B = (x + y) / 128 on 64x32 pixels (exact in half): a flat
+// part behind a deep one.
+//
 // Per file: the data window's size; per channel R, G, B the mean (double, over finite values);
 // the values at a 9x7 grid of pixels that includes the first and last rows and columns (where
 // OpenEXR pads and clamps); and FNV-1a 64 of every pixel's R, G, B half bits in row order, so
 // the test can check the whole image bit for bit from one number.
 #include <ImfArray.h>
+#include <ImfChannelList.h>
+#include <ImfDeepFrameBuffer.h>
+#include <ImfDeepScanLineOutputPart.h>
+#include <ImfFrameBuffer.h>
 #include <ImfHeader.h>
+#include <ImfMultiPartOutputFile.h>
+#include <ImfOutputPart.h>
+#include <ImfPartType.h>
 #include <ImfRgbaFile.h>
+
+#include <vector>
 
 #include <cinttypes>
 #include <cmath>
@@ -55,7 +70,59 @@ static int write_crops(const char *in, const char *dir) {
     return 0;
 }
 
+static int write_deep_multipart(const char *out) {
+    const int w = 64, h = 32;
+    Imf::Header deep(w, h);
+    deep.setName("depth");
+    deep.setType(Imf::DEEPSCANLINE);
+    deep.compression() = Imf::ZIPS_COMPRESSION;
+    deep.channels().insert("Z", Imf::Channel(Imf::FLOAT));
+    Imf::Header flat(w, h);
+    flat.setName("beauty");
+    flat.setType(Imf::SCANLINEIMAGE);
+    flat.compression() = Imf::ZIP_COMPRESSION;
+    for (const char *c : {"R", "G", "B"}) flat.channels().insert(c, Imf::Channel(Imf::HALF));
+    std::vector<Imf::Header> headers = {deep, flat};
+    Imf::MultiPartOutputFile file(out, headers.data(), 2);
+
+    // Deep part: pixel (x, y) has (x + y) % 3 samples at depths 1, 2, ...
+    Imf::Array2D<unsigned int> counts(h, w);
+    Imf::Array2D<float *> zs(h, w);
+    std::vector<float> storage;
+    storage.reserve(w * h * 3);
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            counts[y][x] = (x + y) % 3;
+            zs[y][x] = storage.data() + storage.size();
+            for (unsigned s = 0; s < counts[y][x]; ++s) storage.push_back(float(s + 1));
+        }
+    Imf::DeepScanLineOutputPart depth(file, 0);
+    Imf::DeepFrameBuffer dfb;
+    dfb.insertSampleCountSlice(
+        Imf::Slice(Imf::UINT, (char *)&counts[0][0], sizeof(unsigned int), sizeof(unsigned int) * w));
+    dfb.insert("Z", Imf::DeepSlice(Imf::FLOAT, (char *)&zs[0][0], sizeof(float *), sizeof(float *) * w, sizeof(float)));
+    depth.setFrameBuffer(dfb);
+    depth.writePixels(h);
+
+    Imf::Array2D<half> r(h, w), g(h, w), b(h, w);
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            r[y][x] = x / 64.0f;
+            g[y][x] = y / 32.0f;
+            b[y][x] = (x + y) / 128.0f;
+        }
+    Imf::OutputPart beauty(file, 1);
+    Imf::FrameBuffer fb;
+    fb.insert("R", Imf::Slice(Imf::HALF, (char *)&r[0][0], sizeof(half), sizeof(half) * w));
+    fb.insert("G", Imf::Slice(Imf::HALF, (char *)&g[0][0], sizeof(half), sizeof(half) * w));
+    fb.insert("B", Imf::Slice(Imf::HALF, (char *)&b[0][0], sizeof(half), sizeof(half) * w));
+    beauty.setFrameBuffer(fb);
+    beauty.writePixels(h);
+    return 0;
+}
+
 int main(int argc, char **argv) {
+    if (argc == 3 && std::string(argv[1]) == "--write-deep-multipart") return write_deep_multipart(argv[2]);
     if (argc == 4 && std::string(argv[1]) == "--write") return write_crops(argv[2], argv[3]);
     std::printf("{\n \"oracle\": \"OpenEXR %s RgbaInputFile\",\n \"files\": {", OPENEXR_VERSION_STRING);
     for (int f = 1; f < argc; ++f) {
