@@ -16,10 +16,20 @@
 //! -Y 512 +X 1024                  resolution line, then the scanlines
 //! ```
 //!
-//! Resolution line: `-Y H +X W` is the standard order (first scanline is the top row, pixels left
-//! to right). `+Y` means the first scanline is the *bottom* row (flipped here), `-X` means pixels
-//! run right to left (mirrored here). `±X W ±Y H` (scanlines are columns) is refused with a clear
-//! error: no file we know of uses it.
+//! Resolution line (Radiance `resolu.h`): `-Y H +X W` is the standard order (first scanline is
+//! the top row, pixels left to right). `+Y` means the first scanline is the *bottom* row (flipped
+//! here), `-X` means pixels run right to left (mirrored here). `±X W ±Y H` (W scanlines that are
+//! *columns*, each H pixels along Y; `+X` = first column at the left, `-Y` = each column top to
+//! bottom) is transposed here. All eight layouts come out as displayed, where Radiance's
+//! `pix2loc` (`src/common/image.c`) puts each pixel (`tests/radiance_conformance.rs` checks them
+//! against it). OpenImageIO 3.2 agrees except for `+X +Y` and `-X -Y`, which it tags as EXIF
+//! `Orientation` 6 and 8 where Radiance's definition is 8 and 6 (its image is rotated 180 degrees).
+//!
+//! Signature: `#?RADIANCE` (or `#?RGBE`) on the first line. Radiance does not require it, and
+//! files written before ~1991 (many of Radiance's own `lib/*.hdr` textures) start straight with a
+//! command line; they are read when the header is text ending in an empty line and a resolution
+//! line (otherwise: "not a Radiance file (bad magic, ...)"). A missing `FORMAT=` line means RGBE,
+//! as in Radiance (OpenImageIO refuses such files).
 //!
 //! A pixel is 4 bytes R, G, B, E (shared exponent). Decoding constant: we use
 //! `c * 2^(E - 136)` (E = 0 -> 0.0), the convention of stb_image, OpenCV and the `image` crate;
@@ -38,7 +48,8 @@
 //! - **old RLE repeat code** `1 1 1 n`: repeat the previous pixel `n << shift` times, where `shift`
 //!   starts at 0 and grows by 8 for each *consecutive* repeat code (so `1 1 1 43, 1 1 1 1` repeats
 //!   43 + 256 times). A repeat code as the first pixel of a scanline has no previous pixel and is
-//!   an error here (Radiance itself reads out of bounds there).
+//!   an error here, as in the `image` crate (Radiance's current `freadcolrs` takes those first
+//!   4 bytes as a literal pixel; no file we know of has one).
 //!
 //! # Hostile input
 //!
@@ -89,15 +100,26 @@ fn exponent_table(exposure: f64) -> [f32; 256] {
     t
 }
 
+/// How the file's scanlines map onto the displayed image (Radiance `resolu.h`: `YMAJOR`,
+/// `YDECR`, `XDECR`). Radiance's Y axis points up, so "decreasing Y" (`-Y`) runs top to bottom.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct Layout {
+    /// `±Y n ±X m`: scanlines are rows (the usual case); otherwise (`±X n ±Y m`) they are columns.
+    y_major: bool,
+    /// `-Y`: Y runs top to bottom in file order (standard); `+Y`: bottom to top.
+    y_decr: bool,
+    /// `-X`: X runs right to left in file order; `+X`: left to right (standard).
+    x_decr: bool,
+}
+
 /// What the header says about the pixel data that follows it.
 #[derive(Debug)]
 struct Header {
-    width: usize,
-    height: usize,
-    /// `+Y`: first scanline is the bottom row.
-    flip_vertical: bool,
-    /// `-X`: pixels within a scanline run right to left.
-    mirror: bool,
+    /// Number of scanlines in the file (the resolution line's first number).
+    scans: usize,
+    /// Pixels per scanline (the resolution line's second number).
+    scanlen: usize,
+    layout: Layout,
     /// Product of all `EXPOSURE=` values (1 when absent).
     exposure: f64,
     /// Offset of the first scanline byte.
@@ -128,8 +150,19 @@ fn looks_like_resolution(line: &[u8]) -> bool {
         && line[2].is_ascii_whitespace()
 }
 
-/// Parses the resolution line into (width, height, flip_vertical, mirror).
-fn parse_resolution(line: &[u8]) -> Result<(usize, usize, bool, bool), FormatError> {
+impl Header {
+    /// The displayed image's (width, height): scanlines are rows for `±Y ±X`, columns otherwise.
+    fn size(&self) -> (usize, usize) {
+        if self.layout.y_major {
+            (self.scanlen, self.scans)
+        } else {
+            (self.scans, self.scanlen)
+        }
+    }
+}
+
+/// Parses the resolution line into (scans, scanlen, layout).
+fn parse_resolution(line: &[u8]) -> Result<(usize, usize, Layout), FormatError> {
     let bad = || err(format!("bad resolution line {} (expected e.g. \"-Y 512 +X 1024\")", show(line)));
     let s = std::str::from_utf8(line).map_err(|_| bad())?;
     let t: Vec<&str> = s.split_ascii_whitespace().collect();
@@ -149,11 +182,9 @@ fn parse_resolution(line: &[u8]) -> Result<(usize, usize, bool, bool), FormatErr
     match (a1, a2) {
         // Standard: the outer (scanline) axis is Y. "-Y" = top to bottom, "+Y" = bottom to top;
         // "+X" = left to right, "-X" = right to left.
-        (b'Y', b'X') => Ok((n2, n1, plus1, !plus2)),
-        (b'X', b'Y') => Err(err(format!(
-            "unsupported resolution line {}: transposed scanline order (scanlines are columns)",
-            show(line)
-        ))),
+        (b'Y', b'X') => Ok((n1, n2, Layout { y_major: true, y_decr: !plus1, x_decr: !plus2 })),
+        // Transposed: n1 scanlines that are columns (X), each n2 pixels along Y.
+        (b'X', b'Y') => Ok((n1, n2, Layout { y_major: false, y_decr: !plus2, x_decr: !plus1 })),
         _ => Err(bad()),
     }
 }
@@ -189,15 +220,27 @@ pub fn primaries(bytes: &[u8]) -> Option<super::Primaries> {
 
 /// The image size a Radiance header declares (`width`, `height`), from the file's first bytes.
 pub fn header_size(bytes: &[u8]) -> Result<(usize, usize), FormatError> {
-    parse_header(bytes).map(|h| (h.width, h.height))
+    parse_header(bytes).map(|h| h.size())
 }
 
+/// Parses the header. Files starting with `#?RADIANCE` or `#?RGBE` are Radiance files; files
+/// without that signature line (Radiance before ~1991, e.g. most of Radiance's own `lib/*.hdr`
+/// textures, whose first line is a command such as `oconv ...`) are read the way Radiance's
+/// `getheader` reads them, as long as the header is text (no control characters but tab) ending
+/// in an empty line and a resolution line; anything else is "not a Radiance file (bad magic)".
 fn parse_header(bytes: &[u8]) -> Result<Header, FormatError> {
-    if !(bytes.starts_with(b"#?RADIANCE") || bytes.starts_with(b"#?RGBE")) {
-        return Err(err("not a Radiance file (bad magic)"));
+    if bytes.starts_with(b"#?RADIANCE") || bytes.starts_with(b"#?RGBE") {
+        parse_header_lines(bytes, true)
+    } else {
+        parse_header_lines(bytes, false).map_err(|e| err(format!("not a Radiance file (bad magic, and {})", e.0)))
     }
+}
+
+fn parse_header_lines(bytes: &[u8], signed: bool) -> Result<Header, FormatError> {
     let mut pos = 0;
-    next_line(bytes, &mut pos).ok_or_else(|| err("truncated header (no end of the first line)"))?;
+    if signed {
+        next_line(bytes, &mut pos).ok_or_else(|| err("truncated header (no end of the first line)"))?;
+    }
     let mut exposure = 1.0f64;
     let resolution_line;
     loop {
@@ -207,8 +250,11 @@ fn parse_header(bytes: &[u8]) -> Result<Header, FormatError> {
             resolution_line = next_line(bytes, &mut pos).ok_or_else(|| err("truncated header (no resolution line)"))?;
             break;
         }
+        if !signed && line.iter().any(|&b| b < b' ' && b != b'\t') {
+            return Err(err("a binary header line"));
+        }
         // Leniency: a few writers omit the empty line before the resolution line.
-        if looks_like_resolution(line) {
+        if signed && looks_like_resolution(line) {
             resolution_line = line;
             break;
         }
@@ -236,8 +282,8 @@ fn parse_header(bytes: &[u8]) -> Result<Header, FormatError> {
     if !(exposure.is_finite() && exposure > 0.0) {
         return Err(err("EXPOSURE product out of range"));
     }
-    let (width, height, flip_vertical, mirror) = parse_resolution(resolution_line)?;
-    Ok(Header { width, height, flip_vertical, mirror, exposure, data_start: pos })
+    let (scans, scanlen, layout) = parse_resolution(resolution_line)?;
+    Ok(Header { scans, scanlen, layout, exposure, data_start: pos })
 }
 
 /// Reads 4 bytes at `pos`, advancing it.
@@ -390,11 +436,15 @@ fn decode_flat_row(
 
 /// Decodes a Radiance RGBE file (see the module docs for the format and the conventions).
 ///
-/// Returns a 3-channel image, row 0 at the top (after honouring `+Y` / `-X` orientations), values
+/// Returns a 3-channel image, row 0 at the top (after honouring the `+Y` / `-X` / transposed
+/// layouts), values
 /// `c * 2^(E-136)` divided by the product of the header's `EXPOSURE` values.
 pub fn decode(bytes: &[u8]) -> Result<Image, FormatError> {
     let hd = parse_header(bytes)?;
-    let (w, h) = (hd.width, hd.height);
+    // In file order: h scanlines of w pixels (rows, or columns for transposed layouts).
+    let (w, h) = (hd.scanlen, hd.scans);
+    // "-X" with row scanlines is mirrored while decoding; the other flips are applied after.
+    let mirror = hd.layout.y_major && hd.layout.x_decr;
     if w == 0 || h == 0 {
         return Err(err(format!("empty image: header claims {w}x{h} pixels")));
     }
@@ -437,18 +487,37 @@ pub fn decode(bytes: &[u8]) -> Result<Image, FormatError> {
                 )));
             }
             decode_rle_planes(data, &mut pos, &mut planes, w, y)?;
-            convert_planes(&planes, row, w, &table, hd.mirror);
+            convert_planes(&planes, row, w, &table, mirror);
         } else {
-            decode_flat_row(data, &mut pos, first, row, w, &table, hd.mirror, y)?;
+            decode_flat_row(data, &mut pos, first, row, w, &table, mirror, y)?;
         }
     }
-    if hd.flip_vertical {
+    let Layout { y_major, y_decr, x_decr } = hd.layout;
+    if !y_major {
+        return Ok(transpose_columns(&out, h, w, y_decr, x_decr));
+    }
+    if !y_decr {
         for y in 0..h / 2 {
             let (top, bottom) = out.split_at_mut((h - 1 - y) * row_len);
             top[y * row_len..(y + 1) * row_len].swap_with_slice(&mut bottom[..row_len]);
         }
     }
     Ok(Image::from_vec(w, h, 3, out))
+}
+
+/// The displayed image of a transposed file (`±X n ±Y m`): `grid` holds `n` scanlines (columns,
+/// in X order: left to right for `+X`) of `m` pixels each (in Y order: top to bottom for `-Y`).
+fn transpose_columns(grid: &[f32], n: usize, m: usize, y_decr: bool, x_decr: bool) -> Image {
+    let (w, h) = (n, m);
+    let mut out = vec![0f32; grid.len()];
+    for (i, column) in grid.chunks_exact(3 * m).enumerate() {
+        let x = if x_decr { w - 1 - i } else { i };
+        for (j, px) in column.chunks_exact(3).enumerate() {
+            let y = if y_decr { j } else { h - 1 - j };
+            out[3 * (y * w + x)..3 * (y * w + x) + 3].copy_from_slice(px);
+        }
+    }
+    Image::from_vec(w, h, 3, out)
 }
 
 /// Standard float -> RGBE conversion (see the module docs). Inputs are cleaned first:
@@ -770,16 +839,57 @@ EXPOSURE=2\nFORMAT=32-bit_rle_rgbe\n\n-Y 1 +X 2\n"
         let a = decode(&bytes).unwrap();
         let b = decode(&flipped_file).unwrap();
         assert_eq!(a.flipped_vertical(), b);
-        // Transposed orders are refused clearly.
-        let mut f = header("+X 2 -Y 2");
-        f.extend_from_slice(&body);
-        assert!(decode(&f).unwrap_err().0.contains("transposed"));
+        // Transposed layouts: 3 scanlines (columns) of 2 pixels, file order 1..6.
+        let body: Vec<u8> = (1u8..=6).flat_map(px).collect();
+        for (res, want) in [
+            ("+X 3 -Y 2", [1, 3, 5, 2, 4, 6]),
+            ("-X 3 -Y 2", [5, 3, 1, 6, 4, 2]),
+            ("+X 3 +Y 2", [2, 4, 6, 1, 3, 5]),
+            ("-X 3 +Y 2", [6, 4, 2, 5, 3, 1]),
+        ] {
+            let mut f = header(res);
+            f.extend_from_slice(&body);
+            let img = decode(&f).unwrap_or_else(|e| panic!("{res}: {e}"));
+            assert_eq!((img.width, img.height), (3, 2), "{res}");
+            assert_eq!(header_size(&f).unwrap(), (3, 2), "{res}");
+            assert_eq!(grey(&img), want.map(|v| v as f32 / 4.0).to_vec(), "{res}");
+        }
+        // A transposed RLE file (scanlines of 9 pixels) is the standard one transposed.
+        let bytes = encode(&random_image(9, 4, 6));
+        let img = decode(&bytes).unwrap();
+        let at = bytes.windows(9).position(|w| w == b"-Y 4 +X 9").unwrap();
+        let mut f = bytes.clone();
+        f[at..at + 9].copy_from_slice(b"+X 4 -Y 9");
+        let t = decode(&f).unwrap();
+        assert_eq!((t.width, t.height), (4, 9));
+        for y in 0..4 {
+            for x in 0..9 {
+                assert_eq!(t.rgb(y, x), img.rgb(x, y));
+            }
+        }
+    }
+
+    #[test]
+    fn files_without_the_signature_line() {
+        // Radiance before ~1991: no "#?RADIANCE", the header starts with a command line.
+        let mut f = b"oconv -f scene.rad\n\tpfilt -x /2\nEXPOSURE=2\n\n-Y 1 +X 2\n".to_vec();
+        f.extend_from_slice(&[128, 128, 128, 129, 64, 0, 32, 129]);
+        assert_eq!(decode(&f).unwrap().data, vec![0.5, 0.5, 0.5, 0.25, 0.0, 0.125]);
+        assert_eq!(header_size(&f).unwrap(), (2, 1));
+        // Without the signature, a header that is not text ending in a resolution line is not a
+        // Radiance file.
+        for bad in
+            [&b"oconv\n\x01\x02\n\n-Y 1 +X 1\n\x80\x80\x80\x81"[..], b"hello\n\nworld\n1234", b"\x89PNG\r\n\x1a\n"]
+        {
+            let e = decode(bad).unwrap_err().0;
+            assert!(e.starts_with("not a Radiance file (bad magic"), "{e}");
+        }
     }
 
     #[test]
     fn bad_magic() {
         let e = decode(b"P6\n1 1\n255\n\0\0\0").unwrap_err().0;
-        assert_eq!(e, "not a Radiance file (bad magic)");
+        assert!(e.starts_with("not a Radiance file (bad magic"), "{e}");
         assert!(decode(b"").is_err());
     }
 
