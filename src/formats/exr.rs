@@ -294,6 +294,7 @@ fn choose_part(meta: &MetaData, options: &DecodeOptions) -> Result<(usize, Strin
 
 /// One channel of the chosen part as decoded: f32 samples in the channel's own sample grid
 /// (`width / sampling.0` x `height / sampling.1`).
+#[derive(Default)]
 struct DecodedChannel {
     name: String,
     sampling: (usize, usize),
@@ -301,12 +302,14 @@ struct DecodedChannel {
 }
 
 /// Decodes the largest resolution level of part `part` only, through the `exr` crate's block
-/// API: the other parts' chunks (deep ones included) are never read, and the chunks are
-/// decompressed on our rayon pool (the crate's image reader builds a thread pool per call and
-/// decodes every part).
+/// API: the other parts' chunks (deep ones included) are never read. The part is cut into
+/// horizontal bands (a scan line block's rows, or a row of tiles), and the bands are decoded in
+/// parallel on our rayon pool straight into each channel's plane (the crate's image reader
+/// builds a thread pool per call, decodes every part, and copies each line once more).
 fn read_part(bytes: &[u8], part: usize, parallel: bool) -> Result<(usize, usize, Vec<DecodedChannel>), FormatError> {
     use ::exr::block::chunk::Chunk;
     use ::exr::block::UncompressedBlock;
+    use ::exr::meta::BlockDescription;
     use rayon::prelude::*;
 
     let failed = |e: ::exr::error::Error| FormatError(format!("EXR decoding failed: {e}"));
@@ -317,35 +320,25 @@ fn read_part(bytes: &[u8], part: usize, parallel: bool) -> Result<(usize, usize,
     let chunks = reader
         .filter_chunks(false, |_, tile, block| block.layer == part && tile.is_largest_resolution_level())
         .map_err(failed)?;
-    let chunks: Vec<Chunk> = chunks.collect::<Result<_, _>>().map_err(failed)?;
 
-    // Each block, decompressed and converted to f32 in its lines' order.
-    let decode = |chunk: Chunk| -> Result<(::exr::block::BlockIndex, Vec<f32>), FormatError> {
-        let block = UncompressedBlock::decompress_chunk(chunk, &meta, false).map_err(failed)?;
-        let mut values = Vec::with_capacity(block.data.len() / 2);
-        for line in block.lines(&header.channels) {
-            let bytes = line.value;
-            match header.channels.list[line.location.channel].sample_type {
-                SampleType::F16 => values.extend(
-                    bytes
-                        .chunks_exact(2)
-                        .map(|b| ::exr::prelude::f16::from_bits(u16::from_ne_bytes([b[0], b[1]])).to_f32()),
-                ),
-                SampleType::F32 => {
-                    values.extend(bytes.chunks_exact(4).map(|b| f32::from_ne_bytes([b[0], b[1], b[2], b[3]])))
-                }
-                SampleType::U32 => {
-                    values.extend(bytes.chunks_exact(4).map(|b| u32::from_ne_bytes([b[0], b[1], b[2], b[3]]) as f32))
-                }
-            }
-        }
-        Ok((block.index, values))
-    };
-    let blocks: Vec<_> = if parallel {
-        chunks.into_par_iter().map(decode).collect::<Result<_, _>>()?
-    } else {
-        chunks.into_iter().map(decode).collect::<Result<_, _>>()?
-    };
+    // Rows per band: the scan line block height, or the tile height.
+    let band_rows = match header.blocks {
+        BlockDescription::ScanLines => header.compression.scan_lines_per_block(),
+        BlockDescription::Tiles(tiles) => tiles.tile_size.1,
+    }
+    .max(1);
+    let band_count = h.div_ceil(band_rows);
+    let mut bands: Vec<Vec<Chunk>> = (0..band_count).map(|_| Vec::new()).collect();
+    for chunk in chunks {
+        let chunk = chunk.map_err(failed)?;
+        let tile = header.get_block_data_indices(&chunk.compressed_block).map_err(failed)?;
+        let bounds = header.get_absolute_block_pixel_coordinates(tile).map_err(failed)?;
+        let band = usize::try_from(bounds.position.1).unwrap_or(usize::MAX) / band_rows;
+        bands
+            .get_mut(band)
+            .ok_or_else(|| FormatError(format!("EXR block outside part {part}'s data window")))?
+            .push(chunk);
+    }
 
     let mut channels: Vec<DecodedChannel> = header
         .channels
@@ -360,26 +353,76 @@ fn read_part(bytes: &[u8], part: usize, parallel: bool) -> Result<(usize, usize,
             }
         })
         .collect();
-    for (index, values) in blocks {
-        let mut at = 0;
-        for (_, line) in ::exr::block::lines::LineIndex::lines_in_block(index, &header.channels) {
-            let channel = &mut channels[line.channel];
-            let cw = w / channel.sampling.0;
-            let start = line.position.1 * cw + line.position.0;
-            let target = channel
-                .values
-                .get_mut(start..start + line.sample_count)
-                .ok_or_else(|| FormatError(format!("EXR block outside part {part}'s data window")))?;
-            target.copy_from_slice(&values[at..at + line.sample_count]);
-            at += line.sample_count;
+    // Each band's slice of every plane: the channel rows `ceil(y0 / sy) .. ceil(y1 / sy)`.
+    let mut targets: Vec<Vec<(usize, &mut [f32])>> = (0..band_count).map(|_| Vec::new()).collect();
+    for channel in channels.iter_mut() {
+        let (sx, sy) = channel.sampling;
+        let cw = w / sx;
+        let mut rest: &mut [f32] = &mut channel.values;
+        for (band, target) in targets.iter_mut().enumerate() {
+            let first = (band * band_rows).div_ceil(sy);
+            let end = ((band + 1) * band_rows).min(h).div_ceil(sy);
+            let (mine, others) = std::mem::take(&mut rest).split_at_mut((end - first) * cw);
+            target.push((first, mine));
+            rest = others;
         }
+    }
+
+    let decode_band = |(chunks, mut target): (Vec<Chunk>, Vec<(usize, &mut [f32])>)| -> Result<(), FormatError> {
+        let mut bits: Vec<u16> = Vec::new();
+        for chunk in chunks {
+            let block = UncompressedBlock::decompress_chunk(chunk, &meta, false).map_err(failed)?;
+            for line in block.lines(&header.channels) {
+                let index = line.location;
+                let cw = w / channels_sampling(header, index.channel).0;
+                let (first, plane) = &mut target[index.channel];
+                let start = (index.position.1 - *first) * cw + index.position.0;
+                let out = plane
+                    .get_mut(start..start + index.sample_count)
+                    .ok_or_else(|| FormatError(format!("EXR block outside part {part}'s data window")))?;
+                let bytes = line.value;
+                match header.channels.list[index.channel].sample_type {
+                    SampleType::F16 => {
+                        // `half`'s slice conversion (F16C when the CPU has it, chosen once per
+                        // line rather than per sample).
+                        use half::slice::{HalfBitsSliceExt, HalfFloatSliceExt};
+                        bits.clear();
+                        bits.extend(bytes.chunks_exact(2).map(|b| u16::from_ne_bytes([b[0], b[1]])));
+                        bits.reinterpret_cast::<half::f16>().convert_to_f32_slice(out);
+                    }
+                    SampleType::F32 => {
+                        for (o, b) in out.iter_mut().zip(bytes.chunks_exact(4)) {
+                            *o = f32::from_ne_bytes([b[0], b[1], b[2], b[3]]);
+                        }
+                    }
+                    SampleType::U32 => {
+                        for (o, b) in out.iter_mut().zip(bytes.chunks_exact(4)) {
+                            *o = u32::from_ne_bytes([b[0], b[1], b[2], b[3]]) as f32;
+                        }
+                    }
+                }
+            }
+        }
+        Ok(())
+    };
+    let work = bands.into_iter().zip(targets);
+    if parallel {
+        work.collect::<Vec<_>>().into_par_iter().try_for_each(decode_band)?;
+    } else {
+        work.into_iter().try_for_each(decode_band)?;
     }
     Ok((w, h, channels))
 }
 
+/// A channel's sampling factors, at least 1.
+fn channels_sampling(header: &::exr::meta::header::Header, channel: usize) -> (usize, usize) {
+    let s = header.channels.list[channel].sampling;
+    (s.0.max(1), s.1.max(1))
+}
+
 /// One channel's samples as f32 at full resolution (bilinear upsampling of a subsampled one).
-fn full_plane(channel: &DecodedChannel, w: usize, h: usize) -> Result<Vec<f32>, FormatError> {
-    let values = channel.values.clone();
+fn full_plane(channel: DecodedChannel, w: usize, h: usize) -> Result<Vec<f32>, FormatError> {
+    let values = channel.values;
     let (sx, sy) = (channel.sampling.0.max(1), channel.sampling.1.max(1));
     let (cw, ch) = (w / sx, h / sy);
     if values.len() != cw * ch || (sx > 1 || sy > 1) && (cw == 0 || ch == 0) {
@@ -434,7 +477,7 @@ fn decode_inner(bytes: &[u8], options: &DecodeOptions) -> Result<Image, FormatEr
     let largest = check_sizes(bytes, &meta, options.window)?;
     let (part, prefix) = choose_part(&meta, options)?;
 
-    let (w, h, list) = read_part(bytes, part, largest >= PARALLEL_MIN_PIXELS)?;
+    let (w, h, mut list) = read_part(bytes, part, largest >= PARALLEL_MIN_PIXELS)?;
     let header = &meta.headers[part];
 
     let pixels = w
@@ -453,25 +496,27 @@ fn decode_inner(bytes: &[u8], options: &DecodeOptions) -> Result<Image, FormatEr
             names.iter().position(|n| *n == full)
         }
     };
-    let plane = |index: Option<usize>| -> Result<Option<Vec<f32>>, FormatError> {
-        index.map(|i| full_plane(&list[i], w, h)).transpose()
+    let samplings: Vec<(usize, usize)> = list.iter().map(|c| c.sampling).collect();
+    // Each channel's samples are moved out of `list` once, not copied.
+    let plane = |list: &mut Vec<DecodedChannel>, index: Option<usize>| -> Result<Option<Vec<f32>>, FormatError> {
+        index.map(|i| full_plane(std::mem::take(&mut list[i]), w, h)).transpose()
     };
     let primaries = chromaticities_of(header.shared_attributes.chromaticities.as_ref());
 
     let (ri, gi, bi, yi) = (find("R"), find("G"), find("B"), find("Y"));
     let (mut data, c) = if ri.is_some() || gi.is_some() || bi.is_some() {
-        let (r, g, b) = (plane(ri)?, plane(gi)?, plane(bi)?);
+        let (r, g, b) = (plane(&mut list, ri)?, plane(&mut list, gi)?, plane(&mut list, bi)?);
         let zero = vec![0.0; pixels];
         let (r, g, b) = (r.unwrap_or_else(|| zero.clone()), g.unwrap_or_else(|| zero.clone()), b.unwrap_or(zero));
-        interleave(&[Some(r), Some(g), Some(b), plane(find("A"))?])
+        interleave(&[Some(r), Some(g), Some(b), plane(&mut list, find("A"))?])
     } else if let Some(yi) = yi {
         let (ryi, byi) = (find("RY"), find("BY"));
-        let sampled_2x2 = |i: Option<usize>| i.is_some_and(|i| list[i].sampling == (2, 2));
+        let sampled_2x2 = |i: Option<usize>| i.is_some_and(|i| samplings[i] == (2, 2));
         if sampled_2x2(ryi) && sampled_2x2(byi) {
             // What `RgbaOutputFile` writes: OpenEXR's own reconstruction, bit for bit, on the
             // channels rounded to half as its `Rgba` frame buffer holds them.
-            let half_plane = |i: Option<usize>| -> Vec<f32> {
-                i.map_or_else(Vec::new, |i| super::yca::round_to_half(list[i].values.clone()))
+            let mut half_plane = |i: Option<usize>| -> Vec<f32> {
+                i.map_or_else(Vec::new, |i| super::yca::round_to_half(std::mem::take(&mut list[i].values)))
             };
             let (y, ry, by) = (half_plane(Some(yi)), half_plane(ryi), half_plane(byi));
             let chroma = (w / 2) * (h / 2);
@@ -485,10 +530,10 @@ fn decode_inner(bytes: &[u8], options: &DecodeOptions) -> Result<Image, FormatEr
             }
             let rgb = super::yca::YcaPlanes { width: w, height: h, y: &y, ry: &ry, by: &by }.to_rgb(&primaries);
             let plane_of = |k: usize| Some(rgb.iter().skip(k).step_by(3).copied().collect::<Vec<f32>>());
-            interleave(&[plane_of(0), plane_of(1), plane_of(2), plane(find("A"))?])
+            interleave(&[plane_of(0), plane_of(1), plane_of(2), plane(&mut list, find("A"))?])
         } else {
-            let y = full_plane(&list[yi], w, h)?;
-            let (ry, by) = (plane(ryi)?, plane(byi)?);
+            let y = full_plane(std::mem::take(&mut list[yi]), w, h)?;
+            let (ry, by) = (plane(&mut list, ryi)?, plane(&mut list, byi)?);
             if ry.is_none() && by.is_none() {
                 interleave(&[Some(y), None, None, None])
             } else {
@@ -513,7 +558,7 @@ fn decode_inner(bytes: &[u8], options: &DecodeOptions) -> Result<Image, FormatEr
                         b.push(bv as f32);
                     }
                 }
-                interleave(&[Some(r), Some(g), Some(b), plane(find("A"))?])
+                interleave(&[Some(r), Some(g), Some(b), plane(&mut list, find("A"))?])
             }
         }
     } else {
@@ -539,7 +584,7 @@ fn decode_inner(bytes: &[u8], options: &DecodeOptions) -> Result<Image, FormatEr
     if options.window == Window::Display {
         let display = header.shared_attributes.display_window;
         let origin = header.own_attributes.layer_position;
-        out = place(&out, (origin.0 as i64, origin.1 as i64), display);
+        out = place(out, (origin.0 as i64, origin.1 as i64), display);
     }
     Ok(out)
 }
@@ -549,21 +594,30 @@ fn interleave(planes: &[Option<Vec<f32>>]) -> (Vec<f32>, usize) {
     let present: Vec<&Vec<f32>> = planes.iter().flatten().collect();
     let c = present.len();
     let n = present.first().map_or(0, |p| p.len());
-    let mut data = Vec::with_capacity(n * c);
-    for i in 0..n {
-        for p in &present {
-            data.push(p[i]);
-        }
+    let mut data = vec![0.0f32; n * c];
+    if c == 0 {
+        return (data, c);
     }
+    // In parallel over chunks of pixels: this copy is memory-bound and the largest after decoding.
+    use rayon::prelude::*;
+    const PIXELS_PER_TASK: usize = 1 << 14;
+    data.par_chunks_mut(PIXELS_PER_TASK * c).enumerate().for_each(|(task, chunk)| {
+        let first = task * PIXELS_PER_TASK;
+        for (k, p) in present.iter().enumerate() {
+            for (out, &v) in chunk[k..].iter_mut().step_by(c).zip(&p[first..]) {
+                *out = v;
+            }
+        }
+    });
     (data, c)
 }
 
 /// The display window's pixels: the data-window image placed at `origin`, 0 elsewhere.
-fn place(image: &Image, origin: (i64, i64), display: IntegerBounds) -> Image {
+fn place(image: Image, origin: (i64, i64), display: IntegerBounds) -> Image {
     let (dw, dh) = (display.size.0, display.size.1);
     let (dx, dy) = (display.position.0 as i64, display.position.1 as i64);
     if (dx, dy) == origin && (dw, dh) == (image.width, image.height) {
-        return image.clone();
+        return image;
     }
     let c = image.channels;
     let mut out = Image::from_vec(dw, dh, c, vec![0.0; dw * dh * c]);
@@ -867,7 +921,7 @@ mod tests {
         let (w, h) = (6usize, 4usize);
         // RY varies along x: samples at x = 0, 2, 4 are 0, 0.2, 0.4; along y: + 1 on row 2.
         let ry: Vec<f32> = (0..(h / 2)).flat_map(|j| [0.0f32, 0.2, 0.4].map(|v| v + j as f32)).collect();
-        let plane = full_plane(&decoded("RY", ry, 2), w, h).unwrap();
+        let plane = full_plane(decoded("RY", ry, 2), w, h).unwrap();
         let want_row = [0.0f32, 0.1, 0.2, 0.3, 0.4, 0.4];
         for y in 0..h {
             let add = [0.0f32, 0.5, 1.0, 1.0][y];
@@ -875,7 +929,7 @@ mod tests {
                 assert!((plane[y * w + x] - want_row[x] - add).abs() < 1e-6, "{plane:?}");
             }
         }
-        assert!(full_plane(&decoded("RY", vec![0.0; 5], 2), w, h).is_err());
+        assert!(full_plane(decoded("RY", vec![0.0; 5], 2), w, h).is_err());
     }
 
     #[test]

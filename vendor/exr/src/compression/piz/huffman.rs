@@ -13,7 +13,7 @@ use std::{
 use smallvec::SmallVec;
 
 use crate::{
-    error::{u32_to_usize, u64_to_usize, Error, Result, UnitResult},
+    error::{Error, Result, UnitResult},
     io::Data,
     math::RoundingMode,
 };
@@ -42,18 +42,210 @@ pub fn decompress(compressed: &[u8], expected_size: usize) -> Result<Vec<u16>> {
         return Err(Error::invalid(INVALID_BIT_COUNT));
     }
 
-    let decoding_table = build_decoding_table(&encoding_table, min_code_index, max_code_index)?;
+    // hdrflow patch: a compact u32 decoding table and a slice-indexed bit reader instead of
+    // `Code` enums (400 KB cloned per table) and one `Read` call per byte. Same codes, same
+    // order of operations, same errors; about 3x faster on DWA's AC coefficients.
+    let decoding_table =
+        FastDecodingTable::build(&encoding_table, min_code_index, max_code_index)?;
 
-    let result = decode_with_tables(
+    let result = decode_fast(
         &encoding_table,
         &decoding_table,
         remaining_compressed,
         i32::try_from(bit_count)?,
         max_code_index_32,
         expected_size,
-    )?;
+    );
+    ENCODING_TABLE_CACHE.with(|cache| *cache.borrow_mut() = encoding_table);
 
-    Ok(result)
+    result
+}
+
+/// hdrflow patch: the decoding table of `build_decoding_table` packed into `u32`s:
+/// `symbol << 8 | length` for a short code (length 1..=14), `LONG | bucket` for the prefix of
+/// long codes (`long[bucket]` lists their symbols), 0 for no code.
+struct FastDecodingTable {
+    short: Vec<u32>,
+    long: Vec<SmallVec<[u32; 2]>>,
+}
+
+const LONG: u32 = 1 << 31;
+
+impl FastDecodingTable {
+    fn build(encoding_table: &[u64], min_code_index: usize, max_code_index: usize) -> Result<Self> {
+        let mut short = vec![0_u32; DECODING_TABLE_SIZE];
+        let mut long: Vec<SmallVec<[u32; 2]>> = Vec::new();
+
+        for (offset, &encoded_code) in encoding_table[min_code_index..=max_code_index].iter().enumerate() {
+            let length = length(encoded_code);
+            if length == 0 {
+                continue;
+            }
+            let code = code(encoded_code);
+            if code >> length != 0 {
+                return Err(Error::invalid(INVALID_TABLE_ENTRY));
+            }
+            let code_index = u32::try_from(min_code_index + offset)?;
+
+            if length > DECODE_BITS {
+                let entry = &mut short[(code >> (length - DECODE_BITS)) as usize & (DECODING_TABLE_SIZE - 1)];
+
+                if *entry == 0 {
+                    *entry = LONG | u32::try_from(long.len())?;
+                    long.push(smallvec![code_index]);
+                } else if *entry & LONG != 0 {
+                    long[(*entry & !LONG) as usize].push(code_index);
+                } else {
+                    return Err(Error::invalid(INVALID_TABLE_ENTRY));
+                }
+            } else {
+                // `code < 2^length`, so the run lies inside the table.
+                let start = (code << (DECODE_BITS - length)) as usize;
+                let count = 1_usize << (DECODE_BITS - length);
+                // later codes overwrite earlier ones, as in `build_decoding_table`
+                short[start..start + count].fill((code_index << 8) | length as u32);
+            }
+        }
+
+        Ok(Self { short, long })
+    }
+}
+
+/// hdrflow patch: `decode_with_tables` on the packed table, reading bytes from a slice.
+fn decode_fast(
+    encoding_table: &[u64],
+    table: &FastDecodingTable,
+    input: &[u8],
+    input_bit_count: i32,
+    run_length_code: u32,
+    expected_output_size: usize,
+) -> Result<Vec<u16>> {
+    let mut output: Vec<u16> = Vec::with_capacity(expected_output_size);
+    let mut code_bits = 0_u64;
+    let mut code_bit_count = 0_u64;
+    let mut position = 0_usize;
+
+    macro_rules! read_byte {
+        () => {{
+            let byte = *input.get(position).ok_or_else(|| Error::invalid("reference to missing bytes"))?;
+            position += 1;
+            code_bits = (code_bits << 8) | u64::from(byte);
+            code_bit_count += 8;
+        }};
+    }
+
+    macro_rules! emit {
+        ($symbol:expr) => {{
+            let symbol: u32 = $symbol;
+            if symbol == run_length_code {
+                if code_bit_count < 8 {
+                    read_byte!();
+                }
+
+                code_bit_count -= 8;
+
+                let code_repetitions = usize::from((code_bits >> code_bit_count) as u8);
+
+                if output.len() + code_repetitions > expected_output_size {
+                    return Err(Error::invalid(TOO_MUCH_DATA));
+                }
+                let Some(&repeated_code) = output.last() else {
+                    return Err(Error::invalid(NOT_ENOUGH_DATA));
+                };
+                output.resize(output.len() + code_repetitions, repeated_code);
+            } else if output.len() < expected_output_size {
+                output.push(u16::try_from(symbol)?);
+            } else {
+                return Err(Error::invalid(TOO_MUCH_DATA));
+            }
+        }};
+    }
+
+    // `decode_with_tables` reads one byte, then decodes while 14 bits are buffered. Here the
+    // buffer is refilled with up to 7 bytes at once (5-7); the bits are consumed in the same order,
+    // and when the input ends the same bits (fewer than 14) remain for the tail below.
+    loop {
+        if code_bit_count < DECODE_BITS {
+            if position + 8 <= input.len() {
+                // At most 56 bits buffered: a long code (up to 58 bits) then reads single
+                // bytes and never needs more than the 64 the buffer holds.
+                let bytes_wanted = ((56 - code_bit_count) / 8) as usize;
+                let word = u64::from_be_bytes(<[u8; 8]>::try_from(&input[position..position + 8]).unwrap());
+                code_bits = (code_bits << (8 * bytes_wanted)) | (word >> (64 - 8 * bytes_wanted));
+                code_bit_count += 8 * bytes_wanted as u64;
+                position += bytes_wanted;
+            } else {
+                while code_bit_count < DECODE_BITS && position < input.len() {
+                    read_byte!();
+                }
+                if code_bit_count < DECODE_BITS {
+                    break;
+                }
+            }
+        }
+
+        {
+            let code_index = (code_bits >> (code_bit_count - DECODE_BITS)) & DECODE_MASK;
+            let entry = table.short[code_index as usize];
+
+            if entry & LONG == 0 && entry != 0 {
+                code_bit_count -= u64::from(entry & 0xff);
+                emit!(entry >> 8);
+            } else if entry & LONG != 0 {
+                let mut found = None;
+                for &long_code in &table.long[(entry & !LONG) as usize] {
+                    let encoded_long_code = encoding_table[long_code as usize];
+                    let length = length(encoded_long_code);
+
+                    while code_bit_count < length && position < input.len() {
+                        read_byte!();
+                    }
+
+                    if code_bit_count >= length {
+                        let required_code =
+                            (code_bits >> (code_bit_count - length)) & ((1 << length) - 1);
+
+                        if self::code(encoded_long_code) == required_code {
+                            code_bit_count -= length;
+                            found = Some(long_code);
+                            break;
+                        }
+                    }
+                }
+
+                emit!(found.ok_or_else(|| Error::invalid(INVALID_CODE))?);
+            } else {
+                return Err(Error::invalid(INVALID_CODE));
+            }
+        }
+    }
+
+    let count = u64::try_from((8 - input_bit_count) & 7)?;
+    code_bits >>= count;
+
+    code_bit_count = code_bit_count.checked_sub(count).ok_or_else(|| Error::invalid("code"))?;
+
+    while code_bit_count > 0 {
+        let index = (code_bits << (DECODE_BITS - code_bit_count)) & DECODE_MASK;
+        let entry = table.short[index as usize];
+
+        if entry & LONG == 0 && entry != 0 {
+            let length = u64::from(entry & 0xff);
+            if length > code_bit_count {
+                return Err(Error::invalid("code"));
+            }
+            code_bit_count -= length;
+            emit!(entry >> 8);
+        } else {
+            return Err(Error::invalid(INVALID_CODE));
+        }
+    }
+
+    if output.len() != expected_output_size {
+        return Err(Error::invalid(NOT_ENOUGH_DATA));
+    }
+
+    Ok(output)
 }
 
 pub fn compress(uncompressed: &[u16]) -> Result<Vec<u8>> {
@@ -99,194 +291,9 @@ const LONG_ZEROCODE_RUN: u64 = 63;
 const SHORTEST_LONG_RUN: u64 = 2 + LONG_ZEROCODE_RUN - SHORT_ZEROCODE_RUN;
 const LONGEST_LONG_RUN: u64 = 255 + SHORTEST_LONG_RUN;
 
-#[derive(Clone, Debug, Eq, PartialEq)]
-enum Code {
-    Empty,
-    Short(ShortCode),
-    Long(SmallVec<[u32; 2]>), // often 2, sometimes 4, rarely 8
-}
-
-#[derive(Clone, Debug, Eq, PartialEq)]
-struct ShortCode {
-    value: u32,
-    len: u8,
-}
-
-impl ShortCode {
-    #[inline]
-    fn len(&self) -> u64 {
-        u64::from(self.len)
-    }
-}
-
-/// Decode (uncompress) n bits based on encoding & decoding tables:
-fn decode_with_tables(
-    encoding_table: &[u64],
-    decoding_table: &[Code],
-    mut input: &[u8],
-    input_bit_count: i32,
-    run_length_code: u32,
-    expected_output_size: usize,
-) -> Result<Vec<u16>> {
-    let mut output = Vec::with_capacity(expected_output_size);
-    let mut code_bits = 0_u64;
-    let mut code_bit_count = 0_u64;
-
-    while !input.is_empty() {
-        read_byte(&mut code_bits, &mut code_bit_count, &mut input)?;
-
-        // Access decoding table
-        while code_bit_count >= DECODE_BITS {
-            let code_index = (code_bits >> (code_bit_count - DECODE_BITS)) & DECODE_MASK;
-            let code = &decoding_table[u64_to_usize(code_index, "huffman code index")?];
-
-            // Get short code
-            if let Code::Short(code) = code {
-                code_bit_count -= code.len();
-
-                read_code_into_vec(
-                    code.value,
-                    run_length_code,
-                    &mut code_bits,
-                    &mut code_bit_count,
-                    &mut input,
-                    &mut output,
-                    expected_output_size,
-                )?;
-            } else if let Code::Long(ref long_codes) = code {
-                debug_assert_ne!(long_codes.len(), 0);
-
-                let long_code = long_codes
-                    .iter()
-                    .filter_map(|&long_code| {
-                        let encoded_long_code =
-                            encoding_table[u32_to_usize(long_code, "huffman long code").ok()?];
-                        let length = length(encoded_long_code);
-
-                        while code_bit_count < length && !input.is_empty() {
-                            let err = read_byte(&mut code_bits, &mut code_bit_count, &mut input);
-                            if let Err(err) = err {
-                                return Some(Err(err));
-                            }
-                        }
-
-                        if code_bit_count >= length {
-                            let required_code =
-                                (code_bits >> (code_bit_count - length)) & ((1 << length) - 1);
-
-                            if self::code(encoded_long_code) == required_code {
-                                code_bit_count -= length;
-                                return Some(Ok(long_code));
-                            }
-                        }
-
-                        None
-                    })
-                    .next()
-                    .ok_or_else(|| Error::invalid(INVALID_CODE))?;
-
-                read_code_into_vec(
-                    long_code?,
-                    run_length_code,
-                    &mut code_bits,
-                    &mut code_bit_count,
-                    &mut input,
-                    &mut output,
-                    expected_output_size,
-                )?;
-            } else {
-                return Err(Error::invalid(INVALID_CODE));
-            }
-        }
-    }
-
-    let count = u64::try_from((8 - input_bit_count) & 7)?;
-    code_bits >>= count;
-
-    code_bit_count = code_bit_count.checked_sub(count).ok_or_else(|| Error::invalid("code"))?;
-
-    while code_bit_count > 0 {
-        let index = (code_bits << (DECODE_BITS - code_bit_count)) & DECODE_MASK;
-        let code = &decoding_table[u64_to_usize(index, "huffman code index")?];
-
-        if let Code::Short(short_code) = code {
-            if short_code.len() > code_bit_count {
-                return Err(Error::invalid("code"));
-            } // FIXME why does this happen??
-            code_bit_count -= short_code.len(); // FIXME may throw "attempted to subtract with overflow"
-
-            read_code_into_vec(
-                short_code.value,
-                run_length_code,
-                &mut code_bits,
-                &mut code_bit_count,
-                &mut input,
-                &mut output,
-                expected_output_size,
-            )?;
-        } else {
-            return Err(Error::invalid(INVALID_CODE));
-        }
-    }
-
-    if output.len() != expected_output_size {
-        return Err(Error::invalid(NOT_ENOUGH_DATA));
-    }
-
-    Ok(output)
-}
-
-/// Build a decoding hash table based on the encoding table code:
-///    - short codes (<= `HUF_DECBITS`) are resolved with a single table access;
-///    - long code entry allocations are not optimized, because long codes are
-///      unfrequent;
-///    - decoding tables are used by `hufDecode()`;
-fn build_decoding_table(
-    encoding_table: &[u64],
-    min_code_index: usize,
-    max_code_index: usize,
-) -> Result<Vec<Code>> {
-    let mut decoding_table = vec![Code::Empty; DECODING_TABLE_SIZE]; // not an array because of code not being copy
-
-    for (code_index, &encoded_code) in
-        encoding_table[..=max_code_index].iter().enumerate().skip(min_code_index)
-    {
-        let code_index = u32::try_from(code_index).unwrap();
-
-        let code = code(encoded_code);
-        let length = length(encoded_code);
-
-        if code >> length != 0 {
-            return Err(Error::invalid(INVALID_TABLE_ENTRY));
-        }
-
-        if length > DECODE_BITS {
-            let long_code = &mut decoding_table
-                [u64_to_usize(code >> (length - DECODE_BITS), "long code index")?];
-
-            match long_code {
-                Code::Empty => *long_code = Code::Long(smallvec![code_index]),
-                Code::Long(lits) => lits.push(code_index),
-                _ => {
-                    return Err(Error::invalid(INVALID_TABLE_ENTRY));
-                }
-            }
-        } else if length != 0 {
-            let default_value = Code::Short(ShortCode {
-                value: code_index,
-                len: length as u8,
-            });
-
-            let start_index = u64_to_usize(code << (DECODE_BITS - length), "huffman start index")?;
-            let count = u64_to_usize(1 << (DECODE_BITS - length), "huffman count")?;
-
-            for value in &mut decoding_table[start_index..start_index + count] {
-                *value = default_value.clone();
-            }
-        }
-    }
-
-    Ok(decoding_table)
+thread_local! {
+    /// hdrflow patch: the decoding side's encoding table, reused (see `read_encoding_table`).
+    static ENCODING_TABLE_CACHE: std::cell::RefCell<Vec<u64>> = const { std::cell::RefCell::new(Vec::new()) };
 }
 
 /// Run-length-decompresses all zero runs from the packed table to the encoding
@@ -299,8 +306,12 @@ fn read_encoding_table(
     let mut code_bits = 0_u64;
     let mut code_bit_count = 0_u64;
 
-    // TODO push() into encoding table instead of index stuff?
-    let mut encoding_table = vec![0_u64; ENCODING_TABLE_SIZE];
+    // hdrflow patch: every entry in [min, max] is written below and no other is read, so the
+    // 512 KB table is reused per thread instead of allocated zeroed (and page-faulted) per call.
+    let mut encoding_table = ENCODING_TABLE_CACHE.with(|cache| std::mem::take(&mut *cache.borrow_mut()));
+    if encoding_table.len() != ENCODING_TABLE_SIZE {
+        encoding_table = vec![0_u64; ENCODING_TABLE_SIZE];
+    }
     let mut code_index = min_code_index;
     while code_index <= max_code_index {
         let code_len = read_bits(6, &mut code_bits, &mut code_bit_count, packed)?;
@@ -335,7 +346,8 @@ fn read_encoding_table(
         }
     }
 
-    build_canonical_table(&mut encoding_table)?;
+    // hdrflow patch: only [min, max] can hold lengths; the result is the same.
+    build_canonical_table_in(&mut encoding_table[..=max_code_index], min_code_index)?;
     Ok(encoding_table)
 }
 
@@ -359,44 +371,6 @@ fn read_bits(
 fn read_byte(code_bits: &mut u64, bit_count: &mut u64, input: &mut impl Read) -> UnitResult {
     *code_bits = (*code_bits << 8) | u64::from(u8::read_ne(input)?);
     *bit_count += 8;
-    Ok(())
-}
-
-#[inline]
-fn read_code_into_vec(
-    code: u32,
-    run_length_code: u32,
-    code_bits: &mut u64,
-    code_bit_count: &mut u64,
-    read: &mut impl Read,
-    out: &mut Vec<u16>,
-    max_len: usize,
-) -> UnitResult {
-    if code == run_length_code {
-        // code may be too large for u16
-        if *code_bit_count < 8 {
-            read_byte(code_bits, code_bit_count, read)?;
-        }
-
-        *code_bit_count -= 8;
-
-        let code_repetitions = usize::from((*code_bits >> *code_bit_count) as u8);
-
-        if out.len() + code_repetitions > max_len {
-            return Err(Error::invalid(TOO_MUCH_DATA));
-        } else if out.is_empty() {
-            return Err(Error::invalid(NOT_ENOUGH_DATA));
-        }
-
-        let repeated_code = *out.last().unwrap();
-        out.extend(std::iter::repeat(repeated_code).take(code_repetitions));
-    } else if out.len() < max_len {
-        // implies that code is not larger than u16???
-        out.push(u16::try_from(code)?);
-    } else {
-        return Err(Error::invalid(TOO_MUCH_DATA));
-    }
-
     Ok(())
 }
 
@@ -615,19 +589,30 @@ fn pack_encoding_table(
 ///    - see <http://www.compressconsult.com/huffman>/
 fn build_canonical_table(code_table: &mut [u64]) -> UnitResult {
     debug_assert_eq!(code_table.len(), ENCODING_TABLE_SIZE);
+    build_canonical_table_in(code_table, 0)
+}
 
-    let mut count_per_code = [0_u64; 59];
+/// hdrflow patch: `build_canonical_table` on `code_table[start..]` (entries outside are zero
+/// lengths, which only change the unused count of length 0).
+fn build_canonical_table_in(code_table: &mut [u64], start: usize) -> UnitResult {
+    let code_table = &mut code_table[start..];
+    // Lengths are at most 58 (`read_encoding_table` zeroes the run codes 59..=63, the encoder
+    // makes no longer codes); a 64-slot array indexed by `length & 63` needs no bounds checks.
+    let mut count_per_code = [0_u64; 64];
 
     for &code in code_table.iter() {
-        count_per_code[u64_to_usize(code, "table entry")?] += 1;
+        if code > 58 {
+            return Err(Error::invalid(INVALID_TABLE_ENTRY));
+        }
+        count_per_code[(code & 63) as usize] += 1;
     }
 
     // For each i from 58 through 1, compute the
     // numerically lowest code with length i, and
     // store that code in n[i].
     {
-        let mut code = 0_u64; // TODO use foldr?
-        for count in &mut count_per_code.iter_mut().rev() {
+        let mut code = 0_u64;
+        for count in count_per_code[..59].iter_mut().rev() {
             let next_code = (code + *count) >> 1;
             *count = code;
             code = next_code;
@@ -637,13 +622,13 @@ fn build_canonical_table(code_table: &mut [u64]) -> UnitResult {
     // code[i] contains the length, l, of the
     // code for symbol i.  Assign the next available
     // code of length l to the symbol and store both
-    // l and the code in code[i]. // TODO iter + filter ?
+    // l and the code in code[i].
     for symbol_length in code_table.iter_mut() {
         let current_length = *symbol_length;
-        let code_index = u64_to_usize(current_length, "huffman code index")?;
         if current_length > 0 {
-            *symbol_length = current_length | (count_per_code[code_index] << 6);
-            count_per_code[code_index] += 1;
+            let slot = &mut count_per_code[(current_length & 63) as usize];
+            *symbol_length = current_length | (*slot << 6);
+            *slot += 1;
         }
     }
 

@@ -410,11 +410,16 @@ fn decode_lossy_dct_group(
             // Convert nonlinear DCT output back to linear half values and crop
             // the edges to the actual image extent.
             for (component, output) in decoded.iter_mut().enumerate() {
+                // hdrflow patch: the block's 64 values converted to half in one slice call
+                // (F16C, chosen once) instead of one runtime-dispatched call each; same bits.
+                let mut halves = [f16::ZERO; 64];
+                half::slice::HalfFloatSliceExt::convert_from_f32_slice(
+                    &mut halves[..],
+                    &dct_blocks[component],
+                );
                 for y in block_y * 8..(block_y * 8 + 8).min(height) {
                     for x in block_x * 8..(block_x * 8 + 8).min(width) {
-                        let value =
-                            dct_blocks[component][(y - block_y * 8) * 8 + (x - block_x * 8)];
-                        let nonlinear = f16::from_f32(value);
+                        let nonlinear = halves[(y - block_y * 8) * 8 + (x - block_x * 8)];
                         output[y * width + x] = f16::from_bits(match to_linear {
                             Some(to_linear) => to_linear[nonlinear.to_bits() as usize],
                             None => nonlinear.to_bits(),
