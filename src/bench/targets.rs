@@ -5,7 +5,8 @@
 //! - `BuildCdf` on maps of 2048x1024, 8192x4096 and 16384x8192, against one pass over the
 //!   luminance's bytes at memory bandwidth (a parallel chunked sum with 16 accumulators).
 //! - Decoding a 1024x512 RLE `.hdr`: ours against the `image` crate's decoder.
-//! - Decoding EXR files (PIZ, ZIP, DWAA; real and generated): ours against OpenImageIO
+//! - Decoding EXR files (PIZ, ZIP, DWAA; scan lines and tiles; OpenEXR's test image, the shared
+//!   map, files our writer and OpenImageIO's wrote): ours against OpenImageIO
 //!   (`bench/peers/exr_oiio.py`, when `pip install OpenImageIO` has been done), file read included.
 //! - `graphs/seed.ron` on the built-in map: cold (empty cache) and fully cached.
 //! - `ReferenceSphere` 512x512 on a 1024x512 map against the machine's arithmetic floor (the
@@ -322,7 +323,33 @@ fn exr_against_oiio(
     let peers = peers.ok_or("no peers folder")?;
     let script = peers.join("exr_oiio.py");
     let dir = std::env::temp_dir().join(format!("hdrflow-bench-exr-{}", std::process::id()));
-    let files = exr_files(data, &dir)?;
+    let mut files = exr_files(data, &dir)?;
+    // Tiled PIZ and ZIP, DWAA and a large scan line file, written by OpenImageIO (not by us)
+    // from the 2048x1024 sky: `exr_oiio.py --make`.
+    let source = dir.join("sky_f32.exr");
+    let sky = resize(&crate::formats::builtin::builtin("sky").expect("built-in"), 2048, 1024);
+    std::fs::write(&source, crate::formats::exr::encode(&sky).map_err(|e| e.0)?).map_err(|e| e.to_string())?;
+    let made = std::process::Command::new("python3")
+        .arg(&script)
+        .arg("--make")
+        .args([&dir, &source])
+        .output()
+        .map_err(|e| format!("python3: {e}"))?;
+    if made.status.success() {
+        let labels = [
+            "sky 2048x1024, half, tiled 64x64 PIZ (written by OpenImageIO)",
+            "sky 2048x1024, half, tiled 64x64 ZIP (written by OpenImageIO)",
+            "sky 2048x1024, half, DWAA (written by OpenImageIO)",
+            "sky 4096x2048, half, ZIP scan lines (written by OpenImageIO)",
+        ];
+        let paths: Vec<String> = serde_json::from_slice(&made.stdout).map_err(|e| e.to_string())?;
+        files.extend(labels.iter().map(|l| l.to_string()).zip(paths.into_iter().map(std::path::PathBuf::from)));
+    } else {
+        log(&format!(
+            "EXR files written by OpenImageIO skipped: {}",
+            String::from_utf8_lossy(&made.stderr).trim()
+        ));
+    }
     let output = std::process::Command::new("python3")
         .arg(&script)
         .args(["--repeats", &(repeats * 2).to_string()])
