@@ -345,10 +345,7 @@ fn exr_against_oiio(
         let paths: Vec<String> = serde_json::from_slice(&made.stdout).map_err(|e| e.to_string())?;
         files.extend(labels.iter().map(|l| l.to_string()).zip(paths.into_iter().map(std::path::PathBuf::from)));
     } else {
-        log(&format!(
-            "EXR files written by OpenImageIO skipped: {}",
-            String::from_utf8_lossy(&made.stderr).trim()
-        ));
+        log(&format!("EXR files written by OpenImageIO skipped: {}", String::from_utf8_lossy(&made.stderr).trim()));
     }
     let output = std::process::Command::new("python3")
         .arg(&script)
