@@ -65,7 +65,7 @@ use rayon::prelude::*;
 use crate::data::{Distribution2D, Image};
 use crate::geometry::latlong_grid::{sincos_turns, LatLongGrid};
 use crate::maths::glossy::Heuristic;
-use crate::maths::guide_table::GuidedDistribution;
+use crate::maths::guide_table::{prefetch, GuidedDistribution, GuidedDraw};
 use crate::maths::relight::SphereView;
 use crate::maths::sequences::{mix64, nested_uniform_scramble, sobol_2d_bits, SplitMix64};
 
@@ -264,6 +264,12 @@ impl<'a> Scene<'a> {
         &self.records[y * self.env.width + x]
     }
 
+    /// Starts reading a texel's record early (a hint; no effect on results).
+    #[inline(always)]
+    fn prefetch_record(&self, (x, y): (usize, usize)) {
+        prefetch(self.record(x, y));
+    }
+
     /// One pixel's irradiance estimate `(1/spp) sum_j F_j` (see the module documentation) at
     /// unit normal `n`, in batches of [`BATCH`] samples (summed in sample order). `spp == 0`
     /// gives zeros.
@@ -289,6 +295,7 @@ impl<'a> Scene<'a> {
         let mut dirs = [DVec3::ZERO; 2 * BATCH];
         let mut texels = [(0usize, 0usize); 2 * BATCH];
         let mut later = [[0.0f64; 4]; BATCH];
+        let mut draws = [GuidedDraw::default(); BATCH];
         for start in (0..spp).step_by(BATCH) {
             let count = BATCH.min(spp - start);
             // Stage 1: directions and the texels they fall in (no reads of the records). The
@@ -299,7 +306,14 @@ impl<'a> Scene<'a> {
                     let guided = self.guided.as_ref().expect("built for this strategy");
                     for i in 0..count {
                         let [u1, u2] = uniforms.pair(start + i, 0);
-                        texels[i] = guided.sample(u1, u2);
+                        draws[i] = guided.start(u1, u2);
+                    }
+                    for draw in &mut draws[..count] {
+                        guided.resume(draw);
+                    }
+                    for i in 0..count {
+                        texels[i] = guided.finish(&draws[i]);
+                        self.prefetch_record(texels[i]);
                     }
                     for i in 0..count {
                         dirs[i] = DVec3::from(self.grid.centre_direction(texels[i].0, texels[i].1));
@@ -318,23 +332,37 @@ impl<'a> Scene<'a> {
                 }
                 PerPixelStrategy::Mis => {
                     let guided = self.guided.as_ref().expect("built for this strategy");
+                    // The environment technique's texel search runs in stages between which
+                    // the batch's reads are prefetched (see `GuidedDistribution::start`); the
+                    // cosine technique's arithmetic fills the wait.
                     for i in 0..count {
                         let j = start + i;
                         let [u1, u2] = uniforms.pair(j, 0);
                         let [u3, u4] = uniforms.pair(j, 1);
                         let [u5, u6] = uniforms.pair(j, 2);
                         later[i] = [u3, u4, u5, u6];
-                        // Environment technique: the texel ...
-                        texels[2 * i] = guided.sample(u1, u2);
+                        draws[i] = guided.start(u1, u2);
+                    }
+                    for draw in &mut draws[..count] {
+                        guided.resume(draw);
                     }
                     for i in 0..count {
-                        let [u3, u4, u5, u6] = later[i];
-                        // ... then a point uniform in solid angle in it.
-                        let (x, y) = texels[2 * i];
-                        dirs[2 * i] = DVec3::from(self.grid.point_in_texel(x, y, u3, u4));
+                        let [_, _, u5, u6] = later[i];
                         // Cosine technique: the texel containing the direction.
                         dirs[2 * i + 1] = cosine_in_basis(n, b1, b2, u5, u6);
                         texels[2 * i + 1] = self.grid.texel_of(dirs[2 * i + 1].to_array());
+                        self.prefetch_record(texels[2 * i + 1]);
+                    }
+                    for i in 0..count {
+                        // Environment technique: the texel ...
+                        texels[2 * i] = guided.finish(&draws[i]);
+                        self.prefetch_record(texels[2 * i]);
+                    }
+                    for i in 0..count {
+                        let [u3, u4, _, _] = later[i];
+                        // ... then a point uniform in solid angle in it.
+                        let (x, y) = texels[2 * i];
+                        dirs[2 * i] = DVec3::from(self.grid.point_in_texel(x, y, u3, u4));
                     }
                 }
             }
@@ -665,9 +693,12 @@ mod tests {
     #[test]
     #[ignore]
     fn per_pixel_timing() {
+        // HDRFLOW_PER_PIXEL_MAP=path times another map (.exr or .hdr).
         let grace = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data/envmaps/grace_latlong.exr");
-        let env = match std::fs::read(&grace) {
-            Ok(bytes) => crate::formats::decode_by_extension(&bytes, "exr").unwrap().flipped_vertical(),
+        let path = std::env::var("HDRFLOW_PER_PIXEL_MAP").map(std::path::PathBuf::from).unwrap_or(grace);
+        let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("exr").to_string();
+        let env = match std::fs::read(&path) {
+            Ok(bytes) => crate::formats::decode_by_extension(&bytes, &ext).unwrap().flipped_vertical(),
             Err(_) => crate::formats::builtin::builtin("sky").unwrap(),
         };
         let dist = luminance_distribution(&env);
@@ -680,8 +711,13 @@ mod tests {
                     continue;
                 }
                 let t = std::time::Instant::now();
-                let options =
-                    PerPixelOptions { strategy: s, sequence: q, heuristic: Heuristic::Balance, spp: 1024, seed: 1 };
+                // HDRFLOW_PER_PIXEL_POWER=1: the power heuristic (Mitsuba's `direct`).
+                let heuristic = if std::env::var("HDRFLOW_PER_PIXEL_POWER").is_ok() {
+                    Heuristic::Power
+                } else {
+                    Heuristic::Balance
+                };
+                let options = PerPixelOptions { strategy: s, sequence: q, heuristic, spp: 1024, seed: 1 };
                 std::hint::black_box(relight_per_pixel_with(&env, &dist, &view, [0.8; 3], &options));
                 eprintln!(
                     "per-pixel {s:?} {q:?} 128x128 x 1024 spp on {}x{}: {:.3} s",
