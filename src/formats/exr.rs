@@ -17,7 +17,8 @@
 //!    colour channel (`R`, `G`, `B` or `Y`, bare or layer-prefixed) is taken, so a depth-only part
 //!    before the RGB part is skipped. Its largest resolution level is read.
 //! 3. **Channels.** `R`, `G`, `B` (and `A`, kept as a fourth channel) are picked by name whatever
-//!    their stored order and sample type (f16, f32, u32: all become f32). Luminance/chroma files
+//!    their stored order and sample type (f16, f32, u32: all become f32; f16 exactly as OpenEXR
+//!    converts it, signalling NaNs keeping their bits). Luminance/chroma files
 //!    (`Y`, `RY`, `BY`) become RGB. **2x2-subsampled chroma**, the layout OpenEXR's
 //!    `RgbaOutputFile` writes, goes through OpenEXR's own reconstruction ([`super::yca`]: its
 //!    filters, clamping, half rounding and saturation fix, bit for bit; the subsampled channels
@@ -389,6 +390,7 @@ fn read_part(bytes: &[u8], part: usize, parallel: bool) -> Result<(usize, usize,
                         bits.clear();
                         bits.extend(bytes.chunks_exact(2).map(|b| u16::from_ne_bytes([b[0], b[1]])));
                         bits.reinterpret_cast::<half::f16>().convert_to_f32_slice(out);
+                        keep_signalling_nans(&bits, out);
                     }
                     SampleType::F32 => {
                         for (o, b) in out.iter_mut().zip(bytes.chunks_exact(4)) {
@@ -412,6 +414,29 @@ fn read_part(bytes: &[u8], part: usize, parallel: bool) -> Result<(usize, usize,
         work.into_iter().try_for_each(decode_band)?;
     }
     Ok((w, h, channels))
+}
+
+/// Whether half bits are a signalling NaN: exponent all ones, quiet bit (0x0200) clear, and a
+/// non-zero payload.
+fn is_signalling_nan_half(b: u16) -> bool {
+    b & 0x7e00 == 0x7c00 && b & 0x01ff != 0
+}
+
+/// OpenEXR converts half to float by shifting the bits (`imath_half_to_float`), so a signalling
+/// NaN stays signalling with its payload; the `half` crate, and F16C, set the quiet bit. The value
+/// is NaN either way, but not the same bits as OpenEXR (the OpenEXR test image `AllHalfValues.exr`
+/// holds all 1022 of them): redo those samples as OpenEXR does. Lines without one (nearly all)
+/// cost one vectorised scan.
+fn keep_signalling_nans(bits: &[u16], out: &mut [f32]) {
+    if !bits.iter().any(|&b| is_signalling_nan_half(b)) {
+        return;
+    }
+    for (o, &b) in out.iter_mut().zip(bits) {
+        if is_signalling_nan_half(b) {
+            let b = b as u32;
+            *o = f32::from_bits((b & 0x8000) << 16 | 0x7f80_0000 | (b & 0x03ff) << 13);
+        }
+    }
 }
 
 /// A channel's sampling factors, at least 1.
@@ -815,6 +840,29 @@ mod tests {
         for n in (0..bytes.len()).step_by(97) {
             let _ = decode(&bytes[..n]); // must not panic through (caught or not)
         }
+    }
+
+    #[test]
+    fn every_half_value_converts_to_openexrs_float_bits() {
+        // OpenEXR (`imath_half_to_float`): zero, subnormals, normals, infinities exact; a NaN
+        // keeps its sign and payload shifted by 13 bits, signalling ones included.
+        use half::slice::{HalfBitsSliceExt, HalfFloatSliceExt};
+        let bits: Vec<u16> = (0..=u16::MAX).collect();
+        let mut out = vec![0.0f32; bits.len()];
+        bits.reinterpret_cast::<half::f16>().convert_to_f32_slice(&mut out);
+        keep_signalling_nans(&bits, &mut out);
+        let mut signalling = 0;
+        for (&b, &o) in bits.iter().zip(&out) {
+            let h = half::f16::from_bits(b);
+            if h.is_nan() {
+                let want = (b as u32 & 0x8000) << 16 | 0x7f80_0000 | (b as u32 & 0x03ff) << 13;
+                assert_eq!(o.to_bits(), want, "half {b:#06x}");
+                signalling += is_signalling_nan_half(b) as usize;
+            } else {
+                assert_eq!(o.to_bits(), h.to_f32().to_bits(), "half {b:#06x}");
+            }
+        }
+        assert_eq!(signalling, 1022);
     }
 
     #[test]
