@@ -12,7 +12,7 @@
 //! `window: Display`, the image is the display window with the data at its offset, 0 elsewhere.
 //!
 //! Without the files, the test prints a `SKIPPED` line (straight to stderr, so it shows even
-//! without `--nocapture`) and passes: CI does not depend on the network. `HDRFLOW_REQUIRE_DATA=1`
+//! without `--nocapture`) and passes: CI does not depend on the network. `HDRFLOW_REQUIRE_OPENEXR_IMAGES=1`
 //! makes missing files a failure.
 
 use std::io::Write;
@@ -142,7 +142,7 @@ fn fetched_openexr_images_decode_to_openexrs_values_bit_for_bit() {
     let expected: Value = serde_json::from_str(&std::fs::read_to_string(EXPECTED).unwrap()).unwrap();
     let files = expected["files"].as_object().unwrap();
     let dir = images_dir();
-    let require = std::env::var("HDRFLOW_REQUIRE_DATA").is_ok_and(|v| v == "1");
+    let require = std::env::var("HDRFLOW_REQUIRE_OPENEXR_IMAGES").is_ok_and(|v| v == "1");
     let missing: Vec<&String> = files.keys().filter(|name| !dir.join(name).is_file()).collect();
     if missing.len() == files.len() {
         let msg = format!(
@@ -151,7 +151,7 @@ fn fetched_openexr_images_decode_to_openexrs_values_bit_for_bit() {
             files.len(),
             dir.display()
         );
-        assert!(!require, "{msg} (HDRFLOW_REQUIRE_DATA=1)");
+        assert!(!require, "{msg} (HDRFLOW_REQUIRE_OPENEXR_IMAGES=1)");
         say(&msg);
         return;
     }
@@ -179,5 +179,5 @@ fn fetched_openexr_images_decode_to_openexrs_values_bit_for_bit() {
         missing.len()
     ));
     assert!(failures.is_empty(), "files that differ from OpenEXR: {failures:?}");
-    assert!(!require || missing.is_empty(), "missing with HDRFLOW_REQUIRE_DATA=1: {missing:?}");
+    assert!(!require || missing.is_empty(), "missing with HDRFLOW_REQUIRE_OPENEXR_IMAGES=1: {missing:?}");
 }
