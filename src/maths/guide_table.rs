@@ -106,7 +106,7 @@ impl<'a> GuidedDistribution<'a> {
         let y = guided_search(&self.dist.marginal_cdf, &self.marginal_guide, clamp_unit(u1)).min(h - 1);
         let slot = y * w + bin(u2, w);
         prefetch(&self.conditional_guide[slot]);
-        GuidedDraw { y, slot, u2 }
+        GuidedDraw { y, slot, u1: clamp_unit(u1), u2 }
     }
 
     /// Stage 2: reads the guide entry (its search start) and prefetches the CDF there.
@@ -126,14 +126,39 @@ impl<'a> GuidedDistribution<'a> {
         let w = self.dist.width;
         (search_from(self.dist.conditional_row(draw.y), draw.slot, draw.u2).min(w - 1), draw.y)
     }
+
+    /// [`Self::finish`] and where the uniforms fell inside the chosen intervals: `(x, y, rx,
+    /// ry)` with `rx = (u2 - C_x) / (C_{x+1} - C_x)` in the row's conditional CDF and `ry` the
+    /// same for `u1` in the marginal CDF. Under inversion, given the texel, `(rx, ry)` are
+    /// independent and uniform on [0, 1) (Devroye 1986, section II.2), so they can place the
+    /// point inside the texel: a continuous warp of `(u1, u2)`, as Mitsuba's and pbrt's
+    /// piecewise-constant 2D distributions do, which keeps a low-discrepancy pair's
+    /// stratification down to the point instead of spending a second pair on it. An interval of
+    /// zero width (only reachable through the clamping at the ends) gives 0.5.
+    #[inline(always)]
+    pub fn finish_continuous(&self, draw: &GuidedDraw) -> (usize, usize, f64, f64) {
+        let (x, y) = self.finish(draw);
+        let remainder = |u: f64, lo: f64, hi: f64| {
+            let width = hi - lo;
+            if width > 0.0 {
+                ((u - lo) / width).clamp(0.0, 1.0 - f64::EPSILON / 2.0)
+            } else {
+                0.5
+            }
+        };
+        let row = self.dist.conditional_row(y);
+        let marginal = &self.dist.marginal_cdf;
+        (x, y, remainder(draw.u2, row[x], row[x + 1]), remainder(draw.u1, marginal[y], marginal[y + 1]))
+    }
 }
 
 /// A texel draw between the stages of [`GuidedDistribution::start`]: the row, the guide slot
-/// (after `resume`, the search start) and the clamped column uniform.
+/// (after `resume`, the search start) and the clamped uniforms.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct GuidedDraw {
     y: usize,
     slot: usize,
+    u1: f64,
     u2: f64,
 }
 
@@ -191,6 +216,19 @@ mod tests {
                 let mut draw = guided.start(u1, u2);
                 guided.resume(&mut draw);
                 assert_eq!(guided.finish(&draw), (x, y), "staged, u = ({u1}, {u2})");
+                let (cx, cy, rx, ry) = guided.finish_continuous(&draw);
+                assert_eq!((cx, cy), (x, y));
+                assert!((0.0..1.0).contains(&rx) && (0.0..1.0).contains(&ry), "remainders {rx} {ry}");
+                // The remainders place (u1, u2) back inside the chosen intervals.
+                let (m, row) = (&dist.marginal_cdf, dist.conditional_row(y));
+                if m[y + 1] > m[y] && u1.is_finite() {
+                    let back = m[y] + ry * (m[y + 1] - m[y]);
+                    assert!((back - u1.clamp(0.0, 1.0)).abs() <= 1e-12 + 4.0 * f64::EPSILON, "{back} vs {u1}");
+                }
+                if row[x + 1] > row[x] && u2.is_finite() {
+                    let back = row[x] + rx * (row[x + 1] - row[x]);
+                    assert!((back - u2.clamp(0.0, 1.0)).abs() <= 1e-12 + 4.0 * f64::EPSILON, "{back} vs {u2}");
+                }
             }
         }
     }

@@ -25,7 +25,8 @@
 //!   radiance lookups. The balance heuristic needs both densities at every direction, so here the
 //!   environment technique is continuous: the texel drawn from the distribution, then a point
 //!   uniform in solid angle inside it (`phi` uniform across the column, `cos theta` uniform
-//!   between the row's edges), density `p_e(w) = P(texel) / dOmega_exact`,
+//!   between the row's edges, placed by where `(u1, u2)` fell inside the texel's CDF intervals:
+//!   [`GuidedDistribution::finish_continuous`]), density `p_e(w) = P(texel) / dOmega_exact`,
 //!   `dOmega_exact = (2 pi / W)(cos theta_top - cos theta_bottom)` (NOTES.md, exact per-row solid
 //!   angle), evaluated at the texel containing `w`.
 //!
@@ -162,7 +163,7 @@ struct PixelUniforms {
     rng: SplitMix64,
     /// Per 2D request k: (index shuffle seed, x scramble seed, y scramble seed); `None` for
     /// `Random`.
-    sobol: Option<[[u32; 3]; 3]>,
+    sobol: Option<[[u32; 3]; 2]>,
 }
 
 impl PixelUniforms {
@@ -171,7 +172,7 @@ impl PixelUniforms {
         let sobol = match sequence {
             PerPixelSequence::Random => None,
             PerPixelSequence::Sobol => {
-                let mut seeds = [[0u32; 3]; 3];
+                let mut seeds = [[0u32; 3]; 2];
                 for s in seeds.iter_mut().flatten() {
                     *s = (rng.next_u64() >> 32) as u32;
                 }
@@ -181,10 +182,10 @@ impl PixelUniforms {
         PixelUniforms { rng, sobol }
     }
 
-    /// The `k`-th 2D request (k < 3) of sample `j`. Request 0 chooses the texel: 53-bit
-    /// uniforms, so that every texel of positive probability can be drawn; the others choose a
-    /// direction (inside a texel, or around the normal), where 32 bits (2.3e-10) are far finer
-    /// than any texel, so `Random` takes both from one 64-bit draw.
+    /// The `k`-th 2D request (k < 2) of sample `j`. Request 0 chooses the texel (and, for
+    /// `Mis`, the point inside it): 53-bit uniforms, so that every texel of positive probability
+    /// can be drawn; request 1 chooses a direction around the normal, where 32 bits (2.3e-10)
+    /// are far finer than any texel, so `Random` takes both from one 64-bit draw.
     #[inline]
     fn pair(&mut self, j: usize, k: usize) -> [f64; 2] {
         match &self.sobol {
@@ -294,7 +295,7 @@ impl<'a> Scene<'a> {
         let (b1, b2) = n.any_orthonormal_pair();
         let mut dirs = [DVec3::ZERO; 2 * BATCH];
         let mut texels = [(0usize, 0usize); 2 * BATCH];
-        let mut later = [[0.0f64; 4]; BATCH];
+        let mut cosine_uniforms = [[0.0f64; 2]; BATCH];
         let mut draws = [GuidedDraw::default(); BATCH];
         for start in (0..spp).step_by(BATCH) {
             let count = BATCH.min(spp - start);
@@ -338,31 +339,26 @@ impl<'a> Scene<'a> {
                     for i in 0..count {
                         let j = start + i;
                         let [u1, u2] = uniforms.pair(j, 0);
-                        let [u3, u4] = uniforms.pair(j, 1);
-                        let [u5, u6] = uniforms.pair(j, 2);
-                        later[i] = [u3, u4, u5, u6];
+                        cosine_uniforms[i] = uniforms.pair(j, 1);
                         draws[i] = guided.start(u1, u2);
                     }
                     for draw in &mut draws[..count] {
                         guided.resume(draw);
                     }
                     for i in 0..count {
-                        let [_, _, u5, u6] = later[i];
+                        let [u3, u4] = cosine_uniforms[i];
                         // Cosine technique: the texel containing the direction.
-                        dirs[2 * i + 1] = cosine_in_basis(n, b1, b2, u5, u6);
+                        dirs[2 * i + 1] = cosine_in_basis(n, b1, b2, u3, u4);
                         texels[2 * i + 1] = self.grid.texel_of(dirs[2 * i + 1].to_array());
                         self.prefetch_record(texels[2 * i + 1]);
                     }
                     for i in 0..count {
-                        // Environment technique: the texel ...
-                        texels[2 * i] = guided.finish(&draws[i]);
-                        self.prefetch_record(texels[2 * i]);
-                    }
-                    for i in 0..count {
-                        let [u3, u4, _, _] = later[i];
-                        // ... then a point uniform in solid angle in it.
-                        let (x, y) = texels[2 * i];
-                        dirs[2 * i] = DVec3::from(self.grid.point_in_texel(x, y, u3, u4));
+                        // Environment technique: the texel and, from where (u1, u2) fell in
+                        // its intervals, a point uniform in solid angle inside it.
+                        let (x, y, rx, ry) = guided.finish_continuous(&draws[i]);
+                        texels[2 * i] = (x, y);
+                        self.prefetch_record((x, y));
+                        dirs[2 * i] = DVec3::from(self.grid.point_in_texel(x, y, rx, ry));
                     }
                 }
             }
@@ -521,7 +517,7 @@ mod tests {
     fn sobol_uniforms_are_stratified_per_pixel() {
         for pixel in 0..20u64 {
             let mut u = PixelUniforms::new(PerPixelSequence::Sobol, pixel_seed(3, pixel));
-            for k in 0..3 {
+            for k in 0..2 {
                 let mut columns = [0usize; 64];
                 let mut rows = [0usize; 64];
                 for j in 0..64 {
