@@ -52,7 +52,9 @@
 //! f64 add per block is on the dependency chain. The CDF buffer is asked to be backed by
 //! transparent huge pages on Linux (`advise_huge_pages`): a fresh buffer of hundreds of MB is
 //! otherwise faulted in and zeroed by the kernel 4 KiB at a time, which at 8192x4096 cost more
-//! than everything else. Measured numbers are in BENCHMARKS.md ("BuildCdf at scale").
+//! than everything else. The rows are written into the buffer's uninitialised capacity (a
+//! zeroed allocation is cleared by `calloc` when recycled: a third of the build at 2048x1024).
+//! Measured numbers are in BENCHMARKS.md ("BuildCdf at scale").
 
 use rayon::prelude::*;
 
@@ -186,11 +188,11 @@ fn row_sum(src: &[f32]) -> (f64, f32) {
 /// `sum = row_sum(src).0`: `S / sum` for each running sum `S` (see `row_sum`), exactly 1.0 where
 /// `S == sum`, as `normalise_cdf` does, but without first storing the sums and reading them back.
 /// A zero (or non-finite) sum gives the uniform CDF. `cdf[0] = 0`, `cdf[n] = 1` exactly.
-fn write_row_cdf(src: &[f32], sum: f64, cdf: &mut [f64]) {
+fn write_row_cdf<S: CdfSlot>(src: &[f32], sum: f64, cdf: &mut [S]) {
     let n = src.len();
     if !(sum > 0.0 && sum.is_finite()) {
         for (k, c) in cdf.iter_mut().enumerate() {
-            *c = k as f64 / n as f64;
+            c.set(k as f64 / n as f64);
         }
     } else {
         let inv = 1.0 / sum;
@@ -205,23 +207,45 @@ fn write_row_cdf(src: &[f32], sum: f64, cdf: &mut [f64]) {
             if end == sum {
                 // The block reaches the row's sum: entries equal to it become exactly 1.0.
                 for (o, l) in o.iter_mut().zip(local) {
-                    *o = norm(carry + l);
+                    o.set(norm(carry + l));
                 }
             } else {
                 // Every entry is <= end < sum: no comparison needed (a quarter of the time).
                 for (o, l) in o.iter_mut().zip(local) {
-                    *o = (carry + l) * inv;
+                    o.set((carry + l) * inv);
                 }
             }
             carry = end;
         }
         for (&x, o) in blocks.remainder().iter().zip(out.into_remainder()) {
             carry += x as f64;
-            *o = norm(carry);
+            o.set(norm(carry));
         }
     }
-    cdf[0] = 0.0;
-    cdf[n] = 1.0;
+    cdf[0].set(0.0);
+    cdf[n].set(1.0);
+}
+
+/// Where `write_row_cdf` writes: an initialised `f64`, or the not yet initialised capacity of
+/// the CDF buffer (`build` writes every entry of every row before the buffer's length covers
+/// them, so the buffer is never zeroed first: at 2048x1024 zeroing its 16 MiB was a third of the
+/// build).
+trait CdfSlot {
+    fn set(&mut self, value: f64);
+}
+
+impl CdfSlot for f64 {
+    #[inline(always)]
+    fn set(&mut self, value: f64) {
+        *self = value;
+    }
+}
+
+impl CdfSlot for std::mem::MaybeUninit<f64> {
+    #[inline(always)]
+    fn set(&mut self, value: f64) {
+        self.write(value);
+    }
 }
 
 /// The texel value `build` uses: NaN and negatives (including -Inf) are 0 and +Inf is
@@ -244,7 +268,7 @@ fn sanitised(v: f32, sanitize: bool) -> Option<f32> {
 /// faults and 12.6 ms with 2 MiB pages (and 22 ms vs 1 ms to unmap). Advice only: contents are
 /// unchanged, a failure is ignored, and other systems do nothing.
 #[cfg(target_os = "linux")]
-fn advise_huge_pages(buf: &mut [f64]) {
+fn advise_huge_pages<T>(buf: &mut [T]) {
     const PAGE: usize = 4096;
     let bytes = std::mem::size_of_val(buf);
     if bytes < 4 << 20 {
@@ -264,7 +288,7 @@ fn advise_huge_pages(buf: &mut [f64]) {
 }
 
 #[cfg(not(target_os = "linux"))]
-fn advise_huge_pages(_buf: &mut [f64]) {}
+fn advise_huge_pages<T>(_buf: &mut [T]) {}
 
 impl Distribution2D {
     /// Builds the distribution of a one-channel luminance map (rows in parallel).
@@ -291,12 +315,15 @@ impl Distribution2D {
             )));
         }
 
-        // The only buffer of the map's size: written once, row by row (see the module docs).
-        let mut conditional_cdf = vec![0.0f64; h * (w + 1)];
-        advise_huge_pages(&mut conditional_cdf);
+        // The only buffer of the map's size: written once, row by row (see the module docs),
+        // into its uninitialised capacity; its length covers the rows once all are written.
+        let entries = h * (w + 1);
+        let mut conditional_cdf: Vec<f64> = Vec::with_capacity(entries);
+        let spare = &mut conditional_cdf.spare_capacity_mut()[..entries];
+        advise_huge_pages(spare);
 
         // Per row: the sum of its luminance, or the first bad texel (x, value).
-        let rows: Vec<Result<f64, (usize, f32)>> = conditional_cdf
+        let rows: Vec<Result<f64, (usize, f32)>> = spare
             .par_chunks_mut(w + 1)
             .enumerate()
             .map(|(y, crow)| {
@@ -316,6 +343,11 @@ impl Distribution2D {
                 Ok(sum)
             })
             .collect();
+        if rows.iter().all(Result::is_ok) {
+            // SAFETY: every row returned Ok after `write_row_cdf` wrote all its w + 1 entries,
+            // and the rows tile the first `entries` slots of the capacity.
+            unsafe { conditional_cdf.set_len(entries) };
+        }
 
         // Row weights are Y sin(theta_y) (or Y): the sine is constant along a row, so it scales
         // the row's sum and cancels out of its conditional CDF.
@@ -858,6 +890,6 @@ mod tests {
         advise_huge_pages(&mut used);
         assert!(used.iter().enumerate().all(|(i, &v)| v == i as f64));
         advise_huge_pages(&mut used[3..1000]);
-        advise_huge_pages(&mut []);
+        advise_huge_pages::<f64>(&mut []);
     }
 }
