@@ -60,6 +60,12 @@ fn search_from(cdf: &[f64], mut i: usize, u: f64) -> usize {
     while i > 0 && cdf[i] > u {
         i -= 1;
     }
+    // Nearly every search ends within two steps: take those without branches (a step count
+    // that varies from sample to sample is a branch the processor mispredicts), then loop.
+    for _ in 0..2 {
+        let step = ((i + 1 < n) & (cdf[(i + 1).min(n)] <= u)) as usize;
+        i += step;
+    }
     while i + 1 < n && cdf[i + 1] <= u {
         i += 1;
     }
