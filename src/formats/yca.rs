@@ -263,3 +263,51 @@ fn fix_saturation(yw: [f32; 3], rows: [&[Vec<f32>; 3]; 3], line: &mut [f32]) {
         line[3 * x..3 * x + 3].copy_from_slice(&value);
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rec709_luminance_weights() {
+        // ITU-R BT.709's Y row, 0.2126 0.7152 0.0722 (f32 arithmetic: within 1e-4).
+        let yw = luminance_weights_f32(&Primaries::REC709);
+        for (got, want) in yw.iter().zip([0.2126f32, 0.7152, 0.0722]) {
+            assert!((got - want).abs() < 1e-4, "{yw:?}");
+        }
+        assert!((yw.iter().sum::<f32>() - 1.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn zero_chroma_gives_grey_luminance_exactly() {
+        // RY = BY = 0 everywhere: every pixel is (Y, Y, Y) bit for bit (YCAtoRGBA's special
+        // case), and nothing is desaturated.
+        let (w, h) = (10usize, 6usize);
+        let y: Vec<f32> = round_to_half((0..w * h).map(|i| (i as f32 * 0.37).sin().abs() * 8.0).collect());
+        let zero = vec![0.0f32; (w / 2) * (h / 2)];
+        let rgb = YcaPlanes { width: w, height: h, y: &y, ry: &zero, by: &zero }.to_rgb(&Primaries::REC709);
+        for (i, px) in rgb.chunks_exact(3).enumerate() {
+            assert_eq!(px, [y[i]; 3], "pixel {i}");
+        }
+    }
+
+    #[test]
+    fn constant_chroma_reconstructs_to_itself() {
+        // The filters' taps sum to 1 (the horizontal and vertical half-band filters): a constant
+        // chroma plane stays constant, so every pixel gets the same colour as the formula gives
+        // for that chroma, within half rounding.
+        let (w, h) = (32usize, 20usize);
+        let y = vec![0.5f32; w * h];
+        let (ry, by) = (vec![half(0.25); (w / 2) * (h / 2)], vec![half(-0.125); (w / 2) * (h / 2)]);
+        let yw = luminance_weights_f32(&Primaries::REC709);
+        let r = 1.25f32 * 0.5;
+        let b = 0.875f32 * 0.5;
+        let g = (0.5 - r * yw[0] - b * yw[2]) / yw[1];
+        let rgb = YcaPlanes { width: w, height: h, y: &y, ry: &ry, by: &by }.to_rgb(&Primaries::REC709);
+        for px in rgb.chunks_exact(3) {
+            for (got, want) in px.iter().zip([r, g, b]) {
+                assert!((got - want).abs() <= 2e-3 * want.abs(), "{px:?} vs {:?}", [r, g, b]);
+            }
+        }
+    }
+}
