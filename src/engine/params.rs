@@ -457,7 +457,7 @@ macro_rules! choice {
     };
 }
 
-/// Implements [`Choice`] (and [`choice_param!`]) for a type that has its own name table, the
+/// Implements [`Choice`] (and [`crate::choice_param!`]) for a type that has its own name table, the
 /// inherent `NAMES`, `name()` and `from_name()` of enums declared below the engine (in `maths`
 /// and `data`, which do not know it): `choice_by_name!(PerPixelStrategy);` in the operators'
 /// module.

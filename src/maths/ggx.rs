@@ -98,7 +98,7 @@ pub fn v_smith_correlated(nov: f64, nol: f64, alpha: f64) -> f64 {
     }
 }
 
-/// One DFG texel: (scale, bias), or (E[Fc Gv], E[Gv]) for the multiscatter form, at `n.v` and
+/// One DFG texel: (scale, bias), or (`E[Fc Gv]`, `E[Gv]`) for the multiscatter form, at `n.v` and
 /// perceptual roughness.
 pub fn dfg(nov: f64, roughness: f64, pts: &[[f64; 2]], multiscatter: bool) -> [f64; 2] {
     let alpha = roughness * roughness;
@@ -126,8 +126,8 @@ pub fn dfg(nov: f64, roughness: f64, pts: &[[f64; 2]], multiscatter: bool) -> [f
 }
 
 /// The size x size DFG texture: column x is `n.v = (x + 0.5) / size`, row y (row 0 at the top) is
-/// perceptual roughness `(y + 0.5) / size`; channels `R`, `G` = (scale, bias), or (E[Fc Gv],
-/// E[Gv]) with `multiscatter`.
+/// perceptual roughness `(y + 0.5) / size`; channels `R`, `G` = (scale, bias), or (`E[Fc Gv]`,
+/// `E[Gv]`) with `multiscatter`.
 pub fn brdf_lut(size: usize, samples: usize, seq: LobeSequence, multiscatter: bool) -> Image {
     let pts = points(seq, samples);
     let mut data = vec![0.0f32; size * size * 2];

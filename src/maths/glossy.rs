@@ -48,7 +48,7 @@
 //! piecewise-constant function and divides the midpoint error by 64).
 //!
 //! **Random numbers**: each pixel has its own SplitMix64 stream seeded with
-//! [`per_pixel::pixel_seed`]`(seed, pixel index)`; rows run in parallel with rayon and the image
+//! [`crate::maths::per_pixel::pixel_seed`]`(seed, pixel index)`; rows run in parallel with rayon and the image
 //! is a pure function of `seed`, bit for bit, whatever the number of threads.
 
 use std::f64::consts::PI;

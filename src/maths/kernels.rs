@@ -21,7 +21,7 @@
 //!   than 0, so NaN and `-0` give `+0`;
 //! - `acc += c * w` per channel, a product then a sum (no FMA contraction);
 //!
-//! and after the last block sums the 8 lanes in one fixed pairwise order ([`hsum`]). The
+//! and after the last block sums the 8 lanes in one fixed pairwise order (`hsum`). The
 //! kernels are chosen at run time ([`Kernel::detect`]): AVX-512 when the CPU has it (four normals
 //! per pass, two per register, each light block broadcast to both halves), AVX otherwise (two
 //! normals per pass, sharing the light loads), SSE2 otherwise on x86_64 (the baseline), and one portable

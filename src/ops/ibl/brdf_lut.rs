@@ -25,7 +25,7 @@ crate::params! {
         /// importance samples per texel (Hammersley points)
         #[range(1, 1048576)]
         pub samples: usize = 1024,
-        /// false: (scale, bias); true: Filament's multiscatter (E[Fc Gv], E[Gv])
+        /// false: (scale, bias); true: Filament's multiscatter (`E[Fc Gv]`, `E[Gv]`)
         pub multiscatter: bool = false,
     }
 }
