@@ -345,13 +345,17 @@ impl<'a> Scene<'a> {
                         cosine_uniforms[i] = uniforms.pair(j, 1);
                         draws[i] = guided.start(u1, u2);
                     }
+                    // Cosine technique: the directions (arithmetic only, while the guide
+                    // entries arrive) ...
+                    for i in 0..count {
+                        let [u3, u4] = cosine_uniforms[i];
+                        dirs[2 * i + 1] = cosine_in_basis(n, b1, b2, u3, u4);
+                    }
                     for draw in &mut draws[..count] {
                         guided.resume(draw);
                     }
+                    // ... and the texels containing them (while the CDF entries arrive).
                     for i in 0..count {
-                        let [u3, u4] = cosine_uniforms[i];
-                        // Cosine technique: the texel containing the direction.
-                        dirs[2 * i + 1] = cosine_in_basis(n, b1, b2, u3, u4);
                         texels[2 * i + 1] = self.grid.texel_of(dirs[2 * i + 1].to_array());
                         self.prefetch_record(texels[2 * i + 1]);
                     }
