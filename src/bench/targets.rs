@@ -288,6 +288,9 @@ fn reference_against_floor(maps: &[(String, Image)], log: &dyn Fn(&str)) -> Targ
     }
 }
 
+/// The 2048x1024 sky as f32 EXR in the target's folder: what `exr_oiio.py --make` converts.
+const SKY_F32: &str = "sky_f32.exr";
+
 /// The EXR files of target 3b: OpenEXR's own PIZ test image, the shared ZIP map when present, and
 /// 2048x1024 renderings of the built-in sky written by our encoder in ZIP, PIZ and DWAA.
 fn exr_files(data: &Path, dir: &Path) -> Result<Vec<(String, std::path::PathBuf)>, String> {
@@ -302,6 +305,9 @@ fn exr_files(data: &Path, dir: &Path) -> Result<Vec<(String, std::path::PathBuf)
     }
     std::fs::create_dir_all(dir).map_err(|e| e.to_string())?;
     let sky = resize(&crate::formats::builtin::builtin("sky").expect("built-in"), 2048, 1024);
+    // Also kept as f32, the source of the files OpenImageIO writes (not timed itself).
+    std::fs::write(dir.join(SKY_F32), encode_with(&sky, &EncodeOptions::default()).map_err(|e| e.0)?)
+        .map_err(|e| e.to_string())?;
     for (name, compression) in
         [("zip", ExrCompression::Zip), ("piz", ExrCompression::Piz), ("dwaa", ExrCompression::Dwaa)]
     {
@@ -325,10 +331,8 @@ fn exr_against_oiio(
     let dir = std::env::temp_dir().join(format!("hdrflow-bench-exr-{}", std::process::id()));
     let mut files = exr_files(data, &dir)?;
     // Tiled PIZ and ZIP, DWAA and a large scan line file, written by OpenImageIO (not by us)
-    // from the 2048x1024 sky: `exr_oiio.py --make`.
-    let source = dir.join("sky_f32.exr");
-    let sky = resize(&crate::formats::builtin::builtin("sky").expect("built-in"), 2048, 1024);
-    std::fs::write(&source, crate::formats::exr::encode(&sky).map_err(|e| e.0)?).map_err(|e| e.to_string())?;
+    // from the 2048x1024 sky that `exr_files` wrote as f32: `exr_oiio.py --make`.
+    let source = dir.join(SKY_F32);
     let made = std::process::Command::new("python3")
         .arg(&script)
         .arg("--make")

@@ -354,8 +354,10 @@ fn read_part(bytes: &[u8], part: usize, parallel: bool) -> Result<(usize, usize,
             }
         })
         .collect();
-    // Each band's slice of every plane: the channel rows `ceil(y0 / sy) .. ceil(y1 / sy)`.
-    let mut targets: Vec<Vec<(usize, &mut [f32])>> = (0..band_count).map(|_| Vec::new()).collect();
+    // Each band's slice of every plane: the channel rows `ceil(y0 / sy) .. ceil(y1 / sy)`, with
+    // the first row's index and the channel's row width.
+    type BandSlice<'p> = (usize, usize, &'p mut [f32]);
+    let mut targets: Vec<Vec<BandSlice>> = (0..band_count).map(|_| Vec::new()).collect();
     for channel in channels.iter_mut() {
         let (sx, sy) = channel.sampling;
         let cw = w / sx;
@@ -364,20 +366,19 @@ fn read_part(bytes: &[u8], part: usize, parallel: bool) -> Result<(usize, usize,
             let first = (band * band_rows).div_ceil(sy);
             let end = ((band + 1) * band_rows).min(h).div_ceil(sy);
             let (mine, others) = std::mem::take(&mut rest).split_at_mut((end - first) * cw);
-            target.push((first, mine));
+            target.push((first, cw, mine));
             rest = others;
         }
     }
 
-    let decode_band = |(chunks, mut target): (Vec<Chunk>, Vec<(usize, &mut [f32])>)| -> Result<(), FormatError> {
+    let decode_band = |(chunks, mut target): (Vec<Chunk>, Vec<BandSlice>)| -> Result<(), FormatError> {
         let mut bits: Vec<u16> = Vec::new();
         for chunk in chunks {
             let block = UncompressedBlock::decompress_chunk(chunk, &meta, false).map_err(failed)?;
             for line in block.lines(&header.channels) {
                 let index = line.location;
-                let cw = w / channels_sampling(header, index.channel).0;
-                let (first, plane) = &mut target[index.channel];
-                let start = (index.position.1 - *first) * cw + index.position.0;
+                let (first, cw, plane) = &mut target[index.channel];
+                let start = (index.position.1 - *first) * *cw + index.position.0;
                 let out = plane
                     .get_mut(start..start + index.sample_count)
                     .ok_or_else(|| FormatError(format!("EXR block outside part {part}'s data window")))?;
@@ -437,12 +438,6 @@ fn keep_signalling_nans(bits: &[u16], out: &mut [f32]) {
             *o = f32::from_bits((b & 0x8000) << 16 | 0x7f80_0000 | (b & 0x03ff) << 13);
         }
     }
-}
-
-/// A channel's sampling factors, at least 1.
-fn channels_sampling(header: &::exr::meta::header::Header, channel: usize) -> (usize, usize) {
-    let s = header.channels.list[channel].sampling;
-    (s.0.max(1), s.1.max(1))
 }
 
 /// One channel's samples as f32 at full resolution (bilinear upsampling of a subsampled one).
@@ -536,14 +531,13 @@ fn decode_inner(bytes: &[u8], options: &DecodeOptions) -> Result<Image, FormatEr
         interleave(&[Some(r), Some(g), Some(b), plane(&mut list, find("A"))?])
     } else if let Some(yi) = yi {
         let (ryi, byi) = (find("RY"), find("BY"));
-        let sampled_2x2 = |i: Option<usize>| i.is_some_and(|i| samplings[i] == (2, 2));
-        if sampled_2x2(ryi) && sampled_2x2(byi) {
+        let subsampled_chroma = ryi.zip(byi).filter(|&(r, b)| samplings[r] == (2, 2) && samplings[b] == (2, 2));
+        if let Some((ryi, byi)) = subsampled_chroma {
             // What `RgbaOutputFile` writes: OpenEXR's own reconstruction, bit for bit, on the
             // channels rounded to half as its `Rgba` frame buffer holds them.
-            let mut half_plane = |i: Option<usize>| -> Vec<f32> {
-                i.map_or_else(Vec::new, |i| super::yca::round_to_half(std::mem::take(&mut list[i].values)))
-            };
-            let (y, ry, by) = (half_plane(Some(yi)), half_plane(ryi), half_plane(byi));
+            let mut half_plane =
+                |i: usize| -> Vec<f32> { super::yca::round_to_half(std::mem::take(&mut list[i].values)) };
+            let (y, ry, by) = (half_plane(yi), half_plane(ryi), half_plane(byi));
             let chroma = (w / 2) * (h / 2);
             if w % 2 != 0 || h % 2 != 0 || y.len() != pixels || ry.len() != chroma || by.len() != chroma {
                 return Err(FormatError(format!(
@@ -554,8 +548,14 @@ fn decode_inner(bytes: &[u8], options: &DecodeOptions) -> Result<Image, FormatEr
                 )));
             }
             let rgb = super::yca::YcaPlanes { width: w, height: h, y: &y, ry: &ry, by: &by }.to_rgb(&primaries);
-            let plane_of = |k: usize| Some(rgb.iter().skip(k).step_by(3).copied().collect::<Vec<f32>>());
-            interleave(&[plane_of(0), plane_of(1), plane_of(2), plane(&mut list, find("A"))?])
+            match plane(&mut list, find("A"))? {
+                None => (rgb, 3),
+                // Alpha: the one case where the interleaved RGB is split and woven again.
+                Some(a) => {
+                    let channel = |k: usize| Some(rgb.iter().skip(k).step_by(3).copied().collect::<Vec<f32>>());
+                    interleave(&[channel(0), channel(1), channel(2), Some(a)])
+                }
+            }
         } else {
             let y = full_plane(std::mem::take(&mut list[yi]), w, h)?;
             let (ry, by) = (plane(&mut list, ryi)?, plane(&mut list, byi)?);

@@ -16,6 +16,7 @@ use rayon::prelude::*;
 
 use crate::data::distribution::clamp_unit;
 use crate::data::Distribution2D;
+use crate::maths::prefetch;
 
 /// Guide tables over a distribution's marginal CDF (H bins) and each row's conditional CDF (W
 /// bins per row). 4 (W + 1) H bytes.
@@ -91,15 +92,13 @@ impl<'a> GuidedDistribution<'a> {
         GuidedDistribution { dist, marginal_guide, conditional_guide }
     }
 
-    /// The texel `Distribution2D::sample(u1, u2)` draws (without its pdf).
+    /// The texel `Distribution2D::sample(u1, u2)` draws (without its pdf): the three stages
+    /// below, one after the other.
     #[inline(always)]
     pub fn sample(&self, u1: f64, u2: f64) -> (usize, usize) {
-        let (w, h) = (self.dist.width, self.dist.height);
-        let y = guided_search(&self.dist.marginal_cdf, &self.marginal_guide, clamp_unit(u1)).min(h - 1);
-        let x =
-            guided_search(self.dist.conditional_row(y), &self.conditional_guide[y * w..(y + 1) * w], clamp_unit(u2))
-                .min(w - 1);
-        (x, y)
+        let mut draw = self.start(u1, u2);
+        self.resume(&mut draw);
+        self.finish(&draw)
     }
 
     /// [`Self::sample`] in three stages, so that a batch of samples can overlap its memory
@@ -108,11 +107,11 @@ impl<'a> GuidedDistribution<'a> {
     #[inline(always)]
     pub fn start(&self, u1: f64, u2: f64) -> GuidedDraw {
         let (w, h) = (self.dist.width, self.dist.height);
-        let u2 = clamp_unit(u2);
-        let y = guided_search(&self.dist.marginal_cdf, &self.marginal_guide, clamp_unit(u1)).min(h - 1);
+        let (u1, u2) = (clamp_unit(u1), clamp_unit(u2));
+        let y = guided_search(&self.dist.marginal_cdf, &self.marginal_guide, u1).min(h - 1);
         let slot = y * w + bin(u2, w);
         prefetch(&self.conditional_guide[slot]);
-        GuidedDraw { y, slot, u1: clamp_unit(u1), u2 }
+        GuidedDraw { y, slot, u1, u2 }
     }
 
     /// Stage 2: reads the guide entry (its search start) and prefetches the CDF there.
@@ -147,7 +146,7 @@ impl<'a> GuidedDistribution<'a> {
         let remainder = |u: f64, lo: f64, hi: f64| {
             let width = hi - lo;
             if width > 0.0 {
-                ((u - lo) / width).clamp(0.0, 1.0 - f64::EPSILON / 2.0)
+                clamp_unit((u - lo) / width)
             } else {
                 0.5
             }
@@ -166,21 +165,6 @@ pub struct GuidedDraw {
     slot: usize,
     u1: f64,
     u2: f64,
-}
-
-/// Asks the processor to bring `value`'s cache line towards L1 (`prefetcht0`): a hint with no
-/// effect on results. No-op off x86_64.
-#[inline(always)]
-pub fn prefetch<T>(value: &T) {
-    #[cfg(target_arch = "x86_64")]
-    // SAFETY: a prefetch of a valid reference's address; it reads nothing architecturally.
-    #[allow(unused_unsafe)]
-    unsafe {
-        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-        _mm_prefetch::<_MM_HINT_T0>(value as *const T as *const i8);
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = value;
 }
 
 #[cfg(test)]

@@ -45,6 +45,21 @@ pub mod sequences;
 pub mod sh;
 pub mod sun;
 
+/// Asks the processor to bring `value`'s cache line towards L1 (`prefetcht0`): a hint with no
+/// effect on results. No-op off x86_64.
+#[inline(always)]
+pub fn prefetch<T>(value: &T) {
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: a prefetch of a valid reference's address; it reads nothing architecturally.
+    #[allow(unused_unsafe)]
+    unsafe {
+        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+        _mm_prefetch::<_MM_HINT_T0>(value as *const T as *const i8);
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = value;
+}
+
 /// Maps and distributions the unit tests of several modules build alike.
 #[cfg(test)]
 pub(crate) mod test_maps {

@@ -71,7 +71,8 @@ use rayon::prelude::*;
 use crate::data::{Distribution2D, Image};
 use crate::geometry::latlong_grid::{sincos_turns, LatLongGrid};
 use crate::maths::glossy::Heuristic;
-use crate::maths::guide_table::{prefetch, GuidedDistribution, GuidedDraw};
+use crate::maths::guide_table::{GuidedDistribution, GuidedDraw};
+use crate::maths::prefetch;
 use crate::maths::relight::SphereView;
 use crate::maths::sequences::{mix64, nested_uniform_scramble, sobol_2d_bits, SplitMix64};
 
