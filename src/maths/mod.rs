@@ -34,6 +34,7 @@ pub mod fresnel;
 pub mod ggx;
 pub mod glossy;
 pub mod guide_table;
+pub mod hierarchical_warp;
 pub mod irradiance_cube;
 pub mod kernels;
 pub mod per_pixel;

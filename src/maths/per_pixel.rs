@@ -72,6 +72,7 @@ use crate::data::{Distribution2D, Image};
 use crate::geometry::latlong_grid::{sincos_turns, LatLongGrid};
 use crate::maths::glossy::Heuristic;
 use crate::maths::guide_table::{GuidedDistribution, GuidedDraw};
+use crate::maths::hierarchical_warp::{HierarchicalWarp, WarpDraw};
 use crate::maths::prefetch;
 use crate::maths::relight::SphereView;
 use crate::maths::sequences::{mix64, nested_uniform_scramble, sobol_2d_bits, SplitMix64};
@@ -116,12 +117,25 @@ pub(crate) fn sample_cosine(n: DVec3, u1: f64, u2: f64) -> DVec3 {
 }
 
 /// [`sample_cosine`] with the basis computed once per pixel and no libm trigonometry
-/// ([`sincos_turns`]).
+/// ([`sincos_turns`]). The disc point is Shirley and Chiu's concentric map ("A Low Distortion
+/// Map Between Disk and Square", JGT 2(3), 1997; pbrt-v3 `ConcentricSampleDisk`, Mitsuba 3
+/// `square_to_uniform_disk_concentric`): `a = 2 u1 - 1`, `b = 2 u2 - 1`, and for `|a| >= |b|`
+/// `r = a`, `phi = (pi/4)(b/a)`, else `r = b`, `phi = pi/2 - (pi/4)(a/b)`. Same density as the
+/// polar map (`r = sqrt(u1)`, `phi = 2 pi u2`) but it keeps a stratified or low-discrepancy
+/// pair's strata compact on the disc, where the polar map stretches them into thin wedges (per
+/// pixel Sobol errors on the shared maps: BENCHMARKS.md).
 #[inline]
 fn cosine_in_basis(n: DVec3, b1: DVec3, b2: DVec3, u1: f64, u2: f64) -> DVec3 {
-    let r = u1.sqrt();
-    let (s, c) = sincos_turns(u2);
-    let (lx, ly, lz) = (r * c, r * s, (1.0 - u1).max(0.0).sqrt());
+    let (a, b) = (2.0 * u1 - 1.0, 2.0 * u2 - 1.0);
+    let (r, turns) = if a.abs() >= b.abs() {
+        // a = b = 0 gives 0 / 0: the centre, at any angle.
+        (a, if a == 0.0 { 0.0 } else { 0.125 * (b / a) })
+    } else {
+        (b, 0.25 - 0.125 * (a / b))
+    };
+    // turns in [-1/8, 3/8]: into [0, 1) for sincos_turns' fast path.
+    let (s, c) = sincos_turns(if turns < 0.0 { turns + 1.0 } else { turns });
+    let (lx, ly, lz) = (r * c, r * s, (1.0 - r * r).max(0.0).sqrt());
     lx * b1 + ly * b2 + lz * n
 }
 
@@ -148,6 +162,25 @@ named_enum! {
         /// Sobol bits are completed to 53 with random low bits so every texel of positive
         /// probability stays reachable. This is the analogue of Mitsuba's `ldsampler`.
         Sobol,
+    }
+}
+
+named_enum! {
+    /// How the environment technique maps a 2D uniform to a texel (and the point inside it).
+    /// Both draw every texel with the distribution's probability, so the estimator's
+    /// expectation and, with independent uniforms, its whole distribution are the same; they
+    /// differ in how well they carry a low-discrepancy point set's stratification over to the
+    /// map (BENCHMARKS.md measures both with `sequence: Sobol`).
+    pub enum PerPixelWarp {
+        /// Rows by inverting the marginal CDF with `u1`, then the column by inverting the row's
+        /// conditional CDF with `u2`, through guide tables (pbrt's `Distribution2D`): O(1)
+        /// reads per sample, the fastest.
+        Inversion,
+        /// Descending a mip-map of the texel probabilities (Mitsuba 3's `Hierarchical2D`,
+        /// [`HierarchicalWarp`]): each quadrant of the unit square goes to a compact part of
+        /// the map, so Sobol points stay evenly spread over it (on Grace, half the error of
+        /// `Inversion` for `Environment` at 1024 spp); one step per mip level, so slower.
+        Hierarchical,
     }
 }
 
@@ -238,7 +271,61 @@ struct Scene<'a> {
     grid: LatLongGrid,
     /// Empty for the strategies that need no density (`Cosine`, `Uniform`: they read `env`).
     records: Vec<TexelRecord>,
-    guided: Option<GuidedDistribution<'a>>,
+    /// How the environment technique draws its texel; `None` for `Cosine` and `Uniform`.
+    texels: Option<TexelSampler<'a>>,
+}
+
+/// The environment technique's texel sampler, one per [`PerPixelWarp`].
+enum TexelSampler<'a> {
+    Guided(GuidedDistribution<'a>),
+    Hierarchical(HierarchicalWarp),
+}
+
+/// A batch's texel draws between the stages of a [`TexelSampler`].
+struct BatchDraws {
+    guided: [GuidedDraw; BATCH],
+    warp: [WarpDraw; BATCH],
+}
+
+impl TexelSampler<'_> {
+    /// Stage 1 of sample `i`'s draw (prefetches what stage 2 reads).
+    #[inline(always)]
+    fn start(&self, draws: &mut BatchDraws, i: usize, u1: f64, u2: f64) {
+        match self {
+            TexelSampler::Guided(g) => draws.guided[i] = g.start(u1, u2),
+            TexelSampler::Hierarchical(h) => draws.warp[i] = h.start(u1, u2),
+        }
+    }
+
+    /// Stage 2 for the batch's first `count` draws.
+    #[inline(always)]
+    fn resume(&self, draws: &mut BatchDraws, count: usize) {
+        match self {
+            TexelSampler::Guided(g) => draws.guided[..count].iter_mut().for_each(|d| g.resume(d)),
+            TexelSampler::Hierarchical(h) => h.descend(&mut draws.warp[..count]),
+        }
+    }
+
+    /// Draw `i`'s texel and where it fell inside, `(x, y, rx, ry)` (uniform given the texel).
+    #[inline(always)]
+    fn finish(&self, draws: &BatchDraws, i: usize) -> (usize, usize, f64, f64) {
+        match self {
+            TexelSampler::Guided(g) => g.finish_continuous(&draws.guided[i]),
+            TexelSampler::Hierarchical(h) => h.finish(&draws.warp[i]),
+        }
+    }
+
+    /// Draw `i`'s texel alone (for the discrete `Environment` technique).
+    #[inline(always)]
+    fn finish_texel(&self, draws: &BatchDraws, i: usize) -> (usize, usize) {
+        match self {
+            TexelSampler::Guided(g) => g.finish(&draws.guided[i]),
+            TexelSampler::Hierarchical(h) => {
+                let (x, y, _, _) = h.finish(&draws.warp[i]);
+                (x, y)
+            }
+        }
+    }
 }
 
 impl<'a> Scene<'a> {
@@ -246,7 +333,7 @@ impl<'a> Scene<'a> {
     /// `P(texel) / dOmega_mid` (the pdf of `Distribution2D::sample`), for `Mis` the continuous
     /// technique's `P(texel) / dOmega_exact`; 0 where that is not a positive finite number.
     /// Built only for the strategies that draw from the distribution.
-    fn new(env: &'a Image, dist: &'a Distribution2D, strategy: PerPixelStrategy) -> Scene<'a> {
+    fn new(env: &'a Image, dist: &'a Distribution2D, strategy: PerPixelStrategy, warp: PerPixelWarp) -> Scene<'a> {
         let (w, h) = (env.width, env.height);
         let grid = LatLongGrid::new(w, h);
         let uses_distribution = strategy.uses_distribution();
@@ -262,8 +349,11 @@ impl<'a> Scene<'a> {
                     TexelRecord { radiance: env.rgb(x, y), pdf: if p.is_finite() && p > 0.0 { p as f32 } else { 0.0 } };
             }
         });
-        let guided = uses_distribution.then(|| GuidedDistribution::new(dist));
-        Scene { env, grid, records, guided }
+        let texels = uses_distribution.then(|| match warp {
+            PerPixelWarp::Inversion => TexelSampler::Guided(GuidedDistribution::new(dist)),
+            PerPixelWarp::Hierarchical => TexelSampler::Hierarchical(HierarchicalWarp::new(dist)),
+        });
+        Scene { env, grid, records, texels }
     }
 
     #[inline]
@@ -302,7 +392,7 @@ impl<'a> Scene<'a> {
         let mut dirs = [DVec3::ZERO; 2 * BATCH];
         let mut texels = [(0usize, 0usize); 2 * BATCH];
         let mut cosine_uniforms = [[0.0f64; 2]; BATCH];
-        let mut draws = [GuidedDraw::default(); BATCH];
+        let mut draws = BatchDraws { guided: [GuidedDraw::default(); BATCH], warp: [WarpDraw::default(); BATCH] };
         for start in (0..spp).step_by(BATCH) {
             let count = BATCH.min(spp - start);
             // Stage 1: directions and the texels they fall in (no reads of the records). The
@@ -310,16 +400,14 @@ impl<'a> Scene<'a> {
             // cache misses overlap.
             match strategy {
                 PerPixelStrategy::Environment => {
-                    let guided = self.guided.as_ref().expect("built for this strategy");
+                    let sampler = self.texels.as_ref().expect("built for this strategy");
                     for i in 0..count {
                         let [u1, u2] = uniforms.pair(start + i, 0);
-                        draws[i] = guided.start(u1, u2);
+                        sampler.start(&mut draws, i, u1, u2);
                     }
-                    for draw in &mut draws[..count] {
-                        guided.resume(draw);
-                    }
+                    sampler.resume(&mut draws, count);
                     for i in 0..count {
-                        texels[i] = guided.finish(&draws[i]);
+                        texels[i] = sampler.finish_texel(&draws, i);
                         self.prefetch_record(texels[i]);
                     }
                     for i in 0..count {
@@ -338,7 +426,7 @@ impl<'a> Scene<'a> {
                     }
                 }
                 PerPixelStrategy::Mis => {
-                    let guided = self.guided.as_ref().expect("built for this strategy");
+                    let sampler = self.texels.as_ref().expect("built for this strategy");
                     // The environment technique's texel search runs in stages between which
                     // the batch's reads are prefetched (see `GuidedDistribution::start`); the
                     // cosine technique's arithmetic fills the wait.
@@ -346,7 +434,7 @@ impl<'a> Scene<'a> {
                         let j = start + i;
                         let [u1, u2] = uniforms.pair(j, 0);
                         cosine_uniforms[i] = uniforms.pair(j, 1);
-                        draws[i] = guided.start(u1, u2);
+                        sampler.start(&mut draws, i, u1, u2);
                     }
                     // Cosine technique: the directions (arithmetic only, while the guide
                     // entries arrive) ...
@@ -354,9 +442,7 @@ impl<'a> Scene<'a> {
                         let [u3, u4] = cosine_uniforms[i];
                         dirs[2 * i + 1] = cosine_in_basis(n, b1, b2, u3, u4);
                     }
-                    for draw in &mut draws[..count] {
-                        guided.resume(draw);
-                    }
+                    sampler.resume(&mut draws, count);
                     // ... and the texels containing them (while the CDF entries arrive).
                     for i in 0..count {
                         texels[2 * i + 1] = self.grid.texel_of(dirs[2 * i + 1].to_array());
@@ -364,8 +450,8 @@ impl<'a> Scene<'a> {
                     }
                     for i in 0..count {
                         // Environment technique: the texel and, from where (u1, u2) fell in
-                        // its intervals, a point uniform in solid angle inside it.
-                        let (x, y, rx, ry) = guided.finish_continuous(&draws[i]);
+                        // it, a point uniform in solid angle inside it.
+                        let (x, y, rx, ry) = sampler.finish(&draws, i);
                         texels[2 * i] = (x, y);
                         self.prefetch_record((x, y));
                         dirs[2 * i] = DVec3::from(self.grid.point_in_texel(x, y, rx, ry));
@@ -421,6 +507,8 @@ pub struct PerPixelOptions {
     /// heuristic (exponent 2, Veach 1997 section 9.2.2; Mitsuba's `direct` integrator), whose
     /// sample weights are `f p_own / (p_e^2 + p_c^2)`.
     pub heuristic: Heuristic,
+    /// `Environment` and `Mis` only: how a uniform pair becomes a texel.
+    pub warp: PerPixelWarp,
     pub spp: usize,
     pub seed: u64,
 }
@@ -436,8 +524,14 @@ pub fn relight_per_pixel(
     spp: usize,
     seed: u64,
 ) -> Image {
-    let options =
-        PerPixelOptions { strategy, sequence: PerPixelSequence::Random, heuristic: Heuristic::Balance, spp, seed };
+    let options = PerPixelOptions {
+        strategy,
+        sequence: PerPixelSequence::Random,
+        heuristic: Heuristic::Balance,
+        warp: PerPixelWarp::Inversion,
+        spp,
+        seed,
+    };
     relight_per_pixel_with(env, dist, view, albedo, &options)
 }
 
@@ -461,28 +555,57 @@ pub fn relight_per_pixel_with(
     albedo: [f64; 3],
     options: &PerPixelOptions,
 ) -> Image {
-    let PerPixelOptions { strategy, sequence, heuristic, spp, seed } = *options;
-    if strategy.uses_distribution() {
-        assert_distribution_of(dist, env);
-    }
-    let size = view.size;
-    let mut image = Image::new(size, size, 3);
-    if size == 0 || env.width == 0 || env.height == 0 {
-        return image;
-    }
-    let scene = Scene::new(env, dist, strategy);
-    let scale = albedo.map(|a| a / PI);
-    image.data.par_chunks_mut(size * 3).enumerate().for_each(|(py, row)| {
-        for px in 0..size {
-            let Some(n) = view.normal_at(px, py) else { continue };
-            let mut uniforms = PixelUniforms::new(sequence, pixel_seed(seed, (py * size + px) as u64));
-            let e = scene.estimate_irradiance(DVec3::from(n), strategy, heuristic, spp, &mut uniforms);
-            for ch in 0..3 {
-                row[px * 3 + ch] = (scale[ch] * e[ch]) as f32;
-            }
+    let renderer = PerPixelRenderer::new(env, dist, options.strategy, options.sequence, options.warp);
+    renderer.render(view, albedo, options.heuristic, options.spp, options.seed)
+}
+
+/// The per-map half of [`relight_per_pixel_with`]: the texel records and the environment
+/// technique's sampler, built once (about 5 ms on a 1024x512 map here) and then shared by any
+/// number of renders of that map, as a renderer loads its scene once. The benchmark times
+/// [`Self::render`] alone, as Mitsuba's peer times `mi.render` after loading the scene.
+pub struct PerPixelRenderer<'a> {
+    scene: Scene<'a>,
+    strategy: PerPixelStrategy,
+    sequence: PerPixelSequence,
+}
+
+impl<'a> PerPixelRenderer<'a> {
+    /// Panics if the strategy uses `dist` and `dist` is not over a map of `env`'s size (the
+    /// operator checks this first).
+    pub fn new(
+        env: &'a Image,
+        dist: &'a Distribution2D,
+        strategy: PerPixelStrategy,
+        sequence: PerPixelSequence,
+        warp: PerPixelWarp,
+    ) -> PerPixelRenderer<'a> {
+        if strategy.uses_distribution() {
+            assert_distribution_of(dist, env);
         }
-    });
-    image
+        PerPixelRenderer { scene: Scene::new(env, dist, strategy, warp), strategy, sequence }
+    }
+
+    /// [`relight_per_pixel_with`] with this renderer's strategy, sequence and warp.
+    pub fn render(&self, view: &SphereView, albedo: [f64; 3], heuristic: Heuristic, spp: usize, seed: u64) -> Image {
+        let (strategy, sequence, scene) = (self.strategy, self.sequence, &self.scene);
+        let size = view.size;
+        let mut image = Image::new(size, size, 3);
+        if size == 0 || scene.env.width == 0 || scene.env.height == 0 {
+            return image;
+        }
+        let scale = albedo.map(|a| a / PI);
+        image.data.par_chunks_mut(size * 3).enumerate().for_each(|(py, row)| {
+            for px in 0..size {
+                let Some(n) = view.normal_at(px, py) else { continue };
+                let mut uniforms = PixelUniforms::new(sequence, pixel_seed(seed, (py * size + px) as u64));
+                let e = scene.estimate_irradiance(DVec3::from(n), strategy, heuristic, spp, &mut uniforms);
+                for ch in 0..3 {
+                    row[px * 3 + ch] = (scale[ch] * e[ch]) as f32;
+                }
+            }
+        });
+        image
+    }
 }
 
 #[cfg(test)]
@@ -623,17 +746,27 @@ mod tests {
                 sum3(areas),
                 sum3(centres) / sum3(areas) - 1.0
             );
-            let mut configurations: Vec<(PerPixelStrategy, PerPixelSequence, Heuristic)> = PerPixelStrategy::ALL
-                .into_iter()
-                .flat_map(|s| PerPixelSequence::ALL.map(|q| (s, q, Heuristic::Balance)))
-                .collect();
-            configurations.extend(PerPixelSequence::ALL.map(|q| (PerPixelStrategy::Mis, q, Heuristic::Power)));
-            for (s, q, h) in configurations {
+            let inversion = PerPixelWarp::Inversion;
+            let mut configurations: Vec<(PerPixelStrategy, PerPixelSequence, Heuristic, PerPixelWarp)> =
+                PerPixelStrategy::ALL
+                    .into_iter()
+                    .flat_map(|s| PerPixelSequence::ALL.map(|q| (s, q, Heuristic::Balance, inversion)))
+                    .collect();
+            configurations
+                .extend(PerPixelSequence::ALL.map(|q| (PerPixelStrategy::Mis, q, Heuristic::Power, inversion)));
+            // The hierarchical warp draws the same texels with the same probabilities.
+            let hierarchical = PerPixelWarp::Hierarchical;
+            configurations.extend([
+                (PerPixelStrategy::Environment, PerPixelSequence::Sobol, Heuristic::Balance, hierarchical),
+                (PerPixelStrategy::Mis, PerPixelSequence::Random, Heuristic::Balance, hierarchical),
+                (PerPixelStrategy::Mis, PerPixelSequence::Sobol, Heuristic::Power, hierarchical),
+            ]);
+            for (s, q, h, warp) in configurations {
                 let want = if s == PerPixelStrategy::Environment { sum3(centres) } else { sum3(areas) };
                 let mut m = 0.0f64;
                 let mut m2 = 0.0f64;
                 for seed in 0..seeds {
-                    let options = PerPixelOptions { strategy: s, sequence: q, heuristic: h, spp, seed };
+                    let options = PerPixelOptions { strategy: s, sequence: q, heuristic: h, warp, spp, seed };
                     let img = relight_per_pixel_with(&env, &dist, &view, [1.0; 3], &options);
                     let p = img.pixel(px, py);
                     let v = (p[0] + p[1] + p[2]) as f64;
@@ -644,8 +777,10 @@ mod tests {
                 let var = (m2 / seeds as f64 - mean * mean) * seeds as f64 / (seeds - 1) as f64;
                 let se = (var / seeds as f64).sqrt();
                 let z = (mean - want) / se;
-                eprintln!("  {s:?} {q:?} {h:?}: mean {mean:.6}, want {want:.6}, standard error {se:.2e}, z = {z:+.2}");
-                assert!(z.abs() < 3.5, "{s:?} {q:?} {h:?} pixel ({px},{py}): z = {z}");
+                eprintln!(
+                    "  {s:?} {q:?} {h:?} {warp:?}: mean {mean:.6}, want {want:.6}, standard error {se:.2e}, z = {z:+.2}"
+                );
+                assert!(z.abs() < 3.5, "{s:?} {q:?} {h:?} {warp:?} pixel ({px},{py}): z = {z}");
                 assert!(se < 0.02 * want, "{s:?}: the test is too weak (se {se})");
             }
         }
@@ -659,9 +794,13 @@ mod tests {
         let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
         let two = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap();
         for s in PerPixelStrategy::ALL {
-            for (q, h) in PerPixelSequence::ALL.into_iter().flat_map(|q| Heuristic::ALL.map(|h| (q, h))) {
+            let variants = PerPixelSequence::ALL
+                .into_iter()
+                .flat_map(|q| Heuristic::ALL.map(|h| (q, h)))
+                .flat_map(|(q, h)| PerPixelWarp::ALL.map(|warp| (q, h, warp)));
+            for (q, h, warp) in variants {
                 let render = |seed| {
-                    let options = PerPixelOptions { strategy: s, sequence: q, heuristic: h, spp: 5, seed };
+                    let options = PerPixelOptions { strategy: s, sequence: q, heuristic: h, warp, spp: 5, seed };
                     relight_per_pixel_with(&env, &dist, &view, [0.9, 0.7, 0.5], &options)
                 };
                 let a = one.install(|| render(99));
@@ -723,7 +862,12 @@ mod tests {
                 } else {
                     Heuristic::Balance
                 };
-                let options = PerPixelOptions { strategy: s, sequence: q, heuristic, spp: 1024, seed: 1 };
+                // HDRFLOW_PER_PIXEL_WARP=Hierarchical: the hierarchical warp.
+                let warp = std::env::var("HDRFLOW_PER_PIXEL_WARP")
+                    .ok()
+                    .and_then(|w| PerPixelWarp::from_name(&w))
+                    .unwrap_or(PerPixelWarp::Inversion);
+                let options = PerPixelOptions { strategy: s, sequence: q, heuristic, warp, spp: 1024, seed: 1 };
                 std::hint::black_box(relight_per_pixel_with(&env, &dist, &view, [0.8; 3], &options));
                 eprintln!(
                     "per-pixel {s:?} {q:?} 128x128 x 1024 spp on {}x{}: {:.3} s",

@@ -15,7 +15,7 @@ pub mod sh_sphere;
 use crate::engine::registry::Registry;
 use crate::geometry::latlong;
 use crate::maths::glossy::{GlossyStrategy, Heuristic};
-use crate::maths::per_pixel::{PerPixelSequence, PerPixelStrategy};
+use crate::maths::per_pixel::{PerPixelSequence, PerPixelStrategy, PerPixelWarp};
 use crate::maths::relight::SphereView;
 
 pub fn register(r: &mut Registry) {
@@ -89,5 +89,6 @@ pub(crate) fn sphere_view(size: usize, view: [f64; 2]) -> SphereView {
 
 crate::choice_by_name!(PerPixelStrategy);
 crate::choice_by_name!(PerPixelSequence);
+crate::choice_by_name!(PerPixelWarp);
 crate::choice_by_name!(GlossyStrategy);
 crate::choice_by_name!(Heuristic);

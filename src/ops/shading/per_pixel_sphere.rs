@@ -1,4 +1,4 @@
-//! `PerPixelSphere(env, cdf, size: 256, albedo, view, strategy: Environment, sequence: Random, heuristic: Balance, spp: 16, seed: 1)`:
+//! `PerPixelSphere(env, cdf, size: 256, albedo, view, strategy: Environment, sequence: Random, heuristic: Balance, warp: Inversion, spp: 16, seed: 1)`:
 //! the diffuse sphere rendered as a path tracer renders direct lighting, every pixel with its
 //! own `spp` independent samples (`maths::per_pixel`):
 //! `Lo = (albedo / pi) (1/spp) sum_j L(w_j) max(n.w_j, 0) / pdf(w_j)`.
@@ -10,6 +10,10 @@
 //!
 //! `sequence: Sobol` draws each pixel's uniforms from Owen-scrambled Sobol points instead of
 //! independent random numbers (as Mitsuba's `ldsampler`): same expectation, lower error.
+//! `warp: Hierarchical` draws the environment's texels by descending a mip-map of their
+//! probabilities (as Mitsuba's envmap) instead of inverting CDFs: the same probabilities, so
+//! the same result distribution with `Random`, but with `Sobol` the points stay spread over the
+//! map's area (lower error on detailed maps such as Grace; slower per sample).
 //!
 //! `Cosine`, `Uniform` and `Mis` look up the texel containing each direction, so their
 //! expectation is the integral over exact texel areas, which differs from `ReferenceSphere` by
@@ -25,7 +29,9 @@ use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Persist};
 use crate::engine::params::Rgb;
 use crate::engine::value::Value;
 use crate::maths::glossy::Heuristic;
-use crate::maths::per_pixel::{relight_per_pixel_with, PerPixelOptions, PerPixelSequence, PerPixelStrategy};
+use crate::maths::per_pixel::{
+    relight_per_pixel_with, PerPixelOptions, PerPixelSequence, PerPixelStrategy, PerPixelWarp,
+};
 use crate::types::ty::*;
 
 super::sphere_params! {
@@ -36,6 +42,8 @@ super::sphere_params! {
         pub sequence: PerPixelSequence = PerPixelSequence::Random,
         /// Mis only: Balance or Power heuristic (Mitsuba's direct integrator uses Power)
         pub heuristic: Heuristic = Heuristic::Balance,
+        /// Environment and Mis: Inversion (CDF inversion through guide tables, fastest) or Hierarchical (mip-map descent as Mitsuba's envmap, better with Sobol)
+        pub warp: PerPixelWarp = PerPixelWarp::Inversion,
         /// samples per pixel (Mis: pairs)
         #[range(1, 1 << 20)]
         pub spp: usize = 16,
@@ -75,6 +83,7 @@ fn eval(ctx: &mut OpContext, p: PerPixelParams) -> Result<Value, OpError> {
         strategy: p.strategy,
         sequence: p.sequence,
         heuristic: p.heuristic,
+        warp: p.warp,
         spp: p.spp,
         seed: p.seed,
     };

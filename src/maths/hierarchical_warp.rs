@@ -1,0 +1,360 @@
+//! `HierarchicalWarp`: a [`Distribution2D`]'s texels drawn by descending a mip-map of their
+//! probabilities, as Mitsuba 3's `Hierarchical2D` warp does (its envmap emitter's sampler; the
+//! method is Clarberg et al., "Wavelet importance sampling", SIGGRAPH 2005, section 4, and
+//! McCool and Harwood, "Probability trees", 1997).
+//!
+//! Level 0 holds every texel's probability `P(x, y)` ([`Distribution2D::texel_probability`]),
+//! padded with zeros to power-of-two sides; each coarser level sums 2x2 blocks (2x1 once one side
+//! is 1) until one value is left. A draw starts at the top with `(ux, uy)` and at each level
+//! chooses the block's row with `uy` (in proportion to the two rows' sums) and then the column in
+//! that row with `ux`, rescaling the chosen uniform to the chosen part, `u <- (u - c0) / c1`; at
+//! level 0 the rescaled `(ux, uy)` are where the point fell inside the texel.
+//!
+//! The texel probabilities are the same as inversion's ([`super::guide_table`]): the product of
+//! the ratios along the path telescopes to `P(x, y) / total`. Only the map from the unit square
+//! to the texels differs: inversion sends a horizontal band of `u1` to a band of rows and `u2`
+//! to columns row by row, whereas the descent sends each quadrant of the unit square to a
+//! spatially compact part of the map (a quadtree node). A low-discrepancy 2D point set, whose
+//! every elementary box of area `1/N` holds one point, therefore stays evenly spread over the
+//! map's area at every scale, which is what a smooth integrand (a cosine lobe times the map)
+//! rewards. With independent uniforms both warps give the same estimator distribution, so
+//! per-pixel sampling uses this one with Sobol points only (BENCHMARKS.md has the errors).
+//!
+//! Values are f32 (as Mitsuba's): half the memory traffic of f64. Each level's sum rounds once,
+//! so the probability the descent gives a texel differs from `P(x, y)` by a relative
+//! `(levels + 1) * 2^-24` at most (about 7e-7 on a 1024x512 map; a test checks it), which is
+//! the bias of an estimator that divides by the exact `P`. Blocks are stored contiguously (the
+//! four values a step reads share one 16-byte slot), so a step costs one memory read.
+
+use rayon::prelude::*;
+
+use crate::data::distribution::clamp_unit;
+use crate::data::Distribution2D;
+use crate::maths::prefetch;
+
+/// One level: `width x height` values (powers of two), stored block by block, each block
+/// `block_w x block_h` (2x2, or 2x1 / 1x2 once a side is 1) in row-major order inside.
+struct Level {
+    width: usize,
+    height: usize,
+    /// `width / block_w`, kept so that a step does no integer division.
+    blocks_per_row: usize,
+    values: Vec<f32>,
+}
+
+impl Level {
+    fn new(width: usize, height: usize) -> Level {
+        Level { width, height, blocks_per_row: width / width.min(2), values: vec![0.0; width * height] }
+    }
+
+    #[inline(always)]
+    fn block_dims(&self) -> (usize, usize) {
+        (self.width.min(2), self.height.min(2))
+    }
+
+    /// Where block `(bx, by)` (the children of node `(bx, by)` one level up) starts.
+    #[inline(always)]
+    fn block_start(&self, bx: usize, by: usize) -> usize {
+        let (bw, bh) = self.block_dims();
+        (by * self.blocks_per_row + bx) * (bw * bh)
+    }
+
+    /// Where value `(x, y)` is stored.
+    #[inline(always)]
+    fn index(&self, x: usize, y: usize) -> usize {
+        let (bw, bh) = self.block_dims();
+        ((y / bh) * (self.width / bw) + x / bw) * (bw * bh) + (y % bh) * bw + x % bw
+    }
+}
+
+/// The probability pyramid of a distribution (see the module documentation). About
+/// `4/3 * 4 * W' H'` bytes for power-of-two sides `W' >= W`, `H' >= H`.
+pub struct HierarchicalWarp {
+    /// `levels[0]` is the finest (texel) level; the last has one block (the top's children).
+    levels: Vec<Level>,
+    /// The map's size (level 0 may be padded beyond it).
+    width: usize,
+    height: usize,
+}
+
+/// A draw between [`HierarchicalWarp::start`] and [`HierarchicalWarp::finish`]: the node
+/// reached so far (at the level above the next step) and the rescaled uniforms.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct WarpDraw {
+    x: usize,
+    y: usize,
+    ux: f64,
+    uy: f64,
+}
+
+/// Chooses between two parts of masses `c0` and `c1` with `u` in [0, 1): whether the second
+/// was chosen, and the offset and width of the chosen part in `s = u (c0 + c1)`, from which
+/// `u` rescaled to that part is `(s - offset) / width`. A part of zero mass is never chosen (the
+/// parent's mass is positive when the descent reaches it, so one of the two is positive).
+/// Without branches: the choice is a coin flip the processor could not predict.
+#[inline(always)]
+fn choose(u: f64, c0: f64, c1: f64) -> (bool, f64, f64) {
+    let s = u * (c0 + c1);
+    let second = ((s >= c0) & (c1 > 0.0)) | (c0 <= 0.0);
+    // Selected by multiplying with 0 or 1 (exact: one term is 0, the other unchanged). Written
+    // as `if` or as bit masks, the compiler emits a branch, which the processor mispredicts
+    // half the time.
+    let (on, off) = (second as u8 as f64, (!second) as u8 as f64);
+    let offset = c0 * on;
+    let width = c1 * on + c0 * off;
+    (second, s - offset, width)
+}
+
+/// `numerator / width` as a uniform in [0, 1) (0.5 for an empty part, which only rounding can
+/// reach).
+#[inline(always)]
+fn rescale(numerator: f64, width: f64) -> f64 {
+    if width > 0.0 {
+        clamp_unit(numerator / width)
+    } else {
+        0.5
+    }
+}
+
+impl HierarchicalWarp {
+    /// Builds the pyramid from `dist`'s texel probabilities (level 0's rows in parallel).
+    pub fn new(dist: &Distribution2D) -> HierarchicalWarp {
+        let (w, h) = (dist.width, dist.height);
+        let (pw, ph) = (w.max(1).next_power_of_two(), h.max(1).next_power_of_two());
+        let mut finest = Level::new(pw, ph);
+        {
+            // Rows of blocks in parallel: block row `by` holds texel rows `by * bh ..`.
+            let (bw, bh) = finest.block_dims();
+            let blocks_per_row = pw / bw;
+            finest.values.par_chunks_mut(blocks_per_row * bw * bh).enumerate().for_each(|(by, chunk)| {
+                for dy in 0..bh {
+                    let y = by * bh + dy;
+                    if y >= h {
+                        continue;
+                    }
+                    for x in 0..w {
+                        chunk[(x / bw) * (bw * bh) + dy * bw + x % bw] = dist.texel_probability(x, y) as f32;
+                    }
+                }
+            });
+        }
+        let mut levels = vec![finest];
+        // Sum blocks until the last level is one block (the top's children).
+        loop {
+            let fine = levels.last().expect("level 0 is there");
+            let (bw, bh) = fine.block_dims();
+            let (cw, ch) = (fine.width / bw, fine.height / bh);
+            if cw * ch == 1 {
+                break;
+            }
+            let mut coarse = Level::new(cw, ch);
+            for cy in 0..ch {
+                for cx in 0..cw {
+                    // Block (cx, cy) of the fine level is its bw*bh consecutive values.
+                    let block = cy * cw + cx;
+                    let sum: f64 = fine.values[block * bw * bh..(block + 1) * bw * bh].iter().map(|&v| v as f64).sum();
+                    let at = coarse.index(cx, cy);
+                    coarse.values[at] = sum as f32;
+                }
+            }
+            levels.push(coarse);
+        }
+        HierarchicalWarp { levels, width: w, height: h }
+    }
+
+    /// Number of levels (for the bias bound of the module documentation).
+    pub fn level_count(&self) -> usize {
+        self.levels.len()
+    }
+
+    /// Starts a draw at the top of the pyramid with `u1` choosing rows and `u2` columns (the
+    /// roles they have in inversion), clamped to [0, 1).
+    #[inline(always)]
+    pub fn start(&self, u1: f64, u2: f64) -> WarpDraw {
+        WarpDraw { x: 0, y: 0, ux: clamp_unit(u2), uy: clamp_unit(u1) }
+    }
+
+    /// One step down: from a node of level `level + 1` (or the top) to its child at `level`,
+    /// then a prefetch of that child's block one level further down.
+    #[inline(always)]
+    fn step(&self, level: usize, draw: &mut WarpDraw) {
+        let l = &self.levels[level];
+        let (bw, bh) = l.block_dims();
+        let base = l.block_start(draw.x, draw.y);
+        let v = |i: usize| l.values[base + i] as f64;
+        let (mut x, mut y) = (draw.x * bw, draw.y * bh);
+        if bh == 2 && bw == 2 {
+            // The row with `uy`, then the column in that row with `ux`; the two rescalings
+            // share one division, `1 / (wy wx)` (a division costs several multiplications).
+            let (r0, r1) = (v(0) + v(1), v(2) + v(3));
+            let (down, ny, wy) = choose(draw.uy, r0, r1);
+            let row = 2 * down as usize;
+            let (right, nx, wx) = choose(draw.ux, v(row), v(row + 1));
+            if wy > 0.0 && wx > 0.0 {
+                let inv = 1.0 / (wy * wx);
+                draw.uy = clamp_unit(ny * wx * inv);
+                draw.ux = clamp_unit(nx * wy * inv);
+            } else {
+                draw.uy = rescale(ny, wy);
+                draw.ux = rescale(nx, wx);
+            }
+            y += down as usize;
+            x += right as usize;
+        } else if bh == 2 {
+            let (down, ny, wy) = choose(draw.uy, v(0), v(1));
+            draw.uy = rescale(ny, wy);
+            y += down as usize;
+        } else if bw == 2 {
+            let (right, nx, wx) = choose(draw.ux, v(0), v(1));
+            draw.ux = rescale(nx, wx);
+            x += right as usize;
+        }
+        draw.x = x;
+        draw.y = y;
+        if level > 0 {
+            let below = &self.levels[level - 1];
+            prefetch(&below.values[below.block_start(x, y)]);
+        }
+    }
+
+    /// Descends every draw of a batch level by level, so the batch's reads of one level are in
+    /// flight together (each step prefetches the next level's block).
+    #[inline]
+    pub fn descend(&self, draws: &mut [WarpDraw]) {
+        for level in (0..self.levels.len()).rev() {
+            for draw in draws.iter_mut() {
+                self.step(level, draw);
+            }
+        }
+    }
+
+    /// The texel a descended draw reached and where it fell inside: `(x, y, rx, ry)`, with
+    /// `(rx, ry)` uniform on [0, 1)^2 given the texel (each step's rescaling is the inversion
+    /// of a two-point distribution). The texel is inside the map (padding has zero mass; a
+    /// map that carries no light is uniform, so its padding is never reached either).
+    #[inline(always)]
+    pub fn finish(&self, draw: &WarpDraw) -> (usize, usize, f64, f64) {
+        (draw.x.min(self.width.saturating_sub(1)), draw.y.min(self.height.saturating_sub(1)), draw.ux, draw.uy)
+    }
+
+    /// One draw, all stages: `(x, y, rx, ry)` (see [`Self::finish`]).
+    pub fn sample(&self, u1: f64, u2: f64) -> (usize, usize, f64, f64) {
+        let mut draw = [self.start(u1, u2)];
+        self.descend(&mut draw);
+        self.finish(&draw[0])
+    }
+
+    /// The probability that a draw reaches texel `(x, y)`: the product of the ratios of the
+    /// masses along its path (what the descent's choices give, including the f32 roundings).
+    pub fn texel_probability(&self, x: usize, y: usize) -> f64 {
+        let mut p = 1.0;
+        let (mut cx, mut cy) = (x, y);
+        for l in &self.levels {
+            let (bw, bh) = l.block_dims();
+            let (bx, by) = (cx / bw, cy / bh);
+            let base = l.block_start(bx, by);
+            let total: f64 = l.values[base..base + bw * bh].iter().map(|&v| v as f64).sum();
+            let own = l.values[l.index(cx, cy)] as f64;
+            if total <= 0.0 {
+                return 0.0;
+            }
+            p *= own / total;
+            cx = bx;
+            cy = by;
+        }
+        p
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::data::Image;
+    use crate::maths::sequences::SplitMix64;
+
+    fn maps() -> Vec<Image> {
+        let mut rng = SplitMix64::new(3);
+        let map = |w: usize, h: usize, f: &mut dyn FnMut(usize, usize) -> f32| {
+            let data = (0..w * h).map(|i| f(i % w, i / w)).collect();
+            Image::from_vec(w, h, 1, data)
+        };
+        vec![
+            map(37, 19, &mut |x, y| if y % 3 == 0 || x % 5 == 1 { 0.0 } else { (x * y) as f32 }),
+            map(64, 32, &mut |x, y| if (x, y) == (40, 10) { 1e6 } else { 1e-3 }),
+            map(16, 8, &mut |x, _| if x < 15 { 0.0 } else { 1.0 }),
+            map(128, 64, &mut |_, _| rng.next_f64() as f32 * 10.0),
+            map(32, 16, &mut |_, _| 0.0),
+            map(8, 32, &mut |x, y| (x + y) as f32),
+            map(1, 1, &mut |_, _| 2.0),
+            map(5, 1, &mut |x, _| x as f32),
+        ]
+    }
+
+    /// The descent's texel probabilities equal the distribution's to the f32 bound of the
+    /// module documentation, and zero-probability texels (padding included) are never drawn.
+    #[test]
+    fn probabilities_match_the_distribution() {
+        let mut rng = SplitMix64::new(9);
+        for map in maps() {
+            let dist = Distribution2D::build(&map, true, false).unwrap();
+            let warp = HierarchicalWarp::new(&dist);
+            let bound = (warp.level_count() + 1) as f64 * 2f64.powi(-24) * 1.5;
+            let mut total = 0.0;
+            for y in 0..map.height {
+                for x in 0..map.width {
+                    let (p, q) = (dist.texel_probability(x, y), warp.texel_probability(x, y));
+                    total += q;
+                    if p == 0.0 {
+                        assert_eq!(q, 0.0);
+                    } else {
+                        assert!((q / p - 1.0).abs() <= bound, "{}x{} ({x}, {y}): {q} vs {p}", map.width, map.height);
+                    }
+                }
+            }
+            assert!((total - 1.0).abs() < 1e-6, "{total}");
+            let mut us: Vec<f64> = vec![0.0, 1.0, 0.5, 1.0 - 1e-17, f64::NAN];
+            for _ in 0..20_000 {
+                us.push(rng.next_f64());
+            }
+            for (i, &u1) in us.iter().enumerate() {
+                let u2 = us[(i * 7 + 3) % us.len()];
+                let (x, y, rx, ry) = warp.sample(u1, u2);
+                assert!(x < map.width && y < map.height);
+                assert!(dist.texel_probability(x, y) > 0.0, "({x}, {y}) drawn with probability 0");
+                assert!((0.0..1.0).contains(&rx) && (0.0..1.0).contains(&ry), "{rx} {ry}");
+            }
+        }
+    }
+
+    /// Frequencies of 4M random draws match the probabilities (within 5 sigma), and the
+    /// remainders are uniform inside each texel (their means within 5 sigma of 1/2): the warp is
+    /// measure preserving, the property the estimator relies on.
+    #[test]
+    fn draws_reproduce_the_probabilities() {
+        let map = Image::from_vec(16, 8, 1, (0..128).map(|i| ((i * 37) % 11) as f32 + 0.5).collect());
+        let dist = Distribution2D::build(&map, true, false).unwrap();
+        let warp = HierarchicalWarp::new(&dist);
+        let n = 1 << 22;
+        let mut rng = SplitMix64::new(17);
+        let mut counts = vec![0usize; 128];
+        let mut mean_r = vec![[0.0f64; 2]; 128];
+        for _ in 0..n {
+            let (x, y, rx, ry) = warp.sample(rng.next_f64(), rng.next_f64());
+            counts[y * 16 + x] += 1;
+            mean_r[y * 16 + x][0] += rx;
+            mean_r[y * 16 + x][1] += ry;
+        }
+        for y in 0..8 {
+            for x in 0..16 {
+                let k = y * 16 + x;
+                let p = warp.texel_probability(x, y);
+                let expected = p * n as f64;
+                assert!((counts[k] as f64 - expected).abs() <= 5.0 * expected.sqrt() + 5.0, "({x}, {y})");
+                // A uniform remainder's mean has standard deviation sqrt(1/12 / count).
+                let (c, sigma) = (counts[k] as f64, (1.0 / 12.0 / counts[k] as f64).sqrt());
+                let (mx, my) = (mean_r[k][0] / c, mean_r[k][1] / c);
+                assert!((mx - 0.5).abs() < 5.0 * sigma && (my - 0.5).abs() < 5.0 * sigma, "({x}, {y}): {mx} {my}");
+            }
+        }
+    }
+}
