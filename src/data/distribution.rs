@@ -62,7 +62,7 @@ use crate::data::image::Image;
 use crate::geometry::latlong::{texel_of_direction, texel_solid_angle, theta_of_row};
 
 /// The largest f64 below 1: 1 - 2^-53.
-const ONE_MINUS_EPSILON: f64 = 1.0 - f64::EPSILON / 2.0;
+pub(crate) const ONE_MINUS_EPSILON: f64 = 1.0 - f64::EPSILON / 2.0;
 
 #[derive(Debug, thiserror::Error)]
 pub enum DistributionError {

@@ -221,6 +221,14 @@ impl HierarchicalWarp {
     /// flight together (each step prefetches the next level's block).
     #[inline]
     pub fn descend(&self, draws: &mut [WarpDraw]) {
+        #[cfg(target_arch = "x86_64")]
+        if draws.len() >= 8 && is_x86_feature_detected!("avx512f") && is_x86_feature_detected!("avx512dq") {
+            for group in draws.chunks_mut(x86::GROUP) {
+                // SAFETY: the CPU has AVX-512F and DQ (checked above).
+                unsafe { x86::descend_group(self, group) };
+            }
+            return;
+        }
         for level in (0..self.levels.len()).rev() {
             for draw in draws.iter_mut() {
                 self.step(level, draw);
@@ -263,6 +271,133 @@ impl HierarchicalWarp {
             cy = by;
         }
         p
+    }
+}
+
+/// The 2x2 step of [`HierarchicalWarp::step`] for 8 draws at once with AVX-512 (one lane per
+/// draw): the same operations in the same order, so the same bits as the scalar step (a test
+/// compares them). The scalar step is the fallback on other processors and for a batch's tail.
+#[cfg(target_arch = "x86_64")]
+mod x86 {
+    use std::arch::x86_64::*;
+
+    use super::{HierarchicalWarp, Level, WarpDraw};
+    use crate::data::distribution::ONE_MINUS_EPSILON;
+    use crate::maths::prefetch;
+
+    /// `clamp_unit` per lane: `max(x, 0)` returns its second operand, 0, for NaN.
+    #[inline(always)]
+    unsafe fn clamp_unit(x: __m512d) -> __m512d {
+        _mm512_min_pd(_mm512_max_pd(x, _mm512_setzero_pd()), _mm512_set1_pd(ONE_MINUS_EPSILON))
+    }
+
+    /// `choose` per lane: the mask of lanes that took the second part, the numerator and the
+    /// width (the scalar `choose`'s multiplications by 0 and 1 are exact, so blends give the
+    /// same values).
+    #[inline(always)]
+    unsafe fn choose(u: __m512d, c0: __m512d, c1: __m512d) -> (__mmask8, __m512d, __m512d) {
+        let zero = _mm512_setzero_pd();
+        let s = _mm512_mul_pd(u, _mm512_add_pd(c0, c1));
+        let second = (_mm512_cmp_pd_mask::<_CMP_GE_OQ>(s, c0) & _mm512_cmp_pd_mask::<_CMP_GT_OQ>(c1, zero))
+            | _mm512_cmp_pd_mask::<_CMP_LE_OQ>(c0, zero);
+        let offset = _mm512_mask_blend_pd(second, zero, c0);
+        let width = _mm512_mask_blend_pd(second, c0, c1);
+        (second, _mm512_sub_pd(s, offset), width)
+    }
+
+    /// `rescale` per lane.
+    #[inline(always)]
+    unsafe fn rescale(n: __m512d, width: __m512d) -> __m512d {
+        let positive = _mm512_cmp_pd_mask::<_CMP_GT_OQ>(width, _mm512_setzero_pd());
+        _mm512_mask_blend_pd(positive, _mm512_set1_pd(0.5), clamp_unit(_mm512_div_pd(n, width)))
+    }
+
+    /// Draws per group: the group's lanes are kept as arrays (one per field) across the levels.
+    pub(super) const GROUP: usize = 16;
+
+    /// [`HierarchicalWarp::descend`] for up to [`GROUP`] draws: level by level, eight lanes at a
+    /// time on the 2x2 levels, the scalar step elsewhere and for a tail of fewer than 8.
+    #[target_feature(enable = "avx512f,avx512dq")]
+    pub(super) unsafe fn descend_group(warp: &HierarchicalWarp, draws: &mut [WarpDraw]) {
+        let n = draws.len();
+        assert!(n <= GROUP);
+        let (mut xs, mut ys, mut uxs, mut uys) = ([0i64; GROUP], [0i64; GROUP], [0f64; GROUP], [0f64; GROUP]);
+        for (i, d) in draws.iter().enumerate() {
+            (xs[i], ys[i], uxs[i], uys[i]) = (d.x as i64, d.y as i64, d.ux, d.uy);
+        }
+        let wide = n / 8 * 8;
+        for level in (0..warp.levels.len()).rev() {
+            let l = &warp.levels[level];
+            let below = level.checked_sub(1).map(|b| &warp.levels[b]);
+            let first_scalar = if l.block_dims() == (2, 2) {
+                for c in (0..wide).step_by(8) {
+                    let r = c..c + 8;
+                    step8_2x2(l, below, &mut xs[r.clone()], &mut ys[r.clone()], &mut uxs[r.clone()], &mut uys[r]);
+                }
+                wide
+            } else {
+                0
+            };
+            for i in first_scalar..n {
+                let mut d = WarpDraw { x: xs[i] as usize, y: ys[i] as usize, ux: uxs[i], uy: uys[i] };
+                warp.step(level, &mut d);
+                (xs[i], ys[i], uxs[i], uys[i]) = (d.x as i64, d.y as i64, d.ux, d.uy);
+            }
+        }
+        for (i, d) in draws.iter_mut().enumerate() {
+            (d.x, d.y, d.ux, d.uy) = (xs[i] as usize, ys[i] as usize, uxs[i], uys[i]);
+        }
+    }
+
+    /// One 2x2 level for eight lanes (slices of 8), then a prefetch of each lane's next block.
+    #[target_feature(enable = "avx512f,avx512dq")]
+    unsafe fn step8_2x2(
+        level: &Level,
+        below: Option<&Level>,
+        xs: &mut [i64],
+        ys: &mut [i64],
+        uxs: &mut [f64],
+        uys: &mut [f64],
+    ) {
+        assert!(xs.len() == 8 && ys.len() == 8 && uxs.len() == 8 && uys.len() == 8);
+        let x = _mm512_loadu_epi64(xs.as_ptr());
+        let y = _mm512_loadu_epi64(ys.as_ptr());
+        let (ux, uy) = (_mm512_loadu_pd(uxs.as_ptr()), _mm512_loadu_pd(uys.as_ptr()));
+        // Block start (y * blocks_per_row + x) * 4, then its four values.
+        let base = _mm512_slli_epi64::<2>(_mm512_add_epi64(
+            _mm512_mullo_epi64(y, _mm512_set1_epi64(level.blocks_per_row as i64)),
+            x,
+        ));
+        let values = level.values.as_ptr();
+        let gather = |k: i64| {
+            let index = _mm512_add_epi64(base, _mm512_set1_epi64(k));
+            _mm512_cvtps_pd(_mm512_i64gather_ps::<4>(index, values))
+        };
+        let (v0, v1, v2, v3) = (gather(0), gather(1), gather(2), gather(3));
+        let (r0, r1) = (_mm512_add_pd(v0, v1), _mm512_add_pd(v2, v3));
+        let (down, ny, wy) = choose(uy, r0, r1);
+        let (c0, c1) = (_mm512_mask_blend_pd(down, v0, v2), _mm512_mask_blend_pd(down, v1, v3));
+        let (right, nx, wx) = choose(ux, c0, c1);
+        let zero = _mm512_setzero_pd();
+        let both = _mm512_cmp_pd_mask::<_CMP_GT_OQ>(wy, zero) & _mm512_cmp_pd_mask::<_CMP_GT_OQ>(wx, zero);
+        let inv = _mm512_div_pd(_mm512_set1_pd(1.0), _mm512_mul_pd(wy, wx));
+        let shared_uy = clamp_unit(_mm512_mul_pd(_mm512_mul_pd(ny, wx), inv));
+        let shared_ux = clamp_unit(_mm512_mul_pd(_mm512_mul_pd(nx, wy), inv));
+        let uy = _mm512_mask_blend_pd(both, rescale(ny, wy), shared_uy);
+        let ux = _mm512_mask_blend_pd(both, rescale(nx, wx), shared_ux);
+        let one = _mm512_set1_epi64(1);
+        let (y2, x2) = (_mm512_add_epi64(y, y), _mm512_add_epi64(x, x));
+        let y = _mm512_mask_add_epi64(y2, down, y2, one);
+        let x = _mm512_mask_add_epi64(x2, right, x2, one);
+        _mm512_storeu_epi64(xs.as_mut_ptr(), x);
+        _mm512_storeu_epi64(ys.as_mut_ptr(), y);
+        _mm512_storeu_pd(uxs.as_mut_ptr(), ux);
+        _mm512_storeu_pd(uys.as_mut_ptr(), uy);
+        if let Some(below) = below {
+            for i in 0..8 {
+                prefetch(&below.values[below.block_start(xs[i] as usize, ys[i] as usize)]);
+            }
+        }
     }
 }
 
@@ -322,6 +457,31 @@ mod tests {
                 assert!(x < map.width && y < map.height);
                 assert!(dist.texel_probability(x, y) > 0.0, "({x}, {y}) drawn with probability 0");
                 assert!((0.0..1.0).contains(&rx) && (0.0..1.0).contains(&ry), "{rx} {ry}");
+            }
+        }
+    }
+
+    /// The batch descent (AVX-512 where the processor has it) gives the scalar steps' bits.
+    #[test]
+    fn batch_descent_matches_the_scalar_steps() {
+        let mut rng = SplitMix64::new(23);
+        for map in maps() {
+            let dist = Distribution2D::build(&map, true, false).unwrap();
+            let warp = HierarchicalWarp::new(&dist);
+            for _ in 0..500 {
+                let mut batch: Vec<WarpDraw> = (0..19).map(|_| warp.start(rng.next_f64(), rng.next_f64())).collect();
+                batch[3] = warp.start(0.0, 1.0);
+                batch[5] = warp.start(1.0, 0.0);
+                let mut scalar = batch.clone();
+                warp.descend(&mut batch);
+                for draw in &mut scalar {
+                    for level in (0..warp.levels.len()).rev() {
+                        warp.step(level, draw);
+                    }
+                }
+                for (a, b) in batch.iter().zip(&scalar) {
+                    assert_eq!((a.x, a.y, a.ux.to_bits(), a.uy.to_bits()), (b.x, b.y, b.ux.to_bits(), b.uy.to_bits()));
+                }
             }
         }
     }
