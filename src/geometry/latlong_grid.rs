@@ -24,7 +24,7 @@ use super::latlong;
 
 /// `(sin, cos)(2 pi t)` for `t` in turns (any finite `t`; the fractional part is used). See the
 /// module documentation for the accuracy.
-#[inline]
+#[inline(always)]
 pub fn sincos_turns(t: f64) -> (f64, f64) {
     // `floor` is a libm call on baseline x86_64 (no SSE4.1): skip it on the common [0, 1).
     let f = if (0.0..1.0).contains(&t) { t } else { t - t.floor() };
@@ -63,6 +63,17 @@ pub fn sincos_turns(t: f64) -> (f64, f64) {
     let sin_sign = (o >> 2) << 63; // octants 4-7
     let cos_sign = (((o + 2) >> 2) & 1) << 63; // octants 2-5
     (f64::from_bits(first ^ sin_sign), f64::from_bits(second ^ cos_sign))
+}
+
+/// The direction at azimuth `turns` (in turns) whose `cos(theta)` is the fraction `v` of the
+/// way from `c0` to `c1`: `[-sin(theta) sin(phi), cos(theta), sin(theta) cos(phi)]`
+/// (`latlong`'s convention, `phi = 2 pi turns`). Pure arithmetic, so a loop of it vectorises.
+#[inline(always)]
+pub fn point_in_band(turns: f64, c0: f64, c1: f64, v: f64) -> [f64; 3] {
+    let (sp, cp) = sincos_turns(turns);
+    let ct = c0 + (c1 - c0) * v;
+    let st = (1.0 - ct * ct).max(0.0).sqrt();
+    [-st * sp, ct, st * cp]
 }
 
 /// `acos(x)` within 6.7e-5 rad (Abramowitz and Stegun 4.4.45), for a first guess only.
@@ -161,14 +172,23 @@ impl LatLongGrid {
     }
 
     /// The point of texel (x, y) at fractions `(u, v)` uniform in solid angle: phi uniform across
-    /// the column, `cos(theta)` uniform between the row's edges.
-    #[inline]
+    /// the column, `cos(theta)` uniform between the row's edges ([`point_in_band`]).
+    #[inline(always)]
     pub fn point_in_texel(&self, x: usize, y: usize, u: f64, v: f64) -> [f64; 3] {
-        let (sp, cp) = sincos_turns((x as f64 + u) / self.width as f64);
-        let (c0, c1) = (self.row_edge_cos[y], self.row_edge_cos[y + 1]);
-        let ct = c0 + (c1 - c0) * v;
-        let st = (1.0 - ct * ct).max(0.0).sqrt();
-        [-st * sp, ct, st * cp]
+        let (c0, c1) = self.row_edges_cos(y);
+        point_in_band(self.turns_in_column(x, u), c0, c1, v)
+    }
+
+    /// `cos(theta)` at row `y`'s top and bottom edges.
+    #[inline(always)]
+    pub fn row_edges_cos(&self, y: usize) -> (f64, f64) {
+        (self.row_edge_cos[y], self.row_edge_cos[y + 1])
+    }
+
+    /// The azimuth, in turns, at fraction `u` across column `x`: `(x + u) / W`.
+    #[inline(always)]
+    pub fn turns_in_column(&self, x: usize, u: f64) -> f64 {
+        (x as f64 + u) / self.width as f64
     }
 
     /// Midpoint-rule solid angle of a texel of row `y`.
