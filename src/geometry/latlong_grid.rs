@@ -77,7 +77,7 @@ pub fn point_in_band(turns: f64, c0: f64, c1: f64, v: f64) -> [f64; 3] {
 }
 
 /// `acos(x)` within 6.7e-5 rad (Abramowitz and Stegun 4.4.45), for a first guess only.
-#[inline]
+#[inline(always)]
 fn acos_guess(x: f64) -> f64 {
     let a = x.abs().min(1.0);
     let r = (1.0 - a).sqrt() * (1.570_728_8 + a * (-0.212_114_4 + a * (0.074_261_0 + a * -0.018_729_3)));
@@ -91,7 +91,7 @@ fn acos_guess(x: f64) -> f64 {
 /// `atan2(y, x)` in `[0, 2 pi)` within 1.2e-5 rad (A&S state 1e-5 for the polynomial; the
 /// reduction's rounding adds a little) (Abramowitz and Stegun 4.4.49 after reduction
 /// to `[0, 1]`), for a first guess only. `(0, 0)` gives 0.
-#[inline]
+#[inline(always)]
 fn atan2_guess(y: f64, x: f64) -> f64 {
     let (ax, ay) = (x.abs(), y.abs());
     let (lo, hi) = if ax < ay { (ax, ay) } else { (ay, ax) };
@@ -209,12 +209,28 @@ impl LatLongGrid {
     /// not settle in four steps (never seen; a guard, not a path).
     #[inline(always)]
     pub fn texel_of(&self, d: [f64; 3]) -> (usize, usize) {
+        self.texel_from_guess(d, self.texel_guess(d))
+    }
+
+    /// The first half of [`Self::texel_of`]: the polynomial guesses of the row and column, as
+    /// `[acos(y) H / pi, atan2(-x, z) W / (2 pi)]`. Arithmetic only, so a loop of it
+    /// vectorises; [`Self::texel_from_guess`] corrects them against the edge tables.
+    #[inline(always)]
+    pub fn texel_guess(&self, d: [f64; 3]) -> [f64; 2] {
+        let cy = d[1].clamp(-1.0, 1.0);
+        [acos_guess(cy) * (self.height as f64 / PI), atan2_guess(-d[0], d[2]) * (self.width as f64 / (2.0 * PI))]
+    }
+
+    /// The second half of [`Self::texel_of`]: the texel containing `d`, from `guess =`
+    /// [`Self::texel_guess`]`(d)` corrected exactly against the edge tables.
+    #[inline(always)]
+    pub fn texel_from_guess(&self, d: [f64; 3], guess: [f64; 2]) -> (usize, usize) {
         let (w, h) = (self.width, self.height);
         if w < 8 || h == 0 {
             return latlong::texel_of_direction(d, w, h);
         }
         let cy = d[1].clamp(-1.0, 1.0);
-        let mut y = ((acos_guess(cy) * (h as f64 / PI)) as usize).min(h - 1);
+        let mut y = (guess[0] as usize).min(h - 1);
         let mut settled = false;
         for _ in 0..4 {
             if cy > self.row_edge_cos[y] && y > 0 {
@@ -231,7 +247,7 @@ impl LatLongGrid {
             // A pole: phi = 0 by `latlong::angles`' convention.
             return if settled { (0, y) } else { latlong::texel_of_direction(d, w, h) };
         }
-        let mut x = ((atan2_guess(s, c) * (w as f64 / (2.0 * PI))) as usize).min(w - 1);
+        let mut x = (guess[1] as usize).min(w - 1);
         let cross = |j: usize| s * self.col_edge_cos[j] - c * self.col_edge_sin[j];
         for _ in 0..4 {
             if cross(x) < 0.0 {

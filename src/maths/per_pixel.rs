@@ -129,37 +129,46 @@ fn cosine_in_basis(n: DVec3, b1: DVec3, b2: DVec3, u1: f64, u2: f64) -> DVec3 {
 }
 
 /// A batch's cosine directions, structure of arrays: `u[0][i], u[1][i]` in, `out[axis][i]` out,
-/// [`cosine_in_basis`] lane by lane. Written as a plain loop so that the compiler vectorises it
-/// when it may use AVX-512 ([`cosine_batch`]): the polynomial sine and cosine and the square
-/// roots are most of a `Mis` sample's arithmetic. The same operations either way (Rust never
-/// fuses a multiply and an add on its own), so the same bits: a test compares them.
+/// [`cosine_in_basis`] lane by lane, and the guesses of the texels containing them
+/// ([`LatLongGrid::texel_guess`]) into `guess[k][i]`. Written as a plain loop so that the
+/// compiler vectorises it when it may use AVX-512 ([`cosine_batch`]): the polynomial sine,
+/// cosine and arc guesses and the square roots are most of a `Mis` sample's arithmetic. The
+/// same operations either way (Rust never fuses a multiply and an add on its own), so the same
+/// bits: a test compares them.
 #[inline(always)]
-fn cosine_batch_lanes(basis: [DVec3; 3], u: &[[f64; BATCH]; 2], out: &mut [[f64; BATCH]; 3]) {
-    let [n, b1, b2] = basis;
+fn cosine_batch_lanes(batch: &CosineBatch, out: &mut [[f64; BATCH]; 3], guess: &mut [[f64; BATCH]; 2]) {
+    let [n, b1, b2] = batch.basis;
     for i in 0..BATCH {
-        let d = cosine_in_basis(n, b1, b2, u[0][i], u[1][i]);
-        out[0][i] = d.x;
-        out[1][i] = d.y;
-        out[2][i] = d.z;
+        let d = cosine_in_basis(n, b1, b2, batch.u[0][i], batch.u[1][i]);
+        [out[0][i], out[1][i], out[2][i]] = d.to_array();
+        [guess[0][i], guess[1][i]] = batch.grid.texel_guess(d.to_array());
     }
+}
+
+/// The inputs of [`cosine_batch_lanes`]: the pixel's basis `[n, b1, b2]`, the uniforms and the
+/// map's grid.
+struct CosineBatch<'g> {
+    basis: [DVec3; 3],
+    u: [[f64; BATCH]; 2],
+    grid: &'g LatLongGrid,
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f,avx512dq")]
-unsafe fn cosine_batch_avx512(basis: [DVec3; 3], u: &[[f64; BATCH]; 2], out: &mut [[f64; BATCH]; 3]) {
-    cosine_batch_lanes(basis, u, out)
+unsafe fn cosine_batch_avx512(batch: &CosineBatch, out: &mut [[f64; BATCH]; 3], guess: &mut [[f64; BATCH]; 2]) {
+    cosine_batch_lanes(batch, out, guess)
 }
 
 /// [`cosine_batch_lanes`], with AVX-512 when `wide` (the processor has it).
 #[inline(always)]
-fn cosine_batch(wide: bool, basis: [DVec3; 3], u: &[[f64; BATCH]; 2], out: &mut [[f64; BATCH]; 3]) {
+fn cosine_batch(wide: bool, batch: &CosineBatch, out: &mut [[f64; BATCH]; 3], guess: &mut [[f64; BATCH]; 2]) {
     #[cfg(target_arch = "x86_64")]
     if wide {
         // SAFETY: `wide` is only true when the processor has AVX-512F and DQ.
-        return unsafe { cosine_batch_avx512(basis, u, out) };
+        return unsafe { cosine_batch_avx512(batch, out, guess) };
     }
     let _ = wide;
-    cosine_batch_lanes(basis, u, out)
+    cosine_batch_lanes(batch, out, guess)
 }
 
 /// A batch's environment directions, [`point_in_band`] lane by lane: `band[0..3][i]` are the
@@ -452,8 +461,8 @@ impl<'a> Scene<'a> {
         let (b1, b2) = n.any_orthonormal_pair();
         let mut dirs = [DVec3::ZERO; 2 * BATCH];
         let mut texels = [(0usize, 0usize); 2 * BATCH];
-        let mut cosine_uniforms = [[0.0f64; BATCH]; 2];
-        let mut cosine_dirs = [[0.0f64; BATCH]; 3];
+        let mut cosine = CosineBatch { basis: [n, b1, b2], u: [[0.0f64; BATCH]; 2], grid: &self.grid };
+        let (mut cosine_dirs, mut cosine_guesses) = ([[0.0f64; BATCH]; 3], [[0.0f64; BATCH]; 2]);
         // Lanes past a short batch's count compute from zeros or stale values; unused.
         let (mut env_band, mut env_v, mut env_dirs) = ([[0.0f64; BATCH]; 3], [0.0f64; BATCH], [[0.0f64; BATCH]; 3]);
         let mut draws = BatchDraws { guided: [GuidedDraw::default(); BATCH], warp: [WarpDraw::default(); BATCH] };
@@ -497,19 +506,20 @@ impl<'a> Scene<'a> {
                     for i in 0..count {
                         let j = start + i;
                         let [u1, u2] = uniforms.pair(j, 0);
-                        [cosine_uniforms[0][i], cosine_uniforms[1][i]] = uniforms.pair(j, 1);
+                        [cosine.u[0][i], cosine.u[1][i]] = uniforms.pair(j, 1);
                         sampler.start(&mut draws, i, u1, u2);
                     }
                     // Cosine technique: the directions (arithmetic only, while the guide
                     // entries arrive) ...
-                    cosine_batch(self.wide, [n, b1, b2], &cosine_uniforms, &mut cosine_dirs);
+                    cosine_batch(self.wide, &cosine, &mut cosine_dirs, &mut cosine_guesses);
                     for i in 0..count {
                         dirs[2 * i + 1] = DVec3::new(cosine_dirs[0][i], cosine_dirs[1][i], cosine_dirs[2][i]);
                     }
                     sampler.resume(&mut draws, count);
                     // ... and the texels containing them (while the CDF entries arrive).
                     for i in 0..count {
-                        texels[2 * i + 1] = self.grid.texel_of(dirs[2 * i + 1].to_array());
+                        let guess = [cosine_guesses[0][i], cosine_guesses[1][i]];
+                        texels[2 * i + 1] = self.grid.texel_from_guess(dirs[2 * i + 1].to_array(), guess);
                         self.prefetch_record(texels[2 * i + 1]);
                     }
                     for i in 0..count {
@@ -869,7 +879,8 @@ mod tests {
         for round in 0..2000 {
             let n = sample_uniform(rng.next_f64(), rng.next_f64());
             let (b1, b2) = n.any_orthonormal_pair();
-            let mut u = [[0.0; BATCH]; 2];
+            let mut cosine = CosineBatch { basis: [n, b1, b2], u: [[0.0; BATCH]; 2], grid: &grid };
+            let u = &mut cosine.u;
             let mut band = [[0.0; BATCH]; 3];
             let mut v = [0.0; BATCH];
             for i in 0..BATCH {
@@ -890,9 +901,11 @@ mod tests {
                 v[4] = 0.0;
             }
             let (mut scalar, mut wide) = ([[0.0; BATCH]; 3], [[0.0; BATCH]; 3]);
-            cosine_batch_lanes([n, b1, b2], &u, &mut scalar);
-            cosine_batch(true, [n, b1, b2], &u, &mut wide);
+            let (mut scalar_guess, mut wide_guess) = ([[0.0; BATCH]; 2], [[0.0; BATCH]; 2]);
+            cosine_batch_lanes(&cosine, &mut scalar, &mut scalar_guess);
+            cosine_batch(true, &cosine, &mut wide, &mut wide_guess);
             assert_eq!(scalar.map(|a| a.map(f64::to_bits)), wide.map(|a| a.map(f64::to_bits)));
+            assert_eq!(scalar_guess.map(|a| a.map(f64::to_bits)), wide_guess.map(|a| a.map(f64::to_bits)));
             band_point_lanes(&band, &v, &mut scalar);
             band_point_batch(true, &band, &v, &mut wide);
             assert_eq!(scalar.map(|a| a.map(f64::to_bits)), wide.map(|a| a.map(f64::to_bits)));
