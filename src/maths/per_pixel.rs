@@ -75,7 +75,7 @@ use crate::maths::guide_table::{GuidedDistribution, GuidedDraw};
 use crate::maths::hierarchical_warp::{HierarchicalWarp, WarpDraw};
 use crate::maths::prefetch;
 use crate::maths::relight::SphereView;
-use crate::maths::sequences::{mix64, nested_uniform_scramble, sobol_2d_bits, SplitMix64};
+use crate::maths::sequences::{mix64, nested_uniform_scramble, sobol_2d_bits, unit_f64, SplitMix64};
 
 named_enum! {
     /// How each pixel samples the environment (see the module documentation).
@@ -289,31 +289,93 @@ impl PixelUniforms {
         PixelUniforms { rng, sobol }
     }
 
-    /// The `k`-th 2D request (k < 2) of sample `j`. Request 0 chooses the texel (and, for
-    /// `Mis`, the point inside it): 53-bit uniforms, so that every texel of positive probability
-    /// can be drawn; request 1 chooses a direction around the normal, where 32 bits (2.3e-10)
-    /// are far finer than any texel, so `Random` takes both from one 64-bit draw.
-    #[inline]
-    fn pair(&mut self, j: usize, k: usize) -> [f64; 2] {
-        match &self.sobol {
-            None if k == 0 => [self.rng.next_f64(), self.rng.next_f64()],
-            None => {
-                let r = self.rng.next_u64();
-                let unit = |bits: u64| bits as f64 * (1.0 / 4_294_967_296.0);
-                [unit(r >> 32), unit(r & 0xFFFF_FFFF)]
+    /// The uniforms of samples `start + i` for `i < count` (at most [`BATCH`]), requests
+    /// `k < requests` (1 or 2) of each, into `out[2k][i], out[2k + 1][i]`. Request 0 chooses the
+    /// texel (and, for `Mis`, the point inside it): 53-bit uniforms, so that every texel of
+    /// positive probability can be drawn; request 1 chooses a direction around the normal, where
+    /// 32 bits (2.3e-10) are far finer than any texel, so `Random` takes both from one 64-bit
+    /// draw. Each sample draws
+    /// its requests in order, then the next sample, and the pixel's generator advances by the
+    /// `count` samples' draws. Lanes past `count` are filled too (a fixed-length loop
+    /// vectorises; they are unused). With AVX-512 when `wide`, same bits.
+    #[inline(always)]
+    fn batch(&mut self, wide: bool, start: usize, count: usize, requests: usize, out: &mut [[f64; BATCH]; 4]) {
+        let lanes = UniformLanes { rng: &self.rng, sobol: self.sobol, start, requests };
+        #[cfg(target_arch = "x86_64")]
+        if wide {
+            // SAFETY: `wide` is only true when the processor has AVX-512F and DQ.
+            unsafe { uniform_lanes_avx512(&lanes, out) };
+        } else {
+            uniform_lanes(&lanes, out);
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            let _ = wide;
+            uniform_lanes(&lanes, out);
+        }
+        self.rng.skip((count * lanes.draws_per_sample()) as u64);
+    }
+}
+
+/// What [`uniform_lanes`] computes from: the pixel's generator (read, not advanced), its Sobol
+/// scrambles and the batch's first sample and request count.
+struct UniformLanes<'r> {
+    rng: &'r SplitMix64,
+    sobol: Option<[[u32; 3]; 2]>,
+    start: usize,
+    requests: usize,
+}
+
+impl UniformLanes<'_> {
+    /// 64-bit draws per sample: `Random` takes two for request 0 and one for request 1, `Sobol`
+    /// one per request (the low bits below its 32 Sobol bits).
+    #[inline(always)]
+    fn draws_per_sample(&self) -> usize {
+        match self.sobol {
+            None => 2 + (self.requests > 1) as usize,
+            Some(_) => self.requests,
+        }
+    }
+}
+
+/// [`PixelUniforms::batch`]'s values, lane by lane, as a plain loop (see [`cosine_batch_lanes`]).
+#[inline(always)]
+fn uniform_lanes(lanes: &UniformLanes, out: &mut [[f64; BATCH]; 4]) {
+    let per_sample = lanes.draws_per_sample();
+    let both = lanes.requests > 1;
+    match lanes.sobol {
+        None => {
+            let unit32 = |bits: u64| bits as f64 * (1.0 / 4_294_967_296.0);
+            for i in 0..BATCH {
+                let r = (i * per_sample) as u64;
+                out[0][i] = unit_f64(lanes.rng.peek(r));
+                out[1][i] = unit_f64(lanes.rng.peek(r + 1));
+                if both {
+                    let v = lanes.rng.peek(r + 2);
+                    out[2][i] = unit32(v >> 32);
+                    out[3][i] = unit32(v & 0xFFFF_FFFF);
+                }
             }
-            Some(seeds) => {
-                let [shuffle, sx, sy] = seeds[k];
-                let [x, y] = sobol_2d_bits(nested_uniform_scramble(j as u32, shuffle));
-                let low = self.rng.next_u64();
-                let fill = |bits: u32, low21: u64| (((bits as u64) << 21) | low21) as f64 * (1.0 / (1u64 << 53) as f64);
-                [
-                    fill(nested_uniform_scramble(x, sx), low & 0x1F_FFFF),
-                    fill(nested_uniform_scramble(y, sy), (low >> 21) & 0x1F_FFFF),
-                ]
+        }
+        Some(seeds) => {
+            let fill = |bits: u32, low21: u64| (((bits as u64) << 21) | low21) as f64 * (1.0 / (1u64 << 53) as f64);
+            for i in 0..BATCH {
+                let j = (lanes.start + i) as u32;
+                for (k, &[shuffle, sx, sy]) in seeds.iter().enumerate().take(lanes.requests) {
+                    let [x, y] = sobol_2d_bits(nested_uniform_scramble(j, shuffle));
+                    let low = lanes.rng.peek((i * per_sample + k) as u64);
+                    out[2 * k][i] = fill(nested_uniform_scramble(x, sx), low & 0x1F_FFFF);
+                    out[2 * k + 1][i] = fill(nested_uniform_scramble(y, sy), (low >> 21) & 0x1F_FFFF);
+                }
             }
         }
     }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512dq")]
+unsafe fn uniform_lanes_avx512(lanes: &UniformLanes, out: &mut [[f64; BATCH]; 4]) {
+    uniform_lanes(lanes, out)
 }
 
 /// What one texel offers a sample that lands in it: its radiance and the density (per
@@ -461,6 +523,7 @@ impl<'a> Scene<'a> {
         let (b1, b2) = n.any_orthonormal_pair();
         let mut dirs = [DVec3::ZERO; 2 * BATCH];
         let mut texels = [(0usize, 0usize); 2 * BATCH];
+        let mut batch_uniforms = [[0.0f64; BATCH]; 4];
         let mut cosine = CosineBatch { basis: [n, b1, b2], u: [[0.0f64; BATCH]; 2], grid: &self.grid };
         let (mut cosine_dirs, mut cosine_guesses) = ([[0.0f64; BATCH]; 3], [[0.0f64; BATCH]; 2]);
         // Lanes past a short batch's count compute from zeros or stale values; unused.
@@ -474,9 +537,9 @@ impl<'a> Scene<'a> {
             match strategy {
                 PerPixelStrategy::Environment => {
                     let sampler = self.texels.as_ref().expect("built for this strategy");
+                    uniforms.batch(self.wide, start, count, 1, &mut batch_uniforms);
                     for i in 0..count {
-                        let [u1, u2] = uniforms.pair(start + i, 0);
-                        sampler.start(&mut draws, i, u1, u2);
+                        sampler.start(&mut draws, i, batch_uniforms[0][i], batch_uniforms[1][i]);
                     }
                     sampler.resume(&mut draws, count);
                     for i in 0..count {
@@ -488,8 +551,9 @@ impl<'a> Scene<'a> {
                     }
                 }
                 PerPixelStrategy::Cosine | PerPixelStrategy::Uniform => {
+                    uniforms.batch(self.wide, start, count, 1, &mut batch_uniforms);
                     for i in 0..count {
-                        let [u1, u2] = uniforms.pair(start + i, 0);
+                        let (u1, u2) = (batch_uniforms[0][i], batch_uniforms[1][i]);
                         dirs[i] = if strategy == PerPixelStrategy::Cosine {
                             cosine_in_basis(n, b1, b2, u1, u2)
                         } else {
@@ -503,12 +567,11 @@ impl<'a> Scene<'a> {
                     // The environment technique's texel search runs in stages between which
                     // the batch's reads are prefetched (see `GuidedDistribution::start`); the
                     // cosine technique's arithmetic fills the wait.
+                    uniforms.batch(self.wide, start, count, 2, &mut batch_uniforms);
                     for i in 0..count {
-                        let j = start + i;
-                        let [u1, u2] = uniforms.pair(j, 0);
-                        [cosine.u[0][i], cosine.u[1][i]] = uniforms.pair(j, 1);
-                        sampler.start(&mut draws, i, u1, u2);
+                        sampler.start(&mut draws, i, batch_uniforms[0][i], batch_uniforms[1][i]);
                     }
+                    cosine.u = [batch_uniforms[2], batch_uniforms[3]];
                     // Cosine technique: the directions (arithmetic only, while the guide
                     // entries arrive) ...
                     cosine_batch(self.wide, &cosine, &mut cosine_dirs, &mut cosine_guesses);
@@ -724,17 +787,80 @@ mod tests {
         }
     }
 
+    /// Sample `j`'s request `k`, drawn one sample at a time as the batches' documentation
+    /// describes (the reference [`PixelUniforms::batch`] is checked against).
+    fn sequential_pair(u: &mut PixelUniforms, j: usize, k: usize) -> [f64; 2] {
+        match &u.sobol {
+            None if k == 0 => [u.rng.next_f64(), u.rng.next_f64()],
+            None => {
+                let r = u.rng.next_u64();
+                let unit = |bits: u64| bits as f64 * (1.0 / 4_294_967_296.0);
+                [unit(r >> 32), unit(r & 0xFFFF_FFFF)]
+            }
+            Some(seeds) => {
+                let [shuffle, sx, sy] = seeds[k];
+                let [x, y] = sobol_2d_bits(nested_uniform_scramble(j as u32, shuffle));
+                let low = u.rng.next_u64();
+                let fill = |bits: u32, low21: u64| (((bits as u64) << 21) | low21) as f64 * (1.0 / (1u64 << 53) as f64);
+                [
+                    fill(nested_uniform_scramble(x, sx), low & 0x1F_FFFF),
+                    fill(nested_uniform_scramble(y, sy), (low >> 21) & 0x1F_FFFF),
+                ]
+            }
+        }
+    }
+
+    /// Batches (scalar and AVX-512) give the sequential draws' bits, full and short, with one
+    /// request or two, and leave the generator where the sequential draws leave it.
+    #[test]
+    fn batches_match_the_sequential_draws() {
+        for sequence in PerPixelSequence::ALL {
+            for requests in [1, 2] {
+                for wide in [false, has_avx512()] {
+                    let mut batched = PixelUniforms::new(sequence, pixel_seed(7, 3));
+                    let mut sequential = PixelUniforms::new(sequence, pixel_seed(7, 3));
+                    let mut start = 0;
+                    for count in [16, 16, 5, 16, 1] {
+                        let mut out = [[0.0; BATCH]; 4];
+                        batched.batch(wide, start, count, requests, &mut out);
+                        for i in 0..count {
+                            for k in 0..requests {
+                                let want = sequential_pair(&mut sequential, start + i, k);
+                                let got = [out[2 * k][i], out[2 * k + 1][i]];
+                                assert_eq!(got.map(f64::to_bits), want.map(f64::to_bits), "{sequence:?} {k}");
+                            }
+                        }
+                        assert_eq!(batched.rng, sequential.rng);
+                        start += count;
+                    }
+                }
+            }
+        }
+    }
+
     /// Both sequences give values in [0, 1); Sobol's first 2^m points of a request, per pixel,
     /// put exactly one point in each of the 2^m columns (a (0, m, 2)-net's 1D projection).
     #[test]
     fn sobol_uniforms_are_stratified_per_pixel() {
+        let draw = |sequence, pixel, samples: usize| {
+            let mut u = PixelUniforms::new(sequence, pixel_seed(3, pixel));
+            let mut pairs = vec![[[0.0; 2]; 2]; samples];
+            for start in (0..samples).step_by(BATCH) {
+                let mut out = [[0.0; BATCH]; 4];
+                let count = BATCH.min(samples - start);
+                u.batch(has_avx512(), start, count, 2, &mut out);
+                for i in 0..count {
+                    pairs[start + i] = [[out[0][i], out[1][i]], [out[2][i], out[3][i]]];
+                }
+            }
+            pairs
+        };
         for pixel in 0..20u64 {
-            let mut u = PixelUniforms::new(PerPixelSequence::Sobol, pixel_seed(3, pixel));
+            let pairs = draw(PerPixelSequence::Sobol, pixel, 64);
             for k in 0..2 {
                 let mut columns = [0usize; 64];
                 let mut rows = [0usize; 64];
-                for j in 0..64 {
-                    let [a, b] = u.pair(j, k);
+                for [a, b] in pairs.iter().map(|p| p[k]) {
                     assert!((0.0..1.0).contains(&a) && (0.0..1.0).contains(&b));
                     columns[(a * 64.0) as usize] += 1;
                     rows[(b * 64.0) as usize] += 1;
@@ -742,8 +868,8 @@ mod tests {
                 assert!(columns.iter().chain(&rows).all(|&c| c == 1), "pixel {pixel} request {k}");
             }
         }
-        let mut r = PixelUniforms::new(PerPixelSequence::Random, 1);
-        assert!((0..1000).all(|j| r.pair(j, 0).iter().all(|v| (0.0..1.0).contains(v))));
+        let pairs = draw(PerPixelSequence::Random, 1, 1000);
+        assert!(pairs.iter().flatten().flatten().all(|v| (0.0..1.0).contains(v)));
     }
 
     #[test]

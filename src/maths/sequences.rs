@@ -86,6 +86,12 @@ pub fn mix64(mut z: u64) -> u64 {
     z ^ (z >> 31)
 }
 
+/// A 64-bit draw to a uniform in [0, 1): its top 53 bits times 2^-53 (exact).
+#[inline(always)]
+pub fn unit_f64(bits: u64) -> f64 {
+    (bits >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
+}
+
 /// A tiny, fully deterministic 64-bit generator: state += 0x9E3779B97F4A7C15 (the golden
 /// ratio in 0.64 fixed point), output `mix64(state)`. Period 2^64; passes BigCrush
 /// (Steele, Lea, Flood 2014). Used instead of `rand` so streams never change with a dependency.
@@ -108,7 +114,21 @@ impl SplitMix64 {
     /// Uniform in [0, 1): the top 53 bits times 2^-53 (every value a multiple of 2^-53).
     #[inline]
     pub fn next_f64(&mut self) -> f64 {
-        (self.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
+        unit_f64(self.next_u64())
+    }
+
+    /// What the `k`-th next call of `next_u64` will return (`k = 0`: the next), without
+    /// advancing. The state is a counter, so every output is one addition and one [`mix64`]
+    /// away: a batch of draws can be computed side by side (in SIMD lanes).
+    #[inline(always)]
+    pub fn peek(&self, k: u64) -> u64 {
+        mix64(self.state.wrapping_add(k.wrapping_add(1).wrapping_mul(0x9E37_79B9_7F4A_7C15)))
+    }
+
+    /// Advances as `k` calls of `next_u64` would.
+    #[inline]
+    pub fn skip(&mut self, k: u64) {
+        self.state = self.state.wrapping_add(k.wrapping_mul(0x9E37_79B9_7F4A_7C15));
     }
 
     /// Uniform integer in [0, n) without modulo bias (Lemire 2019: multiply, keep the high
