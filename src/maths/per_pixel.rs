@@ -340,6 +340,7 @@ impl UniformLanes<'_> {
 
 /// [`PixelUniforms::batch`]'s values, lane by lane, as a plain loop (see [`cosine_batch_lanes`]).
 #[inline(always)]
+#[allow(clippy::needless_range_loop)] // lane i of several arrays
 fn uniform_lanes(lanes: &UniformLanes, out: &mut [[f64; BATCH]; 4]) {
     let per_sample = lanes.draws_per_sample();
     let both = lanes.requests > 1;
@@ -813,6 +814,7 @@ mod tests {
     /// Batches (scalar and AVX-512) give the sequential draws' bits, full and short, with one
     /// request or two, and leave the generator where the sequential draws leave it.
     #[test]
+    #[allow(clippy::needless_range_loop)] // lane i of several arrays
     fn batches_match_the_sequential_draws() {
         for sequence in PerPixelSequence::ALL {
             for requests in [1, 2] {
