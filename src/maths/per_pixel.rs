@@ -199,6 +199,68 @@ fn band_point_batch(wide: bool, band: &[[f64; BATCH]; 3], v: &[f64; BATCH], out:
     band_point_lanes(band, v, out)
 }
 
+/// A `Mis` batch's stage 2 inputs, structure of arrays, technique `t` (0 environment, 1
+/// cosine) and lane `i`: the direction `dir[t][axis][i]`, the record's radiance
+/// `radiance[t][channel][i]` and environment density `pdf[t][i]`.
+struct MisBatch {
+    normal: DVec3,
+    heuristic: Heuristic,
+    dir: [[[f64; BATCH]; 3]; 2],
+    radiance: [[[f32; BATCH]; 3]; 2],
+    pdf: [[f32; BATCH]; 2],
+}
+
+/// Adds each lane's two weighted samples (environment, then cosine) to its sum `sums[ch][i]`,
+/// for the lanes `i < count`: `f / p` weighted by the heuristic, with `c = max(n.w, 0)`,
+/// `p_c = c / pi` and `p_e` the record's density:
+/// - balance: `w_t f / p_t = f / (p_e + p_c)`, and `c / (p_e + c / pi) = pi c / (pi p_e + c)`
+///   (one division);
+/// - power: `w_t f / p_t = f p_t / (p_e^2 + p_c^2)`.
+///
+/// A sample with `c = 0` adds 0 (its weight's `0 / 0` is not used). A plain loop over lanes
+/// (see [`cosine_batch_lanes`]).
+#[inline(always)]
+#[allow(clippy::needless_range_loop)] // lane i of several arrays
+fn mis_lanes(batch: &MisBatch, count: usize, sums: &mut [[f64; BATCH]; 3]) {
+    let n = batch.normal;
+    for i in 0..BATCH {
+        for t in 0..2 {
+            let d = DVec3::new(batch.dir[t][0][i], batch.dir[t][1][i], batch.dir[t][2][i]);
+            let c = n.dot(d).max(0.0);
+            let pe = batch.pdf[t][i] as f64;
+            let weight = match batch.heuristic {
+                Heuristic::Balance => PI * c / (PI * pe + c),
+                Heuristic::Power => {
+                    let pc = c / PI;
+                    c * if t == 0 { pe } else { pc } / (pe * pe + pc * pc)
+                }
+            };
+            let used = i < count && c > 0.0;
+            for ch in 0..3 {
+                sums[ch][i] += if used { batch.radiance[t][ch][i] as f64 * weight } else { 0.0 };
+            }
+        }
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512dq")]
+unsafe fn mis_avx512(batch: &MisBatch, count: usize, sums: &mut [[f64; BATCH]; 3]) {
+    mis_lanes(batch, count, sums)
+}
+
+/// [`mis_lanes`], with AVX-512 when `wide`.
+#[inline(always)]
+fn mis_batch(wide: bool, batch: &MisBatch, count: usize, sums: &mut [[f64; BATCH]; 3]) {
+    #[cfg(target_arch = "x86_64")]
+    if wide {
+        // SAFETY: `wide` is only true when the processor has AVX-512F and DQ.
+        return unsafe { mis_avx512(batch, count, sums) };
+    }
+    let _ = wide;
+    mis_lanes(batch, count, sums)
+}
+
 /// Whether this processor runs the AVX-512 batch functions.
 fn has_avx512() -> bool {
     #[cfg(target_arch = "x86_64")]
@@ -526,9 +588,17 @@ impl<'a> Scene<'a> {
         let mut texels = [(0usize, 0usize); 2 * BATCH];
         let mut batch_uniforms = [[0.0f64; BATCH]; 4];
         let mut cosine = CosineBatch { basis: [n, b1, b2], u: [[0.0f64; BATCH]; 2], grid: &self.grid };
-        let (mut cosine_dirs, mut cosine_guesses) = ([[0.0f64; BATCH]; 3], [[0.0f64; BATCH]; 2]);
+        let mut cosine_guesses = [[0.0f64; BATCH]; 2];
+        let mut mis = MisBatch {
+            normal: n,
+            heuristic,
+            dir: [[[0.0; BATCH]; 3]; 2],
+            radiance: [[[0.0; BATCH]; 3]; 2],
+            pdf: [[0.0; BATCH]; 2],
+        };
+        let mut lane_sums = [[0.0f64; BATCH]; 3];
         // Lanes past a short batch's count compute from zeros or stale values; unused.
-        let (mut env_band, mut env_v, mut env_dirs) = ([[0.0f64; BATCH]; 3], [0.0f64; BATCH], [[0.0f64; BATCH]; 3]);
+        let (mut env_band, mut env_v) = ([[0.0f64; BATCH]; 3], [0.0f64; BATCH]);
         let mut draws = BatchDraws { guided: [GuidedDraw::default(); BATCH], warp: [WarpDraw::default(); BATCH] };
         for start in (0..spp).step_by(BATCH) {
             let count = BATCH.min(spp - start);
@@ -575,15 +645,13 @@ impl<'a> Scene<'a> {
                     cosine.u = [batch_uniforms[2], batch_uniforms[3]];
                     // Cosine technique: the directions (arithmetic only, while the guide
                     // entries arrive) ...
-                    cosine_batch(self.wide, &cosine, &mut cosine_dirs, &mut cosine_guesses);
-                    for i in 0..count {
-                        dirs[2 * i + 1] = DVec3::new(cosine_dirs[0][i], cosine_dirs[1][i], cosine_dirs[2][i]);
-                    }
+                    cosine_batch(self.wide, &cosine, &mut mis.dir[1], &mut cosine_guesses);
                     sampler.resume(&mut draws, count);
                     // ... and the texels containing them (while the CDF entries arrive).
                     for i in 0..count {
                         let guess = [cosine_guesses[0][i], cosine_guesses[1][i]];
-                        texels[2 * i + 1] = self.grid.texel_from_guess(dirs[2 * i + 1].to_array(), guess);
+                        let d = [mis.dir[1][0][i], mis.dir[1][1][i], mis.dir[1][2][i]];
+                        texels[2 * i + 1] = self.grid.texel_from_guess(d, guess);
                         self.prefetch_record(texels[2 * i + 1]);
                     }
                     for i in 0..count {
@@ -596,10 +664,16 @@ impl<'a> Scene<'a> {
                         [env_band[0][i], env_band[1][i], env_band[2][i]] = [self.grid.turns_in_column(x, rx), c0, c1];
                         env_v[i] = ry;
                     }
-                    band_point_batch(self.wide, &env_band, &env_v, &mut env_dirs);
+                    band_point_batch(self.wide, &env_band, &env_v, &mut mis.dir[0]);
+                    // Stage 2: the records, then the weights and sums lane by lane.
                     for i in 0..count {
-                        dirs[2 * i] = DVec3::new(env_dirs[0][i], env_dirs[1][i], env_dirs[2][i]);
+                        for t in 0..2 {
+                            let r = self.record(texels[2 * i + t].0, texels[2 * i + t].1);
+                            [mis.radiance[t][0][i], mis.radiance[t][1][i], mis.radiance[t][2][i]] = r.radiance;
+                            mis.pdf[t][i] = r.pdf;
+                        }
                     }
+                    mis_batch(self.wide, &mis, count, &mut lane_sums);
                 }
             }
             // Stage 2: read the texels' records and accumulate, in sample order.
@@ -616,26 +690,15 @@ impl<'a> Scene<'a> {
                     PerPixelStrategy::Uniform => {
                         add(self.env.rgb(texels[i].0, texels[i].1), 4.0 * PI * n.dot(dirs[i]).max(0.0))
                     }
-                    PerPixelStrategy::Mis => {
-                        for (k, from_env) in [(2 * i, true), (2 * i + 1, false)] {
-                            let c = n.dot(dirs[k]).max(0.0);
-                            if c > 0.0 {
-                                let r = self.record(texels[k].0, texels[k].1);
-                                let k_weight = match heuristic {
-                                    // Balance: w_i f / p_i = f / (p_e + p_c), and
-                                    // c / (p_e + c / pi) = pi c / (pi p_e + c): one division.
-                                    Heuristic::Balance => PI * c / (PI * r.pdf as f64 + c),
-                                    // Power: w_i f / p_i = f p_i / (p_e^2 + p_c^2).
-                                    Heuristic::Power => {
-                                        let (pe, pc) = (r.pdf as f64, c / PI);
-                                        c * if from_env { pe } else { pc } / (pe * pe + pc * pc)
-                                    }
-                                };
-                                add(r.radiance, k_weight);
-                            }
-                        }
-                    }
+                    // Accumulated in stage 1's arm, lane by lane.
+                    PerPixelStrategy::Mis => {}
                 }
+            }
+        }
+        // Mis's lane sums, in lane order (each lane summed its samples in order).
+        for lane in 0..BATCH {
+            for ch in 0..3 {
+                sum[ch] += lane_sums[ch][lane];
             }
         }
         sum.map(|s| s / spp as f64)
@@ -1037,6 +1100,29 @@ mod tests {
             band_point_lanes(&band, &v, &mut scalar);
             band_point_batch(true, &band, &v, &mut wide);
             assert_eq!(scalar.map(|a| a.map(f64::to_bits)), wide.map(|a| a.map(f64::to_bits)));
+            // Stage 2 of Mis on those directions, some densities 0 (as below the horizon).
+            let heuristic = Heuristic::ALL[round % 2];
+            let mut mis = MisBatch {
+                normal: n,
+                heuristic,
+                dir: [scalar, wide],
+                radiance: [[[0.0; BATCH]; 3]; 2],
+                pdf: [[0.0; BATCH]; 2],
+            };
+            for t in 0..2 {
+                for i in 0..BATCH {
+                    mis.pdf[t][i] = if i % 5 == 0 { 0.0 } else { rng.next_f64() as f32 * 3.0 };
+                    for ch in 0..3 {
+                        mis.radiance[t][ch][i] = rng.next_f64() as f32 * 10.0;
+                    }
+                }
+            }
+            let count = 1 + round % BATCH;
+            let (mut scalar_sums, mut wide_sums) = ([[0.5; BATCH]; 3], [[0.5; BATCH]; 3]);
+            mis_lanes(&mis, count, &mut scalar_sums);
+            mis_batch(true, &mis, count, &mut wide_sums);
+            assert_eq!(scalar_sums.map(|a| a.map(f64::to_bits)), wide_sums.map(|a| a.map(f64::to_bits)));
+            assert!(scalar_sums.iter().all(|lanes| lanes[count..].iter().all(|&v| v == 0.5)), "lanes past count");
         }
     }
 
