@@ -25,6 +25,15 @@
 //! `(levels + 1) * 2^-24` at most (about 7e-7 on a 1024x512 map; a test checks it), which is
 //! the bias of an estimator that divides by the exact `P`. Blocks are stored contiguously (the
 //! four values a step reads share one 16-byte slot), so a step costs one memory read.
+//!
+//! Speed: a batch descends level by level, so its reads of one level are in flight together,
+//! each step prefetching the next level's block; a step chooses without branches (the choice is
+//! a coin flip a branch predictor would miss half the time) and rescales both uniforms with one
+//! division; on processors with AVX-512 the 2x2 steps run eight draws at once (gathers of the
+//! four values), with the same bits as the scalar step (a test). Grace (1024x512), one thread,
+//! per-pixel Mis Power Sobol at 1024 spp: the descent alone took the render from 1.24 s (CDF
+//! inversion) to 3.56 s with branches and one draw at a time, to 1.40 s with the above; after
+//! the rest of the sample's arithmetic was vectorised, 0.81 s against inversion's 0.57 s.
 
 use rayon::prelude::*;
 
