@@ -42,8 +42,14 @@ use crate::ops::sampling::sample::draw;
 use crate::ops::shading::relight_sphere::relight_shared;
 use crate::plotting::time_error::{self, Line};
 
-/// The largest per-pixel sample count swept.
+/// The largest per-pixel sample count swept with independent uniforms: past it a point takes
+/// seconds per seed and shows nothing new (its slope is set by then).
 pub const PER_PIXEL_MAX_SPP: usize = 1024;
+
+/// The largest per-pixel sample count swept with Sobol points: Mitsuba's `ldsampler` reaches
+/// errors at 1024 and 4096 spp that need more than 1024 spp here too, and "at equal error" needs
+/// points on both sides of its error.
+pub const PER_PIXEL_SOBOL_MAX_SPP: usize = 4096;
 
 /// An environment to benchmark on.
 #[derive(Clone, Debug)]
@@ -292,9 +298,7 @@ pub fn run(config: &BenchConfig, log: &dyn Fn(&str)) -> Result<Vec<BenchRow>, St
                 &mut rows,
                 seeded_row(&spec.name, "shared Random (seed's estimator)".into(), "shared", count, ms, &errors),
             );
-            // Per-pixel sampling costs `count` samples per pixel: past 1024 spp a point takes
-            // minutes on 2 cores and shows nothing new (its slope is set by then).
-            if count > PER_PIXEL_MAX_SPP {
+            if count > PER_PIXEL_SOBOL_MAX_SPP {
                 continue;
             }
             // Every strategy with independent uniforms; the two that matter with per-pixel
@@ -315,6 +319,9 @@ pub fn run(config: &BenchConfig, log: &dyn Fn(&str)) -> Result<Vec<BenchRow>, St
                     (PerPixelStrategy::Mis, sobol, Heuristic::Power, PerPixelWarp::Hierarchical),
                 ]);
             for (strategy, sequence, heuristic, warp) in configurations {
+                if sequence == PerPixelSequence::Random && count > PER_PIXEL_MAX_SPP {
+                    continue;
+                }
                 // Runs of a second or more need no more than one timed repeat.
                 let repeats = if count >= 256 { 1 } else { config.repeats };
                 // The map's records and tables are built once and not timed, as Mitsuba's

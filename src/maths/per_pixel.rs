@@ -91,6 +91,32 @@ use crate::maths::prefetch;
 use crate::maths::relight::SphereView;
 use crate::maths::sequences::{mix64, nested_uniform_scramble, sobol_2d_bits, unit_f64, SplitMix64};
 
+/// Declares `$batch(wide, args)`: the lane loop `$lanes(args)` compiled a second time, as
+/// `$avx512`, for AVX-512F and DQ, and called when `wide` (the caller checked the processor with
+/// [`has_avx512`]); otherwise, and off x86_64, the baseline compilation. The two run the same
+/// IEEE operations in the same order, so they give the same bits.
+macro_rules! avx512_batch {
+    ($(#[$doc:meta])* fn $batch:ident / $avx512:ident = $lanes:ident($($arg:ident: $ty:ty),* $(,)?)) => {
+        #[cfg(target_arch = "x86_64")]
+        #[target_feature(enable = "avx512f,avx512dq")]
+        unsafe fn $avx512($($arg: $ty),*) {
+            $lanes($($arg),*)
+        }
+
+        $(#[$doc])*
+        #[inline(always)]
+        fn $batch(wide: bool, $($arg: $ty),*) {
+            #[cfg(target_arch = "x86_64")]
+            if wide {
+                // SAFETY: `wide` is only true when the processor has AVX-512F and DQ.
+                return unsafe { $avx512($($arg),*) };
+            }
+            let _ = wide;
+            $lanes($($arg),*)
+        }
+    };
+}
+
 named_enum! {
     /// How each pixel samples the environment (see the module documentation).
     pub enum PerPixelStrategy {
@@ -167,22 +193,13 @@ struct CosineBatch<'g> {
     grid: &'g LatLongGrid,
 }
 
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512dq")]
-unsafe fn cosine_batch_avx512(batch: &CosineBatch, out: &mut [[f64; BATCH]; 3], guess: &mut [[f64; BATCH]; 2]) {
-    cosine_batch_lanes(batch, out, guess)
-}
-
-/// [`cosine_batch_lanes`], with AVX-512 when `wide` (the processor has it).
-#[inline(always)]
-fn cosine_batch(wide: bool, batch: &CosineBatch, out: &mut [[f64; BATCH]; 3], guess: &mut [[f64; BATCH]; 2]) {
-    #[cfg(target_arch = "x86_64")]
-    if wide {
-        // SAFETY: `wide` is only true when the processor has AVX-512F and DQ.
-        return unsafe { cosine_batch_avx512(batch, out, guess) };
-    }
-    let _ = wide;
-    cosine_batch_lanes(batch, out, guess)
+avx512_batch! {
+    /// [`cosine_batch_lanes`], with AVX-512 when `wide` (the processor has it).
+    fn cosine_batch / cosine_batch_avx512 = cosine_batch_lanes(
+        batch: &CosineBatch,
+        out: &mut [[f64; BATCH]; 3],
+        guess: &mut [[f64; BATCH]; 2]
+    )
 }
 
 /// A batch's environment directions, [`point_in_band`] lane by lane: `band[0..3][i]` are the
@@ -195,22 +212,13 @@ fn band_point_lanes(band: &[[f64; BATCH]; 3], v: &[f64; BATCH], out: &mut [[f64;
     }
 }
 
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512dq")]
-unsafe fn band_point_avx512(band: &[[f64; BATCH]; 3], v: &[f64; BATCH], out: &mut [[f64; BATCH]; 3]) {
-    band_point_lanes(band, v, out)
-}
-
-/// [`band_point_lanes`], with AVX-512 when `wide`.
-#[inline(always)]
-fn band_point_batch(wide: bool, band: &[[f64; BATCH]; 3], v: &[f64; BATCH], out: &mut [[f64; BATCH]; 3]) {
-    #[cfg(target_arch = "x86_64")]
-    if wide {
-        // SAFETY: `wide` is only true when the processor has AVX-512F and DQ.
-        return unsafe { band_point_avx512(band, v, out) };
-    }
-    let _ = wide;
-    band_point_lanes(band, v, out)
+avx512_batch! {
+    /// [`band_point_lanes`], with AVX-512 when `wide`.
+    fn band_point_batch / band_point_avx512 = band_point_lanes(
+        band: &[[f64; BATCH]; 3],
+        v: &[f64; BATCH],
+        out: &mut [[f64; BATCH]; 3]
+    )
 }
 
 /// A `Mis` batch's stage 2 inputs, structure of arrays, technique `t` (0 environment, 1
@@ -257,22 +265,9 @@ fn mis_lanes(batch: &MisBatch, count: usize, sums: &mut [[f64; BATCH]; 3]) {
     }
 }
 
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512dq")]
-unsafe fn mis_avx512(batch: &MisBatch, count: usize, sums: &mut [[f64; BATCH]; 3]) {
-    mis_lanes(batch, count, sums)
-}
-
-/// [`mis_lanes`], with AVX-512 when `wide`.
-#[inline(always)]
-fn mis_batch(wide: bool, batch: &MisBatch, count: usize, sums: &mut [[f64; BATCH]; 3]) {
-    #[cfg(target_arch = "x86_64")]
-    if wide {
-        // SAFETY: `wide` is only true when the processor has AVX-512F and DQ.
-        return unsafe { mis_avx512(batch, count, sums) };
-    }
-    let _ = wide;
-    mis_lanes(batch, count, sums)
+avx512_batch! {
+    /// [`mis_lanes`], with AVX-512 when `wide`.
+    fn mis_batch / mis_avx512 = mis_lanes(batch: &MisBatch, count: usize, sums: &mut [[f64; BATCH]; 3])
 }
 
 /// Whether this processor runs the AVX-512 batch functions.
@@ -377,18 +372,7 @@ impl PixelUniforms {
     #[inline(always)]
     fn batch(&mut self, wide: bool, start: usize, count: usize, requests: usize, out: &mut [[f64; BATCH]; 4]) {
         let lanes = UniformLanes { rng: &self.rng, sobol: self.sobol, start, requests };
-        #[cfg(target_arch = "x86_64")]
-        if wide {
-            // SAFETY: `wide` is only true when the processor has AVX-512F and DQ.
-            unsafe { uniform_lanes_avx512(&lanes, out) };
-        } else {
-            uniform_lanes(&lanes, out);
-        }
-        #[cfg(not(target_arch = "x86_64"))]
-        {
-            let _ = wide;
-            uniform_lanes(&lanes, out);
-        }
+        uniform_batch(wide, &lanes, out);
         self.rng.skip((count * lanes.draws_per_sample()) as u64);
     }
 }
@@ -449,10 +433,9 @@ fn uniform_lanes(lanes: &UniformLanes, out: &mut [[f64; BATCH]; 4]) {
     }
 }
 
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512dq")]
-unsafe fn uniform_lanes_avx512(lanes: &UniformLanes, out: &mut [[f64; BATCH]; 4]) {
-    uniform_lanes(lanes, out)
+avx512_batch! {
+    /// [`uniform_lanes`], with AVX-512 when `wide`.
+    fn uniform_batch / uniform_lanes_avx512 = uniform_lanes(lanes: &UniformLanes, out: &mut [[f64; BATCH]; 4])
 }
 
 /// What one texel offers a sample that lands in it: its radiance and the density (per
@@ -577,7 +560,8 @@ impl<'a> Scene<'a> {
     }
 
     /// One pixel's irradiance estimate `(1/spp) sum_j F_j` (see the module documentation) at
-    /// unit normal `n`, in batches of [`BATCH`] samples (summed in sample order). `spp == 0`
+    /// unit normal `n`, in batches of [`BATCH`] samples, summed in sample order (`Mis`: each of
+    /// the 16 lanes sums its samples in order, then the lanes are added in order). `spp == 0`
     /// gives zeros.
     #[allow(clippy::needless_range_loop)] // sample i of the batch arrays, in two stages
     fn estimate_irradiance(
@@ -598,7 +582,7 @@ impl<'a> Scene<'a> {
             }
         };
         let (b1, b2) = n.any_orthonormal_pair();
-        let mut dirs = [DVec3::ZERO; 2 * BATCH];
+        let mut dirs = [DVec3::ZERO; BATCH];
         let mut texels = [(0usize, 0usize); 2 * BATCH];
         let mut batch_uniforms = [[0.0f64; BATCH]; 4];
         let mut cosine = CosineBatch { basis: [n, b1, b2], u: [[0.0f64; BATCH]; 2], grid: &self.grid };
