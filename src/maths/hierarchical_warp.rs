@@ -61,6 +61,20 @@ impl Level {
         (self.width.min(2), self.height.min(2))
     }
 
+    /// Sets every value `(x, y)` to `value(x, y)`, rows of blocks in parallel.
+    fn fill(&mut self, value: impl Fn(usize, usize) -> f32 + Sync) {
+        let (bw, bh) = self.block_dims();
+        let row_len = self.blocks_per_row * bw * bh;
+        let width = self.width;
+        self.values.par_chunks_mut(row_len).enumerate().for_each(|(by, chunk)| {
+            for dy in 0..bh {
+                for x in 0..width {
+                    chunk[(x / bw) * (bw * bh) + dy * bw + x % bw] = value(x, by * bh + dy);
+                }
+            }
+        });
+    }
+
     /// Where block `(bx, by)` (the children of node `(bx, by)` one level up) starts.
     #[inline(always)]
     fn block_start(&self, bx: usize, by: usize) -> usize {
@@ -131,22 +145,7 @@ impl HierarchicalWarp {
         let (w, h) = (dist.width, dist.height);
         let (pw, ph) = (w.max(1).next_power_of_two(), h.max(1).next_power_of_two());
         let mut finest = Level::new(pw, ph);
-        {
-            // Rows of blocks in parallel: block row `by` holds texel rows `by * bh ..`.
-            let (bw, bh) = finest.block_dims();
-            let blocks_per_row = pw / bw;
-            finest.values.par_chunks_mut(blocks_per_row * bw * bh).enumerate().for_each(|(by, chunk)| {
-                for dy in 0..bh {
-                    let y = by * bh + dy;
-                    if y >= h {
-                        continue;
-                    }
-                    for x in 0..w {
-                        chunk[(x / bw) * (bw * bh) + dy * bw + x % bw] = dist.texel_probability(x, y) as f32;
-                    }
-                }
-            });
-        }
+        finest.fill(|x, y| if x < w && y < h { dist.texel_probability(x, y) as f32 } else { 0.0 });
         let mut levels = vec![finest];
         // Sum blocks until the last level is one block (the top's children).
         loop {
@@ -157,15 +156,12 @@ impl HierarchicalWarp {
                 break;
             }
             let mut coarse = Level::new(cw, ch);
-            for cy in 0..ch {
-                for cx in 0..cw {
-                    // Block (cx, cy) of the fine level is its bw*bh consecutive values.
-                    let block = cy * cw + cx;
-                    let sum: f64 = fine.values[block * bw * bh..(block + 1) * bw * bh].iter().map(|&v| v as f64).sum();
-                    let at = coarse.index(cx, cy);
-                    coarse.values[at] = sum as f32;
-                }
-            }
+            // Value (cx, cy) is the sum of the fine level's block (cx, cy), its bw*bh
+            // consecutive values.
+            coarse.fill(|cx, cy| {
+                let block = (cy * cw + cx) * (bw * bh);
+                fine.values[block..block + bw * bh].iter().map(|&v| v as f64).sum::<f64>() as f32
+            });
             levels.push(coarse);
         }
         HierarchicalWarp { levels, width: w, height: h }
