@@ -1,6 +1,7 @@
 //! Log-log plots of run time against error, one line per strategy (the benchmark's chart).
 
 use plotters::coord::Shift;
+use plotters::element::DashedPathElement;
 use plotters::prelude::*;
 
 use super::curves_plot::{area_err, render_png, render_svg, FONT, PALETTE};
@@ -102,12 +103,23 @@ fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, title: &str, lines: &
                 strokes
             }))
             .map_err(area_err)?;
-        chart
-            .draw_series(LineSeries::new(pts.clone(), color.stroke_width(2)))
-            .map_err(area_err)?
-            .label(line.name.clone())
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2)));
-        chart.draw_series(pts.into_iter().map(|p| Circle::new(p, 3, color.filled()))).map_err(area_err)?;
+        // Past the palette's length a colour comes round again: its second use is dashed, with
+        // triangles for points, so that every line stays distinguishable (22 lines per map).
+        if i < PALETTE.len() {
+            chart
+                .draw_series(LineSeries::new(pts.clone(), color.stroke_width(2)))
+                .map_err(area_err)?
+                .label(line.name.clone())
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2)));
+            chart.draw_series(pts.into_iter().map(|p| Circle::new(p, 3, color.filled()))).map_err(area_err)?;
+        } else {
+            chart
+                .draw_series(DashedLineSeries::new(pts.clone(), 6, 4, color.stroke_width(2)))
+                .map_err(area_err)?
+                .label(line.name.clone())
+                .legend(move |(x, y)| DashedPathElement::new(vec![(x, y), (x + 18, y)], 6, 4, color.stroke_width(2)));
+            chart.draw_series(pts.into_iter().map(|p| TriangleMarker::new(p, 4, color.filled()))).map_err(area_err)?;
+        }
     }
     chart
         .configure_series_labels()
