@@ -176,7 +176,9 @@ impl HierarchicalWarp {
     /// roles they have in inversion), clamped to [0, 1).
     #[inline(always)]
     pub fn start(&self, u1: f64, u2: f64) -> WarpDraw {
-        WarpDraw { x: 0, y: 0, ux: clamp_unit(u2), uy: clamp_unit(u1) }
+        // `+ 0.0` turns -0.0 into +0.0, which the AVX-512 clamp would do (its `max` returns the
+        // second operand for equal zeros), so both paths see the same bits.
+        WarpDraw { x: 0, y: 0, ux: clamp_unit(u2) + 0.0, uy: clamp_unit(u1) + 0.0 }
     }
 
     /// One step down: from a node of level `level + 1` (or the top) to its child at `level`,
@@ -223,13 +225,18 @@ impl HierarchicalWarp {
     }
 
     /// Descends every draw of a batch level by level, so the batch's reads of one level are in
-    /// flight together (each step prefetches the next level's block).
+    /// flight together (each step prefetches the next level's block). The draws must come
+    /// fresh from [`Self::start`] (at the top: node (0, 0)); panics otherwise, since a draw
+    /// descended twice would index past the top levels.
     #[inline]
     pub fn descend(&self, draws: &mut [WarpDraw]) {
+        assert!(draws.iter().all(|d| d.x == 0 && d.y == 0), "descend takes draws fresh from start");
         #[cfg(target_arch = "x86_64")]
         if draws.len() >= 8 && is_x86_feature_detected!("avx512f") && is_x86_feature_detected!("avx512dq") {
             for group in draws.chunks_mut(x86::GROUP) {
-                // SAFETY: the CPU has AVX-512F and DQ (checked above).
+                // SAFETY: the CPU has AVX-512F and DQ (checked above), and every draw starts at
+                // node (0, 0) (asserted above), so each level's gathers read the block of a node
+                // the level above chose: inside that level's values.
                 unsafe { x86::descend_group(self, group) };
             }
             return;
@@ -452,7 +459,7 @@ mod tests {
                 }
             }
             assert!((total - 1.0).abs() < 1e-6, "{total}");
-            let mut us: Vec<f64> = vec![0.0, 1.0, 0.5, 1.0 - 1e-17, f64::NAN];
+            let mut us: Vec<f64> = vec![0.0, -0.0, 1.0, 0.5, 1.0 - 1e-17, f64::NAN];
             for _ in 0..20_000 {
                 us.push(rng.next_f64());
             }
@@ -477,6 +484,7 @@ mod tests {
                 let mut batch: Vec<WarpDraw> = (0..19).map(|_| warp.start(rng.next_f64(), rng.next_f64())).collect();
                 batch[3] = warp.start(0.0, 1.0);
                 batch[5] = warp.start(1.0, 0.0);
+                batch[9] = warp.start(-0.0, -0.0);
                 let mut scalar = batch.clone();
                 warp.descend(&mut batch);
                 for draw in &mut scalar {
@@ -489,6 +497,18 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// A draw descended twice would index past the top levels: refused with a panic.
+    #[test]
+    #[should_panic(expected = "fresh from start")]
+    fn descending_twice_is_refused() {
+        let map = Image::from_vec(64, 32, 1, (0..2048).map(|i| (i % 13) as f32).collect());
+        let dist = Distribution2D::build(&map, true, false).unwrap();
+        let warp = HierarchicalWarp::new(&dist);
+        let mut draws = [warp.start(0.9, 0.9); 8];
+        warp.descend(&mut draws);
+        warp.descend(&mut draws);
     }
 
     /// Frequencies of 4M random draws match the probabilities (within 5 sigma), and the

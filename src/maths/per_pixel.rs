@@ -6,7 +6,8 @@
 //! one estimate of the irradiance `E(n) = int L(w) max(n.w, 0) dw` (Veach 1997, eq. 2.7, times
 //! Lambert's `a / pi`). The strategies ([`PerPixelStrategy`]):
 //!
-//! - `Environment`: a texel drawn from the map's `Distribution2D` (`sample(u1, u2)`), its centre
+//! - `Environment`: a texel drawn from the map's `Distribution2D` (by the chosen
+//!   [`PerPixelWarp`]: `sample(u1, u2)`'s inversion, or the hierarchical warp), its centre
 //!   direction `d` and its pdf `p` (per steradian, midpoint solid angle):
 //!   `F = L(texel) max(n.d, 0) / p`. This is `Sample` + `RelightSphere` per pixel. Expectation:
 //!   `sum_{texels, P > 0} L_i max(n.d_i, 0) dOmega_i`, exactly `reference::irradiance_exact`
@@ -26,7 +27,8 @@
 //!   environment technique is continuous: the texel drawn from the distribution, then a point
 //!   uniform in solid angle inside it (`phi` uniform across the column, `cos theta` uniform
 //!   between the row's edges, placed by where `(u1, u2)` fell inside the texel's CDF intervals:
-//!   [`GuidedDistribution::finish_continuous`]), density `p_e(w) = P(texel) / dOmega_exact`,
+//!   [`GuidedDistribution::finish_continuous`], or inside its last mip-map choice:
+//!   [`HierarchicalWarp::finish`]), density `p_e(w) = P(texel) / dOmega_exact`,
 //!   `dOmega_exact = (2 pi / W)(cos theta_top - cos theta_bottom)` (NOTES.md, exact per-row solid
 //!   angle), evaluated at the texel containing `w`.
 //!
@@ -455,7 +457,7 @@ struct TexelRecord {
 const BATCH: usize = 16;
 
 /// What every pixel reads: the lat-long tables, the per-texel records and, when the strategy
-/// draws from the distribution, its guide tables.
+/// draws from the distribution, its texel sampler (guide tables or the hierarchical warp).
 struct Scene<'a> {
     env: &'a Image,
     grid: LatLongGrid,
@@ -747,7 +749,8 @@ pub fn relight_per_pixel(
 /// depend on the number of threads.
 ///
 /// Speed (see BENCHMARKS.md): the texel is drawn through guide tables
-/// ([`GuidedDistribution`], the same texel as `Distribution2D::sample`), texel directions,
+/// ([`GuidedDistribution`], the same texel as `Distribution2D::sample`) or, with
+/// [`PerPixelWarp::Hierarchical`], by the mip-map descent ([`HierarchicalWarp`]); texel directions,
 /// solid angles and edges come from a [`LatLongGrid`], and directions are mapped to texels
 /// without libm calls, so a sample costs a few table reads and no trigonometry.
 ///
