@@ -39,7 +39,7 @@ use rayon::prelude::*;
 
 use crate::data::distribution::clamp_unit;
 use crate::data::Distribution2D;
-use crate::maths::prefetch;
+use crate::maths::{has_avx512, prefetch};
 
 /// One level: `width x height` values (powers of two), stored block by block, each block
 /// `block_w x block_h` (2x2, or 2x1 / 1x2 once a side is 1) in row-major order inside.
@@ -86,7 +86,7 @@ impl Level {
     #[inline(always)]
     fn index(&self, x: usize, y: usize) -> usize {
         let (bw, bh) = self.block_dims();
-        ((y / bh) * (self.width / bw) + x / bw) * (bw * bh) + (y % bh) * bw + x % bw
+        self.block_start(x / bw, y / bh) + (y % bh) * bw + x % bw
     }
 }
 
@@ -159,7 +159,7 @@ impl HierarchicalWarp {
             // Value (cx, cy) is the sum of the fine level's block (cx, cy), its bw*bh
             // consecutive values.
             coarse.fill(|cx, cy| {
-                let block = (cy * cw + cx) * (bw * bh);
+                let block = fine.block_start(cx, cy);
                 fine.values[block..block + bw * bh].iter().map(|&v| v as f64).sum::<f64>() as f32
             });
             levels.push(coarse);
@@ -232,7 +232,7 @@ impl HierarchicalWarp {
     pub fn descend(&self, draws: &mut [WarpDraw]) {
         assert!(draws.iter().all(|d| d.x == 0 && d.y == 0), "descend takes draws fresh from start");
         #[cfg(target_arch = "x86_64")]
-        if draws.len() >= 8 && is_x86_feature_detected!("avx512f") && is_x86_feature_detected!("avx512dq") {
+        if draws.len() >= 8 && has_avx512() {
             for group in draws.chunks_mut(x86::GROUP) {
                 // SAFETY: the CPU has AVX-512F and DQ (checked above), and every draw starts at
                 // node (0, 0) (asserted above), so each level's gathers read the block of a node

@@ -89,9 +89,11 @@ use crate::geometry::latlong_grid::{point_in_band, sincos_turns, LatLongGrid};
 use crate::maths::glossy::Heuristic;
 use crate::maths::guide_table::{GuidedDistribution, GuidedDraw};
 use crate::maths::hierarchical_warp::{HierarchicalWarp, WarpDraw};
-use crate::maths::prefetch;
 use crate::maths::relight::SphereView;
-use crate::maths::sequences::{mix64, nested_uniform_scramble, sobol_2d_bits, unit_f64, SplitMix64};
+use crate::maths::sequences::{
+    bits_to_unit, mix64, nested_uniform_scramble, sobol_2d_bits, unit_f64, SplitMix64, GOLDEN_GAMMA,
+};
+use crate::maths::{has_avx512, prefetch};
 
 /// Declares `$batch(wide, args)`: the lane loop `$lanes(args)` compiled a second time, as
 /// `$avx512`, for AVX-512F and DQ, and called when `wide` (the caller checked the processor with
@@ -146,7 +148,7 @@ impl PerPixelStrategy {
 /// streams).
 #[inline]
 pub fn pixel_seed(seed: u64, pixel: u64) -> u64 {
-    mix64(mix64(seed ^ 0x5045_5250_4958_454C).wrapping_add(pixel.wrapping_mul(0x9E37_79B9_7F4A_7C15)))
+    mix64(mix64(seed ^ 0x5045_5250_4958_454C).wrapping_add(pixel.wrapping_mul(GOLDEN_GAMMA)))
 }
 
 /// Malley's method: a cosine-distributed direction around unit `n` (pdf `cos / pi`), in the
@@ -272,14 +274,6 @@ avx512_batch! {
     fn mis_batch / mis_avx512 = mis_lanes(batch: &MisBatch, count: usize, sums: &mut [[f64; BATCH]; 3])
 }
 
-/// Whether this processor runs the AVX-512 batch functions.
-fn has_avx512() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    return is_x86_feature_detected!("avx512f") && is_x86_feature_detected!("avx512dq");
-    #[cfg(not(target_arch = "x86_64"))]
-    false
-}
-
 /// A uniform direction on the unit sphere (pdf `1 / (4 pi)`).
 #[inline]
 fn sample_uniform(u1: f64, u2: f64) -> DVec3 {
@@ -367,10 +361,9 @@ impl PixelUniforms {
     /// texel (and, for `Mis`, the point inside it): 53-bit uniforms, so that every texel of
     /// positive probability can be drawn; request 1 chooses a direction around the normal, where
     /// 32 bits (2.3e-10) are far finer than any texel, so `Random` takes both from one 64-bit
-    /// draw. Each sample draws
-    /// its requests in order, then the next sample, and the pixel's generator advances by the
-    /// `count` samples' draws. Lanes past `count` are filled too (a fixed-length loop
-    /// vectorises; they are unused). With AVX-512 when `wide`, same bits.
+    /// draw. Each sample draws its requests in order, then the next sample, and the pixel's
+    /// generator advances by the `count` samples' draws. Lanes past `count` are filled too (a
+    /// fixed-length loop vectorises; they are unused). With AVX-512 when `wide`, same bits.
     #[inline(always)]
     fn batch(&mut self, wide: bool, start: usize, count: usize, requests: usize, out: &mut [[f64; BATCH]; 4]) {
         let lanes = UniformLanes { rng: &self.rng, sobol: self.sobol, start, requests };
@@ -408,15 +401,14 @@ fn uniform_lanes(lanes: &UniformLanes, out: &mut [[f64; BATCH]; 4]) {
     let both = lanes.requests > 1;
     match lanes.sobol {
         None => {
-            let unit32 = |bits: u64| bits as f64 * (1.0 / 4_294_967_296.0);
             for i in 0..BATCH {
                 let r = (i * per_sample) as u64;
                 out[0][i] = unit_f64(lanes.rng.peek(r));
                 out[1][i] = unit_f64(lanes.rng.peek(r + 1));
                 if both {
                     let v = lanes.rng.peek(r + 2);
-                    out[2][i] = unit32(v >> 32);
-                    out[3][i] = unit32(v & 0xFFFF_FFFF);
+                    out[2][i] = bits_to_unit((v >> 32) as u32);
+                    out[3][i] = bits_to_unit(v as u32);
                 }
             }
         }
@@ -768,7 +760,7 @@ pub fn relight_per_pixel_with(
 }
 
 /// The per-map half of [`relight_per_pixel_with`]: the texel records and the environment
-/// technique's sampler, built once (about 5 ms on a 1024x512 map here) and then shared by any
+/// technique's sampler, built once (2-5 ms on a 1024x512 map here) and then shared by any
 /// number of renders of that map, as a renderer loads its scene once. The benchmark times
 /// [`Self::render`] alone, as Mitsuba's peer times `mi.render` after loading the scene.
 pub struct PerPixelRenderer<'a> {

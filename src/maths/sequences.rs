@@ -86,6 +86,9 @@ pub fn mix64(mut z: u64) -> u64 {
     z ^ (z >> 31)
 }
 
+/// SplitMix64's increment: the golden ratio in 0.64 fixed point (Steele, Lea, Flood 2014).
+pub const GOLDEN_GAMMA: u64 = 0x9E37_79B9_7F4A_7C15;
+
 /// A 64-bit draw to a uniform in [0, 1): its top 53 bits times 2^-53 (exact).
 #[inline(always)]
 pub fn unit_f64(bits: u64) -> f64 {
@@ -107,7 +110,7 @@ impl SplitMix64 {
 
     #[inline]
     pub fn next_u64(&mut self) -> u64 {
-        self.state = self.state.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        self.state = self.state.wrapping_add(GOLDEN_GAMMA);
         mix64(self.state)
     }
 
@@ -122,13 +125,13 @@ impl SplitMix64 {
     /// away: a batch of draws can be computed side by side (in SIMD lanes).
     #[inline(always)]
     pub fn peek(&self, k: u64) -> u64 {
-        mix64(self.state.wrapping_add(k.wrapping_add(1).wrapping_mul(0x9E37_79B9_7F4A_7C15)))
+        mix64(self.state.wrapping_add(k.wrapping_add(1).wrapping_mul(GOLDEN_GAMMA)))
     }
 
     /// Advances as `k` calls of `next_u64` would.
     #[inline]
     pub fn skip(&mut self, k: u64) {
-        self.state = self.state.wrapping_add(k.wrapping_mul(0x9E37_79B9_7F4A_7C15));
+        self.state = self.state.wrapping_add(k.wrapping_mul(GOLDEN_GAMMA));
     }
 
     /// Uniform integer in [0, n) without modulo bias (Lemire 2019: multiply, keep the high
@@ -324,8 +327,8 @@ pub fn sobol_2d(i: u32) -> [f64; 2] {
 }
 
 /// A 32-bit fraction to [0, 1): `b * 2^-32` (exact).
-#[inline]
-fn bits_to_unit(b: u32) -> f64 {
+#[inline(always)]
+pub(crate) fn bits_to_unit(b: u32) -> f64 {
     b as f64 * (1.0 / 4_294_967_296.0)
 }
 
