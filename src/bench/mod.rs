@@ -267,6 +267,45 @@ pub fn run(config: &BenchConfig, log: &dyn Fn(&str)) -> Result<Vec<BenchRow>, St
             log(&row.describe());
             rows.push(row);
         };
+        // Every strategy with independent uniforms; the two that matter with per-pixel
+        // Owen-scrambled Sobol points too (Mitsuba's `ldsampler` is their peer); Mis with the
+        // power heuristic, Mitsuba's `direct` integrator's, with both sequences; and with Sobol
+        // points the hierarchical warp (Mitsuba's envmap sampler), which only changes results
+        // with low-discrepancy points. Each configuration's records and tables are built once
+        // per map and not timed, as Mitsuba's peer loads its scene once and times `mi.render`.
+        let inversion = PerPixelWarp::Inversion;
+        let balance = |s: PerPixelStrategy, q: PerPixelSequence| (s, q, Heuristic::Balance, inversion);
+        let sobol = PerPixelSequence::Sobol;
+        let configurations = PerPixelStrategy::ALL
+            .map(|s| balance(s, PerPixelSequence::Random))
+            .into_iter()
+            .chain([PerPixelStrategy::Environment, PerPixelStrategy::Mis].map(|s| balance(s, sobol)))
+            .chain(PerPixelSequence::ALL.map(|q| (PerPixelStrategy::Mis, q, Heuristic::Power, inversion)))
+            .chain([
+                (PerPixelStrategy::Environment, sobol, Heuristic::Balance, PerPixelWarp::Hierarchical),
+                (PerPixelStrategy::Mis, sobol, Heuristic::Power, PerPixelWarp::Hierarchical),
+            ]);
+        let mut per_pixel = Vec::new();
+        for (strategy, sequence, heuristic, warp) in configurations {
+            let mut name = format!("per-pixel {}", strategy.name());
+            if heuristic == Heuristic::Power {
+                name.push_str(" Power");
+            }
+            if sequence == PerPixelSequence::Sobol {
+                name.push_str(" Sobol");
+            }
+            if warp == PerPixelWarp::Hierarchical {
+                name.push_str(" Hierarchical");
+            }
+            let prepared = Instant::now();
+            let renderer = PerPixelRenderer::new(&env, &dist, strategy, sequence, warp);
+            log(&format!(
+                "{:<12} {name}: records and tables built in {:.2} ms (not timed below)",
+                spec.name,
+                prepared.elapsed().as_secs_f64() * 1e3
+            ));
+            per_pixel.push((name, sequence, heuristic, renderer));
+        }
         for &count in &config.counts {
             for seq in [Sequence::Random, Sequence::Stratified, Sequence::Sobol, Sequence::Halton] {
                 let (ms, errors) = over_seeds(
@@ -301,61 +340,19 @@ pub fn run(config: &BenchConfig, log: &dyn Fn(&str)) -> Result<Vec<BenchRow>, St
             if count > PER_PIXEL_SOBOL_MAX_SPP {
                 continue;
             }
-            // Every strategy with independent uniforms; the two that matter with per-pixel
-            // Owen-scrambled Sobol points too (Mitsuba's `ldsampler` is their peer); Mis with
-            // the power heuristic, Mitsuba's `direct` integrator's, with both sequences; and
-            // with Sobol points the hierarchical warp (Mitsuba's envmap sampler), which only
-            // changes results with low-discrepancy points.
-            let inversion = PerPixelWarp::Inversion;
-            let balance = |s: PerPixelStrategy, q: PerPixelSequence| (s, q, Heuristic::Balance, inversion);
-            let sobol = PerPixelSequence::Sobol;
-            let configurations = PerPixelStrategy::ALL
-                .map(|s| balance(s, PerPixelSequence::Random))
-                .into_iter()
-                .chain([PerPixelStrategy::Environment, PerPixelStrategy::Mis].map(|s| balance(s, sobol)))
-                .chain(PerPixelSequence::ALL.map(|q| (PerPixelStrategy::Mis, q, Heuristic::Power, inversion)))
-                .chain([
-                    (PerPixelStrategy::Environment, sobol, Heuristic::Balance, PerPixelWarp::Hierarchical),
-                    (PerPixelStrategy::Mis, sobol, Heuristic::Power, PerPixelWarp::Hierarchical),
-                ]);
-            for (strategy, sequence, heuristic, warp) in configurations {
-                if sequence == PerPixelSequence::Random && count > PER_PIXEL_MAX_SPP {
+            for (name, sequence, heuristic, renderer) in &per_pixel {
+                if *sequence == PerPixelSequence::Random && count > PER_PIXEL_MAX_SPP {
                     continue;
                 }
                 // Runs of a second or more need no more than one timed repeat.
                 let repeats = if count >= 256 { 1 } else { config.repeats };
-                // The map's records and tables are built once and not timed, as Mitsuba's
-                // peer loads its scene once and times `mi.render` (the build's time is logged
-                // with the first count).
-                let prepared = Instant::now();
-                let renderer = PerPixelRenderer::new(&env, &dist, strategy, sequence, warp);
-                if count == config.counts[0] {
-                    log(&format!(
-                        "{:<12} per-pixel {:?} {:?} {:?}: records and tables built in {:.2} ms (not timed below)",
-                        spec.name,
-                        strategy,
-                        sequence,
-                        warp,
-                        prepared.elapsed().as_secs_f64() * 1e3
-                    ));
-                }
                 let (ms, errors) = over_seeds(
                     &seeds,
                     repeats,
-                    |seed| Ok(renderer.render(&view, albedo, heuristic, count, seed)),
+                    |seed| Ok(renderer.render(&view, albedo, *heuristic, count, seed)),
                     score,
                 )?;
-                let mut name = format!("per-pixel {}", strategy.name());
-                if heuristic == Heuristic::Power {
-                    name.push_str(" Power");
-                }
-                if sequence == PerPixelSequence::Sobol {
-                    name.push_str(" Sobol");
-                }
-                if warp == PerPixelWarp::Hierarchical {
-                    name.push_str(" Hierarchical");
-                }
-                push(&mut rows, seeded_row(&spec.name, name, "per-pixel", count, ms, &errors));
+                push(&mut rows, seeded_row(&spec.name, name.clone(), "per-pixel", count, ms, &errors));
             }
         }
         for order in [2usize, 4] {
