@@ -8,7 +8,8 @@
 //! - [`engine`]: pipeline files, validation, the parallel demand-driven scheduler, the cache;
 //!   it knows no operator and no data type.
 //! - [`data`], [`maths`], [`formats`], [`plotting`]: data types, mathematics, file formats, plots.
-//! - [`geometry`]: the lat-long convention, below all of them (it depends on nothing else).
+//! - [`geometry`]: the lat-long convention, below all of them (it depends on nothing else);
+//!   [`cpu`]: the processor features every SIMD path asks for.
 //!
 //! Running a pipeline from code:
 //! ```no_run
@@ -33,6 +34,7 @@
 pub mod batch;
 mod bench;
 pub mod cli;
+pub mod cpu;
 pub mod data;
 pub mod engine;
 pub mod formats;

@@ -61,15 +61,7 @@ pub fn prefetch<T>(value: &T) {
     let _ = value;
 }
 
-/// Whether this processor has AVX-512F and DQ, the features every AVX-512 path here is compiled
-/// for (the standard library caches the detection). False off x86_64.
-#[inline]
-pub fn has_avx512() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    return is_x86_feature_detected!("avx512f") && is_x86_feature_detected!("avx512dq");
-    #[cfg(not(target_arch = "x86_64"))]
-    false
-}
+pub use crate::cpu::has_avx512;
 
 /// Maps and distributions the unit tests of several modules build alike.
 #[cfg(test)]
