@@ -157,16 +157,11 @@ pub fn luminance(img: &Image) -> Image {
 }
 
 /// Runs `f` once to warm up, then `repeats` times; returns the median milliseconds and the
-/// last result. Each result is dropped before the next call, outside the timed region (as
-/// criterion's `iter_with_large_drop`): otherwise two results are alive during a call, and a
-/// large one (BuildCdf's 16 MiB of CDF at 2048x1024) has its memory alternate between two
-/// buffers, which with the input overflow the 32 MiB last-level cache (0.42 ms instead of 0.33
-/// ms there); that measures this loop, not the operation.
+/// last result.
 pub fn time_median<T>(repeats: usize, mut f: impl FnMut() -> T) -> (f64, T) {
     let mut out = f();
     let mut times = Vec::with_capacity(repeats.max(1));
     for _ in 0..repeats.max(1) {
-        drop(out);
         let t0 = Instant::now();
         out = f();
         times.push(t0.elapsed().as_secs_f64() * 1e3);

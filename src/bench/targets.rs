@@ -109,22 +109,33 @@ pub fn measure(data: &Path, peers: Option<&Path>, repeats: usize, log: &dyn Fn(&
         let (pass_ms, sum) = time_median(n, || one_pass(&big.data));
         std::hint::black_box(sum);
         drop(map);
-        let (cdf_ms, dist) = time_median(n, || Distribution2D::build(&big, true, false));
+        // Two warm medians, because where the CDF lands decides the time at 2048x1024:
+        // `released`: each distribution is dropped inside its call (timed: the free is part of
+        // it), so every build writes into the memory the last one freed, as a batch over a map
+        // library does; `alive`: `time_median`'s loop, where the previous distribution is alive
+        // during each build, so two 16 MiB CDFs and the luminance (40 MiB) take turns in the
+        // 32 MiB last-level cache. The target holds only if both are within 3x.
+        let (released_ms, total) = time_median(n, || Distribution2D::build(&big, true, false).map(|d| d.total));
+        total.map_err(|e| e.to_string())?;
+        let (alive_ms, dist) = time_median(n, || Distribution2D::build(&big, true, false));
         dist.map_err(|e| e.to_string())?;
         let mib = (big.data.len() * 4) >> 20;
         log(&format!(
-            "BuildCdf {w}x{h}: {cdf_ms:.2} ms; one parallel pass over the RGB map's {} MiB: {map_pass_ms:.2} ms, over the luminance's {mib} MiB: {pass_ms:.2} ms",
+            "BuildCdf {w}x{h}: {released_ms:.2} ms ({alive_ms:.2} ms with the previous distribution alive); one parallel pass over the RGB map's {} MiB: {map_pass_ms:.2} ms, over the luminance's {mib} MiB: {pass_ms:.2} ms",
             3 * mib
         ));
+        let worst = released_ms.max(alive_ms) / map_pass_ms;
         out.push(Target {
             name: format!("BuildCdf {w}x{h} vs one parallel pass over the map's bytes"),
             measured: format!(
-                "{cdf_ms:.2} ms vs {map_pass_ms:.2} ms for the RGB f32 map = {:.1}x (vs {pass_ms:.2} ms for its one-channel luminance: {:.1}x)",
-                cdf_ms / map_pass_ms,
-                cdf_ms / pass_ms
+                "{released_ms:.2} ms (each result released; {alive_ms:.2} ms with the previous one alive) vs {map_pass_ms:.2} ms for the RGB f32 map = {:.1}x / {:.1}x (vs {pass_ms:.2} ms for its one-channel luminance: {:.1}x / {:.1}x)",
+                released_ms / map_pass_ms,
+                alive_ms / map_pass_ms,
+                released_ms / pass_ms,
+                alive_ms / pass_ms
             ),
-            goal: "within 3x".into(),
-            met: Some(cdf_ms / map_pass_ms <= 3.0),
+            goal: "within 3x, both ways".into(),
+            met: Some(worst <= 3.0),
         });
     }
 

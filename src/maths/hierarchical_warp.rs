@@ -37,9 +37,10 @@
 
 use rayon::prelude::*;
 
+use crate::cpu::has_avx512;
 use crate::data::distribution::clamp_unit;
 use crate::data::Distribution2D;
-use crate::maths::{has_avx512, prefetch};
+use crate::maths::prefetch;
 
 /// One level: `width x height` values (powers of two), stored block by block, each block
 /// `block_w x block_h` (2x2, or 2x1 / 1x2 once a side is 1) in row-major order inside.

@@ -419,7 +419,7 @@ impl Kernel {
     pub fn detect() -> Kernel {
         #[cfg(target_arch = "x86_64")]
         {
-            if crate::maths::has_avx512() {
+            if crate::cpu::has_avx512() {
                 Kernel::Avx512
             } else if is_x86_feature_detected!("avx") {
                 Kernel::Avx
@@ -445,7 +445,7 @@ impl Kernel {
                 }
             }
             #[cfg(target_arch = "x86_64")]
-            Kernel::Avx512 if crate::maths::has_avx512() => {
+            Kernel::Avx512 if crate::cpu::has_avx512() => {
                 let mut quads = normals.chunks_exact(4);
                 for (k, q) in quads.by_ref().enumerate() {
                     // SAFETY: the CPU has AVX-512 F and DQ (the match guard).
@@ -503,7 +503,7 @@ impl Kernel {
         assert_eq!(normals.len(), acc.len(), "one accumulator per normal");
         #[cfg(target_arch = "x86_64")]
         {
-            let avx512 = crate::maths::has_avx512();
+            let avx512 = crate::cpu::has_avx512();
             if self == Kernel::Avx512 && avx512 {
                 let mut pairs = normals.chunks_exact(2).zip(acc.chunks_exact_mut(2));
                 for (p, a) in pairs.by_ref() {
@@ -617,7 +617,7 @@ mod tests {
             if is_x86_feature_detected!("avx") {
                 k.push(Kernel::Avx);
             }
-            if crate::maths::has_avx512() {
+            if crate::cpu::has_avx512() {
                 k.push(Kernel::Avx512);
             }
         }

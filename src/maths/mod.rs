@@ -61,8 +61,6 @@ pub fn prefetch<T>(value: &T) {
     let _ = value;
 }
 
-pub use crate::cpu::has_avx512;
-
 /// Maps and distributions the unit tests of several modules build alike.
 #[cfg(test)]
 pub(crate) mod test_maps {

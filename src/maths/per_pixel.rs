@@ -84,16 +84,17 @@ use std::f64::consts::PI;
 use glam::DVec3;
 use rayon::prelude::*;
 
+use crate::cpu::has_avx512;
 use crate::data::{Distribution2D, Image};
 use crate::geometry::latlong_grid::{point_in_band, sincos_turns, LatLongGrid};
 use crate::maths::glossy::Heuristic;
 use crate::maths::guide_table::{GuidedDistribution, GuidedDraw};
 use crate::maths::hierarchical_warp::{HierarchicalWarp, WarpDraw};
+use crate::maths::prefetch;
 use crate::maths::relight::SphereView;
 use crate::maths::sequences::{
     bits_to_unit, mix64, nested_uniform_scramble, sobol_2d_bits, unit_f64, SplitMix64, GOLDEN_GAMMA,
 };
-use crate::maths::{has_avx512, prefetch};
 
 /// Declares `$batch(wide, args)`: the lane loop `$lanes(args)` compiled a second time, as
 /// `$avx512`, for AVX-512F and DQ, and called when `wide` (the caller checked the processor with

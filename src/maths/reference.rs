@@ -476,7 +476,7 @@ pub(crate) mod tests {
                 let odd = &ns[..ns.len() - 1 + ns.len() % 2];
                 assert!(same(&plain[..odd.len()], &irradiance_exact_with(&env, odd, Kernel::Avx, true)));
             }
-            if crate::maths::has_avx512() {
+            if crate::cpu::has_avx512() {
                 // Counts 4k + 0..3 exercise the quads and the leftover normals.
                 for cut in 0..4 {
                     let part = &ns[..ns.len() - cut];

@@ -648,7 +648,7 @@ mod tests {
                 let avx = relight_with(Kernel::Avx, &view, &lights, scale);
                 assert!(avx.data.iter().zip(&reference.data).all(|(a, b)| a.to_bits() == b.to_bits()));
             }
-            if crate::maths::has_avx512() {
+            if crate::cpu::has_avx512() {
                 let wide = relight_with(Kernel::Avx512, &view, &lights, scale);
                 assert!(wide.data.iter().zip(&reference.data).all(|(a, b)| a.to_bits() == b.to_bits()));
             }
