@@ -3,7 +3,8 @@
 //! - `RelightSphere` 512x512 with 1024 shared samples, against the machine's arithmetic floor
 //!   (given by the issue as 15-20 ms on 2 cores) and against the NumPy peer at the same size.
 //! - `BuildCdf` on maps of 2048x1024, 8192x4096 and 16384x8192, against one pass over the
-//!   luminance's bytes at memory bandwidth (a parallel chunked sum with 16 accumulators).
+//!   map's RGB bytes at memory bandwidth (a parallel chunked sum with 16 accumulators; the pass
+//!   over the one-channel luminance is reported beside it).
 //! - Decoding a 1024x512 RLE `.hdr`: ours against the `image` crate's decoder.
 //! - Decoding EXR files (PIZ, ZIP, DWAA; scan lines and tiles; OpenEXR's test image, the shared
 //!   map, files our writer and OpenImageIO's wrote): ours against OpenImageIO
@@ -112,13 +113,16 @@ pub fn measure(data: &Path, peers: Option<&Path>, repeats: usize, log: &dyn Fn(&
         std::hint::black_box(sum);
         drop(map);
         // Two warm medians. The target is judged on `released`: each distribution is dropped
-        // inside its call (timed: the free is part of it), as criterion's `iter` does, so every
-        // build writes into the memory the last one freed, as a batch over a map library does.
-        // `alive` is `time_median`'s own loop, where the previous distribution is alive during
-        // each build: at 2048x1024 two 16 MiB CDFs and the luminance (40 MiB) then take turns in
-        // the 32 MiB last-level cache, and at the large sizes every build gets fresh pages from
-        // the kernel while the last 256 MiB or 1 GiB is still held, which on this shared machine
-        // takes 1-3x as long depending on how many huge pages it has free. It is reported beside.
+        // inside its call (timed: the free is part of it), as criterion's `iter` does. At
+        // 2048x1024 every build then writes into the memory the last one freed, as a batch over
+        // a map library does. `alive` is `time_median`'s own loop, where the previous
+        // distribution is alive during each build: at 2048x1024 two 16 MiB CDFs and the
+        // luminance (40 MiB) then take turns in the 32 MiB last-level cache. At the large sizes
+        // glibc maps and unmaps every CDF (past its 32 MiB threshold), so both ways take fresh
+        // pages from the kernel each time (`released` also times the unmapping); `alive` asks
+        // for them while the last 256 MiB or 1 GiB is still held, which on this shared machine
+        // sometimes takes 2-3x as long, depending on how many huge pages it has free. It is
+        // reported beside.
         let (released_ms, total) = time_median(n, || Distribution2D::build(&big, true, false).map(|d| d.total));
         total.map_err(|e| e.to_string())?;
         let (alive_ms, dist) = time_median(n, || Distribution2D::build(&big, true, false));
