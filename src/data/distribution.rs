@@ -50,16 +50,19 @@
 //! the sum and the row's minimum, whether it holds a bad texel; a bad row is redone from a
 //! sanitised copy), then `write_row_cdf` writes the normalised running sums directly, multiplying
 //! by `1 / sum`. Both run over blocks of 8 texels so that only one f64 add per block is on the
-//! dependency chain. The AVX-512 one (`x86`, chosen at run time) writes the running sums once
-//! with an 8-lane scan per block and normalises them while the row is in the L1 cache: 0.21 ns a
-//! texel against 0.51 for the portable one, which made `BuildCdf` at 2048x1024 twice as fast
-//! (0.62 -> 0.31 ms, within 1.3-1.5x of converting the luminance to f64 and writing it into a
-//! fresh buffer: the memory traffic is now most of it). The CDF buffer is asked to be backed by
+//! dependency chain. The AVX-512 and AVX2 ones (`x86`, chosen at run time) write the running
+//! sums once with an 8-lane scan per block and normalise them while the row is in the L1 cache:
+//! 0.20 and 0.25 ns a texel against 0.51 for the portable one, which made `BuildCdf` at
+//! 2048x1024 twice as fast (0.60 -> 0.29-0.33 ms with AVX-512, 0.33-0.38 ms with AVX2, within
+//! 1.1-1.6x of converting the luminance to f64 and writing it into a fresh buffer: the memory
+//! traffic is now most of it). The CDF buffer is asked to be backed by
 //! transparent huge pages on Linux (`advise_huge_pages`): a fresh buffer of hundreds of MB is
 //! otherwise faulted in and zeroed by the kernel 4 KiB at a time, which at 8192x4096 cost more
 //! than everything else. The rows are written into the buffer's uninitialised capacity (a
 //! zeroed allocation is cleared by `calloc` when recycled: a third of the build at 2048x1024).
 //! Measured numbers are in BENCHMARKS.md ("BuildCdf at scale").
+
+use std::mem::MaybeUninit;
 
 use rayon::prelude::*;
 
@@ -237,16 +240,21 @@ fn write_uniform_cdf<S: CdfSlot>(cdf: &mut [S]) {
     }
 }
 
-/// Which code writes the rows' CDFs. Both give the same bits (a test compares them on rows of
-/// every length modulo 8, zero rows, huge dynamic ranges and bad texels); `build` takes the
+/// Which code writes the rows' CDFs. All give the same bits (a test compares them on rows of
+/// every length modulo 8, zero rows, -0.0, huge dynamic ranges and bad texels); `build` takes the
 /// fastest the processor has.
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum RowKernel {
-    /// `row_sum`, then `write_row_cdf`: scalar code, every processor.
+    /// `row_sum`, then `write_row_cdf`: scalar code, every processor (0.51 ns a texel on one
+    /// row in the L1 cache, on this project's Zen 5 machine).
     Portable,
-    /// `x86::write_row_cdf`: the same operations on 8 lanes (AVX-512F and DQ).
+    /// `x86::write_row_cdf`: the same operations on 8 lanes (AVX-512F and DQ; 0.20 ns a texel).
     #[cfg(target_arch = "x86_64")]
     Avx512,
+    /// `x86::write_row_cdf_avx2`: the same on two halves of 4 lanes (AVX2; 0.25 ns a texel), for
+    /// the processors without AVX-512.
+    #[cfg(target_arch = "x86_64")]
+    Avx2,
 }
 
 impl RowKernel {
@@ -254,41 +262,60 @@ impl RowKernel {
         #[cfg(target_arch = "x86_64")]
         if crate::cpu::has_avx512() {
             return RowKernel::Avx512;
+        } else if crate::cpu::has_avx2() {
+            return RowKernel::Avx2;
         }
         RowKernel::Portable
     }
 
     /// Writes row `src`'s conditional CDF into `cdf` (`src.len() + 1` slots) if the row is free
     /// of bad texels, and returns `row_sum(src)`: `(sum, min)`. A row with a bad texel (`sum`
-    /// not finite or `min < 0`) leaves `cdf` partly written, for the caller to redo.
+    /// not finite or `min < 0`) leaves `cdf` partly written, for the caller to redo. A SIMD
+    /// kernel the processor lacks runs the portable one.
     #[inline]
-    fn write_row(self, src: &[f32], cdf: &mut [std::mem::MaybeUninit<f64>]) -> (f64, f32) {
+    fn write_row(self, src: &[f32], cdf: &mut [MaybeUninit<f64>]) -> (f64, f32) {
         match self {
-            RowKernel::Portable => {
+            // SAFETY (both arms): the guard checks the processor has the kernel's features (the
+            // variant alone would not: any code in this module can name it).
+            #[cfg(target_arch = "x86_64")]
+            RowKernel::Avx512 if crate::cpu::has_avx512() => unsafe { x86::write_row_cdf(src, cdf) },
+            #[cfg(target_arch = "x86_64")]
+            RowKernel::Avx2 if crate::cpu::has_avx2() => unsafe { x86::write_row_cdf_avx2(src, cdf) },
+            _ => {
                 let (sum, min) = row_sum(src);
                 if sum.is_finite() && min >= 0.0 {
                     write_row_cdf(src, sum, cdf);
                 }
                 (sum, min)
             }
-            // SAFETY: the guard checks the processor has AVX-512F and DQ (the variant alone
-            // would not: any code in this module can name it).
-            #[cfg(target_arch = "x86_64")]
-            RowKernel::Avx512 if crate::cpu::has_avx512() => unsafe { x86::write_row_cdf(src, cdf) },
-            #[cfg(target_arch = "x86_64")]
-            RowKernel::Avx512 => RowKernel::Portable.write_row(src, cdf),
         }
+    }
+
+    /// The kernels this processor can run, the portable one first.
+    #[cfg(test)]
+    fn available() -> Vec<RowKernel> {
+        let mut kernels = vec![RowKernel::Portable];
+        #[cfg(target_arch = "x86_64")]
+        {
+            if crate::cpu::has_avx512() {
+                kernels.push(RowKernel::Avx512);
+            }
+            if crate::cpu::has_avx2() {
+                kernels.push(RowKernel::Avx2);
+            }
+        }
+        kernels
     }
 }
 
-/// The rows' CDFs with AVX-512, written by hand because no crate does a scan with these bits.
-/// `row_sum` and `write_row_cdf` are compiler-scheduled scalar code (0.51 ns, 2.2 cycles, a
+/// The rows' CDFs with AVX-512 or AVX2, written by hand because no crate does a scan with these
+/// bits. `row_sum` and `write_row_cdf` are compiler-scheduled scalar code (0.51 ns, 2.2 cycles, a
 /// texel on one row in the L1 cache); compiling them for AVX-512 made them slower, as the
 /// compiler does not see that `block_prefix`'s tree is a scan. Here it is one: three shuffles and
 /// adds per block of 8 texels, the same adds on the same values as the tree, so the bits are the
-/// portable kernel's (0.21 ns a texel). The loop is bound by the shuffle unit (cross-lane
-/// shuffles: one a cycle), so it spends as few as it can: zero-masked shuffles instead of merges,
-/// the carry kept in every lane.
+/// portable kernel's (0.20 ns a texel with AVX-512, 0.25 with AVX2). The loop is bound by the
+/// shuffle unit (cross-lane shuffles: one a cycle), so it spends as few as it can: zero-masked
+/// shuffles (AVX2: blends with zero) instead of merges, the carry kept in every lane.
 #[cfg(target_arch = "x86_64")]
 mod x86 {
     use std::arch::x86_64::*;
@@ -349,12 +376,14 @@ mod x86 {
     /// The rest of a row after its first `done` texels: their running sums, then, for a good
     /// row, the normalisation of all of them: `S == sum` gives exactly 1.0, else `S (1 / sum)`,
     /// as `write_row_cdf`; a zero sum gives the uniform CDF. A bad row (`sum` not finite or
-    /// `min < 0`) is left for the caller to redo.
+    /// `min < 0`) is left for the caller to redo. Scalar code, inlined into each kernel, where
+    /// the compiler vectorises the normalisation for that kernel's instruction set (as fast as
+    /// the same loop written with AVX-512 intrinsics).
     ///
     /// # Safety
-    /// The processor must have AVX-512F and DQ, and `cdf` (`src.len() + 1` entries) must hold
-    /// the running sums of the first `done` texels at 1..=done.
-    #[target_feature(enable = "avx512f,avx512dq")]
+    /// `cdf` (`src.len() + 1` entries) must hold the running sums of the first `done` texels at
+    /// 1..=done.
+    #[inline(always)]
     unsafe fn finish_row(src: &[f32], cdf: &mut [MaybeUninit<f64>], done: usize, carry: f64, min: f32) -> (f64, f32) {
         let n = src.len();
         let out = cdf.as_mut_ptr().cast::<f64>();
@@ -373,22 +402,51 @@ mod x86 {
             return (sum, min);
         }
         let inv = 1.0 / sum;
-        let (sums, invs, ones) = (_mm512_set1_pd(sum), _mm512_set1_pd(inv), _mm512_set1_pd(1.0));
-        let mut i = 1;
-        while i + 8 <= n + 1 {
-            // SAFETY: entries i..i+8 <= n + 1 are inside `cdf`, written by the loops above.
-            let s = _mm512_loadu_pd(out.add(i));
-            let at_sum = _mm512_cmp_pd_mask::<_CMP_EQ_OQ>(s, sums);
-            _mm512_storeu_pd(out.add(i), _mm512_mask_blend_pd(at_sum, _mm512_mul_pd(s, invs), ones));
-            i += 8;
-        }
-        for j in i..=n {
-            let s = out.add(j).read();
-            out.add(j).write(if s == sum { 1.0 } else { s * inv });
+        // SAFETY: entries 1..=n are inside `cdf` and were written above or before the call.
+        let sums = std::slice::from_raw_parts_mut(out.add(1), n);
+        for s in sums.iter_mut() {
+            *s = if *s == sum { 1.0 } else { *s * inv };
         }
         out.write(0.0);
         out.add(n).write(1.0);
         (sum, min)
+    }
+
+    /// `write_row_cdf` with AVX2: each block as two halves of 4 lanes. Lanes 0-3 take levels 1
+    /// and 2 of the scan, lanes 4-7 the same plus lane 3 of the first half (level 3), so every
+    /// lane adds what the AVX-512 lane adds; blends with +0.0 stand in for zero-masking (the same
+    /// values, -0.0 included: see `block_prefix`).
+    ///
+    /// # Safety
+    /// The processor must have AVX2.
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn write_row_cdf_avx2(src: &[f32], cdf: &mut [MaybeUninit<f64>]) -> (f64, f32) {
+        let n = src.len();
+        assert_eq!(cdf.len(), n + 1, "a row's CDF has one entry more than the row");
+        let blocks = n / 8;
+        let out = cdf.as_mut_ptr().cast::<f64>();
+        let zero = _mm256_setzero_pd();
+        let mut carry = _mm256_setzero_pd();
+        let mut mins = _mm256_set1_ps(f32::INFINITY);
+        for k in 0..blocks {
+            // SAFETY: as in `write_row_cdf`: texels 8k..8k+8 and entries 8k+1..8k+9 are inside.
+            let x = _mm256_loadu_ps(src.as_ptr().add(8 * k));
+            mins = _mm256_min_ps(x, mins);
+            let lo = _mm256_cvtps_pd(_mm256_castps256_ps128(x));
+            let hi = _mm256_cvtps_pd(_mm256_extractf128_ps::<1>(x));
+            let lo = _mm256_add_pd(lo, _mm256_blend_pd::<0b1010>(zero, _mm256_movedup_pd(lo)));
+            let hi = _mm256_add_pd(hi, _mm256_blend_pd::<0b1010>(zero, _mm256_movedup_pd(hi)));
+            let lo = _mm256_add_pd(lo, _mm256_blend_pd::<0b1100>(zero, _mm256_permute4x64_pd::<0b01_01_01_01>(lo)));
+            let hi = _mm256_add_pd(hi, _mm256_blend_pd::<0b1100>(zero, _mm256_permute4x64_pd::<0b01_01_01_01>(hi)));
+            let hi = _mm256_add_pd(hi, _mm256_permute4x64_pd::<0b11_11_11_11>(lo));
+            _mm256_storeu_pd(out.add(1 + 8 * k), _mm256_add_pd(carry, lo));
+            _mm256_storeu_pd(out.add(5 + 8 * k), _mm256_add_pd(carry, hi));
+            carry = _mm256_add_pd(carry, _mm256_permute4x64_pd::<0b11_11_11_11>(hi));
+        }
+        let mut lanes = [0.0f32; 8];
+        _mm256_storeu_ps(lanes.as_mut_ptr(), mins);
+        let min = lanes.iter().fold(f32::INFINITY, |m, &x| if x < m { x } else { m });
+        finish_row(src, cdf, 8 * blocks, _mm256_cvtsd_f64(carry), min)
     }
 }
 
@@ -407,7 +465,7 @@ impl CdfSlot for f64 {
     }
 }
 
-impl CdfSlot for std::mem::MaybeUninit<f64> {
+impl CdfSlot for MaybeUninit<f64> {
     #[inline(always)]
     fn set(&mut self, value: f64) {
         self.write(value);
@@ -751,9 +809,9 @@ mod tests {
     /// error, or with `sanitize` the same distribution).
     #[test]
     fn row_kernels_give_the_same_bits() {
-        let kernel = RowKernel::detect();
-        if kernel == RowKernel::Portable {
-            eprintln!("skipped: this processor has no AVX-512, so only the portable kernel runs");
+        let kernels = RowKernel::available();
+        if kernels.len() == 1 {
+            eprintln!("skipped: this processor has neither AVX-512 nor AVX2, so only the portable kernel runs");
             return;
         }
         let mut maps = Vec::new();
@@ -799,39 +857,49 @@ mod tests {
         for (i, img) in maps.iter().enumerate() {
             let w = img.width;
             for y in 0..img.height {
-                let mut rows = [(); 2].map(|_| vec![std::mem::MaybeUninit::new(f64::NAN); w + 1]);
-                let [a, b] = &mut rows;
-                let (pa, pb) = (RowKernel::Portable.write_row(img.row(y), a), kernel.write_row(img.row(y), b));
-                assert_eq!(
-                    (pa.0.to_bits(), pa.1.to_bits()),
-                    (pb.0.to_bits(), pb.1.to_bits()),
-                    "{w}x{} row {y}",
-                    img.height
-                );
-                let good = pa.0.is_finite() && pa.1 >= 0.0;
+                // SAFETY (reads below): every slot is initialised (to NaN) before a kernel writes.
+                let bits =
+                    |r: &[MaybeUninit<f64>]| r.iter().map(|e| unsafe { e.assume_init() }.to_bits()).collect::<Vec<_>>();
+                let mut portable = vec![MaybeUninit::new(f64::NAN); w + 1];
+                let (sum, min) = RowKernel::Portable.write_row(img.row(y), &mut portable);
+                let good = sum.is_finite() && min >= 0.0;
                 assert!(good || i >= clean_maps, "map {i} row {y} has no bad texel");
-                if good {
-                    // SAFETY: every slot was initialised (to NaN) before the kernels wrote it.
-                    let bits = |r: &[std::mem::MaybeUninit<f64>]| {
-                        r.iter().map(|e| unsafe { e.assume_init() }.to_bits()).collect::<Vec<_>>()
-                    };
-                    assert_eq!(bits(a), bits(b), "{w}x{} row {y}", img.height);
+                for &kernel in &kernels[1..] {
+                    let mut row = vec![MaybeUninit::new(f64::NAN); w + 1];
+                    let (s, m) = kernel.write_row(img.row(y), &mut row);
+                    assert_eq!(
+                        (s.to_bits(), m.to_bits()),
+                        (sum.to_bits(), min.to_bits()),
+                        "{kernel:?} {w}x{} row {y}",
+                        img.height
+                    );
+                    if good {
+                        assert_eq!(bits(&row), bits(&portable), "{kernel:?} {w}x{} row {y}", img.height);
+                    }
                 }
             }
         }
         for img in &maps {
             for (sin_theta, sanitize) in [(true, false), (false, false), (true, true)] {
-                let portable = Distribution2D::build_with(img, sin_theta, sanitize, RowKernel::Portable);
-                let simd = Distribution2D::build_with(img, sin_theta, sanitize, kernel);
-                match (portable, simd) {
-                    (Ok(a), Ok(b)) => {
-                        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
-                        assert_eq!(bits(&a.conditional_cdf), bits(&b.conditional_cdf), "{}x{}", img.width, img.height);
-                        assert_eq!(bits(&a.row_sums), bits(&b.row_sums));
-                        assert_eq!(a, b);
+                for &kernel in &kernels[1..] {
+                    let portable = Distribution2D::build_with(img, sin_theta, sanitize, RowKernel::Portable);
+                    let simd = Distribution2D::build_with(img, sin_theta, sanitize, kernel);
+                    match (portable, simd) {
+                        (Ok(a), Ok(b)) => {
+                            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                            assert_eq!(
+                                bits(&a.conditional_cdf),
+                                bits(&b.conditional_cdf),
+                                "{}x{}",
+                                img.width,
+                                img.height
+                            );
+                            assert_eq!(bits(&a.row_sums), bits(&b.row_sums));
+                            assert_eq!(a, b);
+                        }
+                        (Err(a), Err(b)) => assert_eq!(a.to_string(), b.to_string()),
+                        (a, b) => panic!("{kernel:?} {}x{}: {a:?} against {b:?}", img.width, img.height),
                     }
-                    (Err(a), Err(b)) => assert_eq!(a.to_string(), b.to_string()),
-                    (a, b) => panic!("{}x{}: {a:?} against {b:?}", img.width, img.height),
                 }
             }
         }
@@ -859,10 +927,10 @@ mod tests {
             t.sort_by(f64::total_cmp);
             t[t.len() / 2]
         };
-        let kernels = [RowKernel::Portable, RowKernel::detect()];
+        let kernels = RowKernel::available();
         let src = &img.data[..2048];
-        let mut out = vec![std::mem::MaybeUninit::<f64>::uninit(); 2049];
-        for kernel in kernels {
+        let mut out = vec![MaybeUninit::<f64>::uninit(); 2049];
+        for &kernel in &kernels {
             let ms = median(&mut || {
                 for _ in 0..1000 {
                     std::hint::black_box(kernel.write_row(std::hint::black_box(src), &mut out));
@@ -899,7 +967,7 @@ mod tests {
                     });
                 std::hint::black_box(&v);
             });
-            for kernel in kernels {
+            for &kernel in &kernels {
                 let ms = median(&mut || {
                     std::hint::black_box(Distribution2D::build_with(&img, true, false, kernel).unwrap());
                 });
