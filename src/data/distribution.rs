@@ -367,10 +367,15 @@ mod x86 {
             _mm512_storeu_pd(out.add(1 + 8 * k), _mm512_add_pd(carry, local));
             carry = _mm512_add_pd(carry, _mm512_permutexvar_pd(seven, local));
         }
+        finish_row(src, cdf, 8 * blocks, _mm512_cvtsd_f64(carry), lane_min(mins))
+    }
+
+    /// The smallest of the 8 per-lane minima, folded in lane order as `row_sum` does.
+    #[inline(always)]
+    unsafe fn lane_min(mins: __m256) -> f32 {
         let mut lanes = [0.0f32; 8];
         _mm256_storeu_ps(lanes.as_mut_ptr(), mins);
-        let min = lanes.iter().fold(f32::INFINITY, |m, &x| if x < m { x } else { m });
-        finish_row(src, cdf, 8 * blocks, _mm512_cvtsd_f64(carry), min)
+        lanes.iter().fold(f32::INFINITY, |m, &x| if x < m { x } else { m })
     }
 
     /// The rest of a row after its first `done` texels: their running sums, then, for a good
@@ -443,10 +448,7 @@ mod x86 {
             _mm256_storeu_pd(out.add(5 + 8 * k), _mm256_add_pd(carry, hi));
             carry = _mm256_add_pd(carry, _mm256_permute4x64_pd::<0b11_11_11_11>(hi));
         }
-        let mut lanes = [0.0f32; 8];
-        _mm256_storeu_ps(lanes.as_mut_ptr(), mins);
-        let min = lanes.iter().fold(f32::INFINITY, |m, &x| if x < m { x } else { m });
-        finish_row(src, cdf, 8 * blocks, _mm256_cvtsd_f64(carry), min)
+        finish_row(src, cdf, 8 * blocks, _mm256_cvtsd_f64(carry), lane_min(mins))
     }
 }
 
