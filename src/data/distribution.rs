@@ -258,14 +258,30 @@ enum RowKernel {
 }
 
 impl RowKernel {
-    fn detect() -> RowKernel {
+    /// Every kernel, fastest first.
+    const ALL: &[RowKernel] = &[
         #[cfg(target_arch = "x86_64")]
-        if crate::cpu::has_avx512() {
-            return RowKernel::Avx512;
-        } else if crate::cpu::has_avx2() {
-            return RowKernel::Avx2;
+        RowKernel::Avx512,
+        #[cfg(target_arch = "x86_64")]
+        RowKernel::Avx2,
+        RowKernel::Portable,
+    ];
+
+    /// Whether this processor has the kernel's instruction set: the one place that says which
+    /// feature check each kernel needs.
+    fn runs_here(self) -> bool {
+        match self {
+            RowKernel::Portable => true,
+            #[cfg(target_arch = "x86_64")]
+            RowKernel::Avx512 => crate::cpu::has_avx512(),
+            #[cfg(target_arch = "x86_64")]
+            RowKernel::Avx2 => crate::cpu::has_avx2(),
         }
-        RowKernel::Portable
+    }
+
+    /// The fastest kernel this processor runs.
+    fn detect() -> RowKernel {
+        Self::ALL.iter().copied().find(|k| k.runs_here()).unwrap_or(RowKernel::Portable)
     }
 
     /// Writes row `src`'s conditional CDF into `cdf` (`src.len() + 1` slots) if the row is free
@@ -274,36 +290,32 @@ impl RowKernel {
     /// kernel the processor lacks runs the portable one.
     #[inline]
     fn write_row(self, src: &[f32], cdf: &mut [MaybeUninit<f64>]) -> (f64, f32) {
+        if !self.runs_here() {
+            return RowKernel::Portable.write_row(src, cdf);
+        }
         match self {
-            // SAFETY (both arms): the guard checks the processor has the kernel's features (the
-            // variant alone would not: any code in this module can name it).
-            #[cfg(target_arch = "x86_64")]
-            RowKernel::Avx512 if crate::cpu::has_avx512() => unsafe { x86::write_row_cdf(src, cdf) },
-            #[cfg(target_arch = "x86_64")]
-            RowKernel::Avx2 if crate::cpu::has_avx2() => unsafe { x86::write_row_cdf_avx2(src, cdf) },
-            _ => {
+            RowKernel::Portable => {
                 let (sum, min) = row_sum(src);
                 if sum.is_finite() && min >= 0.0 {
                     write_row_cdf(src, sum, cdf);
                 }
                 (sum, min)
             }
+            // SAFETY (both arms): `runs_here` checked the processor has the kernel's features
+            // (the variant alone would not: any code in this module can name it).
+            #[cfg(target_arch = "x86_64")]
+            RowKernel::Avx512 => unsafe { x86::write_row_cdf(src, cdf) },
+            #[cfg(target_arch = "x86_64")]
+            RowKernel::Avx2 => unsafe { x86::write_row_cdf_avx2(src, cdf) },
         }
     }
 
     /// The kernels this processor can run, the portable one first.
     #[cfg(test)]
     fn available() -> Vec<RowKernel> {
-        let mut kernels = vec![RowKernel::Portable];
-        #[cfg(target_arch = "x86_64")]
-        {
-            if crate::cpu::has_avx512() {
-                kernels.push(RowKernel::Avx512);
-            }
-            if crate::cpu::has_avx2() {
-                kernels.push(RowKernel::Avx2);
-            }
-        }
+        // `ALL` ends with the portable kernel: move it to the front.
+        let mut kernels: Vec<RowKernel> = Self::ALL.iter().copied().filter(|k| k.runs_here()).collect();
+        kernels.rotate_right(1);
         kernels
     }
 }
@@ -389,10 +401,15 @@ mod x86 {
     /// `cdf` (`src.len() + 1` entries) must hold the running sums of the first `done` texels at
     /// 1..=done.
     #[inline(always)]
-    unsafe fn finish_row(src: &[f32], cdf: &mut [MaybeUninit<f64>], done: usize, carry: f64, min: f32) -> (f64, f32) {
+    unsafe fn finish_row(
+        src: &[f32],
+        cdf: &mut [MaybeUninit<f64>],
+        done: usize,
+        mut carry: f64,
+        mut min: f32,
+    ) -> (f64, f32) {
         let n = src.len();
         let out = cdf.as_mut_ptr().cast::<f64>();
-        let (mut carry, mut min) = (carry, min);
         for (i, &x) in src.iter().enumerate().skip(done) {
             min = if x < min { x } else { min };
             carry += x as f64;
@@ -568,21 +585,22 @@ impl Distribution2D {
                 let src = luminance.row(y);
                 let (mut sum, min) = kernel.write_row(src, crow);
                 if !(sum.is_finite() && min >= 0.0) {
-                    // A bad texel: name the first, or redo the row from its sanitised copy.
+                    // A bad texel: name the first, or redo the row from its sanitised copy
+                    // (which has none, so the kernel writes it all).
                     let mut clean = Vec::with_capacity(w);
                     for (x, &v) in src.iter().enumerate() {
                         clean.push(sanitised(v, sanitize).ok_or((x, v))?);
                     }
-                    sum = row_sum(&clean).0;
-                    write_row_cdf(&clean, sum, crow);
+                    sum = kernel.write_row(&clean, crow).0;
                 }
                 let weight = if sin_theta { sum * theta_of_row(y, h).sin() } else { sum };
                 Ok((weight, sum * texel_solid_angle(y, w, h)))
             })
             .collect();
         if rows.iter().all(Result::is_ok) {
-            // SAFETY: every row returned Ok after its kernel or `write_row_cdf` wrote all its
-            // w + 1 entries, and the rows tile the first `entries` slots of the capacity.
+            // SAFETY: every row returned Ok after its kernel wrote all its w + 1 entries (from
+            // the row or its sanitised copy), and the rows tile the first `entries` slots of the
+            // capacity.
             unsafe { conditional_cdf.set_len(entries) };
         }
 
