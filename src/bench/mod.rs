@@ -304,10 +304,14 @@ pub fn run(config: &BenchConfig, log: &dyn Fn(&str)) -> Result<Vec<BenchRow>, St
                 spec.name,
                 prepared.elapsed().as_secs_f64() * 1e3
             ));
-            per_pixel.push((name, sequence, heuristic, renderer));
+            let max_spp = match sequence {
+                PerPixelSequence::Random => PER_PIXEL_MAX_SPP,
+                PerPixelSequence::Sobol => PER_PIXEL_SOBOL_MAX_SPP,
+            };
+            per_pixel.push((name, max_spp, heuristic, renderer));
         }
         for &count in &config.counts {
-            for seq in [Sequence::Random, Sequence::Stratified, Sequence::Sobol, Sequence::Halton] {
+            for seq in Sequence::ALL {
                 let (ms, errors) = over_seeds(
                     &seeds,
                     config.repeats,
@@ -318,10 +322,7 @@ pub fn run(config: &BenchConfig, log: &dyn Fn(&str)) -> Result<Vec<BenchRow>, St
                     },
                     score,
                 )?;
-                push(
-                    &mut rows,
-                    seeded_row(&spec.name, format!("shared {}", seq_name(seq)), "shared", count, ms, &errors),
-                );
+                push(&mut rows, seeded_row(&spec.name, format!("shared {}", seq.name()), "shared", count, ms, &errors));
             }
             let (ms, errors) = over_seeds(
                 &seeds,
@@ -337,11 +338,8 @@ pub fn run(config: &BenchConfig, log: &dyn Fn(&str)) -> Result<Vec<BenchRow>, St
                 &mut rows,
                 seeded_row(&spec.name, "shared Random (seed's estimator)".into(), "shared", count, ms, &errors),
             );
-            if count > PER_PIXEL_SOBOL_MAX_SPP {
-                continue;
-            }
-            for (name, sequence, heuristic, renderer) in &per_pixel {
-                if *sequence == PerPixelSequence::Random && count > PER_PIXEL_MAX_SPP {
+            for (name, max_spp, heuristic, renderer) in &per_pixel {
+                if count > *max_spp {
                     continue;
                 }
                 // Runs of a second or more need no more than one timed repeat.
@@ -408,15 +406,6 @@ pub fn expected_slope(strategy: &str) -> &'static str {
         "faster than -0.5"
     } else {
         "-0.5"
-    }
-}
-
-fn seq_name(seq: Sequence) -> &'static str {
-    match seq {
-        Sequence::Random => "Random",
-        Sequence::Stratified => "Stratified",
-        Sequence::Sobol => "Sobol",
-        Sequence::Halton => "Halton",
     }
 }
 

@@ -146,7 +146,8 @@ impl HierarchicalWarp {
         let (w, h) = (dist.width, dist.height);
         let (pw, ph) = (w.max(1).next_power_of_two(), h.max(1).next_power_of_two());
         let mut finest = Level::new(pw, ph);
-        finest.fill(|x, y| if x < w && y < h { dist.texel_probability(x, y) as f32 } else { 0.0 });
+        // `texel_probability` is 0 outside the map, i.e. in the padding up to powers of two.
+        finest.fill(|x, y| dist.texel_probability(x, y) as f32);
         let mut levels = vec![finest];
         // Sum blocks until the last level is one block (the top's children).
         loop {

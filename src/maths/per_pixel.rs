@@ -852,8 +852,7 @@ mod tests {
             None if k == 0 => [u.rng.next_f64(), u.rng.next_f64()],
             None => {
                 let r = u.rng.next_u64();
-                let unit = |bits: u64| bits as f64 * (1.0 / 4_294_967_296.0);
-                [unit(r >> 32), unit(r & 0xFFFF_FFFF)]
+                [bits_to_unit((r >> 32) as u32), bits_to_unit(r as u32)]
             }
             Some(seeds) => {
                 let [shuffle, sx, sy] = seeds[k];
