@@ -9,33 +9,38 @@
 //! by white - v; its parameters are one typed struct, as for the built-in operators.
 
 use hdrflow::data::Image;
-use hdrflow::engine::op::{OpContext, OpError, OpSpec, OutputType};
+use hdrflow::engine::fields::{Check, Input};
+use hdrflow::engine::op::{OpContext, OpError, OpSpec};
 use hdrflow::types::ty::ANY_IMAGE;
 use hdrflow::Value;
 
-// 1. The parameters: doc comments, ranges and defaults become validation, `ops` and the key.
+// 1. The fields, its input and its parameters: doc comments, accepted types, ranges and
+//    defaults become validation, `ops` and the key.
 hdrflow::params! {
     pub struct InvertParams {
+        /// the image to invert
+        #[input(ANY_IMAGE)]
+        pub image: Input<Image>,
         /// the value that maps to 0
         #[range(0.0, 1e30)]
         pub white: f64 = 1.0,
     }
 }
 
-// 2. The operator: name, version (bump it when its output changes), inputs, output port, and
-//    its source (hashed into the cache key, so an edit to this file never reuses stale results).
+// 2. The operator: name, version (bump it when its output changes), output port (of the
+//    input's type), and its source (hashed into the cache key, so an edit to this file never
+//    reuses stale results).
 fn invert_spec() -> OpSpec {
     OpSpec::new("Invert", "example", 1, "Replace every value v by white - v")
-        .input("image", ANY_IMAGE, "the image to invert")
-        .output("image", OutputType::SameAsInput("image"), "the inverted image")
+        .output_computed("image", "the input's type", |_, p: InvertParams<Check>| Ok(p.image.ty), "the inverted image")
         .code(include_str!("custom_operator.rs"))
         .eval(invert)
 }
 
-// 3. Its evaluation: typed parameters; the input is taken by value, so the buffer is reused
-//    when this node is its last consumer.
-fn invert(ctx: &mut OpContext, p: InvertParams) -> Result<Value, OpError> {
-    let mut img: Image = ctx.take("image");
+// 3. Its evaluation: the struct, its input already an image; taken by value, the buffer is
+//    reused when this node is its last consumer.
+fn invert(_: &mut OpContext, p: InvertParams) -> Result<Value, OpError> {
+    let mut img = p.image.take();
     let white = p.white as f32;
     img.data.iter_mut().for_each(|v| *v = white - *v);
     Ok(Value::new(img))

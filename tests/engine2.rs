@@ -19,8 +19,8 @@ use hdrflow::data::Image;
 use hdrflow::engine::cache::codec::{Reader, Writer};
 use hdrflow::engine::cache::CacheStore;
 use hdrflow::engine::error::{PipelineErrors, RunError};
+use hdrflow::engine::fields::Input;
 use hdrflow::engine::op::{OpContext, OpError, OpSpec, OutputType, Outputs};
-use hdrflow::engine::params::NoParams;
 use hdrflow::engine::scheduler::{self, NodeStatus, RunOptions, RunOutcome, Silent};
 use hdrflow::engine::value::{TypeSpec, Value, ValueData, ValueType};
 use hdrflow::types::ty::{ANY_IMAGE, IMAGE_T, SCALAR_T};
@@ -169,17 +169,24 @@ fn wait_for_ptr(node: &str) -> bool {
 // Test-only operators.
 // ---------------------------------------------------------------------------------------------
 
+hdrflow::params! {
+    struct ImageIn {
+        /// the image
+        #[input(ANY_IMAGE)]
+        image: Input<Image>,
+    }
+}
+
 /// `MinMax(image) -> min, max`: two ports, each `(value, flat index of its first occurrence)`.
 fn minmax_spec() -> OpSpec {
     OpSpec::new("MinMax", "test", 1, "Smallest and largest sample of an image, with their flat indices")
-        .input("image", ANY_IMAGE, "the image")
         .output("min", OutputType::Fixed(PAIR_T), "(smallest sample, its index)")
         .output("max", OutputType::Fixed(PAIR_T), "(largest sample, its index)")
         .eval(minmax)
 }
 
-fn minmax(ctx: &mut OpContext, _: NoParams) -> Result<Outputs, OpError> {
-    let img: &Image = ctx.get("image");
+fn minmax(_: &mut OpContext, p: ImageIn) -> Result<Outputs, OpError> {
+    let img = &*p.image;
     let (mut lo, mut hi) = ((f32::INFINITY, 0usize), (f32::NEG_INFINITY, 0usize));
     for (i, &v) in img.data.iter().enumerate() {
         if v < lo.0 {
@@ -194,37 +201,53 @@ fn minmax(ctx: &mut OpContext, _: NoParams) -> Result<Outputs, OpError> {
         .with("max", Value::new(Pair(hi.0 as f64, hi.1 as f64))))
 }
 
+hdrflow::params! {
+    struct SumParams {
+        /// the pairs, in order
+        #[input(&[PAIR_T])]
+        #[range(1, 4)]
+        values: Vec<Input<Pair>>,
+    }
+}
+
 /// `Sum(values: [1..4 pairs])`: (sum of the first components, sum of (position + 1) * second
 /// component): the second component shows the order the values arrived in.
 fn sum_spec() -> OpSpec {
     OpSpec::new("Sum", "test", 1, "Sum of pairs, the second components weighted by position")
-        .list_input("values", &[PAIR_T], 1, 4, "the pairs, in order")
         .output("sum", OutputType::Fixed(PAIR_T), "the sum")
         .eval(sum)
 }
 
-fn sum(ctx: &mut OpContext, _: NoParams) -> Result<Value, OpError> {
+fn sum(_: &mut OpContext, params: SumParams) -> Result<Value, OpError> {
     let mut out = Pair(0.0, 0.0);
-    for (k, v) in ctx.list("values").iter().enumerate() {
-        let p = v.get::<Pair>().expect("validated as a pair");
+    for (k, p) in params.values.iter().enumerate() {
         out.0 += p.0;
         out.1 += (k + 1) as f64 * p.1;
     }
     Ok(Value::new(out))
 }
 
+hdrflow::params! {
+    struct OffsetParams {
+        /// the pair
+        #[input(&[PAIR_T])]
+        value: Input<Pair>,
+        /// what to add (nothing when not wired)
+        #[input(&[PAIR_T])]
+        by: Option<Input<Pair>>,
+    }
+}
+
 /// `Offset(value, by: optional)`: value + by, or value itself when `by` is not wired.
 fn offset_spec() -> OpSpec {
     OpSpec::new("Offset", "test", 1, "A pair plus an optional pair")
-        .input("value", &[PAIR_T], "the pair")
-        .optional_input("by", &[PAIR_T], "what to add (nothing when not wired)")
         .output("value", OutputType::Fixed(PAIR_T), "the sum")
         .eval(offset)
 }
 
-fn offset(ctx: &mut OpContext, _: NoParams) -> Result<Value, OpError> {
-    let v = ctx.get::<Pair>("value").clone();
-    Ok(Value::new(match ctx.get_optional::<Pair>("by") {
+fn offset(_: &mut OpContext, p: OffsetParams) -> Result<Value, OpError> {
+    let v = (*p.value).clone();
+    Ok(Value::new(match p.by.as_deref() {
         Some(b) => Pair(v.0 + b.0, v.1 + b.1),
         None => v,
     }))
@@ -248,13 +271,12 @@ fn pair_const_spec() -> OpSpec {
 /// `Split(image)`: no declared port, one open port per channel name (`"split.G"`).
 fn split_spec() -> OpSpec {
     OpSpec::new("Split", "test", 1, "The channels of an image, as open ports named like the channels")
-        .input("image", &[IMAGE_T], "the image")
         .open_ports(SCALAR_T, "one channel, by name")
         .eval(split)
 }
 
-fn split(ctx: &mut OpContext, _: NoParams) -> Result<Outputs, OpError> {
-    let img: &Image = ctx.get("image");
+fn split(ctx: &mut OpContext, p: RgbIn) -> Result<Outputs, OpError> {
+    let img = &*p.image;
     let mut out = Outputs::new();
     for name in ctx.wanted_ports {
         let i = img.channel_index(name).ok_or_else(|| OpError::Invalid(format!("no channel {name:?}")))?;
@@ -311,7 +333,18 @@ fn source(ctx: &mut OpContext, p: SourceParams) -> Result<Value, OpError> {
 }
 
 hdrflow::params! {
+    struct RgbIn {
+        /// the image
+        #[input(&[IMAGE_T])]
+        image: Input<Image>,
+    }
+}
+
+hdrflow::params! {
     struct MeetParams {
+        /// the image
+        #[input(&[IMAGE_T])]
+        image: Input<Image>,
         /// when not empty: first wait until another node has reached the rendezvous of this name
         meet: String = String::new(),
     }
@@ -321,7 +354,6 @@ hdrflow::params! {
 /// address, then doubles every sample in place.
 fn take_spec() -> OpSpec {
     OpSpec::new("Take", "test", 1, "Take the input's buffer, record its address, double it")
-        .input("image", &[IMAGE_T], "the image")
         .output("image", OutputType::Fixed(IMAGE_T), "the doubled image")
         .eval(take)
 }
@@ -330,7 +362,7 @@ fn take(ctx: &mut OpContext, p: MeetParams) -> Result<Value, OpError> {
     if !p.meet.is_empty() && !meet(&p.meet) {
         return Err(OpError::Invalid(format!("nobody came to the rendezvous {:?}", p.meet)));
     }
-    let mut img: Image = ctx.take("image");
+    let mut img = p.image.take();
     img.data.iter_mut().for_each(|v| *v *= 2.0);
     PTRS.lock().unwrap().insert(ctx.node.to_string(), img.data.as_ptr() as usize);
     Ok(Value::new(img))
@@ -338,6 +370,9 @@ fn take(ctx: &mut OpContext, p: MeetParams) -> Result<Value, OpError> {
 
 hdrflow::params! {
     struct PeekParams {
+        /// the image
+        #[input(&[IMAGE_T])]
+        image: Input<Image>,
         /// when not empty: first wait until another node has reached the rendezvous of this name
         meet: String = String::new(),
         /// when not empty: then wait until this node has recorded its buffer (it has modified it)
@@ -348,7 +383,6 @@ hdrflow::params! {
 /// `Peek(image, meet, after)`: reads its input (by reference) and records the sum of its samples.
 fn peek_spec() -> OpSpec {
     OpSpec::new("Peek", "test", 1, "Record the sum of the input's samples")
-        .input("image", &[IMAGE_T], "the image")
         .output("image", OutputType::Fixed(IMAGE_T), "a 1x1 image of the sum")
         .eval(peek)
 }
@@ -360,10 +394,22 @@ fn peek(ctx: &mut OpContext, p: PeekParams) -> Result<Value, OpError> {
     if !p.after.is_empty() && !wait_for_ptr(&p.after) {
         return Err(OpError::Invalid(format!("{:?} never recorded its buffer", p.after)));
     }
-    let img: &Image = ctx.get("image");
+    let img = &*p.image;
     let s: f64 = img.data.iter().map(|&v| v as f64).sum();
     PEEKED.lock().unwrap().insert(ctx.node.to_string(), s);
     Ok(Value::new(Image::from_vec(1, 1, 3, vec![s as f32; 3])))
+}
+
+hdrflow::params! {
+    struct NoFields {}
+}
+
+hdrflow::params! {
+    struct TrackedIn {
+        /// the input
+        #[input(&[TRACKED_T])]
+        input: Input<Tracked>,
+    }
 }
 
 /// `TrackedMake()`, `TrackedStep(input)`, `TrackedSink(input)`: each makes a new `Tracked`
@@ -372,19 +418,17 @@ fn tracked_specs() -> [OpSpec; 3] {
     [
         OpSpec::new("TrackedMake", "test", 1, "A tracked value")
             .output("value", OutputType::Fixed(TRACKED_T), "it")
-            .eval(|ctx, _: NoParams| Ok(Value::new(Tracked { tag: ctx.node.to_string() }))),
+            .eval(|ctx, _: NoFields| Ok(Value::new(Tracked { tag: ctx.node.to_string() }))),
         OpSpec::new("TrackedStep", "test", 1, "A new tracked value from one")
-            .input("input", &[TRACKED_T], "the input")
             .output("value", OutputType::Fixed(TRACKED_T), "a new one")
-            .eval(|ctx, _: NoParams| {
-                let _: &Tracked = ctx.get("input");
+            .eval(|ctx, p: TrackedIn| {
+                let _: &Tracked = &p.input;
                 Ok(Value::new(Tracked { tag: ctx.node.to_string() }))
             }),
         OpSpec::new("TrackedSink", "test", 1, "Records the drops so far")
-            .input("input", &[TRACKED_T], "the input")
             .output("value", OutputType::Fixed(TRACKED_T), "a new one")
-            .eval(|ctx, _: NoParams| {
-                let input: &Tracked = ctx.get("input");
+            .eval(|ctx, p: TrackedIn| {
+                let input: &Tracked = &p.input;
                 let prefix: String = input.tag.chars().take_while(|c| *c != '_').collect();
                 SEEN_DROPPED.lock().unwrap().insert(ctx.node.to_string(), dropped_with_prefix(&prefix));
                 Ok(Value::new(Tracked { tag: ctx.node.to_string() }))
@@ -392,15 +436,24 @@ fn tracked_specs() -> [OpSpec; 3] {
     ]
 }
 
+hdrflow::params! {
+    struct BlendParams {
+        /// the image
+        #[input(&[IMAGE_T])]
+        image: Input<Image>,
+        /// added when wired
+        #[input(&[IMAGE_T])]
+        extra: Option<Input<Image>>,
+    }
+}
+
 /// `Blend(image, extra: optional image)`: the image (plus `extra` when wired).
 fn blend_spec() -> OpSpec {
     OpSpec::new("Blend", "test", 1, "An image plus an optional one")
-        .input("image", &[IMAGE_T], "the image")
-        .optional_input("extra", &[IMAGE_T], "added when wired")
         .output("image", OutputType::Fixed(IMAGE_T), "the sum")
-        .eval(|ctx, _: NoParams| {
-            let mut img: Image = ctx.take("image");
-            if let Some(e) = ctx.get_optional::<Image>("extra") {
+        .eval(|_, p: BlendParams| {
+            let mut img = p.image.take();
+            if let Some(e) = p.extra.as_deref() {
                 img.data.iter_mut().zip(&e.data).for_each(|(a, b)| *a += b);
             }
             Ok(Value::new(img))
@@ -410,14 +463,21 @@ fn blend_spec() -> OpSpec {
 /// How many times each `Tick` node was evaluated.
 static TICKS: Mutex<BTreeMap<String, usize>> = Mutex::new(BTreeMap::new());
 
+hdrflow::params! {
+    struct TickParams {
+        /// passed on
+        #[input(&[PAIR_T])]
+        input: Option<Input<Pair>>,
+    }
+}
+
 /// `Tick(input: optional pair)`: counts its evaluations; passes its input on (or (0, 0)).
 fn tick_spec() -> OpSpec {
     OpSpec::new("Tick", "test", 1, "Count evaluations")
-        .optional_input("input", &[PAIR_T], "passed on")
         .output("value", OutputType::Fixed(PAIR_T), "the input, or (0, 0)")
-        .eval(|ctx, _: NoParams| {
+        .eval(|ctx, p: TickParams| {
             *TICKS.lock().unwrap().entry(ctx.node.to_string()).or_insert(0) += 1;
-            Ok(Value::new(ctx.get_optional::<Pair>("input").cloned().unwrap_or(Pair(0.0, 0.0))))
+            Ok(Value::new(p.input.as_deref().cloned().unwrap_or(Pair(0.0, 0.0))))
         })
 }
 

@@ -20,19 +20,23 @@ fn scale_spec(code: &str) -> OpSpec {
             name: "image",
             kind: FieldKind::Input { types: vec![IMAGE_T], arity: Arity::One },
             default: None,
+            optional: false,
             doc: "input".into(),
         })
         .field_spec(FieldSpec {
             name: "k",
             kind: FieldKind::Float { min: 0.0, max: 10.0 },
             default: Some(ParamValue::Float(2.0)),
+            optional: false,
             doc: "factor".into(),
         })
         .output("out", OutputType::Fixed(IMAGE_T), "scaled")
         .code(code)
         .eval_raw(Arc::new(|ctx: &mut OpContext| {
             let Some(ParamValue::Float(k)) = ctx.params.values.get("k").cloned() else { unreachable!() };
-            let mut img: Image = ctx.take("image");
+            let input = std::mem::take(&mut ctx.inputs).into_iter().find(|(f, _)| *f == "image");
+            let value = input.and_then(|(_, v)| v.into_iter().next()).expect("validated: wired");
+            let mut img: Image = value.take().expect("validated: an image");
             img.data.iter_mut().for_each(|v| *v *= k as f32);
             Ok(Outputs::from(Value::new(img)))
         }))

@@ -406,7 +406,7 @@ fn register_operator(
             "str" => (FieldKind::Text, default.map(|d| d.extract::<String>().map(ParamValue::Text)).transpose()?),
             other => return Err(PyValueError::new_err(format!("field {field:?}: unknown kind {other:?}"))),
         };
-        spec = spec.field_spec(FieldSpec { name: leak(&field), kind, default, doc: fdoc });
+        spec = spec.field_spec(FieldSpec { name: leak(&field), kind, default, optional: false, doc: fdoc });
     }
     spec = spec.output("out", OutputType::Fixed(out_ty), "the function's result");
     let func = Arc::new(func);

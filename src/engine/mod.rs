@@ -4,6 +4,7 @@
 
 pub mod cache;
 pub mod error;
+pub mod fields;
 pub mod graph;
 pub mod normalise;
 pub mod op;

@@ -26,12 +26,13 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use crate::engine::params::{Arity, FieldKind, FieldSpec, ParamSet, Params};
+use crate::engine::fields::{CheckFields, Fields, RunInputs, Shape};
+use crate::engine::params::{FieldSpec, Params};
 
 /// Checks that two inputs' sizes, when both are known before running, are equal; the message
-/// names both.
-pub fn check_same_size(ctx: &CheckContext, a: &'static str, b: &'static str) -> Result<(), CheckProblem> {
-    match (ctx.input_size(a), ctx.input_size(b)) {
+/// names both fields (`a` and `b` are their names, for the message and the position).
+pub fn check_same_size(a: &'static str, a_shape: Shape, b: &'static str, b_shape: Shape) -> Result<(), CheckProblem> {
+    match (a_shape.size, b_shape.size) {
         (Some(sa), Some(sb)) if sa != sb => Err(CheckProblem::at(
             b,
             format!("{b:?} is {}x{} but {a:?} is {}x{}: they must be the same size", sb.0, sb.1, sa.0, sa.1),
@@ -40,7 +41,7 @@ pub fn check_same_size(ctx: &CheckContext, a: &'static str, b: &'static str) -> 
     }
 }
 pub use crate::engine::cache::Persist;
-use crate::engine::value::{Value, ValueData, ValueType};
+use crate::engine::value::{Value, ValueType};
 
 /// The engine's image size limit, in pixels: the same 2^28 (268 M) the file readers enforce.
 /// A node whose output would be larger is a pipeline error at validation.
@@ -56,22 +57,23 @@ pub fn check_pixels(width: u64, height: u64) -> Result<(), String> {
     }
 }
 
+/// A port type computed from the node's typed fields before running.
+pub type ComputedTypeFn = Arc<dyn Fn(&CheckContext) -> Result<ValueType, String> + Send + Sync>;
+
 /// How an output port's type is known before anything runs.
-#[derive(Clone, Copy)]
+#[derive(Clone)]
 pub enum OutputType {
     Fixed(ValueType),
-    /// The type of the value wired into this input field (the first, for a list).
-    SameAsInput(&'static str),
-    /// A function of the node's parameters and input types.
-    Computed(fn(&CheckContext) -> Result<ValueType, String>),
+    /// A function of the node's parameters and input shapes (see [`OpSpec::output_computed`]);
+    /// the text says what it depends on, for `hdrflow ops`.
+    Computed(&'static str, ComputedTypeFn),
 }
 
 impl OutputType {
     pub fn describe(&self) -> String {
         match self {
             OutputType::Fixed(t) => t.to_string(),
-            OutputType::SameAsInput(f) => format!("same type as `{f}`"),
-            OutputType::Computed(_) => "depends on inputs and parameters".into(),
+            OutputType::Computed(how, _) => how.to_string(),
         }
     }
 }
@@ -139,8 +141,10 @@ pub struct OpContext<'a> {
     /// The validated parameters (the typed struct is built from these).
     pub params: &'a Params,
     /// Input field -> values wired into it, in order (one for `One`, zero or one for
-    /// `Optional`, any number for `List`).
-    pub inputs: Vec<(&'static str, Vec<Value>)>,
+    /// `Optional`, any number for `List`). A Rust operator receives them in its typed struct
+    /// (they are moved there before its `eval` runs); an operator declared at run time
+    /// ([`OpSpec::eval_raw`]) reads them here.
+    pub inputs: RunInputs,
     /// The pipeline file's folder: relative paths are resolved against it.
     pub base_dir: &'a Path,
     /// What `OpSpec::content_key` returned when the key was made (a loader checks that the
@@ -151,65 +155,6 @@ pub struct OpContext<'a> {
 }
 
 impl<'a> OpContext<'a> {
-    fn values(&self, field: &str) -> &[Value] {
-        self.inputs
-            .iter()
-            .find(|(f, _)| *f == field)
-            .map(|(_, v)| v.as_slice())
-            .unwrap_or_else(|| panic!("input {field:?} is not declared"))
-    }
-    fn values_mut(&mut self, field: &str) -> &mut Vec<Value> {
-        self.inputs
-            .iter_mut()
-            .find(|(f, _)| *f == field)
-            .map(|(_, v)| v)
-            .unwrap_or_else(|| panic!("input {field:?} is not declared"))
-    }
-
-    /// The value of a single input.
-    pub fn input(&self, field: &str) -> &Value {
-        self.values(field).first().unwrap_or_else(|| panic!("input {field:?} missing after validation"))
-    }
-
-    /// The value of an optional input, if it is wired.
-    pub fn optional(&self, field: &str) -> Option<&Value> {
-        self.values(field).first()
-    }
-
-    /// The values of a list input, in order.
-    pub fn list(&self, field: &str) -> &[Value] {
-        self.values(field)
-    }
-
-    /// A single input as `T` (its type was checked by validation).
-    pub fn get<T: ValueData>(&self, field: &str) -> &T {
-        let v = self.input(field);
-        v.get::<T>().unwrap_or_else(|| panic!("input {field:?} is a {}, not the type eval expects", v.value_type()))
-    }
-
-    /// An optional input as `T`.
-    pub fn get_optional<T: ValueData>(&self, field: &str) -> Option<&T> {
-        self.optional(field).map(|v| {
-            v.get::<T>().unwrap_or_else(|| panic!("input {field:?} is a {}, not the type eval expects", v.value_type()))
-        })
-    }
-
-    /// A single input as a shared `Arc<T>`.
-    pub fn arc<T: ValueData>(&self, field: &str) -> Arc<T> {
-        let v = self.input(field);
-        v.arc::<T>().unwrap_or_else(|| panic!("input {field:?} is a {}, not the type eval expects", v.value_type()))
-    }
-
-    /// A single input by value: its buffer is moved out when this node is its last consumer
-    /// (nothing else holds it), and copied otherwise. The input is gone from the context after.
-    pub fn take<T: ValueData + Clone>(&mut self, field: &str) -> T {
-        let values = self.values_mut(field);
-        assert!(!values.is_empty(), "input {field:?} missing after validation");
-        let v = values.remove(0);
-        let ty = v.value_type();
-        v.take::<T>().unwrap_or_else(|| panic!("input {field:?} is a {ty}, not the type eval expects"))
-    }
-
     /// A path parameter resolved against the pipeline file's folder (`builtin:` names unchanged).
     pub fn path(&self, path: &str) -> PathBuf {
         resolve_path(self.base_dir, path)
@@ -241,21 +186,6 @@ pub struct CheckContext<'a> {
     pub base_dir: &'a Path,
 }
 
-impl CheckContext<'_> {
-    /// The type of a single input (None when not wired).
-    pub fn input_type(&self, field: &str) -> Option<ValueType> {
-        self.input_types.get(field).and_then(|v| v.first().copied())
-    }
-    /// The size of a single input, when known before running.
-    pub fn input_size(&self, field: &str) -> Size {
-        self.input_sizes.get(field).and_then(|v| v.first().copied().flatten())
-    }
-    /// The typed parameters.
-    pub fn typed<P: ParamSet>(&self) -> P {
-        P::from_params(self.params)
-    }
-}
-
 /// A problem found by `OpSpec::check`, optionally tied to one field (for its position).
 #[derive(Debug, Clone)]
 pub struct CheckProblem {
@@ -269,8 +199,9 @@ impl CheckProblem {
     }
 }
 
-/// Returns a loader's content bytes for its key (e.g. the hash of the file it will read).
-pub type ContentKeyFn = fn(&Params, &Path) -> Result<Vec<u8>, OpError>;
+/// Returns a loader's content bytes for its key (e.g. the hash of the file it will read), from
+/// its typed fields before running (see [`OpSpec::content_key`]).
+pub type ContentKeyFn = Arc<dyn Fn(&CheckContext) -> Result<Vec<u8>, OpError> + Send + Sync>;
 /// Cross-field validation of one node before anything runs.
 pub type CheckFn = Arc<dyn Fn(&CheckContext) -> Result<(), CheckProblem> + Send + Sync>;
 /// The pixel size of an operator's default output, from its parameters and input sizes, when it
@@ -347,31 +278,6 @@ impl OpSpec {
         self
     }
 
-    /// Adds a required single input.
-    pub fn input(self, name: &'static str, types: &[ValueType], doc: &str) -> Self {
-        self.input_with(name, types, Arity::One, doc)
-    }
-
-    /// Adds an optional input (absent: not wired).
-    pub fn optional_input(self, name: &'static str, types: &[ValueType], doc: &str) -> Self {
-        self.input_with(name, types, Arity::Optional, doc)
-    }
-
-    /// Adds a list input of `min..=max` nodes.
-    pub fn list_input(self, name: &'static str, types: &[ValueType], min: usize, max: usize, doc: &str) -> Self {
-        self.input_with(name, types, Arity::List { min, max }, doc)
-    }
-
-    fn input_with(mut self, name: &'static str, types: &[ValueType], arity: Arity, doc: &str) -> Self {
-        self.fields.push(FieldSpec {
-            name,
-            kind: FieldKind::Input { types: types.to_vec(), arity },
-            default: None,
-            doc: doc.to_string(),
-        });
-        self
-    }
-
     /// Adds an output port (the first added is the default).
     pub fn output(mut self, name: &'static str, ty: OutputType, doc: &'static str) -> Self {
         self.outputs.push(PortSpec { name, ty, doc });
@@ -384,16 +290,18 @@ impl OpSpec {
         self
     }
 
-    /// The evaluation, with typed parameters: `P`'s fields are appended to the spec's fields
-    /// (after the inputs declared so far), so the struct is the one declaration of them.
+    /// The evaluation. `P` is the operator's `params!` struct: its fields (parameters and
+    /// inputs) are the spec's fields, so the struct is their one declaration, and `f`
+    /// receives it with every input already of its declared type.
     pub fn eval<P, R>(mut self, f: fn(&mut OpContext, P) -> Result<R, OpError>) -> Self
     where
-        P: ParamSet + 'static,
+        P: Fields + 'static,
         R: Into<Outputs> + 'static,
     {
         self.fields.extend(P::fields());
         self.eval = Arc::new(move |ctx: &mut OpContext| {
-            let p = P::from_params(ctx.params);
+            let mut inputs = std::mem::take(&mut ctx.inputs);
+            let p = P::from_run(ctx.params, &mut inputs)?;
             f(ctx, p).map(Into::into)
         });
         self
@@ -415,27 +323,46 @@ impl OpSpec {
         self
     }
 
-    /// Cross-field validation with typed parameters.
-    pub fn check<P: ParamSet + 'static>(mut self, f: fn(&CheckContext, P) -> Result<(), CheckProblem>) -> Self {
-        self.check = Some(Arc::new(move |ctx: &CheckContext| f(ctx, P::from_params(ctx.params))));
+    /// Cross-field validation, from the typed fields before running (`P<Check>`: inputs are
+    /// their [`Shape`](crate::engine::fields::Shape)s).
+    pub fn check<C: CheckFields + 'static>(mut self, f: fn(&CheckContext, C) -> Result<(), CheckProblem>) -> Self {
+        self.check = Some(Arc::new(move |ctx: &CheckContext| C::from_check(ctx).map_or(Ok(()), |p| f(ctx, p))));
         self
     }
 
-    /// The default output's pixel size from typed parameters and input sizes.
-    pub fn size<P: ParamSet + 'static>(mut self, f: fn(&CheckContext, P) -> Size) -> Self {
-        self.size = Some(Arc::new(move |ctx: &CheckContext| f(ctx, P::from_params(ctx.params))));
+    /// The default output's pixel size, from the typed fields before running (e.g.
+    /// `|_, p: ExposureParams<Check>| p.image.size`).
+    pub fn size<C: CheckFields + 'static>(mut self, f: fn(&CheckContext, C) -> Size) -> Self {
+        self.size = Some(Arc::new(move |ctx: &CheckContext| C::from_check(ctx).and_then(|p| f(ctx, p))));
         self
     }
 
-    /// The default output has the pixel size of this input (the first, for a list).
-    pub fn size_of_input(mut self, field: &'static str) -> Self {
-        self.size = Some(Arc::new(move |ctx: &CheckContext| ctx.input_size(field)));
-        self
+    /// Adds an output port whose type follows from the typed fields before running (e.g. the
+    /// type of an input: `|_, p: ExposureParams<Check>| Ok(p.image.ty)`); `how` says what it
+    /// depends on, for `hdrflow ops`.
+    pub fn output_computed<C: CheckFields + 'static>(
+        self,
+        name: &'static str,
+        how: &'static str,
+        f: fn(&CheckContext, C) -> Result<ValueType, String>,
+        doc: &'static str,
+    ) -> Self {
+        let ty = OutputType::Computed(
+            how,
+            Arc::new(move |ctx: &CheckContext| match C::from_check(ctx) {
+                Some(p) => f(ctx, p),
+                None => Err(format!("output {name:?}: its type depends on an input that is not wired")),
+            }),
+        );
+        self.output(name, ty, doc)
     }
 
-    /// The loader's content key (see the field).
-    pub fn content_key(mut self, f: ContentKeyFn) -> Self {
-        self.content_key = Some(f);
+    /// The loader's content key (see the field), from its typed fields.
+    pub fn content_key<C: CheckFields + 'static>(mut self, f: fn(C, &Path) -> Result<Vec<u8>, OpError>) -> Self {
+        self.content_key = Some(Arc::new(move |ctx: &CheckContext| match C::from_check(ctx) {
+            Some(p) => f(p, ctx.base_dir),
+            None => Err(OpError::Invalid("the content key depends on an input that is not wired".into())),
+        }));
         self
     }
 

@@ -136,13 +136,21 @@ pub struct FieldSpec {
     pub kind: FieldKind,
     /// `None`: the field must be given (inputs of arity `Optional`/`List{min: 0}` may be absent).
     pub default: Option<ParamValue>,
+    /// A parameter that may be left out (an `Option<T>` field): absent, it is `None`.
+    pub optional: bool,
     pub doc: String,
 }
 
 impl FieldSpec {
     /// A parameter field whose kind follows its Rust type.
     pub fn param<T: Param>(name: &'static str, doc: String, range: Option<(f64, f64)>, default: Option<T>) -> Self {
-        FieldSpec { name, kind: T::kind(range), default: default.map(|d| d.to_value()), doc }
+        FieldSpec {
+            name,
+            kind: T::kind(range),
+            default: default.and_then(|d| d.to_value()),
+            optional: T::OPTIONAL,
+            doc,
+        }
     }
 
     pub fn is_input(&self) -> bool {
@@ -155,6 +163,7 @@ impl FieldSpec {
             (Some(v), _) => format!("default {}", v.to_ron()),
             (None, FieldKind::Input { arity: Arity::Optional, .. }) => "optional".into(),
             (None, FieldKind::Input { arity: Arity::List { min: 0, .. }, .. }) => "default []".into(),
+            (None, _) if self.optional => "optional".into(),
             (None, _) => "required".into(),
         }
     }
@@ -202,18 +211,12 @@ pub struct Params {
 
 impl Params {
     /// A parameter converted to its declared Rust type. Validation has checked kind and range,
-    /// so a mismatch here is a bug in the operator's declaration (it panics, and the scheduler
-    /// reports the panic as a bug).
-    pub fn typed<T: Param>(&self, name: &str) -> T {
-        let v = self.values.get(name).unwrap_or_else(|| panic!("parameter {name:?} missing after validation"));
-        T::from_value(v).unwrap_or_else(|| panic!("parameter {name:?} = {v:?} does not convert to its declared type"))
-    }
-    /// A text-like parameter (text, path, output path, choice) by name, e.g. for a loader's
-    /// content key.
-    pub fn text(&self, name: &str) -> &str {
+    /// so an error here is a bug in the operator's declaration (the message says which field).
+    pub fn typed<T: Param>(&self, name: &str) -> Result<T, String> {
         match self.values.get(name) {
-            Some(ParamValue::Text(s) | ParamValue::Choice(s)) => s,
-            other => panic!("parameter {name:?} is not text: {other:?}"),
+            None => T::absent().ok_or_else(|| format!("parameter {name:?} missing after validation")),
+            Some(v) => T::from_value(v)
+                .ok_or_else(|| format!("parameter {name:?} = {v:?} does not convert to its declared type")),
         }
     }
 }
@@ -221,10 +224,34 @@ impl Params {
 /// A Rust type usable as a parameter field: its kind (what validation accepts) and its
 /// conversion from and to the validated value.
 pub trait Param: Sized {
+    /// Whether the field may be left out (`Option<T>`).
+    const OPTIONAL: bool = false;
     /// The field kind; `range` is the `#[range(min, max)]` given in the declaration.
     fn kind(range: Option<(f64, f64)>) -> FieldKind;
-    fn to_value(&self) -> ParamValue;
+    /// The validated value (`None`: absent, for an optional field left out).
+    fn to_value(&self) -> Option<ParamValue>;
     fn from_value(v: &ParamValue) -> Option<Self>;
+    /// The value of a field left out of the pipeline (`Some(None)` for `Option<T>`).
+    fn absent() -> Option<Self> {
+        None
+    }
+}
+
+/// An optional parameter: absent in the pipeline, it is `None` (no sentinel value stands in).
+impl<T: Param> Param for Option<T> {
+    const OPTIONAL: bool = true;
+    fn kind(range: Option<(f64, f64)>) -> FieldKind {
+        T::kind(range)
+    }
+    fn to_value(&self) -> Option<ParamValue> {
+        self.as_ref().and_then(T::to_value)
+    }
+    fn from_value(v: &ParamValue) -> Option<Self> {
+        T::from_value(v).map(Some)
+    }
+    fn absent() -> Option<Self> {
+        Some(None)
+    }
 }
 
 impl Param for f64 {
@@ -232,8 +259,8 @@ impl Param for f64 {
         let (min, max) = range.unwrap_or((f64::MIN, f64::MAX));
         FieldKind::Float { min, max }
     }
-    fn to_value(&self) -> ParamValue {
-        ParamValue::Float(*self)
+    fn to_value(&self) -> Option<ParamValue> {
+        Some(ParamValue::Float(*self))
     }
     fn from_value(v: &ParamValue) -> Option<Self> {
         match v {
@@ -254,8 +281,8 @@ macro_rules! int_param {
                 let max = (max.min(<$t>::MAX as f64)).min(i64::MAX as f64) as i64;
                 FieldKind::Int { min, max }
             }
-            fn to_value(&self) -> ParamValue {
-                ParamValue::Int(*self as i64)
+            fn to_value(&self) -> Option<ParamValue> {
+                Some(ParamValue::Int(*self as i64))
             }
             fn from_value(v: &ParamValue) -> Option<Self> {
                 match v {
@@ -272,8 +299,8 @@ impl Param for bool {
     fn kind(_: Option<(f64, f64)>) -> FieldKind {
         FieldKind::Bool
     }
-    fn to_value(&self) -> ParamValue {
-        ParamValue::Bool(*self)
+    fn to_value(&self) -> Option<ParamValue> {
+        Some(ParamValue::Bool(*self))
     }
     fn from_value(v: &ParamValue) -> Option<Self> {
         match v {
@@ -287,8 +314,8 @@ impl Param for String {
     fn kind(_: Option<(f64, f64)>) -> FieldKind {
         FieldKind::Text
     }
-    fn to_value(&self) -> ParamValue {
-        ParamValue::Text(self.clone())
+    fn to_value(&self) -> Option<ParamValue> {
+        Some(ParamValue::Text(self.clone()))
     }
     fn from_value(v: &ParamValue) -> Option<Self> {
         match v {
@@ -303,8 +330,8 @@ impl Param for Vec<String> {
         let (min, max) = range.map(|(a, b)| (a as usize, b as usize)).unwrap_or((0, 1 << 16));
         FieldKind::TextList { min, max }
     }
-    fn to_value(&self) -> ParamValue {
-        ParamValue::TextList(self.clone())
+    fn to_value(&self) -> Option<ParamValue> {
+        Some(ParamValue::TextList(self.clone()))
     }
     fn from_value(v: &ParamValue) -> Option<Self> {
         match v {
@@ -319,8 +346,8 @@ impl<const N: usize> Param for [f64; N] {
         let (min, max) = range.unwrap_or((f64::MIN, f64::MAX));
         FieldKind::Tuple { len: N, min, max }
     }
-    fn to_value(&self) -> ParamValue {
-        ParamValue::Tuple(self.to_vec())
+    fn to_value(&self) -> Option<ParamValue> {
+        Some(ParamValue::Tuple(self.to_vec()))
     }
     fn from_value(v: &ParamValue) -> Option<Self> {
         match v {
@@ -338,8 +365,8 @@ impl Param for InputPath {
     fn kind(_: Option<(f64, f64)>) -> FieldKind {
         FieldKind::Path
     }
-    fn to_value(&self) -> ParamValue {
-        ParamValue::Text(self.0.clone())
+    fn to_value(&self) -> Option<ParamValue> {
+        Some(ParamValue::Text(self.0.clone()))
     }
     fn from_value(v: &ParamValue) -> Option<Self> {
         match v {
@@ -364,8 +391,8 @@ impl Param for OutputPath {
     fn kind(_: Option<(f64, f64)>) -> FieldKind {
         FieldKind::OutputPath
     }
-    fn to_value(&self) -> ParamValue {
-        ParamValue::Text(self.0.clone())
+    fn to_value(&self) -> Option<ParamValue> {
+        Some(ParamValue::Text(self.0.clone()))
     }
     fn from_value(v: &ParamValue) -> Option<Self> {
         match v {
@@ -390,35 +417,14 @@ impl Param for Rgb {
         let (min, max) = range.unwrap_or((f64::MIN, f64::MAX));
         FieldKind::Color { min, max }
     }
-    fn to_value(&self) -> ParamValue {
-        ParamValue::Tuple(self.0.to_vec())
+    fn to_value(&self) -> Option<ParamValue> {
+        Some(ParamValue::Tuple(self.0.to_vec()))
     }
     fn from_value(v: &ParamValue) -> Option<Self> {
         match v {
             ParamValue::Tuple(t) => Some(Rgb(t.as_slice().try_into().ok()?)),
             _ => None,
         }
-    }
-}
-
-/// A set of parameters declared with `params!`.
-pub trait ParamSet: Sized {
-    /// The fields' specs, in declaration order.
-    fn fields() -> Vec<FieldSpec>;
-    /// The typed struct from validated parameters.
-    fn from_params(p: &Params) -> Self;
-}
-
-/// No parameters.
-#[derive(Clone, Copy, Debug, Default)]
-pub struct NoParams;
-
-impl ParamSet for NoParams {
-    fn fields() -> Vec<FieldSpec> {
-        Vec::new()
-    }
-    fn from_params(_: &Params) -> Self {
-        NoParams
     }
 }
 
@@ -486,10 +492,10 @@ macro_rules! choice_param {
             fn kind(_: Option<(f64, f64)>) -> $crate::engine::params::FieldKind {
                 $crate::engine::params::FieldKind::Choice(<$t as $crate::engine::params::Choice>::NAMES)
             }
-            fn to_value(&self) -> $crate::engine::params::ParamValue {
-                $crate::engine::params::ParamValue::Choice(
+            fn to_value(&self) -> Option<$crate::engine::params::ParamValue> {
+                Some($crate::engine::params::ParamValue::Choice(
                     <$t as $crate::engine::params::Choice>::name(*self).to_string(),
-                )
+                ))
             }
             fn from_value(v: &$crate::engine::params::ParamValue) -> Option<Self> {
                 match v {
@@ -515,39 +521,80 @@ macro_rules! __opt {
     };
 }
 
-/// Declares an operator's parameters as a typed struct; see the module documentation of
-/// `hdrflow::engine::params`.
+/// Declares an operator's fields, its parameters and its inputs, as one typed struct; see
+/// `hdrflow::engine::fields`. Each field takes doc comments, then optionally `#[input(TYPES)]`
+/// (the value types an input accepts; left out: any) and `#[range(min, max)]` (a number's
+/// range, or a list input's length), then `name: Type` and optionally `= default`.
 #[macro_export]
 macro_rules! params {
+    (
+        $(#[$meta:meta])*
+        $vis:vis struct $name:ident {}
+    ) => {
+        $(#[$meta])*
+        #[derive(Clone, Debug, PartialEq)]
+        $vis struct $name<S: $crate::engine::fields::Stage = $crate::engine::fields::Run>(
+            ::std::marker::PhantomData<S>,
+        );
+
+        impl $crate::engine::fields::Fields for $name {
+            fn fields() -> Vec<$crate::engine::params::FieldSpec> {
+                Vec::new()
+            }
+            fn from_run(
+                _: &$crate::engine::params::Params,
+                _: &mut $crate::engine::fields::RunInputs,
+            ) -> Result<Self, $crate::engine::op::OpError> {
+                Ok($name(::std::marker::PhantomData))
+            }
+        }
+
+        impl $crate::engine::fields::CheckFields for $name<$crate::engine::fields::Check> {
+            fn from_check(_: &$crate::engine::op::CheckContext) -> Option<Self> {
+                Some($name(::std::marker::PhantomData))
+            }
+        }
+    };
     (
         $(#[$meta:meta])*
         $vis:vis struct $name:ident {
             $(
                 $(#[doc = $doc:literal])*
+                $(#[input($accepts:expr)])?
                 $(#[range($min:expr, $max:expr)])?
                 $fvis:vis $field:ident : $ty:ty $(= $default:expr)?
-            ),* $(,)?
+            ),+ $(,)?
         }
     ) => {
         $(#[$meta])*
         #[derive(Clone, Debug, PartialEq)]
-        $vis struct $name {
-            $( $(#[doc = $doc])* $fvis $field: $ty, )*
+        $vis struct $name<S: $crate::engine::fields::Stage = $crate::engine::fields::Run> {
+            $( $(#[doc = $doc])* $fvis $field: <$ty as $crate::engine::fields::Field>::At<S>, )+
         }
 
-        impl $crate::engine::params::ParamSet for $name {
+        impl $crate::engine::fields::Fields for $name {
             fn fields() -> Vec<$crate::engine::params::FieldSpec> {
                 vec![$(
-                    $crate::engine::params::FieldSpec::param::<$ty>(
+                    <$ty as $crate::engine::fields::Field>::spec(
                         stringify!($field),
                         $crate::engine::params::doc_text(&[$($doc),*]),
                         $crate::__opt!($(($min as f64, $max as f64))?),
                         $crate::__opt!($({ let d: $ty = $default; d })?),
+                        $crate::__opt!($($accepts)?),
                     )
-                ),*]
+                ),+]
             }
-            fn from_params(p: &$crate::engine::params::Params) -> Self {
-                $name { $( $field: p.typed::<$ty>(stringify!($field)), )* }
+            fn from_run(
+                params: &$crate::engine::params::Params,
+                inputs: &mut $crate::engine::fields::RunInputs,
+            ) -> Result<Self, $crate::engine::op::OpError> {
+                Ok($name { $( $field: <$ty as $crate::engine::fields::Field>::run(stringify!($field), params, inputs)?, )+ })
+            }
+        }
+
+        impl $crate::engine::fields::CheckFields for $name<$crate::engine::fields::Check> {
+            fn from_check(ctx: &$crate::engine::op::CheckContext) -> Option<Self> {
+                Some($name { $( $field: <$ty as $crate::engine::fields::Field>::check(stringify!($field), ctx)?, )+ })
             }
         }
     };
@@ -556,6 +603,7 @@ macro_rules! params {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::engine::fields::Fields;
 
     crate::choice! {
         /// Test weights.
@@ -582,7 +630,7 @@ mod tests {
         assert_eq!(fields.len(), 4);
         assert_eq!(fields[0].name, "stops");
         assert_eq!(fields[0].doc, "stops of exposure (second line)");
-        assert!(fields[0].default.is_none());
+        assert!(fields[0].default.is_none() && !fields[0].optional);
         assert!(matches!(fields[0].kind, FieldKind::Float { min, max } if min == -2.0 && max == 2.0));
         assert!(matches!(fields[1].kind, FieldKind::Choice(names) if names == ["Rec709", "Max"]));
         assert_eq!(fields[1].default, Some(ParamValue::Choice("Max".into())));
@@ -592,7 +640,7 @@ mod tests {
         p.values.insert("weights", ParamValue::Choice("Rec709".into()));
         p.values.insert("count", ParamValue::Int(7));
         p.values.insert("tint", ParamValue::Tuple(vec![0.5, 0.5, 0.5]));
-        let t = TestParams::from_params(&p);
+        let t = TestParams::from_run(&p, &mut Vec::new()).unwrap();
         assert_eq!(t, TestParams { stops: 1.5, weights: Weights::Rec709, count: 7, tint: Rgb([0.5; 3]) });
     }
 

@@ -37,7 +37,7 @@ use crate::engine::cache::store::{remove_stale_temporaries, write_atomic};
 use crate::engine::cache::{key_hex, node_key, policy, provided_key, CacheStore, Key};
 use crate::engine::error::{CacheError, RunError};
 use crate::engine::graph::Pipeline;
-use crate::engine::op::{OpContext, Outputs};
+use crate::engine::op::{CheckContext, OpContext, Outputs};
 use crate::engine::value::{FileBlob, Value};
 
 /// What happens to a node in a run. The same three words everywhere: the table, the summary,
@@ -205,12 +205,21 @@ fn compute_keys_and_content(
         .into_par_iter()
         .map(|i| {
             let node = &p.nodes[i];
-            match (wanted[i] && !p.provided.contains_key(&i), node.spec.content_key) {
-                (true, Some(f)) => f(&node.params, &p.base_dir).map(Some).map_err(|source| RunError::Op {
-                    node: node.name.clone(),
-                    op: node.spec.name,
-                    source,
-                }),
+            match (wanted[i] && !p.provided.contains_key(&i), &node.spec.content_key) {
+                (true, Some(f)) => {
+                    let (input_types, input_sizes) = p.input_shapes(i);
+                    let ctx = CheckContext {
+                        params: &node.params,
+                        input_types: &input_types,
+                        input_sizes: &input_sizes,
+                        base_dir: &p.base_dir,
+                    };
+                    f(&ctx).map(Some).map_err(|source| RunError::Op {
+                        node: node.name.clone(),
+                        op: node.spec.name,
+                        source,
+                    })
+                }
                 _ => Ok(None),
             }
         })

@@ -42,6 +42,7 @@ pub mod phong;
 pub mod reference;
 pub mod relight;
 pub mod resample;
+pub mod rotation;
 pub mod sequences;
 pub mod sh;
 pub mod sun;

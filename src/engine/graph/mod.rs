@@ -138,7 +138,36 @@ pub struct Pipeline {
     pub provided: BTreeMap<usize, Value>,
 }
 
+/// A node's input field -> the types of the values wired in, in order.
+pub type InputTypes = BTreeMap<&'static str, Vec<ValueType>>;
+/// A node's input field -> the pixel sizes of the values wired in, when known before running.
+pub type InputSizes = BTreeMap<&'static str, Vec<Option<(u64, u64)>>>;
+
 impl Pipeline {
+    /// The types and known sizes of what is wired into node `i` (what its typed fields see
+    /// before running, as validation saw them): a size is known for a producer's default port
+    /// and its open ports (channels of its image), not for its other named ports.
+    pub fn input_shapes(&self, i: usize) -> (InputTypes, InputSizes) {
+        let node = &self.nodes[i];
+        let mut types = InputTypes::new();
+        let mut sizes = InputSizes::new();
+        for w in &node.inputs {
+            let (t, s) = w
+                .sources
+                .iter()
+                .map(|src| {
+                    let producer = &self.nodes[src.node];
+                    let port = &producer.ports[src.port];
+                    let sized = producer.is_default_port(src.port) || producer.spec.port(&port.name).is_none();
+                    (port.ty, if sized { producer.size } else { None })
+                })
+                .unzip();
+            types.insert(w.field, t);
+            sizes.insert(w.field, s);
+        }
+        (types, sizes)
+    }
+
     /// Reads and validates a pipeline file.
     pub fn load(path: &Path, registry: &Registry, overrides: &[Override]) -> Result<Pipeline, PipelineErrors> {
         let source = path.display().to_string();

@@ -453,7 +453,7 @@ fn resolve_fields(
                 (FieldKind::Input { arity: Arity::Optional | Arity::List { min: 0, .. }, .. }, _) => {
                     wired.insert(field.name, Vec::new());
                 }
-                (FieldKind::Input { .. }, _) | (_, None) => {
+                (FieldKind::Input { .. }, _) | (_, None) if !field.optional => {
                     errs.push(
                         Some(n.op_pos),
                         Some(&n.name),
@@ -470,6 +470,8 @@ fn resolve_fields(
                 (_, Some(v)) => {
                     params.values.insert(field.name, v.clone());
                 }
+                // An optional parameter left out stays absent: its field is `None`.
+                (_, None) => {}
             }
         }
         let inputs = n
@@ -686,12 +688,9 @@ fn infer_types(
         let mut ports_ok = true;
         for name in &port_names[i] {
             let ty = match spec.port(name) {
-                Some(p) => match p.ty {
-                    OutputType::Fixed(t) => Ok(t),
-                    OutputType::SameAsInput(f) => ctx
-                        .input_type(f)
-                        .ok_or_else(|| format!("output {name:?} takes the type of input {f:?}, which is not wired")),
-                    OutputType::Computed(f) => f(&ctx),
+                Some(p) => match &p.ty {
+                    OutputType::Fixed(t) => Ok(*t),
+                    OutputType::Computed(_, f) => f(&ctx),
                 },
                 None => Ok(spec.open_ports.as_ref().expect("open ports were resolved against the spec").ty),
             };

@@ -12,6 +12,7 @@
 //! Tested: scale + bias (or `G`) <= 1 everywhere (to 1e-3), and at roughness -> 0 scale + bias -> 1
 //! and bias -> (1 - n.v)^5 (the closed form of a mirror). Formulas in `maths::ggx`.
 
+use crate::engine::fields::Check;
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
 use crate::engine::value::Value;
 use crate::maths::ggx::{brdf_lut, LobeSequence};
@@ -38,7 +39,7 @@ pub fn spec() -> OpSpec {
         "Split-sum DFG texture (R, G) = (scale, bias) of GGX with Smith height-correlated visibility, x = n.v, y = roughness",
     )
     .output("image", OutputType::Fixed(IMAGE_T), "the size x size two-channel texture (R, G)")
-    .size(|_, p: BrdfLutParams| Some((p.size as u64, p.size as u64)))
+    .size(|_, p: BrdfLutParams<Check>| Some((p.size as u64, p.size as u64)))
     .code_hash(crate::op_code_hash!())
     .eval(eval)
 }

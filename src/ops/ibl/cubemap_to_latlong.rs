@@ -4,12 +4,17 @@
 //! energy-preserving, exact for a constant map, 1e-3 relative on the built-in sky (tests).
 
 use crate::data::Cubemap;
+use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
 use crate::engine::value::Value;
 use crate::maths::resample::{to_latlong, CubeSource};
 use crate::types::ty::*;
 
-use super::LatLongSizeParams;
+super::latlong_size_params!(CubemapToLatLongParams {
+    /// the cube map
+    #[input(&[CUBEMAP_T])]
+    pub cubemap: Input<Cubemap>,
+});
 
 pub fn spec() -> OpSpec {
     OpSpec::new(
@@ -18,15 +23,14 @@ pub fn spec() -> OpSpec {
         1,
         "Cube map to lat-long map, each texel the solid-angle-weighted mean of its footprint",
     )
-    .input("cubemap", &[CUBEMAP_T], "the cube map")
     .output("image", OutputType::Fixed(IMAGE_T), "the lat-long RGB map")
-    .size(|_, p: LatLongSizeParams| Some((p.width as u64, p.height as u64)))
+    .size(|_, p: CubemapToLatLongParams<Check>| Some((p.width as u64, p.height as u64)))
     .code_hash(crate::op_code_hash!())
     .eval(eval)
 }
 
-fn eval(ctx: &mut OpContext, p: LatLongSizeParams) -> Result<Value, OpError> {
-    let c: &Cubemap = ctx.get("cubemap");
+fn eval(_: &mut OpContext, p: CubemapToLatLongParams) -> Result<Value, OpError> {
+    let c = &*p.cubemap;
     super::check_cube_finite(c)?;
     Ok(Value::new(to_latlong(&CubeSource::new(c), p.width, p.height)))
 }

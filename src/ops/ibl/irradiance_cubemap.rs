@@ -15,7 +15,8 @@
 //! output's minimum). White furnace to 1e-3 both ways (tests). `env` is a lat-long image (its own
 //! texels are summed or projected) or a cube map.
 
-use crate::data::{Cubemap, Image, Metrics};
+use crate::data::{Cubemap, Metrics};
+use crate::engine::fields::{AnyValue, Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Outputs};
 use crate::engine::value::Value;
 use crate::maths::irradiance_cube::{
@@ -25,6 +26,9 @@ use crate::types::ty::*;
 
 crate::params! {
     pub struct IrradianceCubemapParams {
+        /// the environment: a lat-long RGB map or a cube map
+        #[input(&[IMAGE_T, CUBEMAP_T])]
+        pub env: Input<AnyValue>,
         /// face size of the output
         #[range(1, 1024)]
         pub size: usize = 32,
@@ -45,22 +49,20 @@ pub fn spec() -> OpSpec {
         1,
         "Diffuse irradiance / pi as a cube map, exactly or by windowed SH (Deringing: Sloan 2017); constant 1 gives 1",
     )
-    .input("env", &[IMAGE_T, CUBEMAP_T], "the environment: a lat-long RGB map or a cube map")
     .output("cubemap", OutputType::Fixed(CUBEMAP_T), "the irradiance / pi cube map")
     .output("metrics", OutputType::Fixed(METRICS_T), "window_strength, min_unwindowed, min_irradiance")
-    .size(|_, p: IrradianceCubemapParams| Some((6 * p.size as u64, p.size as u64)))
+    .size(|_, p: IrradianceCubemapParams<Check>| Some((6 * p.size as u64, p.size as u64)))
     .code_hash(crate::op_code_hash!())
     .eval(eval)
 }
 
-fn eval(ctx: &mut OpContext, p: IrradianceCubemapParams) -> Result<Outputs, OpError> {
-    let env = ctx.input("env");
-    let (texels, coeffs) = if let Some(c) = env.get::<Cubemap>() {
+fn eval(_: &mut OpContext, p: IrradianceCubemapParams) -> Result<Outputs, OpError> {
+    let (texels, coeffs) = if let Some(c) = p.env.value().get::<Cubemap>() {
         super::check_cube_finite(c)?;
         let coeffs = (p.method == IrradianceMethod::Sh).then(|| project_cube(c, p.order));
         (Texels::from_cube(c), coeffs)
     } else {
-        let img: &Image = ctx.get("env");
+        let img = super::env_image(&p.env)?;
         crate::ops::shading::reference_sphere::check_finite(img)?;
         let coeffs = (p.method == IrradianceMethod::Sh).then(|| project_latlong(img, p.order));
         (Texels::from_latlong(img), coeffs)

@@ -8,6 +8,7 @@
 //! both sides of a face edge agree as neighbours inside a face do (tests).
 
 use crate::data::Image;
+use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
 use crate::engine::value::Value;
 use crate::maths::resample::{to_cube, LatLongSource};
@@ -15,6 +16,9 @@ use crate::types::ty::*;
 
 crate::params! {
     pub struct LatLongToCubemapParams {
+        /// the lat-long map (RGB; one channel is read as grey)
+        #[input(ANY_IMAGE)]
+        pub image: Input<Image>,
         /// face size in texels (the cube has 6 size^2 texels)
         #[range(1, 16384)]
         pub size: usize,
@@ -28,15 +32,14 @@ pub fn spec() -> OpSpec {
         1,
         "Lat-long map to cube map (+X -X +Y -Y +Z -Z), each texel the solid-angle-weighted mean of its footprint",
     )
-    .input("image", ANY_IMAGE, "the lat-long map (RGB; one channel is read as grey)")
     .output("cubemap", OutputType::Fixed(CUBEMAP_T), "the cube map")
-    .size(|_, p: LatLongToCubemapParams| Some((6 * p.size as u64, p.size as u64)))
+    .size(|_, p: LatLongToCubemapParams<Check>| Some((6 * p.size as u64, p.size as u64)))
     .code_hash(crate::op_code_hash!())
     .eval(eval)
 }
 
-fn eval(ctx: &mut OpContext, p: LatLongToCubemapParams) -> Result<Value, OpError> {
-    let img: &Image = ctx.get("image");
+fn eval(_: &mut OpContext, p: LatLongToCubemapParams) -> Result<Value, OpError> {
+    let img = &*p.image;
     crate::ops::shading::reference_sphere::check_finite(img)?;
     Ok(Value::new(to_cube(&LatLongSource::new(img), p.size)))
 }

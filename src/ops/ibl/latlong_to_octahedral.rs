@@ -6,6 +6,7 @@
 //! (`maths::resample`): energy-preserving, 1e-3 relative on the built-in sky (tests).
 
 use crate::data::Image;
+use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
 use crate::engine::value::Value;
 use crate::maths::resample::{to_octahedral, LatLongSource};
@@ -13,6 +14,9 @@ use crate::types::ty::*;
 
 crate::params! {
     pub struct LatLongToOctahedralParams {
+        /// the lat-long map (RGB; one channel is read as grey)
+        #[input(ANY_IMAGE)]
+        pub image: Input<Image>,
         /// width and height in pixels
         #[range(1, 16384)]
         pub size: usize,
@@ -26,15 +30,14 @@ pub fn spec() -> OpSpec {
         1,
         "Lat-long map to pbrt-v4's equal-area octahedral map (Clarberg; pbrt axes = hdrflow (Z, -X, Y))",
     )
-    .input("image", ANY_IMAGE, "the lat-long map (RGB; one channel is read as grey)")
     .output("image", OutputType::Fixed(IMAGE_T), "the size x size octahedral RGB map")
-    .size(|_, p: LatLongToOctahedralParams| Some((p.size as u64, p.size as u64)))
+    .size(|_, p: LatLongToOctahedralParams<Check>| Some((p.size as u64, p.size as u64)))
     .code_hash(crate::op_code_hash!())
     .eval(eval)
 }
 
-fn eval(ctx: &mut OpContext, p: LatLongToOctahedralParams) -> Result<Value, OpError> {
-    let img: &Image = ctx.get("image");
+fn eval(_: &mut OpContext, p: LatLongToOctahedralParams) -> Result<Value, OpError> {
+    let img = &*p.image;
     crate::ops::shading::reference_sphere::check_finite(img)?;
     Ok(Value::new(to_octahedral(&LatLongSource::new(img), p.size)))
 }

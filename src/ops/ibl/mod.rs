@@ -12,22 +12,31 @@ pub mod octahedral_to_latlong;
 pub mod prefilter_specular;
 
 use crate::data::{Cubemap, Image};
-use crate::engine::op::{OpContext, OpError};
+use crate::engine::fields::{AnyValue, Input};
+use crate::engine::op::OpError;
 use crate::engine::registry::Registry;
 use crate::maths::resample::{to_cube, CubeSource, LatLongSource};
 
-crate::params! {
-    /// The output size of the operators that make a lat-long map (`CubemapToLatLong`,
-    /// `OctahedralToLatLong`).
-    pub struct LatLongSizeParams {
-        /// width in texels
-        #[range(1, 65536)]
-        pub width: usize,
-        /// height in texels
-        #[range(1, 65536)]
-        pub height: usize,
-    }
+/// Declares the parameters of an operator that makes a lat-long map (`CubemapToLatLong`,
+/// `OctahedralToLatLong`): the operator's input fields (given in the braces, first, so that
+/// `hdrflow ops` lists them first), then the output size `width` and `height`.
+macro_rules! latlong_size_params {
+    ($name:ident { $($inputs:tt)* }) => {
+        crate::params! {
+            /// The inputs and output size of an operator that makes a lat-long map.
+            pub struct $name {
+                $($inputs)*
+                /// width in texels
+                #[range(1, 65536)]
+                pub width: usize,
+                /// height in texels
+                #[range(1, 65536)]
+                pub height: usize,
+            }
+        }
+    };
 }
+pub(crate) use latlong_size_params;
 
 pub fn register(r: &mut Registry) {
     r.register(latlong_to_cubemap::spec());
@@ -60,12 +69,23 @@ pub(crate) fn check_cube_finite(c: &Cubemap) -> Result<(), OpError> {
 /// The `env` input (a lat-long image or a cube map) as a cube map of face size `size`: a cube of
 /// that size as it is, anything else resampled (energy-preserving). Non-finite texels are an
 /// error.
-pub(crate) fn env_cube(ctx: &OpContext, size: usize) -> Result<Cubemap, OpError> {
-    if let Some(c) = ctx.input("env").get::<Cubemap>() {
+pub(crate) fn env_cube(env: &Input<AnyValue>, size: usize) -> Result<Cubemap, OpError> {
+    if let Some(c) = env.value().get::<Cubemap>() {
         check_cube_finite(c)?;
         return Ok(if c.size == size { c.clone() } else { to_cube(&CubeSource::new(c), size) });
     }
-    let img: &Image = ctx.get("env");
+    let img = env_image(env)?;
     crate::ops::shading::reference_sphere::check_finite(img)?;
     Ok(to_cube(&LatLongSource::new(img), size))
+}
+
+/// The `env` input as a lat-long image, when it is not a cube map (validation accepts only these
+/// two types, so anything else is a bug in a declaration).
+pub(crate) fn env_image(env: &Input<AnyValue>) -> Result<&Image, OpError> {
+    env.value().get::<Image>().ok_or_else(|| {
+        OpError::Invalid(format!(
+            "input \"env\" is a {}, neither a lat-long image nor a cube map (a bug in its declaration)",
+            env.value_type()
+        ))
+    })
 }

@@ -3,12 +3,17 @@
 //! average of the octahedral map over its footprint (`maths::resample`).
 
 use crate::data::Image;
+use crate::engine::fields::{Check, Input};
 use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec, OutputType};
 use crate::engine::value::Value;
 use crate::maths::resample::{to_latlong, OctahedralSource};
 use crate::types::ty::*;
 
-use super::LatLongSizeParams;
+super::latlong_size_params!(OctahedralToLatLongParams {
+    /// the square octahedral map (RGB; one channel is read as grey)
+    #[input(ANY_IMAGE)]
+    pub image: Input<Image>,
+});
 
 pub fn spec() -> OpSpec {
     OpSpec::new(
@@ -17,23 +22,22 @@ pub fn spec() -> OpSpec {
         1,
         "pbrt-v4 equal-area octahedral map to lat-long map (energy-preserving)",
     )
-    .input("image", ANY_IMAGE, "the square octahedral map (RGB; one channel is read as grey)")
     .output("image", OutputType::Fixed(IMAGE_T), "the lat-long RGB map")
-    .size(|_, p: LatLongSizeParams| Some((p.width as u64, p.height as u64)))
+    .size(|_, p: OctahedralToLatLongParams<Check>| Some((p.width as u64, p.height as u64)))
     .check(check)
     .code_hash(crate::op_code_hash!())
     .eval(eval)
 }
 
-fn check(ctx: &CheckContext, _: LatLongSizeParams) -> Result<(), CheckProblem> {
-    match ctx.input_size("image") {
+fn check(_: &CheckContext, p: OctahedralToLatLongParams<Check>) -> Result<(), CheckProblem> {
+    match p.image.size {
         Some((w, h)) if w != h => Err(CheckProblem::at("image", format!("an octahedral map is square, not {w}x{h}"))),
         _ => Ok(()),
     }
 }
 
-fn eval(ctx: &mut OpContext, p: LatLongSizeParams) -> Result<Value, OpError> {
-    let img: &Image = ctx.get("image");
+fn eval(_: &mut OpContext, p: OctahedralToLatLongParams) -> Result<Value, OpError> {
+    let img = &*p.image;
     if img.width != img.height || img.width == 0 {
         return Err(OpError::Invalid(format!("an octahedral map is square, not {}x{}", img.width, img.height)));
     }

@@ -16,6 +16,7 @@
 //! `env` is a lat-long image (resampled to a cube of face `size`, energy-preserving) or a cube map
 //! (used as is when its face size is `size`, else resampled).
 
+use crate::engine::fields::{AnyValue, Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
 use crate::engine::value::Value;
 use crate::maths::ggx::{prefilter, LobeSequence};
@@ -31,6 +32,9 @@ crate::choice! {
 
 crate::params! {
     pub struct PrefilterSpecularParams {
+        /// the environment: a lat-long RGB map or a cube map
+        #[input(&[IMAGE_T, CUBEMAP_T])]
+        pub env: Input<AnyValue>,
         /// face size of level 0
         #[range(1, 4096)]
         pub size: usize = 128,
@@ -56,15 +60,14 @@ pub fn spec() -> OpSpec {
         1,
         "GGX prefiltered cube-map chain (level k: roughness k/(levels-1)) by filtered importance sampling, or exactly",
     )
-    .input("env", &[IMAGE_T, CUBEMAP_T], "the environment: a lat-long RGB map or a cube map")
     .output("chain", OutputType::Fixed(MIP_CHAIN_T), "the chain; Save it with {level} in the path")
-    .size(|_, p: PrefilterSpecularParams| Some((6 * p.size as u64, p.size as u64)))
+    .size(|_, p: PrefilterSpecularParams<Check>| Some((6 * p.size as u64, p.size as u64)))
     .code_hash(crate::op_code_hash!())
     .eval(eval)
 }
 
-fn eval(ctx: &mut OpContext, p: PrefilterSpecularParams) -> Result<Value, OpError> {
+fn eval(_: &mut OpContext, p: PrefilterSpecularParams) -> Result<Value, OpError> {
     let SpecularBrdf::Ggx = p.brdf;
-    let src = super::env_cube(ctx, p.size)?;
+    let src = super::env_cube(&p.env, p.size)?;
     Ok(Value::new(prefilter(&src, p.levels, p.samples, p.sequence, p.exact)))
 }

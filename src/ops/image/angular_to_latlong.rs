@@ -12,13 +12,17 @@
 use rayon::prelude::*;
 
 use crate::data::Image;
-use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
+use crate::engine::fields::{Check, Input};
+use crate::engine::op::{OpContext, OpError, OpSpec};
 use crate::engine::value::Value;
 use crate::geometry::latlong;
 use crate::types::ty::*;
 
 crate::params! {
     pub struct AngularParams {
+        /// the angular probe (square)
+        #[input(ANY_IMAGE)]
+        pub image: Input<Image>,
         /// output width
         #[range(1, 1 << 28)]
         pub width: usize = 1024,
@@ -35,9 +39,8 @@ pub fn spec() -> OpSpec {
         1,
         "Convert a Debevec angular light probe to a lat-long map (outside the disc masked)",
     )
-    .input("image", ANY_IMAGE, "the angular probe (square)")
-    .output("image", OutputType::SameAsInput("image"), "the lat-long map")
-    .size(|_, p: AngularParams| Some((p.width as u64, p.height as u64)))
+    .output_computed("image", "the input's type", |_, p: AngularParams<Check>| Ok(p.image.ty), "the lat-long map")
+    .size(|_, p: AngularParams<Check>| Some((p.width as u64, p.height as u64)))
     .code_hash(crate::op_code_hash!())
     .eval(eval)
 }
@@ -99,8 +102,8 @@ pub fn angular_to_latlong(probe: &Image, width: usize, height: usize) -> Image {
     Image::from_vec(width, height, c, out)
 }
 
-fn eval(ctx: &mut OpContext, p: AngularParams) -> Result<Value, OpError> {
-    let probe: &Image = ctx.get("image");
+fn eval(_: &mut OpContext, p: AngularParams) -> Result<Value, OpError> {
+    let probe = &*p.image;
     let mut out = angular_to_latlong(probe, p.width, p.height);
     out.names = probe.names.clone();
     Ok(Value::new(out))

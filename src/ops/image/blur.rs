@@ -26,12 +26,16 @@
 use rayon::prelude::*;
 
 use crate::data::Image;
-use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
+use crate::engine::fields::{Check, Input};
+use crate::engine::op::{OpContext, OpError, OpSpec};
 use crate::engine::value::Value;
 use crate::types::ty::*;
 
 crate::params! {
     pub struct BlurParams {
+        /// the image to blur
+        #[input(ANY_IMAGE)]
+        pub image: Input<Image>,
         /// standard deviation of the Gaussian, in pixels (0: no blur; the kernel radius is ceil(3 sigma))
         #[range(0.0, 1000.0)]
         pub sigma: f64,
@@ -42,9 +46,8 @@ crate::params! {
 
 pub fn spec() -> OpSpec {
     OpSpec::new("Blur", "image", 1, "Separable Gaussian blur (radius 3 sigma), clamp or horizontal wrap-around")
-        .input("image", ANY_IMAGE, "the image to blur")
-        .output("image", OutputType::SameAsInput("image"), "the blurred image")
-        .size_of_input("image")
+        .output_computed("image", "the input's type", |_, p: BlurParams<Check>| Ok(p.image.ty), "the blurred image")
+        .size(|_, p: BlurParams<Check>| p.image.size)
         .code_hash(crate::op_code_hash!())
         .eval(eval)
 }
@@ -121,11 +124,11 @@ pub fn blur(img: &Image, sigma: f64, wrap: bool) -> Image {
     Image::with_names(img.width, img.height, img.names.clone(), data)
 }
 
-fn eval(ctx: &mut OpContext, p: BlurParams) -> Result<Value, OpError> {
+fn eval(_: &mut OpContext, p: BlurParams) -> Result<Value, OpError> {
     if p.sigma == 0.0 {
-        return Ok(ctx.input("image").clone());
+        return Ok(p.image.into_value());
     }
-    Ok(Value::new(blur(ctx.get("image"), p.sigma, p.wrap)))
+    Ok(Value::new(blur(&p.image, p.sigma, p.wrap)))
 }
 
 #[cfg(test)]

@@ -2,6 +2,7 @@
 //! constant environment whose relit sphere is exactly albedo * color).
 
 use crate::data::Image;
+use crate::engine::fields::Check;
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Persist};
 use crate::engine::params::Rgb;
 use crate::engine::value::Value;
@@ -24,7 +25,7 @@ crate::params! {
 pub fn spec() -> OpSpec {
     OpSpec::new("Constant", "image", 1, "An image of a single colour (canvas, or a constant environment)")
         .output("image", OutputType::Fixed(IMAGE_T), "the image")
-        .size(|_, p: ConstantParams| Some((p.width as u64, p.height as u64)))
+        .size(|_, p: ConstantParams<Check>| Some((p.width as u64, p.height as u64)))
         .persist(Persist::IfSmall)
         .code_hash(crate::op_code_hash!())
         .eval(eval)

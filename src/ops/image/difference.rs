@@ -30,11 +30,13 @@
 //! - `metrics`: `mean`, `max` and `rmse` = sqrt(mean d^2) of the heat map over its finite pixels,
 //!   plus `min`, `pixels` and `nonfinite` (the count left out; 0 when both inputs are finite).
 
-use crate::engine::op::check_same_size;
 use rayon::prelude::*;
 
 use crate::data::{Image, Metrics};
-use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Outputs, Persist};
+use crate::engine::fields::{Check, Input};
+use crate::engine::op::{
+    check_same_size, CheckContext, CheckProblem, OpContext, OpError, OpSpec, OutputType, Outputs, Persist,
+};
 use crate::engine::value::Value;
 use crate::types::ty::*;
 
@@ -45,6 +47,12 @@ crate::choice! {
 
 crate::params! {
     pub struct DifferenceParams {
+        /// the image to measure
+        #[input(ANY_IMAGE)]
+        pub a: Input<Image>,
+        /// the reference: same size and channel names
+        #[input(ANY_IMAGE)]
+        pub b: Input<Image>,
         /// Abs: mean of |a - b| over channels; Relative: mean of |a - b| / (|b| + epsilon)
         pub mode: DiffMode = DiffMode::Abs,
         /// Relative mode: added to |b| so that a black reference gives a finite error
@@ -58,15 +66,18 @@ pub const LEGEND_HEIGHT: usize = 28;
 
 pub fn spec() -> OpSpec {
     OpSpec::new("Difference", "image", 1, "Error heat map of a against b: colour image with legend, raw field, metrics")
-        .input("a", ANY_IMAGE, "the image to measure")
-        .input("b", ANY_IMAGE, "the reference: same size and channel names")
         .output("image", OutputType::Fixed(IMAGE_T), "the heat map in viridis, with a min..max legend below (for PNG)")
         .output("error", OutputType::Fixed(SCALAR_T), "the per-pixel error d, a scalar field `E`")
         .output("metrics", OutputType::Fixed(METRICS_T), "mean, max, rmse of d (and min, pixels, nonfinite)")
-        .check(|ctx, _: DifferenceParams| check_same_size(ctx, "a", "b"))
+        .check(check)
         .persist(Persist::IfSmall)
         .code_hash(crate::op_code_hash!())
         .eval(eval)
+}
+
+/// `a` and `b`, when both sizes are known before running, must be equal.
+fn check(_: &CheckContext, p: DifferenceParams<Check>) -> Result<(), CheckProblem> {
+    check_same_size("a", p.a, "b", p.b)
 }
 
 /// The per-pixel error d as a scalar field named `E`.
@@ -274,8 +285,8 @@ pub fn heat_image(d: &Image, min: f64, max: f64, what: &str) -> Result<Image, Op
     Ok(Image::from_vec(d.width, d.height + LEGEND_HEIGHT, 3, data))
 }
 
-fn eval(ctx: &mut OpContext, p: DifferenceParams) -> Result<Outputs, OpError> {
-    let d = error_field(ctx.get("a"), ctx.get("b"), p.mode, p.epsilon)?;
+fn eval(_: &mut OpContext, p: DifferenceParams) -> Result<Outputs, OpError> {
+    let d = error_field(&p.a, &p.b, p.mode, p.epsilon)?;
     let metrics = heat_metrics(&d.data);
     let (min, max) = (metrics.get("min").unwrap_or(0.0), metrics.get("max").unwrap_or(0.0));
     let what = match p.mode {

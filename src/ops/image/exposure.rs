@@ -7,12 +7,16 @@
 use rayon::prelude::*;
 
 use crate::data::Image;
-use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Persist};
+use crate::engine::fields::{Check, Input};
+use crate::engine::op::{OpContext, OpError, OpSpec, Persist};
 use crate::engine::value::Value;
 use crate::types::ty::*;
 
 crate::params! {
     pub struct ExposureParams {
+        /// the image to scale
+        #[input(ANY_IMAGE)]
+        pub image: Input<Image>,
         /// exposure change in stops (+1 doubles)
         #[range(-126.0, 126.0)]
         pub stops: f64,
@@ -21,9 +25,8 @@ crate::params! {
 
 pub fn spec() -> OpSpec {
     OpSpec::new("Exposure", "image", 2, "Scale an image by 2^stops (alpha unchanged)")
-        .input("image", ANY_IMAGE, "the image to scale")
-        .output("image", OutputType::SameAsInput("image"), "the scaled image")
-        .size_of_input("image")
+        .output_computed("image", "the input's type", |_, p: ExposureParams<Check>| Ok(p.image.ty), "the scaled image")
+        .size(|_, p: ExposureParams<Check>| p.image.size)
         .persist(Persist::IfSmall)
         .code_hash(crate::op_code_hash!())
         .eval(eval)
@@ -45,9 +48,9 @@ pub fn expose(img: &mut Image, stops: f64) {
     }
 }
 
-fn eval(ctx: &mut OpContext, p: ExposureParams) -> Result<Value, OpError> {
+fn eval(_: &mut OpContext, p: ExposureParams) -> Result<Value, OpError> {
     // The input's buffer is reused when this node is its last consumer.
-    let mut out: Image = ctx.take("image");
+    let mut out = p.image.take();
     expose(&mut out, p.stops);
     Ok(Value::new(out))
 }

@@ -3,23 +3,35 @@
 //! out(x, y) = image(x, H - 1 - y), every channel (alpha included) and its name kept.
 
 use crate::data::Image;
-use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Persist};
-use crate::engine::params::NoParams;
+use crate::engine::fields::{Check, Input};
+use crate::engine::op::{OpContext, OpError, OpSpec, Persist};
 use crate::engine::value::Value;
 use crate::types::ty::*;
 
+crate::params! {
+    pub struct FlipVerticalParams {
+        /// the image to flip
+        #[input(ANY_IMAGE)]
+        pub image: Input<Image>,
+    }
+}
+
 pub fn spec() -> OpSpec {
     OpSpec::new("FlipVertical", "image", 1, "Flip an image upside down")
-        .input("image", ANY_IMAGE, "the image to flip")
-        .output("image", OutputType::SameAsInput("image"), "the flipped image")
-        .size_of_input("image")
+        .output_computed(
+            "image",
+            "the input's type",
+            |_, p: FlipVerticalParams<Check>| Ok(p.image.ty),
+            "the flipped image",
+        )
+        .size(|_, p: FlipVerticalParams<Check>| p.image.size)
         .persist(Persist::IfSmall)
         .code_hash(crate::op_code_hash!())
         .eval(eval)
 }
 
-fn eval(ctx: &mut OpContext, _: NoParams) -> Result<Value, OpError> {
-    let mut img: Image = ctx.take("image");
+fn eval(_: &mut OpContext, p: FlipVerticalParams) -> Result<Value, OpError> {
+    let mut img = p.image.take();
     img.flip_vertical_in_place();
     Ok(Value::new(img))
 }

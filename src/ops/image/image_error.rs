@@ -9,8 +9,8 @@
 //! pixel.
 
 use crate::data::Image;
-use crate::engine::op::check_same_size;
-use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
+use crate::engine::fields::{Check, Input};
+use crate::engine::op::{check_same_size, CheckContext, CheckProblem, OpContext, OpError, OpSpec, OutputType};
 use crate::engine::value::Value;
 use crate::types::ty::*;
 
@@ -24,6 +24,12 @@ crate::choice! {
 
 crate::params! {
     pub struct ImageErrorParams {
+        /// the image to measure
+        #[input(ANY_IMAGE)]
+        pub image: Input<Image>,
+        /// the reference, same size and channels
+        #[input(ANY_IMAGE)]
+        pub reference: Input<Image>,
         /// Sphere: the inscribed disc (the pixels a sphere renderer shades); All: every pixel
         pub mask: Mask = Mask::Sphere,
     }
@@ -36,12 +42,15 @@ pub fn spec() -> OpSpec {
         1,
         "Error metrics (RMSE, relative RMSE, mean/max abs, bias, PSNR) of an image against a reference",
     )
-    .input("image", ANY_IMAGE, "the image to measure")
-    .input("reference", ANY_IMAGE, "the reference, same size and channels")
     .output("metrics", OutputType::Fixed(METRICS_T), "the error metrics")
-    .check(|ctx, _: ImageErrorParams| check_same_size(ctx, "image", "reference"))
+    .check(check)
     .code_hash(crate::op_code_hash!())
     .eval(eval)
+}
+
+/// The image and the reference, when both sizes are known before running, must be equal.
+fn check(_: &CheckContext, p: ImageErrorParams<Check>) -> Result<(), CheckProblem> {
+    check_same_size("image", p.image, "reference", p.reference)
 }
 
 /// The inscribed-disc mask of a `size` x `size` image: true where `SphereView::normal_at` is
@@ -51,9 +60,8 @@ pub fn sphere_mask(size: usize) -> Vec<bool> {
     (0..size * size).map(|i| view.normal_at(i % size, i / size).is_some()).collect()
 }
 
-fn eval(ctx: &mut OpContext, p: ImageErrorParams) -> Result<Value, OpError> {
-    let image: &Image = ctx.get("image");
-    let reference: &Image = ctx.get("reference");
+fn eval(_: &mut OpContext, p: ImageErrorParams) -> Result<Value, OpError> {
+    let (image, reference) = (&*p.image, &*p.reference);
     let mask = match p.mask {
         Mask::Sphere => {
             if image.width != image.height {

@@ -6,6 +6,7 @@
 use rayon::prelude::*;
 
 use crate::data::Image;
+use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Persist};
 use crate::engine::value::Value;
 use crate::types::ty::*;
@@ -17,6 +18,9 @@ crate::choice! {
 
 crate::params! {
     pub struct LuminanceParams {
+        /// the RGB image (a scalar field passes through)
+        #[input(ANY_IMAGE)]
+        pub image: Input<Image>,
         /// channel weights: Rec709 (0.2126, 0.7152, 0.0722), Rec2020 (0.2627, 0.6780, 0.0593), Mean, Max
         pub weights: Weights = Weights::Rec709,
     }
@@ -24,9 +28,8 @@ crate::params! {
 
 pub fn spec() -> OpSpec {
     OpSpec::new("Luminance", "image", 1, "Per-pixel luminance of an RGB image (a scalar field)")
-        .input("image", ANY_IMAGE, "the RGB image (a scalar field passes through)")
         .output("luminance", OutputType::Fixed(SCALAR_T), "the luminance")
-        .size_of_input("image")
+        .size(|_, p: LuminanceParams<Check>| p.image.size)
         .persist(Persist::IfSmall)
         .code_hash(crate::op_code_hash!())
         .eval(eval)
@@ -43,11 +46,10 @@ pub fn luminance(rgb: [f32; 3], weights: Weights) -> f32 {
     }
 }
 
-fn eval(ctx: &mut OpContext, p: LuminanceParams) -> Result<Value, OpError> {
-    let v = ctx.input("image");
-    let img: &Image = ctx.get("image");
+fn eval(_: &mut OpContext, p: LuminanceParams) -> Result<Value, OpError> {
+    let img = &*p.image;
     if img.channels == 1 {
-        return Ok(v.clone());
+        return Ok(p.image.value().clone());
     }
     let c = img.channels;
     let data: Vec<f32> = img

@@ -35,7 +35,8 @@
 use rayon::prelude::*;
 
 use crate::data::Image;
-use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec, OutputType, Persist};
+use crate::engine::fields::{Check, Input};
+use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec, Persist};
 use crate::engine::value::Value;
 use crate::types::ty::*;
 
@@ -46,6 +47,12 @@ crate::choice! {
 
 crate::params! {
     pub struct MathParams {
+        /// the first operand (its size, channels and type are the output's)
+        #[input(ANY_IMAGE)]
+        pub a: Input<Image>,
+        /// the second operand: a scalar field broadcasts over a's channels; unwired: `value`
+        #[input(ANY_IMAGE)]
+        pub b: Option<Input<Image>>,
         /// Add, Sub, Mul, Div, Min, Max or Pow: out = a (op) b
         pub op: MathOp,
         /// the b operand when b is not wired (broadcast to every sample of a)
@@ -61,18 +68,16 @@ pub fn spec() -> OpSpec {
         1,
         "Per-sample a (op) b: Add Sub Mul Div Min Max Pow; b an image, a scalar field or a number",
     )
-    .input("a", ANY_IMAGE, "the first operand (its size, channels and type are the output's)")
-    .optional_input("b", ANY_IMAGE, "the second operand: a scalar field broadcasts over a's channels; unwired: `value`")
-    .output("image", OutputType::SameAsInput("a"), "a (op) b")
-    .size_of_input("a")
+    .output_computed("image", "the type of `a`", |_, p: MathParams<Check>| Ok(p.a.ty), "a (op) b")
+    .size(|_, p: MathParams<Check>| p.a.size)
     .persist(Persist::IfSmall)
     .code_hash(crate::op_code_hash!())
     .eval(eval)
     .check(check)
 }
 
-fn check(ctx: &CheckContext, p: MathParams) -> Result<(), CheckProblem> {
-    if ctx.input_type("b").is_some() && p.value != 0.0 {
+fn check(_: &CheckContext, p: MathParams<Check>) -> Result<(), CheckProblem> {
+    if p.b.is_some() && p.value != 0.0 {
         return Err(CheckProblem::at("value", "`value` is used only when `b` is not wired: remove one of them"));
     }
     Ok(())
@@ -152,10 +157,10 @@ pub fn math(a: &mut Image, b: Option<&Image>, op: MathOp, value: f64) -> Result<
     Ok(())
 }
 
-fn eval(ctx: &mut OpContext, p: MathParams) -> Result<Value, OpError> {
+fn eval(_: &mut OpContext, p: MathParams) -> Result<Value, OpError> {
     // `a`'s buffer is reused when this node is its last consumer.
-    let mut a: Image = ctx.take("a");
-    math(&mut a, ctx.get_optional::<Image>("b"), p.op, p.value)?;
+    let mut a = p.a.take();
+    math(&mut a, p.b.as_deref(), p.op, p.value)?;
     Ok(Value::new(a))
 }
 

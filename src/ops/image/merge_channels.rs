@@ -26,7 +26,8 @@ use std::collections::BTreeSet;
 use rayon::prelude::*;
 
 use crate::data::Image;
-use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec, OutputType, Persist};
+use crate::engine::fields::{Check, Input, Shape};
+use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec, Persist};
 use crate::engine::value::{Value, ValueType};
 use crate::types::ty::*;
 
@@ -35,6 +36,10 @@ pub const MAX_INPUTS: usize = 64;
 
 crate::params! {
     pub struct MergeChannelsParams {
+        /// the inputs in order, e.g. ["split.B", "split.G", "split.R"]
+        #[input(ANY_IMAGE)]
+        #[range(1, MAX_INPUTS)]
+        pub channels: Vec<Input<Image>>,
         /// names of the resulting channels, one per channel, unique ([] keeps the inputs' names)
         pub names: Vec<String> = Vec::new(),
     }
@@ -47,15 +52,13 @@ pub fn spec() -> OpSpec {
         1,
         "One image from images and scalar fields of the same size, channels in order",
     )
-    .list_input(
-        "channels",
-        ANY_IMAGE,
-        1,
-        MAX_INPUTS,
-        "the inputs in order, e.g. [\"split.B\", \"split.G\", \"split.R\"]",
+    .output_computed(
+        "image",
+        "depends on inputs and parameters",
+        output_type,
+        "one channel in all: a scalar field; else an image",
     )
-    .output("image", OutputType::Computed(output_type), "one channel in all: a scalar field; else an image")
-    .size_of_input("channels")
+    .size(|_, p: MergeChannelsParams<Check>| p.channels.first().and_then(|s| s.size))
     .persist(Persist::IfSmall)
     .code_hash(crate::op_code_hash!())
     .eval(eval)
@@ -64,23 +67,18 @@ pub fn spec() -> OpSpec {
 
 /// Channels of the inputs as validation knows them: (at least, exactly when every input is a
 /// scalar field).
-fn channel_bounds(types: &[ValueType]) -> (usize, bool) {
-    let min = types.iter().map(|&t| if t == SCALAR_T { 1 } else { 2 }).sum();
-    (min, types.iter().all(|&t| t == SCALAR_T))
+fn channel_bounds(inputs: &[Shape]) -> (usize, bool) {
+    let min = inputs.iter().map(|s| if s.ty == SCALAR_T { 1 } else { 2 }).sum();
+    (min, inputs.iter().all(|s| s.ty == SCALAR_T))
 }
 
-fn input_types<'a>(ctx: &'a CheckContext) -> &'a [ValueType] {
-    ctx.input_types.get("channels").map(Vec::as_slice).unwrap_or(&[])
-}
-
-fn output_type(ctx: &CheckContext) -> Result<ValueType, String> {
-    let p: MergeChannelsParams = ctx.typed();
-    let types = input_types(ctx);
-    let single = if p.names.is_empty() { types.len() == 1 && types[0] == SCALAR_T } else { p.names.len() == 1 };
+fn output_type(_: &CheckContext, p: MergeChannelsParams<Check>) -> Result<ValueType, String> {
+    let inputs = &p.channels;
+    let single = if p.names.is_empty() { inputs.len() == 1 && inputs[0].ty == SCALAR_T } else { p.names.len() == 1 };
     Ok(if single { SCALAR_T } else { IMAGE_T })
 }
 
-fn check(ctx: &CheckContext, p: MergeChannelsParams) -> Result<(), CheckProblem> {
+fn check(_: &CheckContext, p: MergeChannelsParams<Check>) -> Result<(), CheckProblem> {
     if p.names.is_empty() {
         return Ok(());
     }
@@ -93,11 +91,11 @@ fn check(ctx: &CheckContext, p: MergeChannelsParams) -> Result<(), CheckProblem>
             return Err(CheckProblem::at("names", format!("channel name {n:?} appears twice")));
         }
     }
-    let types = input_types(ctx);
-    let (min, exact) = channel_bounds(types);
+    let inputs = &p.channels;
+    let (min, exact) = channel_bounds(inputs);
     let describe = || {
-        let scalars = types.iter().filter(|&&t| t == SCALAR_T).count();
-        format!("{scalars} scalar field(s) and {} image(s)", types.len() - scalars)
+        let scalars = inputs.iter().filter(|s| s.ty == SCALAR_T).count();
+        format!("{scalars} scalar field(s) and {} image(s)", inputs.len() - scalars)
     };
     if exact && p.names.len() != min {
         return Err(CheckProblem::at(
@@ -167,12 +165,8 @@ pub fn merge(inputs: &[&Image], names: &[String]) -> Result<Image, OpError> {
     Ok(Image::with_names(w, h, names, data))
 }
 
-fn eval(ctx: &mut OpContext, p: MergeChannelsParams) -> Result<Value, OpError> {
-    let inputs: Vec<&Image> = ctx
-        .list("channels")
-        .iter()
-        .map(|v| v.get::<Image>().expect("validation admits only images and scalar fields"))
-        .collect();
+fn eval(_: &mut OpContext, p: MergeChannelsParams) -> Result<Value, OpError> {
+    let inputs: Vec<&Image> = p.channels.iter().map(|i| &**i).collect();
     Ok(Value::new(merge(&inputs, &p.names)?))
 }
 
@@ -231,7 +225,8 @@ mod tests {
 
     #[test]
     fn validation_knows_the_count_and_the_type() {
-        use crate::engine::params::{ParamSet, ParamValue, Params};
+        use crate::engine::fields::CheckFields;
+        use crate::engine::params::{ParamValue, Params};
         use std::collections::BTreeMap;
         let run = |types: Vec<ValueType>, n: &[&str]| {
             let mut params = Params::default();
@@ -244,7 +239,8 @@ mod tests {
                 input_sizes: &BTreeMap::new(),
                 base_dir: std::path::Path::new("."),
             };
-            (check(&ctx, MergeChannelsParams::from_params(&params)).map_err(|p| p.message), output_type(&ctx))
+            let p = MergeChannelsParams::<Check>::from_check(&ctx).expect("the fields are valid");
+            (check(&ctx, p.clone()).map_err(|p| p.message), output_type(&ctx, p))
         };
         assert_eq!(run(vec![SCALAR_T], &[]).1, Ok(SCALAR_T));
         assert_eq!(run(vec![IMAGE_T], &[]).1, Ok(IMAGE_T));

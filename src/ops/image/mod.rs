@@ -13,6 +13,7 @@ pub mod math;
 pub mod merge_channels;
 pub mod overlay;
 pub mod resize;
+pub mod rotate;
 pub mod split_channels;
 pub mod tonemap;
 
@@ -34,4 +35,5 @@ pub fn register(r: &mut Registry) {
     r.register(blur::spec());
     r.register(tonemap::spec());
     r.register(difference::spec());
+    r.register(rotate::spec());
 }

@@ -5,6 +5,7 @@
 //! drawn for one resolution can be drawn on a canvas of any other.
 
 use crate::data::{Image, SampleSet};
+use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Persist};
 use crate::engine::params::Rgb;
 use crate::engine::value::Value;
@@ -13,6 +14,12 @@ use crate::types::ty::*;
 
 crate::params! {
     pub struct OverlayParams {
+        /// the lat-long map or canvas
+        #[input(ANY_IMAGE)]
+        pub image: Input<Image>,
+        /// the samples to draw
+        #[input(&[SAMPLES_T])]
+        pub samples: Input<SampleSet>,
         /// side of each square in pixels
         #[range(1, 255)]
         pub size: usize = 5,
@@ -32,18 +39,15 @@ pub fn spec() -> OpSpec {
         1,
         "Draw samples as coloured squares on a lat-long image (the seed's green squares)",
     )
-    .input("image", ANY_IMAGE, "the lat-long map or canvas")
-    .input("samples", &[SAMPLES_T], "the samples to draw")
     .output("image", OutputType::Fixed(IMAGE_T), "the image with the samples drawn (RGB)")
-    .size_of_input("image")
+    .size(|_, p: OverlayParams<Check>| p.image.size)
     .persist(Persist::IfSmall)
     .code_hash(crate::op_code_hash!())
     .eval(eval)
 }
 
-fn eval(ctx: &mut OpContext, p: OverlayParams) -> Result<Value, OpError> {
-    let img: &Image = ctx.get("image");
-    let samples: &SampleSet = ctx.get("samples");
+fn eval(_: &mut OpContext, p: OverlayParams) -> Result<Value, OpError> {
+    let (img, samples) = (&*p.image, &*p.samples);
     let size = p.size as isize;
     let color = p.color.f32();
     let scale = 2f64.powf(p.exposure) as f32;

@@ -13,12 +13,16 @@
 use rayon::prelude::*;
 
 use crate::data::Image;
-use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
+use crate::engine::fields::{Check, Input};
+use crate::engine::op::{OpContext, OpError, OpSpec};
 use crate::engine::value::Value;
 use crate::types::ty::*;
 
 crate::params! {
     pub struct ResizeParams {
+        /// the image to resize
+        #[input(ANY_IMAGE)]
+        pub image: Input<Image>,
         /// output width
         #[range(1, 1 << 28)]
         pub width: usize,
@@ -30,9 +34,8 @@ crate::params! {
 
 pub fn spec() -> OpSpec {
     OpSpec::new("Resize", "image", 1, "Area-averaging, energy-preserving resize")
-        .input("image", ANY_IMAGE, "the image to resize")
-        .output("image", OutputType::SameAsInput("image"), "the resized image")
-        .size(|_, p: ResizeParams| Some((p.width as u64, p.height as u64)))
+        .output_computed("image", "the input's type", |_, p: ResizeParams<Check>| Ok(p.image.ty), "the resized image")
+        .size(|_, p: ResizeParams<Check>| Some((p.width as u64, p.height as u64)))
         .code_hash(crate::op_code_hash!())
         .eval(eval)
 }
@@ -88,8 +91,8 @@ pub fn resize(img: &Image, w: usize, h: usize) -> Image {
     Image::with_names(w, h, img.names.clone(), out)
 }
 
-fn eval(ctx: &mut OpContext, p: ResizeParams) -> Result<Value, OpError> {
-    Ok(Value::new(resize(ctx.get("image"), p.width, p.height)))
+fn eval(_: &mut OpContext, p: ResizeParams) -> Result<Value, OpError> {
+    Ok(Value::new(resize(&p.image, p.width, p.height)))
 }
 
 #[cfg(test)]

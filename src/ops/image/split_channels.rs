@@ -13,16 +13,23 @@
 //! pipeline, because `"node.port"` splits at the last dot.
 
 use crate::data::Image;
+use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec, Outputs, Persist};
-use crate::engine::params::NoParams;
 use crate::engine::value::Value;
 use crate::types::ty::*;
 
+crate::params! {
+    pub struct SplitChannelsParams {
+        /// the image to split
+        #[input(ANY_IMAGE)]
+        pub image: Input<Image>,
+    }
+}
+
 pub fn spec() -> OpSpec {
     OpSpec::new("SplitChannels", "image", 1, "Each channel of an image as a scalar field, on a port named like it")
-        .input("image", ANY_IMAGE, "the image to split")
         .open_ports(SCALAR_T, "one port per channel, named like it: \"split.R\", \"split.A\" (no default port)")
-        .size_of_input("image")
+        .size(|_, p: SplitChannelsParams<Check>| p.image.size)
         .persist(Persist::IfSmall)
         .code_hash(crate::op_code_hash!())
         .eval(eval)
@@ -41,8 +48,8 @@ pub fn split(img: &Image, wanted: &[String]) -> Result<Vec<Image>, OpError> {
         .collect()
 }
 
-fn eval(ctx: &mut OpContext, _: NoParams) -> Result<Outputs, OpError> {
-    let img: &Image = ctx.get("image");
+fn eval(ctx: &mut OpContext, p: SplitChannelsParams) -> Result<Outputs, OpError> {
+    let img = &*p.image;
     // A port a consumer names must exist; then every channel is produced, so that the cache
     // entry serves later pipelines that name other channels of the same image.
     if let Some(missing) = ctx.wanted_ports.iter().find(|w| img.channel_index(w).is_none()) {

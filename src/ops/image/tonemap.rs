@@ -34,7 +34,8 @@
 use rayon::prelude::*;
 
 use crate::data::Image;
-use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Persist};
+use crate::engine::fields::{Check, Input};
+use crate::engine::op::{OpContext, OpError, OpSpec, Persist};
 use crate::engine::value::Value;
 use crate::types::ty::*;
 
@@ -45,6 +46,9 @@ crate::choice! {
 
 crate::params! {
     pub struct TonemapParams {
+        /// linear radiance
+        #[input(ANY_IMAGE)]
+        pub image: Input<Image>,
         /// Reinhard x/(1+x), Aces (Narkowicz's fit) or Agx (Wrensch's minimal AgX)
         pub curve: Curve = Curve::Aces,
         /// exposure in stops, applied before the curve (+1 doubles)
@@ -55,9 +59,13 @@ crate::params! {
 
 pub fn spec() -> OpSpec {
     OpSpec::new("Tonemap", "image", 1, "Exposure then a tone curve (Reinhard, ACES, AgX) to display-linear [0, 1]")
-        .input("image", ANY_IMAGE, "linear radiance")
-        .output("image", OutputType::SameAsInput("image"), "display-referred linear values in [0, 1]; alpha unchanged")
-        .size_of_input("image")
+        .output_computed(
+            "image",
+            "the input's type",
+            |_, p: TonemapParams<Check>| Ok(p.image.ty),
+            "display-referred linear values in [0, 1]; alpha unchanged",
+        )
+        .size(|_, p: TonemapParams<Check>| p.image.size)
         .persist(Persist::IfSmall)
         .code_hash(crate::op_code_hash!())
         .eval(eval)
@@ -152,8 +160,8 @@ pub fn tonemap(img: &mut Image, curve: Curve, exposure: f64) {
     });
 }
 
-fn eval(ctx: &mut OpContext, p: TonemapParams) -> Result<Value, OpError> {
-    let mut img: Image = ctx.take("image");
+fn eval(_: &mut OpContext, p: TonemapParams) -> Result<Value, OpError> {
+    let mut img = p.image.take();
     tonemap(&mut img, p.curve, p.exposure);
     Ok(Value::new(img))
 }

@@ -7,8 +7,9 @@
 use crate::engine::op::{CheckContext, Size};
 use std::path::Path;
 
+use crate::engine::fields::{Check, Stage};
 use crate::engine::op::{resolve_path, OpContext, OpError, OpSpec, OutputType};
-use crate::engine::params::{InputPath, Params};
+use crate::engine::params::InputPath;
 use crate::engine::value::Value;
 use crate::formats;
 use crate::types::ty::*;
@@ -19,11 +20,11 @@ crate::params! {
         pub path: InputPath,
         /// flip rows after loading (pbrt's grace_latlong.exr is stored upside down)
         pub flip_vertical: bool = false,
-        /// EXR: the part to read (0-based); -1 = the first part with a colour channel (R, G, B or Y)
-        #[range(-1, 100000)]
-        pub part: i64 = -1,
-        /// EXR: a part name, or a channel-name prefix (`diffuse` for `diffuse.R`); empty = none
-        pub layer: String = String::new(),
+        /// EXR: the part to read (0-based); absent: the first part with a colour channel (R, G, B or Y)
+        #[range(0, 100000)]
+        pub part: Option<usize>,
+        /// EXR: a part name, or a channel-name prefix (`diffuse` for `diffuse.R`); absent: none
+        pub layer: Option<String>,
         /// EXR: Display (the display window; outside the data window is black) or Data (as stored)
         pub window: formats::Window = formats::Window::Display,
         /// Linear709: convert from the file's primaries (EXR chromaticities, Radiance PRIMARIES) to linear Rec. 709; AsStored: as stored
@@ -31,11 +32,11 @@ crate::params! {
     }
 }
 
-impl LoadHdrParams {
+impl<S: Stage> LoadHdrParams<S> {
     fn options(&self) -> formats::DecodeOptions {
         formats::DecodeOptions {
-            part: usize::try_from(self.part).ok(),
-            layer: Some(self.layer.clone()).filter(|l| !l.is_empty()),
+            part: self.part,
+            layer: self.layer.clone(),
             window: self.window,
             colorspace: self.colorspace,
         }
@@ -59,8 +60,8 @@ pub fn spec() -> OpSpec {
 /// Bump when a built-in map's generator changes.
 const BUILTIN_VERSION: u32 = 1;
 
-fn content_key(params: &Params, base_dir: &Path) -> Result<Vec<u8>, OpError> {
-    let path = params.text("path");
+fn content_key(p: LoadHdrParams<Check>, base_dir: &Path) -> Result<Vec<u8>, OpError> {
+    let path = p.path.0.as_str();
     if let Some(name) = path.strip_prefix("builtin:") {
         return Ok(format!("builtin:{name}:v{BUILTIN_VERSION}").into_bytes());
     }
@@ -111,7 +112,7 @@ fn eval(ctx: &mut OpContext, p: LoadHdrParams) -> Result<Value, OpError> {
 
 /// The image's size from the file's header (or the built-in map's), so that validation can check
 /// the sizes that must agree before anything is decoded.
-fn size(ctx: &CheckContext, p: LoadHdrParams) -> Size {
+fn size(ctx: &CheckContext, p: LoadHdrParams<Check>) -> Size {
     let (w, h) = match p.path.0.strip_prefix("builtin:") {
         Some(name) => formats::builtin::builtin_size(name)?,
         None => formats::header_size(&resolve_path(ctx.base_dir, &p.path.0), &p.options())?,

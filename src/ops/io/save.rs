@@ -17,6 +17,7 @@
 //! paths that are absolute or leave that folder. Encoding is cached like any result.
 
 use crate::data::Image;
+use crate::engine::fields::{AnyValue, Check, Input};
 use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec, OutputType};
 use crate::engine::params::OutputPath;
 use crate::engine::value::{FileBlob, SaveOptions, Value, ValueType, FILE};
@@ -24,6 +25,11 @@ use crate::formats::ktx2::KtxFormat;
 
 crate::params! {
     pub struct SaveParams {
+        /// the value to write (any type that can be saved: see the type list in `hdrflow ops`)
+        pub input: Input<AnyValue>,
+        /// (.png) take the automatic exposure from this image instead, so several PNGs share one exposure
+        #[input(crate::types::ty::ANY_IMAGE)]
+        pub exposure_from: Option<Input<Image>>,
         /// file name relative to the output folder (--out); no `..`, not absolute
         pub path: OutputPath,
         /// exposure in stops applied before the sRGB transfer (.png only)
@@ -45,20 +51,14 @@ crate::params! {
 
 pub fn spec() -> OpSpec {
     OpSpec::new("Save", "io", 2, "Write a value to a file in the output folder; the format follows the extension")
-        .input("input", &[], "the value to write (any type that can be saved: see the type list in `hdrflow ops`)")
-        .optional_input(
-            "exposure_from",
-            crate::types::ty::ANY_IMAGE,
-            "(.png) take the automatic exposure from this image instead, so several PNGs share one exposure",
-        )
         .output("file", OutputType::Fixed(ValueType(&FILE)), "the encoded file (the engine writes it into --out)")
         .code_hash(crate::op_code_hash!())
         .eval(eval)
         .check(check)
 }
 
-fn check(ctx: &CheckContext, p: SaveParams) -> Result<(), CheckProblem> {
-    if p.auto_exposure && ctx.input_type("exposure_from").is_some() {
+fn check(_: &CheckContext, p: SaveParams<Check>) -> Result<(), CheckProblem> {
+    if p.auto_exposure && p.exposure_from.is_some() {
         return Err(CheckProblem::at(
             "auto_exposure",
             "give either auto_exposure (each PNG its own exposure) or exposure_from (one shared exposure), not both",
@@ -68,7 +68,7 @@ fn check(ctx: &CheckContext, p: SaveParams) -> Result<(), CheckProblem> {
     if p.ktx_format != KtxFormat::Rgba16f && ext != "ktx2" {
         return Err(CheckProblem::at("ktx_format", "ktx_format applies to .ktx2 files only"));
     }
-    let Some(t) = ctx.input_type("input") else { return Ok(()) };
+    let t = p.input.ty;
     if t == crate::types::ty::MIP_CHAIN_T && ext != "ktx2" && !p.path.0.contains("{level}") {
         return Err(CheckProblem::at(
             "path",
@@ -92,14 +92,14 @@ fn check(ctx: &CheckContext, p: SaveParams) -> Result<(), CheckProblem> {
     Ok(())
 }
 
-fn eval(ctx: &mut OpContext, p: SaveParams) -> Result<Value, OpError> {
+fn eval(_: &mut OpContext, p: SaveParams) -> Result<Value, OpError> {
     let rel_path = p.path.0.clone();
-    let value = ctx.input("input");
+    let value = p.input.value();
     let fail = |m: String| OpError::Invalid(format!("encoding {rel_path}: {m}"));
     let save =
         value.value_type().spec().save.ok_or_else(|| fail(format!("a {} cannot be saved", value.value_type())))?;
     let mut exposure = p.exposure;
-    if let Some(reference) = ctx.get_optional::<Image>("exposure_from") {
+    if let Some(reference) = p.exposure_from.as_deref() {
         exposure += auto_exposure(reference);
     } else if p.auto_exposure {
         if let Some(img) = value.get::<Image>() {

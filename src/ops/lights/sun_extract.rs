@@ -19,6 +19,7 @@
 //! zero radiance and solid angle, `residual = env`. NaN or infinite texels are an error.
 
 use crate::data::Image;
+use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Outputs};
 use crate::engine::value::Value;
 use crate::maths::sun::extract_sun;
@@ -27,6 +28,9 @@ use crate::types::ty::*;
 
 crate::params! {
     pub struct SunExtractParams {
+        /// the lat-long environment (linear RGB)
+        #[input(&[IMAGE_T])]
+        pub env: Input<Image>,
         /// the sun is what exceeds the median luminance by this many stops (x 2^threshold_stops)
         #[range(0.0, 64.0)]
         pub threshold_stops: f64 = 8.0,
@@ -40,15 +44,19 @@ pub fn spec() -> OpSpec {
         1,
         "Split an environment into a sun (light) and the map without it, conserving the integral per channel",
     )
-    .input("env", &[IMAGE_T], "the lat-long environment (linear RGB)")
     .output("sun", OutputType::Fixed(LIGHT_T), "the sun: direction, solid angle, RGB radiance (zero if none)")
-    .output("residual", OutputType::SameAsInput("env"), "env with the sun's texels filled from around them")
+    .output_computed(
+        "residual",
+        "the input's type",
+        |_, p: SunExtractParams<Check>| Ok(p.env.ty),
+        "env with the sun's texels filled from around them",
+    )
     .code_hash(crate::op_code_hash!())
     .eval(eval)
 }
 
-fn eval(ctx: &mut OpContext, p: SunExtractParams) -> Result<Outputs, OpError> {
-    let env: &Image = ctx.get("env");
+fn eval(_: &mut OpContext, p: SunExtractParams) -> Result<Outputs, OpError> {
+    let env = &*p.env;
     check_finite(env)?;
     let s = extract_sun(env, p.threshold_stops);
     Ok(Outputs::new().with("sun", Value::new(s.light)).with("residual", Value::new(s.residual)))

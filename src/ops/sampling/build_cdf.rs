@@ -4,12 +4,16 @@
 
 use crate::data::Distribution2D;
 use crate::data::Image;
+use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
 use crate::engine::value::Value;
 use crate::types::ty::*;
 
 crate::params! {
     pub struct BuildCdfParams {
+        /// the lat-long luminance (Luminance of the map)
+        #[input(&[SCALAR_T])]
+        pub luminance: Input<Image>,
         /// weight texels by sin(theta), their solid angle; false reproduces the seed's comparison
         pub sin_theta: bool = true,
         /// treat NaN and negative texels as 0 and +Inf as the largest float instead of failing
@@ -24,15 +28,14 @@ pub fn spec() -> OpSpec {
         1,
         "Importance-sampling distribution of a lat-long map: marginal over rows, conditional per row (f64)",
     )
-    .input("luminance", &[SCALAR_T], "the lat-long luminance (Luminance of the map)")
     .output("cdf", OutputType::Fixed(DISTRIBUTION_T), "the distribution")
-    .size_of_input("luminance")
+    .size(|_, p: BuildCdfParams<Check>| p.luminance.size)
     .code_hash(crate::op_code_hash!())
     .eval(eval)
 }
 
-fn eval(ctx: &mut OpContext, p: BuildCdfParams) -> Result<Value, OpError> {
-    let lum: &Image = ctx.get("luminance");
-    let dist = Distribution2D::build(lum, p.sin_theta, p.sanitize).map_err(|e| OpError::Invalid(e.to_string()))?;
+fn eval(_: &mut OpContext, p: BuildCdfParams) -> Result<Value, OpError> {
+    let dist =
+        Distribution2D::build(&p.luminance, p.sin_theta, p.sanitize).map_err(|e| OpError::Invalid(e.to_string()))?;
     Ok(Value::new(dist))
 }

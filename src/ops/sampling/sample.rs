@@ -8,6 +8,7 @@
 use rayon::prelude::*;
 
 use crate::data::{Distribution2D, Sample, SampleSet};
+use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
 use crate::engine::value::Value;
 use crate::geometry::latlong;
@@ -16,6 +17,9 @@ use crate::types::ty::*;
 
 crate::params! {
     pub struct SampleParams {
+        /// the distribution (BuildCdf)
+        #[input(&[DISTRIBUTION_T])]
+        pub cdf: Input<Distribution2D>,
         /// number of samples
         #[range(1, 1 << 24)]
         pub count: usize = 256,
@@ -28,15 +32,14 @@ crate::params! {
 
 pub fn spec() -> OpSpec {
     OpSpec::new("Sample", "sampling", 1, "Draw directions from an environment distribution, with their solid-angle pdf")
-        .input("cdf", &[DISTRIBUTION_T], "the distribution (BuildCdf)")
         .output("samples", OutputType::Fixed(SAMPLES_T), "the samples")
-        .size_of_input("cdf")
+        .size(|_, p: SampleParams<Check>| p.cdf.size)
         .code_hash(crate::op_code_hash!())
         .eval(eval)
 }
 
-fn eval(ctx: &mut OpContext, p: SampleParams) -> Result<Value, OpError> {
-    let set = draw(ctx.get::<Distribution2D>("cdf"), p.sequence, p.count, p.seed);
+fn eval(_: &mut OpContext, p: SampleParams) -> Result<Value, OpError> {
+    let set = draw(&p.cdf, p.sequence, p.count, p.seed);
     Ok(Value::new(set))
 }
 

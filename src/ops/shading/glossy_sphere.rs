@@ -19,7 +19,7 @@
 
 use crate::data::Distribution2D;
 use crate::data::Image;
-use crate::engine::op::check_same_size;
+use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
 use crate::engine::params::Rgb;
 use crate::engine::value::Value;
@@ -28,6 +28,13 @@ use crate::types::ty::*;
 
 super::glossy_params! {
     GlossySphereParams {
+        /// the lat-long environment (linear RGB)
+        #[input(&[IMAGE_T])]
+        pub env: Input<Image>,
+        /// the environment's distribution (BuildCdf), same size as env
+        #[input(&[DISTRIBUTION_T])]
+        pub cdf: Input<Distribution2D>,
+    } {
         /// samples per pixel: radiance lookups (Mis: ceil(spp/2) environment + floor(spp/2) BRDF)
         #[range(1, 1 << 20)]
         pub spp: usize = 16,
@@ -47,18 +54,15 @@ pub fn spec() -> OpSpec {
         1,
         "A modified-Phong sphere with per-pixel samples: Environment, Brdf or Mis (power or balance heuristic)",
     )
-    .input("env", &[IMAGE_T], "the lat-long environment (linear RGB)")
-    .input("cdf", &[DISTRIBUTION_T], "the environment's distribution (BuildCdf), same size as env")
     .output("image", OutputType::Fixed(IMAGE_T), "the glossy sphere")
-    .size(|_, p: GlossySphereParams| Some((p.size as u64, p.size as u64)))
-    .check(|ctx, _: GlossySphereParams| check_same_size(ctx, "env", "cdf"))
+    .size(|_, p: GlossySphereParams<Check>| Some((p.size as u64, p.size as u64)))
+    .check(|_, p: GlossySphereParams<Check>| super::check_env_cdf_sizes(p.env, p.cdf))
     .code_hash(crate::op_code_hash!())
     .eval(eval)
 }
 
-fn eval(ctx: &mut OpContext, p: GlossySphereParams) -> Result<Value, OpError> {
-    let env: &Image = ctx.get("env");
-    let dist: &Distribution2D = ctx.get("cdf");
+fn eval(_: &mut OpContext, p: GlossySphereParams) -> Result<Value, OpError> {
+    let (env, dist) = (&*p.env, &*p.cdf);
     // A NaN or infinite texel would make NaN pixels wherever a sample lands on it.
     super::reference_sphere::check_finite(env)?;
     if (dist.width, dist.height) != (env.width, env.height) {

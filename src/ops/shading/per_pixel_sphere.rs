@@ -24,7 +24,7 @@
 use super::sphere_view;
 use crate::data::Distribution2D;
 use crate::data::Image;
-use crate::engine::op::check_same_size;
+use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Persist};
 use crate::engine::params::Rgb;
 use crate::engine::value::Value;
@@ -36,6 +36,13 @@ use crate::types::ty::*;
 
 super::sphere_params! {
     PerPixelParams {
+        /// the lat-long environment (linear RGB)
+        #[input(&[IMAGE_T])]
+        pub env: Input<Image>,
+        /// the environment's distribution (BuildCdf), same size as env
+        #[input(&[DISTRIBUTION_T])]
+        pub cdf: Input<Distribution2D>,
+    } {
         /// Environment (cdf texels), Cosine (cosine hemisphere), Uniform (sphere), Mis (balance heuristic of the first two)
         pub strategy: PerPixelStrategy = PerPixelStrategy::Environment,
         /// Random (independent uniforms) or Sobol (per-pixel Owen-scrambled Sobol, as Mitsuba's ldsampler)
@@ -59,19 +66,16 @@ pub fn spec() -> OpSpec {
         1,
         "Relight a diffuse sphere with independent samples per pixel (Environment, Cosine, Uniform or MIS)",
     )
-    .input("env", &[IMAGE_T], "the lat-long environment (linear RGB)")
-    .input("cdf", &[DISTRIBUTION_T], "the environment's distribution (BuildCdf), same size as env")
     .output("image", OutputType::Fixed(IMAGE_T), "the relit sphere")
-    .size(|_, p: PerPixelParams| Some((p.size as u64, p.size as u64)))
-    .check(|ctx, _: PerPixelParams| check_same_size(ctx, "env", "cdf"))
+    .size(|_, p: PerPixelParams<Check>| Some((p.size as u64, p.size as u64)))
+    .check(|_, p: PerPixelParams<Check>| super::check_env_cdf_sizes(p.env, p.cdf))
     .persist(Persist::Always)
     .code_hash(crate::op_code_hash!())
     .eval(eval)
 }
 
-fn eval(ctx: &mut OpContext, p: PerPixelParams) -> Result<Value, OpError> {
-    let env: &Image = ctx.get("env");
-    let dist: &Distribution2D = ctx.get("cdf");
+fn eval(_: &mut OpContext, p: PerPixelParams) -> Result<Value, OpError> {
+    let (env, dist) = (&*p.env, &*p.cdf);
     if (dist.width, dist.height) != (env.width, env.height) {
         return Err(OpError::Invalid(format!(
             "the distribution is over a {}x{} map but env is {}x{}: build it from this env",

@@ -10,6 +10,7 @@
 //! ~1.7e9 terms: seconds on 2 cores).
 
 use crate::data::Image;
+use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
 use crate::engine::params::Rgb;
 use crate::engine::value::Value;
@@ -18,7 +19,11 @@ use crate::ops::shading::reference_sphere::check_finite;
 use crate::types::ty::*;
 
 super::glossy_params! {
-    ReferenceGlossyParams {}
+    ReferenceGlossyParams {
+        /// the lat-long environment (linear RGB)
+        #[input(&[IMAGE_T])]
+        pub env: Input<Image>,
+    } {}
 }
 
 pub fn spec() -> OpSpec {
@@ -28,15 +33,14 @@ pub fn spec() -> OpSpec {
         1,
         "The exact modified-Phong sphere: sum over every texel of L f cos dOmega",
     )
-    .input("env", &[IMAGE_T], "the lat-long environment (linear RGB)")
     .output("image", OutputType::Fixed(IMAGE_T), "the exact glossy sphere")
-    .size(|_, p: ReferenceGlossyParams| Some((p.size as u64, p.size as u64)))
+    .size(|_, p: ReferenceGlossyParams<Check>| Some((p.size as u64, p.size as u64)))
     .code_hash(crate::op_code_hash!())
     .eval(eval)
 }
 
-fn eval(ctx: &mut OpContext, p: ReferenceGlossyParams) -> Result<Value, OpError> {
-    let env: &Image = ctx.get("env");
+fn eval(_: &mut OpContext, p: ReferenceGlossyParams) -> Result<Value, OpError> {
+    let env = &*p.env;
     check_finite(env)?;
     let brdf = GlossyBrdf { diffuse: p.diffuse.0, specular: p.specular.0, exponent: p.exponent };
     Ok(Value::new(reference_glossy_sphere(env, &super::sphere_view(p.size, p.view), &brdf)))

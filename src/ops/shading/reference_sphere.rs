@@ -10,6 +10,7 @@
 
 use super::sphere_view;
 use crate::data::Image;
+use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Persist};
 use crate::engine::params::Rgb;
 use crate::engine::value::Value;
@@ -17,7 +18,11 @@ use crate::maths::reference::{first_non_finite, reference_sphere};
 use crate::types::ty::*;
 
 super::sphere_params! {
-    ReferenceParams {}
+    ReferenceParams {
+        /// the lat-long environment (linear RGB)
+        #[input(&[IMAGE_T])]
+        pub env: Input<Image>,
+    } {}
 }
 
 pub fn spec() -> OpSpec {
@@ -27,9 +32,8 @@ pub fn spec() -> OpSpec {
         1,
         "The exact relit diffuse sphere: (albedo/pi) * sum over every texel of L dOmega max(n.d, 0)",
     )
-    .input("env", &[IMAGE_T], "the lat-long environment (linear RGB)")
     .output("image", OutputType::Fixed(IMAGE_T), "the exactly relit sphere")
-    .size(|_, p: ReferenceParams| Some((p.size as u64, p.size as u64)))
+    .size(|_, p: ReferenceParams<Check>| Some((p.size as u64, p.size as u64)))
     .persist(Persist::Always)
     .code_hash(crate::op_code_hash!())
     .eval(eval)
@@ -46,8 +50,8 @@ pub(crate) fn check_finite(env: &crate::data::Image) -> Result<(), OpError> {
     }
 }
 
-fn eval(ctx: &mut OpContext, p: ReferenceParams) -> Result<Value, OpError> {
-    let env: &Image = ctx.get("env");
+fn eval(_: &mut OpContext, p: ReferenceParams) -> Result<Value, OpError> {
+    let env = &*p.env;
     check_finite(env)?;
     Ok(Value::new(reference_sphere(env, &sphere_view(p.size, p.view), p.albedo.0)))
 }

@@ -20,6 +20,7 @@
 use super::sphere_view;
 use crate::data::Image;
 use crate::data::SampleSet;
+use crate::engine::fields::{Check, Input};
 use crate::engine::op::{CheckContext, CheckProblem};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
 use crate::engine::params::Rgb;
@@ -40,6 +41,13 @@ crate::choice! {
 
 super::sphere_params! {
     RelightParams {
+        /// the lat-long environment (linear RGB)
+        #[input(&[IMAGE_T])]
+        pub env: Input<Image>,
+        /// light samples (Sample), shared by every pixel
+        #[input(&[SAMPLES_T])]
+        pub samples: Input<SampleSet>,
+    } {
         /// Unbiased: (albedo/pi) mean(L cos / pdf); Seed: the seed's formula exactly
         pub estimator: EstimatorChoice = EstimatorChoice::Unbiased,
     }
@@ -52,10 +60,8 @@ pub fn spec() -> OpSpec {
         2,
         "Relight a diffuse sphere with an environment through shared light samples",
     )
-    .input("env", &[IMAGE_T], "the lat-long environment (linear RGB)")
-    .input("samples", &[SAMPLES_T], "light samples (Sample), shared by every pixel")
     .output("image", OutputType::Fixed(IMAGE_T), "the relit sphere")
-    .size(|_, p: RelightParams| Some((p.size as u64, p.size as u64)))
+    .size(|_, p: RelightParams<Check>| Some((p.size as u64, p.size as u64)))
     .check(check_grid)
     .code_hash(crate::op_code_hash!())
     .eval(eval)
@@ -72,13 +78,13 @@ pub fn luminance_integral(env: &Image) -> f64 {
         .sum()
 }
 
-fn eval(ctx: &mut OpContext, p: RelightParams) -> Result<Value, OpError> {
+fn eval(_: &mut OpContext, p: RelightParams) -> Result<Value, OpError> {
     let estimator = match p.estimator {
         EstimatorChoice::Seed => Estimator::Seed,
         EstimatorChoice::Unbiased => Estimator::Unbiased,
     };
     let view = sphere_view(p.size, p.view);
-    let image = relight_shared(ctx.get("env"), ctx.get("samples"), p.size, p.albedo.0, view.view_dir(), estimator)?;
+    let image = relight_shared(&p.env, &p.samples, p.size, p.albedo.0, view.view_dir(), estimator)?;
     Ok(Value::new(image))
 }
 
@@ -240,8 +246,8 @@ pub fn relight_shared(
 /// Samples drawn from a distribution over another grid are spread over the env's texels, which
 /// needs the env to be an integer multiple of that grid: refused here when both sizes are known
 /// before running (`Sample` knows its distribution's grid; a Phong lobe has none).
-fn check_grid(ctx: &CheckContext, _: RelightParams) -> Result<(), CheckProblem> {
-    if let (Some((ew, eh)), Some((sw, sh))) = (ctx.input_size("env"), ctx.input_size("samples")) {
+fn check_grid(_: &CheckContext, p: RelightParams<Check>) -> Result<(), CheckProblem> {
+    if let (Some((ew, eh)), Some((sw, sh))) = (p.env.size, p.samples.size) {
         if (ew, eh) != (sw, sh) && (sw == 0 || sh == 0 || ew % sw != 0 || eh % sh != 0) {
             return Err(CheckProblem::at(
                 "samples",

@@ -21,6 +21,7 @@
 
 use super::reference_sphere::check_finite;
 use crate::data::{Image, Metrics, ShCoefficients, ShFrame};
+use crate::engine::fields::Input;
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Outputs};
 use crate::engine::value::Value;
 use crate::maths::sh::{coefficient_name, project, sh_lm};
@@ -30,6 +31,9 @@ crate::choice_by_name!(ShFrame);
 
 crate::params! {
     pub struct ShIrradianceParams {
+        /// the lat-long environment (linear RGB)
+        #[input(&[IMAGE_T])]
+        pub env: Input<Image>,
         /// highest band l
         #[range(0, 32)]
         pub order: usize = 2,
@@ -45,7 +49,6 @@ pub fn spec() -> OpSpec {
         2,
         "Spherical-harmonic coefficients L_lm of a lat-long map in a stated frame (order 2: Ramamoorthi-Hanrahan's 9)",
     )
-    .input("env", &[IMAGE_T], "the lat-long environment (linear RGB)")
     .output("coefficients", OutputType::Fixed(SH_COEFFICIENTS_T), "the coefficients, with their order and frame")
     .output(
         "metrics",
@@ -56,8 +59,8 @@ pub fn spec() -> OpSpec {
     .eval(eval)
 }
 
-fn eval(ctx: &mut OpContext, p: ShIrradianceParams) -> Result<Outputs, OpError> {
-    let env: &Image = ctx.get("env");
+fn eval(_: &mut OpContext, p: ShIrradianceParams) -> Result<Outputs, OpError> {
+    let env = &*p.env;
     check_finite(env)?;
     let rgb = project(env, p.order, p.frame);
     let mut fields = Vec::with_capacity(rgb.len() * 3);

@@ -9,6 +9,7 @@
 use super::reference_sphere::check_finite;
 use super::sphere_view;
 use crate::data::Image;
+use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
 use crate::engine::params::Rgb;
 use crate::engine::value::Value;
@@ -17,6 +18,10 @@ use crate::types::ty::*;
 
 super::sphere_params! {
     ShSphereParams {
+        /// the lat-long environment (linear RGB)
+        #[input(&[IMAGE_T])]
+        pub env: Input<Image>,
+    } {
         /// highest SH band l (2: 9 coefficients)
         #[range(0, 32)]
         pub order: usize = 2,
@@ -30,15 +35,14 @@ pub fn spec() -> OpSpec {
         1,
         "Relight a diffuse sphere with the spherical-harmonic irradiance map (Ramamoorthi-Hanrahan)",
     )
-    .input("env", &[IMAGE_T], "the lat-long environment (linear RGB)")
     .output("image", OutputType::Fixed(IMAGE_T), "the relit sphere")
-    .size(|_, p: ShSphereParams| Some((p.size as u64, p.size as u64)))
+    .size(|_, p: ShSphereParams<Check>| Some((p.size as u64, p.size as u64)))
     .code_hash(crate::op_code_hash!())
     .eval(eval)
 }
 
-fn eval(ctx: &mut OpContext, p: ShSphereParams) -> Result<Value, OpError> {
-    let env: &Image = ctx.get("env");
+fn eval(_: &mut OpContext, p: ShSphereParams) -> Result<Value, OpError> {
+    let env = &*p.env;
     check_finite(env)?;
     Ok(Value::new(sh_sphere(env, &sphere_view(p.size, p.view), p.albedo.0, p.order)))
 }
