@@ -32,7 +32,7 @@ hdrflow::params! {
 //    reuses stale results).
 fn invert_spec() -> OpSpec {
     OpSpec::new("Invert", "example", 1, "Replace every value v by white - v")
-        .output_computed("image", "the input's type", |_, p: InvertParams<Check>| Ok(p.image.ty), "the inverted image")
+        .output_like("image", |p: InvertParams<Check>| p.image, "the inverted image")
         .code(include_str!("custom_operator.rs"))
         .eval(invert)
 }

@@ -1,26 +1,13 @@
 //! What an operator is: an [`OpSpec`] (name, version, typed fields, output ports, evaluation).
 //!
-//! An operator file declares its parameters as a struct with `params!`, and a `spec()` function
-//! that builds the spec; its domain's `mod.rs` registers it with one line. The smallest one:
-//!
-//! ```ignore
-//! params! { pub struct ExposureParams {
-//!     /// exposure change in stops (+1 doubles)
-//!     #[range(-126.0, 126.0)]
-//!     pub stops: f64,
-//! } }
-//!
-//! pub fn spec() -> OpSpec {
-//!     OpSpec::new("Exposure", "image", 1, "Scale an image by 2^stops")
-//!         .input("image", &[IMAGE, SCALAR_FIELD], "the image to scale")
-//!         .output("image", OutputType::SameAsInput("image"), "the scaled image")
-//!         .code_hash(crate::op_code_hash!())
-//!         .eval(|ctx, p: ExposureParams| { ... })
-//! }
-//! ```
+//! An operator file declares its fields, inputs and parameters, as one struct with `params!`
+//! (see `engine::fields`), and a `spec()` function that builds the spec; its domain's `mod.rs`
+//! registers it with one line. The smallest one, `FlipVertical`, is quoted in the README
+//! ("Adding an operator"), where a test keeps the quote equal to the file.
 //!
 //! The engine validates a node's fields against the spec before anything runs, so `eval`
-//! receives typed parameters and inputs of the declared types; it never checks them again.
+//! receives the struct with typed parameters and inputs of the declared types; it never checks
+//! them again.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -355,6 +342,27 @@ impl OpSpec {
             }),
         );
         self.output(name, ty, doc)
+    }
+
+    /// Adds an output port of the type of one input: `.output_like("image", |p:
+    /// ExposureParams<Check>| p.image, "the scaled image")`.
+    pub fn output_like<C: CheckFields + 'static>(
+        self,
+        name: &'static str,
+        f: fn(C) -> Shape,
+        doc: &'static str,
+    ) -> Self {
+        self.output(
+            name,
+            OutputType::Computed(
+                "the input's type",
+                Arc::new(move |ctx: &CheckContext| match C::from_check(ctx) {
+                    Some(p) => Ok(f(p).ty),
+                    None => Err(format!("output {name:?}: its type is an input's, which is not wired")),
+                }),
+            ),
+            doc,
+        )
     }
 
     /// The loader's content key (see the field), from its typed fields.

@@ -1,12 +1,14 @@
-//! Operator parameters, declared once as a typed Rust struct.
-//!
-//! An operator writes its parameters as a struct with the [`params!`](crate::params) macro: each
-//! field's doc comment, range and default become its spec (what validation checks, what
-//! `hdrflow ops` prints, what the cache key hashes), and `eval` receives the struct itself:
+//! Operator parameters: what a parameter field's Rust type means ([`Param`]), the validated
+//! values ([`Params`]), the field specs that drive validation and `hdrflow ops`, choices
+//! ([`choice!`](crate::choice)) and the [`params!`](crate::params) macro that declares an
+//! operator's fields, its inputs included, as one typed struct (see `engine::fields`):
 //!
 //! ```ignore
 //! hdrflow::params! {
 //!     pub struct ExposureParams {
+//!         /// the image to scale
+//!         #[input(ANY_IMAGE)]
+//!         pub image: Input<Image>,
 //!         /// exposure change in stops (+1 doubles)
 //!         #[range(-126.0, 126.0)]
 //!         pub stops: f64,
@@ -16,9 +18,9 @@
 //! }
 //! ```
 //!
-//! A field without `= default` is required. Choices are Rust enums declared with
-//! [`choice!`](crate::choice), so `eval` matches on variants instead of comparing strings.
-//! What a Rust type means as a field is its [`Param`] implementation.
+//! A field without `= default` is required, unless its type is an `Option`. Choices are Rust
+//! enums declared with [`choice!`](crate::choice), so `eval` matches on variants instead of
+//! comparing strings.
 
 use std::collections::BTreeMap;
 

@@ -39,7 +39,7 @@ pub fn spec() -> OpSpec {
         1,
         "Convert a Debevec angular light probe to a lat-long map (outside the disc masked)",
     )
-    .output_computed("image", "the input's type", |_, p: AngularParams<Check>| Ok(p.image.ty), "the lat-long map")
+    .output_like("image", |p: AngularParams<Check>| p.image, "the lat-long map")
     .size(|_, p: AngularParams<Check>| Some((p.width as u64, p.height as u64)))
     .code_hash(crate::op_code_hash!())
     .eval(eval)

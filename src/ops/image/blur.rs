@@ -46,7 +46,7 @@ crate::params! {
 
 pub fn spec() -> OpSpec {
     OpSpec::new("Blur", "image", 1, "Separable Gaussian blur (radius 3 sigma), clamp or horizontal wrap-around")
-        .output_computed("image", "the input's type", |_, p: BlurParams<Check>| Ok(p.image.ty), "the blurred image")
+        .output_like("image", |p: BlurParams<Check>| p.image, "the blurred image")
         .size(|_, p: BlurParams<Check>| p.image.size)
         .code_hash(crate::op_code_hash!())
         .eval(eval)

@@ -35,12 +35,7 @@ crate::params! {
 
 pub fn spec() -> OpSpec {
     OpSpec::new("Crop", "image", 1, "A rectangle of an image (x, y: its top-left pixel)")
-        .output_computed(
-            "image",
-            "the input's type",
-            |_, p: CropParams<Check>| Ok(p.image.ty),
-            "the rectangle, same channels",
-        )
+        .output_like("image", |p: CropParams<Check>| p.image, "the rectangle, same channels")
         .size(|_, p: CropParams<Check>| Some((p.width as u64, p.height as u64)))
         .persist(Persist::IfSmall)
         .code_hash(crate::op_code_hash!())

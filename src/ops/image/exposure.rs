@@ -25,7 +25,7 @@ crate::params! {
 
 pub fn spec() -> OpSpec {
     OpSpec::new("Exposure", "image", 2, "Scale an image by 2^stops (alpha unchanged)")
-        .output_computed("image", "the input's type", |_, p: ExposureParams<Check>| Ok(p.image.ty), "the scaled image")
+        .output_like("image", |p: ExposureParams<Check>| p.image, "the scaled image")
         .size(|_, p: ExposureParams<Check>| p.image.size)
         .persist(Persist::IfSmall)
         .code_hash(crate::op_code_hash!())

@@ -18,12 +18,7 @@ crate::params! {
 
 pub fn spec() -> OpSpec {
     OpSpec::new("FlipVertical", "image", 1, "Flip an image upside down")
-        .output_computed(
-            "image",
-            "the input's type",
-            |_, p: FlipVerticalParams<Check>| Ok(p.image.ty),
-            "the flipped image",
-        )
+        .output_like("image", |p: FlipVerticalParams<Check>| p.image, "the flipped image")
         .size(|_, p: FlipVerticalParams<Check>| p.image.size)
         .persist(Persist::IfSmall)
         .code_hash(crate::op_code_hash!())

@@ -34,7 +34,7 @@ crate::params! {
 
 pub fn spec() -> OpSpec {
     OpSpec::new("Resize", "image", 1, "Area-averaging, energy-preserving resize")
-        .output_computed("image", "the input's type", |_, p: ResizeParams<Check>| Ok(p.image.ty), "the resized image")
+        .output_like("image", |p: ResizeParams<Check>| p.image, "the resized image")
         .size(|_, p: ResizeParams<Check>| Some((p.width as u64, p.height as u64)))
         .code_hash(crate::op_code_hash!())
         .eval(eval)

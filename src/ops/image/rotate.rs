@@ -35,7 +35,7 @@ crate::params! {
 
 pub fn spec() -> OpSpec {
     OpSpec::new("Rotate", "image", 1, "Rotate a lat-long or cube map on the sphere (energy-preserving)")
-        .output_computed("image", "the input's type", |_, p: RotateParams<Check>| Ok(p.image.ty), "the rotated map")
+        .output_like("image", |p: RotateParams<Check>| p.image, "the rotated map")
         .size(|_, p: RotateParams<Check>| p.image.size)
         .check(check)
         .code_hash(crate::op_code_hash!())

@@ -59,10 +59,9 @@ crate::params! {
 
 pub fn spec() -> OpSpec {
     OpSpec::new("Tonemap", "image", 1, "Exposure then a tone curve (Reinhard, ACES, AgX) to display-linear [0, 1]")
-        .output_computed(
+        .output_like(
             "image",
-            "the input's type",
-            |_, p: TonemapParams<Check>| Ok(p.image.ty),
+            |p: TonemapParams<Check>| p.image,
             "display-referred linear values in [0, 1]; alpha unchanged",
         )
         .size(|_, p: TonemapParams<Check>| p.image.size)

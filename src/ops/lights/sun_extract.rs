@@ -45,12 +45,7 @@ pub fn spec() -> OpSpec {
         "Split an environment into a sun (light) and the map without it, conserving the integral per channel",
     )
     .output("sun", OutputType::Fixed(LIGHT_T), "the sun: direction, solid angle, RGB radiance (zero if none)")
-    .output_computed(
-        "residual",
-        "the input's type",
-        |_, p: SunExtractParams<Check>| Ok(p.env.ty),
-        "env with the sun's texels filled from around them",
-    )
+    .output_like("residual", |p: SunExtractParams<Check>| p.env, "env with the sun's texels filled from around them")
     .code_hash(crate::op_code_hash!())
     .eval(eval)
 }
