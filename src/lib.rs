@@ -9,7 +9,8 @@
 //!   it knows no operator and no data type.
 //! - [`data`], [`maths`], [`formats`], [`plotting`]: data types, mathematics, file formats, plots.
 //! - [`geometry`]: the lat-long convention, below all of them (it depends on nothing else);
-//!   [`cpu`]: the processor features every SIMD path asks for.
+//!   [`cpu`]: the processor features every SIMD path asks for; [`choice`]: the one way to
+//!   declare an enum that pipelines choose by name.
 //!
 //! Running a pipeline from code:
 //! ```no_run
@@ -33,6 +34,7 @@
 // The benchmark harness behind `hdrflow bench`: used by the CLI, not a public API.
 pub mod batch;
 mod bench;
+pub mod choice;
 pub mod cli;
 pub mod cpu;
 pub mod data;

@@ -2,41 +2,29 @@
 //! with the frame their basis was evaluated in. The basis, the frames and the projection are
 //! documented in `maths::sh`.
 
-/// The axes `(x, y, z)` the real SH basis is evaluated in, as functions of a unit direction
-/// `d = (d_x, d_y, d_z)` in hdrflow's world (+Y up, -Z forward, +X right: right-handed).
-/// The same map gives different coefficients in each frame: a shader must evaluate the basis
-/// in the frame the coefficients were computed in.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum ShFrame {
-    /// `(x, y, z) = (d_x, d_y, d_z)`: hdrflow's own axes, as Y-up engines evaluate the basis
-    /// (three.js `SphericalHarmonics3`, Filament's 3-band irradiance SH): `L_1,-1` goes with
-    /// the up axis.
-    World,
-    /// `(x, y, z) = (d_x, d_y, -d_z)`: Ramamoorthi and Hanrahan's frame for a Debevec light
-    /// probe (z towards the probe's centre, that is forward), in which their published Grace
-    /// Cathedral coefficients are expressed. A mirror image of `World`:
-    /// `L_lm(Paper) = (-1)^(l+m) L_lm(World)`.
-    Paper,
-    /// `(x, y, z) = (d_z, -d_x, d_y)`: z along the lat-long map's pole (+Y), azimuth = the map's
-    /// `phi`. The frame of `ShIrradiance` version 1; hdrflow projects in it (one Fourier sum per
-    /// row) and `ShSphere` uses it internally.
-    LatLong,
+crate::choice! {
+    /// The axes `(x, y, z)` the real SH basis is evaluated in, as functions of a unit direction
+    /// `d = (d_x, d_y, d_z)` in hdrflow's world (+Y up, -Z forward, +X right: right-handed).
+    /// The same map gives different coefficients in each frame: a shader must evaluate the basis
+    /// in the frame the coefficients were computed in.
+    pub enum ShFrame {
+        /// `(x, y, z) = (d_x, d_y, d_z)`: hdrflow's own axes, as Y-up engines evaluate the basis
+        /// (three.js `SphericalHarmonics3`, Filament's 3-band irradiance SH): `L_1,-1` goes with
+        /// the up axis.
+        World,
+        /// `(x, y, z) = (d_x, d_y, -d_z)`: Ramamoorthi and Hanrahan's frame for a Debevec light
+        /// probe (z towards the probe's centre, that is forward), in which their published Grace
+        /// Cathedral coefficients are expressed. A mirror image of `World`:
+        /// `L_lm(Paper) = (-1)^(l+m) L_lm(World)`.
+        Paper,
+        /// `(x, y, z) = (d_z, -d_x, d_y)`: z along the lat-long map's pole (+Y), azimuth = the map's
+        /// `phi`. The frame of `ShIrradiance` version 1; hdrflow projects in it (one Fourier sum per
+        /// row) and `ShSphere` uses it internally.
+        LatLong,
+    }
 }
 
 impl ShFrame {
-    /// The names, in declaration order, as written in pipeline files.
-    pub const NAMES: &'static [&'static str] = &["World", "Paper", "LatLong"];
-    pub const ALL: [ShFrame; 3] = [ShFrame::World, ShFrame::Paper, ShFrame::LatLong];
-
-    pub fn name(self) -> &'static str {
-        Self::NAMES[self as usize]
-    }
-
-    /// The frame called `name` (exact spelling), or `None`.
-    pub fn from_name(name: &str) -> Option<ShFrame> {
-        Self::ALL.iter().copied().find(|f| f.name() == name)
-    }
-
     /// The frame's `(x, y, z)` for a unit direction `d` of hdrflow's world.
     #[inline]
     pub fn axes(self, d: [f64; 3]) -> [f64; 3] {

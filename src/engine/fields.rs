@@ -22,7 +22,8 @@ use std::marker::PhantomData;
 use std::ops::Deref;
 use std::sync::Arc;
 
-use crate::engine::op::{CheckContext, OpError, Size};
+pub use crate::engine::context::RunInputs;
+use crate::engine::context::{CheckContext, OpError, Size};
 use crate::engine::params::{Arity, FieldKind, FieldSpec, Param, Params};
 use crate::engine::value::{Value, ValueData, ValueType};
 
@@ -159,9 +160,6 @@ impl<T: InputKind> PartialEq for Input<T> {
     }
 }
 
-/// A node's wired inputs as evaluation hands them to the struct: field -> values, in order.
-pub type RunInputs = Vec<(&'static str, Vec<Value>)>;
-
 fn take_values(inputs: &mut RunInputs, field: &'static str) -> Vec<Value> {
     inputs.iter_mut().find(|(f, _)| *f == field).map(|(_, v)| std::mem::take(v)).unwrap_or_default()
 }
@@ -297,4 +295,95 @@ pub trait Fields: Sized {
 pub trait CheckFields: Sized {
     /// `None` when a required input is not wired (already reported).
     fn from_check(ctx: &CheckContext) -> Option<Self>;
+}
+
+/// `Some(x)` for one argument, `None` for none (used by `params!`).
+#[doc(hidden)]
+#[macro_export]
+macro_rules! __opt {
+    () => {
+        None
+    };
+    ($e:expr) => {
+        Some($e)
+    };
+}
+
+/// Declares an operator's fields, its parameters and its inputs, as one typed struct; see
+/// `hdrflow::engine::fields`. Each field takes doc comments, then optionally `#[input(TYPES)]`
+/// (the value types an input accepts; left out: any) and `#[range(min, max)]` (a number's
+/// range, or a list input's length), then `name: Type` and optionally `= default`.
+#[macro_export]
+macro_rules! params {
+    (
+        $(#[$meta:meta])*
+        $vis:vis struct $name:ident {}
+    ) => {
+        $(#[$meta])*
+        #[derive(Clone, Debug, PartialEq)]
+        $vis struct $name<S: $crate::engine::fields::Stage = $crate::engine::fields::Run>(
+            ::std::marker::PhantomData<S>,
+        );
+
+        impl $crate::engine::fields::Fields for $name {
+            fn fields() -> Vec<$crate::engine::params::FieldSpec> {
+                Vec::new()
+            }
+            fn from_run(
+                _: &$crate::engine::params::Params,
+                _: &mut $crate::engine::fields::RunInputs,
+            ) -> Result<Self, $crate::engine::context::OpError> {
+                Ok($name(::std::marker::PhantomData))
+            }
+        }
+
+        impl $crate::engine::fields::CheckFields for $name<$crate::engine::fields::Check> {
+            fn from_check(_: &$crate::engine::context::CheckContext) -> Option<Self> {
+                Some($name(::std::marker::PhantomData))
+            }
+        }
+    };
+    (
+        $(#[$meta:meta])*
+        $vis:vis struct $name:ident {
+            $(
+                $(#[doc = $doc:literal])*
+                $(#[input($accepts:expr)])?
+                $(#[range($min:expr, $max:expr)])?
+                $fvis:vis $field:ident : $ty:ty $(= $default:expr)?
+            ),+ $(,)?
+        }
+    ) => {
+        $(#[$meta])*
+        #[derive(Clone, Debug, PartialEq)]
+        $vis struct $name<S: $crate::engine::fields::Stage = $crate::engine::fields::Run> {
+            $( $(#[doc = $doc])* $fvis $field: <$ty as $crate::engine::fields::Field>::At<S>, )+
+        }
+
+        impl $crate::engine::fields::Fields for $name {
+            fn fields() -> Vec<$crate::engine::params::FieldSpec> {
+                vec![$(
+                    <$ty as $crate::engine::fields::Field>::spec(
+                        stringify!($field),
+                        $crate::engine::params::doc_text(&[$($doc),*]),
+                        $crate::__opt!($(($min as f64, $max as f64))?),
+                        $crate::__opt!($({ let d: $ty = $default; d })?),
+                        $crate::__opt!($($accepts)?),
+                    )
+                ),+]
+            }
+            fn from_run(
+                params: &$crate::engine::params::Params,
+                inputs: &mut $crate::engine::fields::RunInputs,
+            ) -> Result<Self, $crate::engine::context::OpError> {
+                Ok($name { $( $field: <$ty as $crate::engine::fields::Field>::run(stringify!($field), params, inputs)?, )+ })
+            }
+        }
+
+        impl $crate::engine::fields::CheckFields for $name<$crate::engine::fields::Check> {
+            fn from_check(ctx: &$crate::engine::context::CheckContext) -> Option<Self> {
+                Some($name { $( $field: <$ty as $crate::engine::fields::Field>::check(stringify!($field), ctx)?, )+ })
+            }
+        }
+    };
 }

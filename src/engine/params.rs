@@ -24,6 +24,7 @@
 
 use std::collections::BTreeMap;
 
+pub use crate::choice::Choice;
 use crate::engine::value::ValueType;
 
 /// How many nodes an input field takes.
@@ -430,176 +431,21 @@ impl Param for Rgb {
     }
 }
 
-/// A choice: a Rust enum whose variants are written as bare identifiers in pipelines.
-pub trait Choice: Sized + Copy + 'static {
-    const NAMES: &'static [&'static str];
-    fn from_name(name: &str) -> Option<Self>;
-    fn name(self) -> &'static str;
-}
-
-/// Declares a choice enum: `choice! { pub enum Weights { Rec709, Rec2020, Mean, Max } }`.
-/// Variants may carry doc comments. The enum derives `Clone, Copy, Debug, PartialEq, Eq`.
-#[macro_export]
-macro_rules! choice {
-    ($(#[$meta:meta])* $vis:vis enum $name:ident { $($(#[$vmeta:meta])* $variant:ident),+ $(,)? }) => {
-        $(#[$meta])*
-        #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-        $vis enum $name { $($(#[$vmeta])* $variant),+ }
-
-        impl $crate::engine::params::Choice for $name {
-            const NAMES: &'static [&'static str] = &[$(stringify!($variant)),+];
-            fn from_name(name: &str) -> Option<Self> {
-                match name {
-                    $(stringify!($variant) => Some($name::$variant),)+
-                    _ => None,
-                }
-            }
-            fn name(self) -> &'static str {
-                match self {
-                    $($name::$variant => stringify!($variant),)+
-                }
-            }
+/// Any choice (declared with [`crate::choice!`]) is a parameter: a bare identifier among its
+/// names.
+impl<T: Choice> Param for T {
+    fn kind(_: Option<(f64, f64)>) -> FieldKind {
+        FieldKind::Choice(T::NAMES)
+    }
+    fn to_value(&self) -> Option<ParamValue> {
+        Some(ParamValue::Choice(self.name().to_string()))
+    }
+    fn from_value(v: &ParamValue) -> Option<Self> {
+        match v {
+            ParamValue::Choice(s) => T::from_name(s),
+            _ => None,
         }
-
-        $crate::choice_param!($name);
-    };
-}
-
-/// Implements [`Choice`] (and [`crate::choice_param!`]) for a type that has its own name table, the
-/// inherent `NAMES`, `name()` and `from_name()` of enums declared below the engine (in `maths`
-/// and `data`, which do not know it): `choice_by_name!(PerPixelStrategy);` in the operators'
-/// module.
-#[macro_export]
-macro_rules! choice_by_name {
-    ($t:ty) => {
-        impl $crate::engine::params::Choice for $t {
-            const NAMES: &'static [&'static str] = <$t>::NAMES;
-            fn from_name(name: &str) -> Option<Self> {
-                <$t>::from_name(name)
-            }
-            fn name(self) -> &'static str {
-                <$t>::name(self)
-            }
-        }
-        $crate::choice_param!($t);
-    };
-}
-
-/// Makes a type that implements [`Choice`] usable as a parameter (`choice!` does this itself;
-/// use it for an enum declared elsewhere, e.g. in `maths`).
-#[macro_export]
-macro_rules! choice_param {
-    ($t:ty) => {
-        impl $crate::engine::params::Param for $t {
-            fn kind(_: Option<(f64, f64)>) -> $crate::engine::params::FieldKind {
-                $crate::engine::params::FieldKind::Choice(<$t as $crate::engine::params::Choice>::NAMES)
-            }
-            fn to_value(&self) -> Option<$crate::engine::params::ParamValue> {
-                Some($crate::engine::params::ParamValue::Choice(
-                    <$t as $crate::engine::params::Choice>::name(*self).to_string(),
-                ))
-            }
-            fn from_value(v: &$crate::engine::params::ParamValue) -> Option<Self> {
-                match v {
-                    $crate::engine::params::ParamValue::Choice(s) => {
-                        <$t as $crate::engine::params::Choice>::from_name(s)
-                    }
-                    _ => None,
-                }
-            }
-        }
-    };
-}
-
-/// `Some(x)` for one argument, `None` for none (used by `params!`).
-#[doc(hidden)]
-#[macro_export]
-macro_rules! __opt {
-    () => {
-        None
-    };
-    ($e:expr) => {
-        Some($e)
-    };
-}
-
-/// Declares an operator's fields, its parameters and its inputs, as one typed struct; see
-/// `hdrflow::engine::fields`. Each field takes doc comments, then optionally `#[input(TYPES)]`
-/// (the value types an input accepts; left out: any) and `#[range(min, max)]` (a number's
-/// range, or a list input's length), then `name: Type` and optionally `= default`.
-#[macro_export]
-macro_rules! params {
-    (
-        $(#[$meta:meta])*
-        $vis:vis struct $name:ident {}
-    ) => {
-        $(#[$meta])*
-        #[derive(Clone, Debug, PartialEq)]
-        $vis struct $name<S: $crate::engine::fields::Stage = $crate::engine::fields::Run>(
-            ::std::marker::PhantomData<S>,
-        );
-
-        impl $crate::engine::fields::Fields for $name {
-            fn fields() -> Vec<$crate::engine::params::FieldSpec> {
-                Vec::new()
-            }
-            fn from_run(
-                _: &$crate::engine::params::Params,
-                _: &mut $crate::engine::fields::RunInputs,
-            ) -> Result<Self, $crate::engine::op::OpError> {
-                Ok($name(::std::marker::PhantomData))
-            }
-        }
-
-        impl $crate::engine::fields::CheckFields for $name<$crate::engine::fields::Check> {
-            fn from_check(_: &$crate::engine::op::CheckContext) -> Option<Self> {
-                Some($name(::std::marker::PhantomData))
-            }
-        }
-    };
-    (
-        $(#[$meta:meta])*
-        $vis:vis struct $name:ident {
-            $(
-                $(#[doc = $doc:literal])*
-                $(#[input($accepts:expr)])?
-                $(#[range($min:expr, $max:expr)])?
-                $fvis:vis $field:ident : $ty:ty $(= $default:expr)?
-            ),+ $(,)?
-        }
-    ) => {
-        $(#[$meta])*
-        #[derive(Clone, Debug, PartialEq)]
-        $vis struct $name<S: $crate::engine::fields::Stage = $crate::engine::fields::Run> {
-            $( $(#[doc = $doc])* $fvis $field: <$ty as $crate::engine::fields::Field>::At<S>, )+
-        }
-
-        impl $crate::engine::fields::Fields for $name {
-            fn fields() -> Vec<$crate::engine::params::FieldSpec> {
-                vec![$(
-                    <$ty as $crate::engine::fields::Field>::spec(
-                        stringify!($field),
-                        $crate::engine::params::doc_text(&[$($doc),*]),
-                        $crate::__opt!($(($min as f64, $max as f64))?),
-                        $crate::__opt!($({ let d: $ty = $default; d })?),
-                        $crate::__opt!($($accepts)?),
-                    )
-                ),+]
-            }
-            fn from_run(
-                params: &$crate::engine::params::Params,
-                inputs: &mut $crate::engine::fields::RunInputs,
-            ) -> Result<Self, $crate::engine::op::OpError> {
-                Ok($name { $( $field: <$ty as $crate::engine::fields::Field>::run(stringify!($field), params, inputs)?, )+ })
-            }
-        }
-
-        impl $crate::engine::fields::CheckFields for $name<$crate::engine::fields::Check> {
-            fn from_check(ctx: &$crate::engine::op::CheckContext) -> Option<Self> {
-                Some($name { $( $field: <$ty as $crate::engine::fields::Field>::check(stringify!($field), ctx)?, )+ })
-            }
-        }
-    };
+    }
 }
 
 #[cfg(test)]

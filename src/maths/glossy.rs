@@ -58,12 +58,13 @@ use rayon::prelude::*;
 
 use crate::data::{Distribution2D, Image};
 use crate::geometry::latlong;
+pub use crate::maths::mis::Heuristic;
 use crate::maths::per_pixel::{assert_distribution_of, pixel_seed, sample_cosine};
 use crate::maths::phong;
 use crate::maths::relight::SphereView;
 use crate::maths::sequences::SplitMix64;
 
-named_enum! {
+crate::choice! {
     /// How each pixel samples its directions (see the module documentation).
     pub enum GlossyStrategy {
         /// Directions from the environment's distribution (light sampling).
@@ -72,36 +73,6 @@ named_enum! {
         Brdf,
         /// Half of each, combined by multiple importance sampling.
         Mis,
-    }
-}
-
-named_enum! {
-    /// The MIS weighting heuristic (Veach 1997, section 9.2.2).
-    pub enum Heuristic {
-        /// `w_i = n_i p_i / sum_k n_k p_k`.
-        Balance,
-        /// `w_i = (n_i p_i)^2 / sum_k (n_k p_k)^2` (exponent beta = 2, Veach's recommendation).
-        Power,
-    }
-}
-
-impl Heuristic {
-    /// The weight of a technique of (count x density) `a` against the other's `b`; 0 when both
-    /// are 0.
-    #[inline]
-    fn weight(self, a: f64, b: f64) -> f64 {
-        let (a, b) = match self {
-            Heuristic::Balance => (a, b),
-            Heuristic::Power => (a * a, b * b),
-        };
-        let sum = a + b;
-        if sum > 0.0 && sum.is_finite() {
-            a / sum
-        } else if a.is_infinite() {
-            1.0
-        } else {
-            0.0
-        }
     }
 }
 
@@ -472,7 +443,7 @@ mod tests {
             assert_eq!(GlossyStrategy::from_name(s.name()), Some(s));
         }
         for h in Heuristic::ALL {
-            assert_eq!(Heuristic::from_name(&h.name().to_lowercase()), Some(h));
+            assert_eq!(Heuristic::from_name_ignore_case(&h.name().to_lowercase()), Some(h));
         }
         assert_eq!(GlossyStrategy::from_name("Cosine"), None);
         assert_eq!(Heuristic::Power.weight(0.0, 0.0), 0.0);

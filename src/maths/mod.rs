@@ -2,32 +2,6 @@
 //! relighting and its SIMD kernels, and statistical tests. The lat-long convention they all use
 //! lives below them, in [`crate::geometry::latlong`].
 
-/// Declares an enum whose variants pipeline files choose by name, with its name table: `NAMES`
-/// (declaration order), `ALL`, `name()` and a case-insensitive `from_name()`. The engine's
-/// `Choice` is implemented in `ops` (`crate::choice_by_name!`), where the engine is known.
-/// Declared before the submodules, so it is in scope in each of them.
-macro_rules! named_enum {
-    ($(#[$meta:meta])* $vis:vis enum $name:ident { $($(#[$vmeta:meta])* $variant:ident),+ $(,)? }) => {
-        $(#[$meta])*
-        #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-        $vis enum $name { $($(#[$vmeta])* $variant),+ }
-
-        impl $name {
-            /// The names, in declaration order, as written in pipeline files.
-            pub const NAMES: &'static [&'static str] = &[$(stringify!($variant)),+];
-            pub const ALL: [$name; 0 $(+ { stringify!($variant); 1 })+] = [$($name::$variant),+];
-
-            pub fn name(self) -> &'static str {
-                Self::NAMES[self as usize]
-            }
-
-            /// The variant called `name` (case-insensitive, surrounding spaces ignored), or `None`.
-            pub fn from_name(name: &str) -> Option<$name> {
-                Self::ALL.iter().copied().find(|s| s.name().eq_ignore_ascii_case(name.trim()))
-            }
-        }
-    };
-}
 pub mod chi_square;
 pub mod error_metrics;
 pub mod fresnel;
@@ -37,6 +11,7 @@ pub mod guide_table;
 pub mod hierarchical_warp;
 pub mod irradiance_cube;
 pub mod kernels;
+pub mod mis;
 pub mod per_pixel;
 pub mod phong;
 pub mod reference;

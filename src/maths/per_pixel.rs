@@ -87,9 +87,9 @@ use rayon::prelude::*;
 use crate::cpu::has_avx512;
 use crate::data::{Distribution2D, Image};
 use crate::geometry::latlong_grid::{point_in_band, sincos_turns, LatLongGrid};
-use crate::maths::glossy::Heuristic;
 use crate::maths::guide_table::{GuidedDistribution, GuidedDraw};
 use crate::maths::hierarchical_warp::{HierarchicalWarp, WarpDraw};
+use crate::maths::mis::Heuristic;
 use crate::maths::prefetch;
 use crate::maths::relight::SphereView;
 use crate::maths::sequences::{
@@ -122,7 +122,7 @@ macro_rules! avx512_batch {
     };
 }
 
-named_enum! {
+crate::choice! {
     /// How each pixel samples the environment (see the module documentation).
     pub enum PerPixelStrategy {
         /// Texel centres drawn from the map's distribution (light sampling).
@@ -284,7 +284,7 @@ fn sample_uniform(u1: f64, u2: f64) -> DVec3 {
     DVec3::new(r * c, r * s, z)
 }
 
-named_enum! {
+crate::choice! {
     /// Where a pixel's uniforms come from.
     pub enum PerPixelSequence {
         /// Independent uniforms from the pixel's SplitMix64 stream.
@@ -301,7 +301,7 @@ named_enum! {
     }
 }
 
-named_enum! {
+crate::choice! {
     /// How the environment technique maps a 2D uniform to a texel (and the point inside it).
     /// Both draw every texel with the distribution's probability, so the estimator's
     /// expectation and, with independent uniforms, its whole distribution are the same; they
@@ -820,7 +820,7 @@ mod tests {
     fn names_and_seeds() {
         for s in PerPixelStrategy::ALL {
             assert_eq!(PerPixelStrategy::from_name(s.name()), Some(s));
-            assert_eq!(PerPixelStrategy::from_name(&s.name().to_uppercase()), Some(s));
+            assert_eq!(PerPixelStrategy::from_name_ignore_case(&s.name().to_uppercase()), Some(s));
         }
         assert_eq!(PerPixelStrategy::from_name("nope"), None);
         assert_ne!(pixel_seed(1, 0), pixel_seed(1, 1));
@@ -1198,7 +1198,7 @@ mod tests {
                 // HDRFLOW_PER_PIXEL_WARP=Hierarchical: the hierarchical warp.
                 let warp = std::env::var("HDRFLOW_PER_PIXEL_WARP")
                     .ok()
-                    .and_then(|w| PerPixelWarp::from_name(&w))
+                    .and_then(|w| PerPixelWarp::from_name_ignore_case(&w))
                     .unwrap_or(PerPixelWarp::Inversion);
                 let options = PerPixelOptions { strategy: s, sequence: q, heuristic, warp, spp: 1024, seed: 1 };
                 std::hint::black_box(relight_per_pixel_with(&env, &dist, &view, [0.8; 3], &options));

@@ -111,13 +111,14 @@ impl SphereView {
     }
 }
 
-/// How light samples are turned into a pixel value (see the module documentation).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Estimator {
-    /// Monte Carlo: weight `L / pdf`, scale `albedo / (pi N)`.
-    Unbiased,
-    /// The assignment's formula: weight `rgb / |rgb|`, scale `albedo * (int L dw) / (N pi)`.
-    Seed,
+crate::choice! {
+    /// How light samples are turned into a pixel value (see the module documentation).
+    pub enum Estimator {
+        /// Monte Carlo: weight `L / pdf`, scale `albedo / (pi N)`.
+        Unbiased,
+        /// The assignment's formula: weight `rgb / |rgb|`, scale `albedo * (int L dw) / (N pi)`.
+        Seed,
+    }
 }
 
 impl Estimator {

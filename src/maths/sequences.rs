@@ -24,52 +24,26 @@ use rayon::prelude::*;
 /// The largest f64 below 1: 1 - 2^-53.
 const ONE_MINUS_EPSILON: f64 = 1.0 - f64::EPSILON / 2.0;
 
-/// The point sequences `generate` knows.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Sequence {
-    /// Independent uniform points (SplitMix64).
-    Random,
-    /// Jittered k x k grid when the count is a perfect square, else Latin hypercube (N-rooks).
-    Stratified,
-    /// The 2D Sobol (0,2)-sequence, Owen-scrambled (Burley 2020).
-    Sobol,
-    /// Halton, bases 2 and 3, with seeded random digit permutations.
-    Halton,
+crate::choice! {
+    /// The point sequences `generate` knows.
+    pub enum Sequence {
+        /// Independent uniform points (SplitMix64).
+        Random,
+        /// Jittered k x k grid when the count is a perfect square, else Latin hypercube (N-rooks).
+        Stratified,
+        /// The 2D Sobol (0,2)-sequence, Owen-scrambled (Burley 2020).
+        Sobol,
+        /// Halton, bases 2 and 3, with seeded random digit permutations.
+        Halton,
+    }
 }
 
 /// The names of the sequences, in declaration order (as written in pipeline files).
-pub const NAMES: &[&str] = &["Random", "Stratified", "Sobol", "Halton"];
+pub const NAMES: &[&str] = Sequence::NAMES;
 
 /// The sequence called `name` (case-insensitive), or `None`.
 pub fn from_name(name: &str) -> Option<Sequence> {
-    Sequence::from_name(name)
-}
-
-impl Sequence {
-    /// Same as the module-level [`NAMES`].
-    pub const NAMES: &'static [&'static str] = NAMES;
-    pub const ALL: [Sequence; 4] = [Sequence::Random, Sequence::Stratified, Sequence::Sobol, Sequence::Halton];
-
-    /// The sequence called `name` (case-insensitive), or `None`.
-    pub fn from_name(name: &str) -> Option<Sequence> {
-        Sequence::ALL.iter().copied().find(|s| s.name().eq_ignore_ascii_case(name.trim()))
-    }
-
-    /// The name as listed in [`NAMES`].
-    pub fn name(self) -> &'static str {
-        match self {
-            Sequence::Random => "Random",
-            Sequence::Stratified => "Stratified",
-            Sequence::Sobol => "Sobol",
-            Sequence::Halton => "Halton",
-        }
-    }
-}
-
-impl std::fmt::Display for Sequence {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.name())
-    }
+    Sequence::from_name_ignore_case(name)
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -16,8 +16,6 @@ use crate::engine::fields::Shape;
 use crate::engine::op::CheckProblem;
 use crate::engine::registry::Registry;
 use crate::geometry::latlong;
-use crate::maths::glossy::{GlossyStrategy, Heuristic};
-use crate::maths::per_pixel::{PerPixelSequence, PerPixelStrategy, PerPixelWarp};
 use crate::maths::relight::SphereView;
 
 pub fn register(r: &mut Registry) {
@@ -99,12 +97,6 @@ pub(crate) use glossy_params;
 pub(crate) fn sphere_view(size: usize, view: [f64; 2]) -> SphereView {
     SphereView::new(size, latlong::direction_deg(view[0], view[1]))
 }
-
-crate::choice_by_name!(PerPixelStrategy);
-crate::choice_by_name!(PerPixelSequence);
-crate::choice_by_name!(PerPixelWarp);
-crate::choice_by_name!(GlossyStrategy);
-crate::choice_by_name!(Heuristic);
 
 /// Refuses a `cdf` of another size than `env` when both sizes are known before running.
 pub(crate) fn check_env_cdf_sizes(env: Shape, cdf: Shape) -> Result<(), CheckProblem> {

@@ -29,16 +29,6 @@ use crate::geometry::latlong;
 use crate::maths::relight::{merge_duplicates, relight, Estimator, LightSample, SphereView};
 use crate::types::ty::*;
 
-crate::choice! {
-    /// The relighting estimator.
-    pub enum EstimatorChoice {
-        /// (albedo/pi) mean(L cos / pdf)
-        Unbiased,
-        /// the seed's formula exactly
-        Seed,
-    }
-}
-
 super::sphere_params! {
     RelightParams {
         /// the lat-long environment (linear RGB)
@@ -49,7 +39,7 @@ super::sphere_params! {
         pub samples: Input<SampleSet>,
     } {
         /// Unbiased: (albedo/pi) mean(L cos / pdf); Seed: the seed's formula exactly
-        pub estimator: EstimatorChoice = EstimatorChoice::Unbiased,
+        pub estimator: Estimator = Estimator::Unbiased,
     }
 }
 
@@ -79,10 +69,7 @@ pub fn luminance_integral(env: &Image) -> f64 {
 }
 
 fn eval(_: &mut OpContext, p: RelightParams) -> Result<Value, OpError> {
-    let estimator = match p.estimator {
-        EstimatorChoice::Seed => Estimator::Seed,
-        EstimatorChoice::Unbiased => Estimator::Unbiased,
-    };
+    let estimator = p.estimator;
     let view = sphere_view(p.size, p.view);
     let image = relight_shared(&p.env, &p.samples, p.size, p.albedo.0, view.view_dir(), estimator)?;
     Ok(Value::new(image))

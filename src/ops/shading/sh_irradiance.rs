@@ -27,8 +27,6 @@ use crate::engine::value::Value;
 use crate::maths::sh::{coefficient_name, project, sh_lm};
 use crate::types::ty::*;
 
-crate::choice_by_name!(ShFrame);
-
 crate::params! {
     pub struct ShIrradianceParams {
         /// the lat-long environment (linear RGB)

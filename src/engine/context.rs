@@ -1,0 +1,94 @@
+//! What an operator sees of the engine: its context when it runs ([`OpContext`]), what its checks
+//! see before anything runs ([`CheckContext`]), and its errors. Below `op` and `fields`, so that
+//! both use it without depending on each other.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use crate::engine::params::Params;
+use crate::engine::value::{Value, ValueType};
+
+/// A node's wired inputs as evaluation hands them to the struct: field -> values, in order.
+pub type RunInputs = Vec<(&'static str, Vec<Value>)>;
+
+/// An operator's failure. The engine adds the node's name when it reports it.
+#[derive(Debug, thiserror::Error)]
+pub enum OpError {
+    #[error("{}: {source}", path.display())]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    /// A file that is not what it claims to be (bad magic, truncated, hostile header).
+    #[error("{}: {message}", path.display())]
+    Format { path: PathBuf, message: String },
+    /// Input data the operator cannot process (NaN texels, empty images, ...).
+    #[error("{0}")]
+    Invalid(String),
+}
+
+/// What an operator's `eval` sees: its inputs' values, and where paths resolve.
+pub struct OpContext<'a> {
+    /// The node's name in the pipeline file.
+    pub node: &'a str,
+    /// The validated parameters (the typed struct is built from these).
+    pub params: &'a Params,
+    /// Input field -> values wired into it, in order (one for `One`, zero or one for
+    /// `Optional`, any number for `List`). A Rust operator receives them in its typed struct
+    /// (they are moved there before its `eval` runs); an operator declared at run time
+    /// ([`OpSpec::eval_raw`]) reads them here.
+    pub inputs: RunInputs,
+    /// The pipeline file's folder: relative paths are resolved against it.
+    pub base_dir: &'a Path,
+    /// What `OpSpec::content_key` returned when the key was made (a loader checks that the
+    /// file it decodes is still the one its key names).
+    pub content_key: Option<&'a [u8]>,
+    /// The names of this node's open ports that consumers use (see [`OpenPorts`]).
+    pub wanted_ports: &'a [String],
+}
+
+impl<'a> OpContext<'a> {
+    /// A path parameter resolved against the pipeline file's folder (`builtin:` names unchanged).
+    pub fn path(&self, path: &str) -> PathBuf {
+        resolve_path(self.base_dir, path)
+    }
+}
+
+/// Resolves `path` against `base_dir` unless it is absolute or a `builtin:` name.
+pub fn resolve_path(base_dir: &Path, path: &str) -> PathBuf {
+    let p = Path::new(path);
+    if path.starts_with("builtin:") || p.is_absolute() {
+        p.to_path_buf()
+    } else {
+        base_dir.join(p)
+    }
+}
+
+/// A pixel size (width, height) known before running, when it is.
+pub type Size = Option<(u64, u64)>;
+
+/// What `OpSpec::check`, computed output types and sizes see: a node's parameters, and the
+/// types and (when known before running) pixel sizes of its inputs.
+pub struct CheckContext<'a> {
+    pub params: &'a Params,
+    /// Input field -> types of the values wired in, in order (empty when not wired).
+    pub input_types: &'a BTreeMap<&'static str, Vec<ValueType>>,
+    /// Input field -> sizes of the values wired in, in order (`None`: not known before running).
+    pub input_sizes: &'a BTreeMap<&'static str, Vec<Size>>,
+    /// The pipeline file's folder (a loader reads its file's header from there).
+    pub base_dir: &'a Path,
+}
+
+/// A problem found by `OpSpec::check`, optionally tied to one field (for its position).
+#[derive(Debug, Clone)]
+pub struct CheckProblem {
+    pub field: Option<&'static str>,
+    pub message: String,
+}
+
+impl CheckProblem {
+    pub fn at(field: &'static str, message: impl Into<String>) -> Self {
+        CheckProblem { field: Some(field), message: message.into() }
+    }
+}
