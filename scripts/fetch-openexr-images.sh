@@ -1,13 +1,14 @@
 #!/usr/bin/env bash
 # Fetches the OpenEXR project's test images that tests/exr_fetched_conformance.rs compares
 # against tests/data/openexr/expected-fetched.json (values OpenEXR 3.1.5 itself computed, by
-# scripts/openexr-cpp-oracle.cpp --channels). Not needed by CI: without the files the test
-# prints "SKIPPED" and passes.
+# scripts/openexr-cpp-oracle.cpp --channels). The files ship in tests/data/openexr-images (the
+# test's default folder; CI requires them with HDRFLOW_REQUIRE_OPENEXR_IMAGES=1): this script
+# re-creates or checks that folder.
 #
 #     scripts/fetch-openexr-images.sh [DIR]                      # from GitHub (curl)
 #     scripts/fetch-openexr-images.sh --from-git-dir GIT [DIR]   # from a local clone (no network)
 #
-# DIR defaults to target/openexr-images (the test's default; elsewhere, set
+# DIR defaults to tests/data/openexr-images (the test's default; elsewhere, set
 # HDRFLOW_OPENEXR_IMAGES=DIR for the test). Files come from
 # https://github.com/AcademySoftwareFoundation/openexr-images at the pinned commit below
 # (BSD-3-Clause, see tests/data/openexr/LICENSE), 44 files, 32.4 MB. A file already present with
@@ -24,7 +25,7 @@ if [ "${1:-}" = "--from-git-dir" ]; then
     GIT_DIR_SRC="${2:?--from-git-dir needs a directory}"
     shift 2
 fi
-DIR="${1:-target/openexr-images}"
+DIR="${1:-tests/data/openexr-images}"
 
 # sha256, size in bytes, path in the repository.
 FILES="

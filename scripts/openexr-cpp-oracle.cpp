@@ -8,8 +8,8 @@
 //     /tmp/openexr-oracle --write-deep-multipart tests/data/openexr/deep_then_flat.exr
 //     /tmp/openexr-oracle tests/data/openexr/Rec709_YC.exr tests/data/openexr/XYZ_YC.exr \
 //         tests/data/openexr/yc/*.exr > tests/data/openexr/expected-yca.json
-//     scripts/fetch-openexr-images.sh            # (or --from-git-dir CLONE) -> target/openexr-images
-//     /tmp/openexr-oracle --channels target/openexr-images $(cd target/openexr-images && \
+//     scripts/fetch-openexr-images.sh            # (or --from-git-dir CLONE) -> tests/data/openexr-images
+//     /tmp/openexr-oracle --channels tests/data/openexr-images $(cd tests/data/openexr-images && \
 //         awk 'NF == 3 && $3 ~ /\.exr$/ {print $3}' ../../scripts/fetch-openexr-images.sh) \
 //         > tests/data/openexr/expected-fetched.json
 //     /tmp/openexr-oracle --info FILE...         # parts, compression, tiling, channels

@@ -47,6 +47,9 @@ pub mod plotting;
 pub mod report;
 pub mod types;
 
+#[cfg(test)]
+mod test_skip;
+
 pub use engine::graph::{Override, Pipeline};
 pub use engine::op::{OpContext, OpError, OpSpec, OutputType, Outputs};
 pub use engine::registry::Registry;

@@ -1,7 +1,7 @@
-//! EXR conformance over a larger part of the OpenEXR project's test images, fetched on demand
-//! (too large to commit): `scripts/fetch-openexr-images.sh` puts 44 files (32 MB) from
-//! <https://github.com/AcademySoftwareFoundation/openexr-images> (pinned commit, sha256-checked)
-//! into `target/openexr-images`, or the folder `HDRFLOW_OPENEXR_IMAGES` names.
+//! EXR conformance over a larger part of the OpenEXR project's test images: 44 files (32 MB) from
+//! <https://github.com/AcademySoftwareFoundation/openexr-images> (pinned commit, sha256-checked by
+//! `scripts/fetch-openexr-images.sh`, which re-creates the folder), shipped in
+//! `tests/data/openexr-images` (or the folder `HDRFLOW_OPENEXR_IMAGES` names).
 //!
 //! Expected values: `tests/data/openexr/expected-fetched.json`, computed once with OpenEXR
 //! 3.1.5's own C++ library (`scripts/openexr-cpp-oracle.cpp --channels`, which mirrors our part
@@ -28,7 +28,7 @@ const EXPECTED: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/openexr/
 fn images_dir() -> PathBuf {
     match std::env::var_os("HDRFLOW_OPENEXR_IMAGES") {
         Some(d) => PathBuf::from(d),
-        None => PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/target/openexr-images")),
+        None => PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/openexr-images")),
     }
 }
 

@@ -56,12 +56,7 @@ fn the_seed_page_shows_every_image_and_node_in_a_real_browser() {
     assert!(!html.contains("src=\"http") && !html.contains("href=\"http"), "nothing from a network");
 
     let Some(browser) = chromium() else {
-        let banner = "=".repeat(78);
-        if std::env::var("HDRFLOW_REQUIRE_CHROMIUM").as_deref() == Ok("1") {
-            panic!("HDRFLOW_REQUIRE_CHROMIUM=1 but no chromium is installed");
-        }
-        eprintln!("{banner}\nSKIPPED: the headless-browser check of the HTML report (no chromium).\n{banner}");
-        return;
+        return common::skip("HDRFLOW_REQUIRE_CHROMIUM", "the headless-browser check of the HTML report: no chromium");
     };
     let dom = headless(browser, &page, &["--dump-dom"]);
     dom.assert_success();

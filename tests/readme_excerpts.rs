@@ -48,3 +48,52 @@ fn an_excerpt_that_drifted_is_caught() {
     assert_eq!(found, vec![("x.rs".to_string(), "fn a() {}\n".to_string())]);
     assert!(!"fn b() {}\n".contains(&found[0].1));
 }
+
+/// The files the README's shell commands name (`graphs/seed.ron`, `--set env.path=assets/...`),
+/// from every ```sh block: each must be in the repository, so that the commands run on a fresh
+/// clone with nothing beside it (nothing under `../shared`). Output paths (`--out`, `>`) are not
+/// inputs and are left out.
+fn command_inputs(readme: &str) -> Vec<String> {
+    let mut out = Vec::new();
+    let mut in_sh = false;
+    for line in readme.lines() {
+        if line.starts_with("```") {
+            in_sh = line.trim() == "```sh";
+            continue;
+        }
+        if !in_sh {
+            continue;
+        }
+        let code = line.split(" #").next().unwrap_or_default();
+        let words: Vec<&str> = code.split_whitespace().collect();
+        for (k, w) in words.iter().enumerate() {
+            let prev = if k > 0 { words[k - 1] } else { "" };
+            if matches!(prev, "--out" | ">" | "--report" | "--cache-dir" | "-o") {
+                continue;
+            }
+            let value = w.rsplit('=').next().unwrap_or(w).trim_matches(|c| c == '"' || c == '\'');
+            let known_ext = [".ron", ".hdr", ".exr", ".pfm", ".py", ".sh", ".txt", ".json"];
+            if value.contains('/') && known_ext.iter().any(|e| value.ends_with(e)) && !value.contains('*') {
+                out.push(value.to_string());
+            }
+        }
+    }
+    out
+}
+
+#[test]
+fn every_file_a_readme_command_reads_ships_with_the_repository() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let readme = std::fs::read_to_string(root.join("README.md")).unwrap();
+    let inputs = command_inputs(&readme);
+    assert!(inputs.iter().any(|p| p == "graphs/seed.ron"), "the main job's command is found: {inputs:?}");
+    let missing: Vec<&String> =
+        inputs.iter().filter(|p| p.starts_with("../") || p.starts_with('/') || !root.join(p).is_file()).collect();
+    assert!(missing.is_empty(), "README commands read files a fresh clone does not have: {missing:?}");
+}
+
+#[test]
+fn command_inputs_are_found_and_outputs_left_out() {
+    let readme = "```sh\nhdrflow run graphs/a.ron --set e.path=../shared/x.hdr --out out/b.json  # c/d.ron\n```\n";
+    assert_eq!(command_inputs(readme), vec!["graphs/a.ron".to_string(), "../shared/x.hdr".to_string()]);
+}

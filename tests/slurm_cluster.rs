@@ -179,12 +179,7 @@ fn hdrflow_in(sb: &Sandbox, args: &[String]) -> Output {
 #[test]
 fn a_real_job_array_survives_a_killed_element_and_matches_one_machine() {
     if let Some(why) = unavailable() {
-        let banner = "=".repeat(78);
-        if std::env::var("HDRFLOW_REQUIRE_SLURM").as_deref() == Ok("1") {
-            panic!("HDRFLOW_REQUIRE_SLURM=1 but the real Slurm cluster test cannot run: {why}");
-        }
-        eprintln!("{banner}\nSKIPPED: the real Slurm cluster test did not run: {why}.\n{banner}");
-        return;
+        return common::skip("HDRFLOW_REQUIRE_SLURM", &format!("the real Slurm cluster test cannot run: {why}"));
     }
     let sb = Sandbox::new();
     // The seed graph over 16 maps (512x256: about a third of a second per item here, so an

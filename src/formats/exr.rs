@@ -801,8 +801,7 @@ mod tests {
     fn grace_latlong_real_file() {
         let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data/envmaps/grace_latlong.exr");
         let Ok(bytes) = std::fs::read(path) else {
-            eprintln!("SKIPPED: {path} is missing");
-            return;
+            return crate::test_skip::skip_missing_data(&format!("{path} is missing"));
         };
         let img = decode(&bytes).unwrap();
         assert_eq!((img.width, img.height, img.channels), (1024, 512, 3));

@@ -381,16 +381,10 @@ pub fn assert_statuses(map: &BTreeMap<String, String>, want: &[(&str, &str)], co
     }
 }
 
-/// Reports a test that could not run because `../shared/data` (the real maps, outside the
-/// repository) is missing: a loud `SKIPPED` line, or, when `HDRFLOW_REQUIRE_DATA=1` (CI sets
-/// it), a failure, so that a missing data folder cannot pass silently where it must exist.
-#[allow(dead_code)]
-pub fn skip_missing_data(what: &str) {
-    if std::env::var("HDRFLOW_REQUIRE_DATA").is_ok_and(|v| v == "1") {
-        panic!("HDRFLOW_REQUIRE_DATA=1 but {what}");
-    }
-    eprintln!("SKIPPED: {what}");
-}
+#[path = "../../src/test_skip.rs"]
+mod test_skip;
+#[allow(unused_imports)]
+pub use test_skip::{skip, skip_missing_data};
 
 /// A small RGB PFM map (little-endian) whose values grow with x, y and the channel, times
 /// `scale`: a library of distinct maps for the batch tests.

@@ -35,10 +35,15 @@ fn put_str(h: &mut blake3::Hasher, s: &str) {
 /// The key of `node`, given the key and port name of every port wired into it (per input
 /// field, in order) and its content bytes (for loaders).
 pub fn node_key(node: &Node, inputs: &[Vec<(Key, &str)>], content: Option<&[u8]>) -> Key {
+    node_key_salted(&ENGINE_SALT, node, inputs, content)
+}
+
+/// [`node_key`] under a given engine salt (the golden test pins keys under a fixed one).
+fn node_key_salted(salt: &[u8; 32], node: &Node, inputs: &[Vec<(Key, &str)>], content: Option<&[u8]>) -> Key {
     let spec = &node.spec;
     let mut h = blake3::Hasher::new();
     h.update(DOMAIN);
-    h.update(&ENGINE_SALT);
+    h.update(salt);
     put_str(&mut h, spec.name);
     h.update(&spec.version.to_le_bytes());
     h.update(&spec.code_hash);
@@ -137,6 +142,89 @@ pub fn key_hex(key: &Key) -> String {
 
 #[cfg(test)]
 mod tests {
+    use std::path::Path;
+
+    use super::*;
+    use crate::data::Image;
+    use crate::engine::fields::Input;
+    use crate::engine::graph::Pipeline;
+    use crate::engine::op::{OpSpec, OutputType};
+    use crate::engine::registry::Registry;
+    use crate::engine::value::Value;
+    use crate::types::ty::IMAGE_T;
+
+    crate::choice! { enum Mode { Fast, Exact } }
+
+    crate::params! {
+        struct KeyedParams {
+            /// an optional input
+            #[input(&[IMAGE_T])]
+            image: Option<Input<Image>>,
+            /// a float
+            x: f64 = 0.5,
+            /// an integer
+            n: u32 = 3,
+            /// a choice
+            mode: Mode = Mode::Fast,
+            /// text
+            label: String = String::new(),
+            /// an optional tuple
+            pair: Option<[f64; 2]>,
+        }
+    }
+
+    fn registry() -> Registry {
+        let mut r = Registry::empty();
+        crate::types::register_all(&mut r);
+        r.register(
+            OpSpec::new("Keyed", "test", 7, "pins keys")
+                .output("image", OutputType::Fixed(IMAGE_T), "an image")
+                .code("a fixed source text")
+                .eval(|_, _: KeyedParams| Ok(Value::new(Image::new(1, 1, 3)))),
+        );
+        r
+    }
+
+    /// Keys of a handful of nodes under a fixed salt, pinned: an accidental change of the key
+    /// layout (field order, tags, float bits, how an absent optional is hashed, input wiring)
+    /// fails here. A deliberate one updates these values and bumps `DOMAIN`, so that old caches
+    /// are not read under the new layout.
+    #[test]
+    fn golden_keys_under_a_fixed_salt() {
+        let text = r#"(nodes: {
+            "a": Keyed(),
+            "b": Keyed(x: 1, n: 4, mode: Exact, label: "l", pair: (0.25, -0.0)),
+            "c": Keyed(image: "a", x: -0.0),
+            "d": Keyed(image: "b"),
+        })"#;
+        let p = Pipeline::parse(text, "t.ron", Path::new("."), &registry(), &[]).expect("validates");
+        let salt = [7u8; 32];
+        let key = |name: &str, inputs: &[Vec<(Key, &str)>]| {
+            let node = p.nodes.iter().find(|n| n.name == name).unwrap();
+            node_key_salted(&salt, node, inputs, None)
+        };
+        let (a, b) = (key("a", &[vec![]]), key("b", &[vec![]]));
+        let c = key("c", &[vec![(a, "image")]]);
+        let d = key("d", &[vec![(b, "image")]]);
+        assert_eq!([a, b, c, d].map(|k| key_hex(&k)), GOLDEN.map(String::from), "the cache key layout changed");
+        // `1` and `1.0` hash alike; -0.0 and 0.0 do not (floats by bits).
+        let one = Pipeline::parse(r#"(nodes: {"k": Keyed(x: 1.0)})"#, "t.ron", Path::new("."), &registry(), &[]);
+        let one = one.unwrap();
+        let int = Pipeline::parse(r#"(nodes: {"k": Keyed(x: 1)})"#, "t.ron", Path::new("."), &registry(), &[]).unwrap();
+        let k = |p: &Pipeline| node_key_salted(&salt, &p.nodes[0], &[vec![]], None);
+        assert_eq!(k(&one), k(&int));
+        let neg = Pipeline::parse(r#"(nodes: {"k": Keyed(x: -0.0)})"#, "t.ron", Path::new("."), &registry(), &[]);
+        let pos = Pipeline::parse(r#"(nodes: {"k": Keyed(x: 0.0)})"#, "t.ron", Path::new("."), &registry(), &[]);
+        assert_ne!(k(&neg.unwrap()), k(&pos.unwrap()));
+    }
+
+    const GOLDEN: [&str; 4] = [
+        "19dc441a774704fcf6a9e0ee8e55f6933c86b09a18bcdf429aefa3181ad79f1e",
+        "19ab191c387211fecfeaa536d4db794beb4956735efcdbd2f0d4be883d749ae5",
+        "21b726d55a9b19c83319c7d8d8356ed18d850ba9b5ebda7721d39ef7042549fb",
+        "48cc7477daaaf1d3798d9e2a99bd2ba7891ddb83d85a92683c5b863d77c7ec3c",
+    ];
+
     #[test]
     fn hex_is_lower_case_two_digits_per_byte() {
         let mut key = [0u8; 32];

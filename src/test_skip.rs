@@ -1,0 +1,31 @@
+//! A test whose subject is missing (a data folder, a service, a browser) skips visibly: a banner
+//! written straight to the process's stderr, past the test harness's capture (which swallows
+//! `eprintln!` of passing tests, so a skip used to look like a pass), and a failure when the
+//! named `HDRFLOW_REQUIRE_*` variable is `1`, as `.ci/run` sets every one of them.
+//!
+//! One file for the unit tests (`crate::test_skip`) and the integration tests
+//! (`tests/common` includes it with `#[path]`).
+
+use std::io::Write;
+
+/// Skips the calling test with `what` as the reason, or fails it when `require_var=1`.
+#[allow(dead_code)]
+pub fn skip(require_var: &str, what: &str) {
+    if std::env::var(require_var).is_ok_and(|v| v == "1") {
+        panic!("{require_var}=1 but {what}");
+    }
+    let banner = "=".repeat(78);
+    let thread = std::thread::current();
+    let test = thread.name().unwrap_or("a test");
+    let _ = writeln!(
+        std::io::stderr().lock(),
+        "{banner}\nSKIPPED {test}: {what}\n(set {require_var}=1 to make this a failure)\n{banner}"
+    );
+}
+
+/// [`skip`] for the real maps of `../shared/data`, outside the repository
+/// (`HDRFLOW_REQUIRE_DATA`).
+#[allow(dead_code)]
+pub fn skip_missing_data(what: &str) {
+    skip("HDRFLOW_REQUIRE_DATA", what)
+}
