@@ -116,3 +116,22 @@ fn completions_and_the_manual_are_generated() {
     man.assert_success();
     assert!(man.stdout.starts_with(".ie") || man.stdout.contains(".TH hdrflow"), "{}", &man.stdout[..200]);
 }
+
+/// `--print` and `--target` take `node.port`, the same form as fields (issue 25).
+#[test]
+fn print_and_target_take_node_dot_port() {
+    let sb = Sandbox::new();
+    let graph = sb.write("p.ron", r#"(nodes: { "env": LoadHdr(path: "builtin:sky"), "sun": SunExtract(env: "env") })"#);
+    let (g, out, cache) = (arg(&graph), arg(&sb.out()), arg(&sb.cache()));
+    let print = run_hdrflow(["run", &g, "--out", &out, "--cache-dir", &cache, "--print", "sun.residual"]);
+    print.assert_success();
+    assert!(print.stdout.contains("sun.residual: 512x256 image"), "{}", print.stdout);
+    let target = run_hdrflow(["run", &g, "--out", &out, "--cache-dir", &cache, "--target", "sun.residual", "-v"]);
+    target.assert_success();
+    let bad = run_hdrflow(["run", &g, "--out", &out, "--cache-dir", &cache, "--print", "sun.residul"]);
+    assert_eq!(bad.code, Some(2), "{}", bad.describe());
+    assert!(bad.stderr.contains("did you mean \"sun.residual\""), "{}", bad.stderr);
+    let bad = run_hdrflow(["run", &g, "--out", &out, "--cache-dir", &cache, "--target", "sun.nope"]);
+    assert_eq!(bad.code, Some(2), "{}", bad.describe());
+    assert!(bad.stderr.contains("unknown target node \"sun.nope\""), "{}", bad.stderr);
+}

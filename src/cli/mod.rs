@@ -411,9 +411,13 @@ fn run(registry: &Registry, args: &RunArgs) -> ExitCode {
         Err(code) => return code,
     };
     for name in &args.print {
-        if p.index_of(name).is_none() {
-            let names: Vec<&str> = p.nodes.iter().map(|n| n.name.as_str()).collect();
-            eprintln!("error: --print {name:?}: no such node{}", crate::engine::graph::suggest(name, &names, "nodes"));
+        if p.target_index(name).is_none() {
+            let names = p.target_names();
+            let names: Vec<&str> = names.iter().map(String::as_str).collect();
+            eprintln!(
+                "error: --print {name:?}: no such node or port{}",
+                crate::engine::graph::suggest(name, &names, "nodes")
+            );
             return ExitCode::from(2);
         }
     }

@@ -164,8 +164,9 @@ fn resolve_targets(p: &Pipeline, targets: &[String]) -> Result<Vec<usize>, RunEr
     targets
         .iter()
         .map(|t| {
-            p.index_of(t).ok_or_else(|| {
-                let names: Vec<&str> = p.nodes.iter().map(|n| n.name.as_str()).collect();
+            p.target_index(t).ok_or_else(|| {
+                let names = p.target_names();
+                let names: Vec<&str> = names.iter().map(String::as_str).collect();
                 RunError::UnknownTarget(t.clone(), crate::engine::graph::suggest(t, &names, "nodes"))
             })
         })

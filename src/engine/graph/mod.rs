@@ -229,6 +229,27 @@ impl Pipeline {
         self.nodes.iter().position(|n| n.name == name)
     }
 
+    /// The node a command-line target or `--print` names: `node`, or `node.port` for one of its
+    /// declared or open ports, the same form as a field's (a whole name with dots wins).
+    pub fn target_index(&self, name: &str) -> Option<usize> {
+        self.index_of(name).or_else(|| {
+            let (node, port) = name.rsplit_once('.')?;
+            let i = self.index_of(node)?;
+            let n = &self.nodes[i];
+            (n.spec.port(port).is_some() || n.spec.open_ports.is_some()).then_some(i)
+        })
+    }
+
+    /// Every name a target may be written as (for "did you mean"): nodes, and `node.port` for
+    /// each declared port past the default.
+    pub fn target_names(&self) -> Vec<String> {
+        let mut names: Vec<String> = self.nodes.iter().map(|n| n.name.clone()).collect();
+        for n in &self.nodes {
+            names.extend(n.spec.outputs.iter().skip(1).map(|p| format!("{}.{}", n.name, p.name)));
+        }
+        names
+    }
+
     /// The default targets: every node producing a file and every node nothing consumes.
     pub fn default_targets(&self) -> Vec<usize> {
         let mut consumed = vec![false; self.nodes.len()];

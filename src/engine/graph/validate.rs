@@ -764,6 +764,17 @@ fn unknown_operator_message(name: &str, registry: &Registry) -> String {
 /// "; did you mean X?" for close candidates (case-insensitive, edit distance at most 2, or
 /// a third of the name), else " (WHAT: ...)" listing them all, or "" when there are none.
 pub fn suggest(name: &str, candidates: &[&str], what: &str) -> String {
+    match suggest_close(name, candidates) {
+        close if !close.is_empty() => close,
+        _ if candidates.is_empty() => String::new(),
+        _ if candidates.len() <= 24 => format!(" ({what}: {})", candidates.join(", ")),
+        _ => format!(" ({what}: {}, ... {} in all)", candidates[..24].join(", "), candidates.len()),
+    }
+}
+
+/// `"; did you mean ..."` when a candidate is close to `name` (a few edits, or a prefix),
+/// else nothing: for messages that list the candidates themselves.
+pub fn suggest_close(name: &str, candidates: &[&str]) -> String {
     let lower = name.to_lowercase();
     let limit = 2.max(name.chars().count() / 3);
     let mut close: Vec<(usize, &str)> = candidates
@@ -787,12 +798,8 @@ pub fn suggest(name: &str, candidates: &[&str], what: &str) -> String {
                 more.iter().map(|c| format!("{c:?}")).collect::<Vec<_>>().join(", ")
             )
         }
-    } else if candidates.is_empty() {
-        String::new()
-    } else if candidates.len() <= 24 {
-        format!(" ({what}: {})", candidates.join(", "))
     } else {
-        format!(" ({what}: {}, ... {} in all)", candidates[..24].join(", "), candidates.len())
+        String::new()
     }
 }
 
@@ -806,18 +813,9 @@ fn did_you_mean(name: &str, candidates: &[&str]) -> String {
     }
 }
 
-/// Levenshtein distance, for "did you mean" hints.
+/// Levenshtein distance in characters, for "did you mean" hints.
 fn edit_distance(a: &str, b: &str) -> usize {
-    let b: Vec<char> = b.chars().collect();
-    let mut prev: Vec<usize> = (0..=b.len()).collect();
-    for (i, ca) in a.chars().enumerate() {
-        let mut cur = vec![i + 1; b.len() + 1];
-        for (j, &cb) in b.iter().enumerate() {
-            cur[j + 1] = (prev[j] + usize::from(ca != cb)).min(prev[j + 1] + 1).min(cur[j] + 1);
-        }
-        prev = cur;
-    }
-    prev[b.len()]
+    strsim::levenshtein(a, b)
 }
 
 /// Converts a literal to the field's parameter type, checking its range.
@@ -876,7 +874,7 @@ fn convert(field: &FieldSpec, value: &Ron) -> Result<ParamValue, String> {
         FieldKind::Choice(options) => match value {
             Ron::Ident(s) | Ron::Str(s) if options.contains(&s.as_str()) => Ok(ParamValue::Choice(s.clone())),
             Ron::Ident(s) | Ron::Str(s) => {
-                Err(format!("{s:?} is not one of {}{}", options.join(", "), suggest(s, options, "choices")))
+                Err(format!("{s:?} is not one of {}{}", options.join(", "), suggest_close(s, options)))
             }
             _ => Err(found()),
         },
@@ -1000,7 +998,7 @@ fn find_cycles(nodes: &[Node]) -> Vec<Vec<usize>> {
 
 #[cfg(test)]
 mod tests {
-    use super::{check_output_path, edit_distance, suggest};
+    use super::{check_output_path, edit_distance, suggest, suggest_close};
 
     #[test]
     fn edit_distance_counts_edits() {
@@ -1013,6 +1011,9 @@ mod tests {
     fn suggestions_name_the_closest() {
         assert_eq!(suggest("pth", &["path", "flip_vertical"], "fields"), "; did you mean \"path\"?");
         assert_eq!(suggest("zzzzzz", &["path"], "fields"), " (fields: path)");
+        // A message that lists the choices itself does not list them twice.
+        assert_eq!(suggest_close("Filmic", &["Reinhard", "Aces", "Agx"]), "");
+        assert_eq!(suggest_close("Acse", &["Reinhard", "Aces", "Agx"]), "; did you mean \"Aces\"?");
     }
 
     #[test]
