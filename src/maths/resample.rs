@@ -209,9 +209,13 @@ struct Limits {
 
 impl Limits {
     fn new<S: SphereSource>(src: &S, out_texel_angle: f64) -> Limits {
+        Limits::with_tolerance(src, out_texel_angle, 1e-7, 8)
+    }
+    /// `rel_tol` times the source's magnitude per leaf, down to `2^-depth` of a source texel.
+    fn with_tolerance<S: SphereSource>(src: &S, out_texel_angle: f64, rel_tol: f64, depth: u32) -> Limits {
         let ratio = out_texel_angle / src.texel_angle();
         let forced = if ratio > 1.0 { ratio.log2().ceil().min(24.0) as u32 } else { 0 };
-        Limits { forced, boundary: forced + 1, max: forced + 8, tol: 1e-7 * src.magnitude() }
+        Limits { forced, boundary: forced + 1, max: forced + depth, tol: rel_tol * src.magnitude() }
     }
 }
 
@@ -291,13 +295,23 @@ pub fn to_cube<S: SphereSource>(src: &S, size: usize) -> Cubemap {
 
 /// The W x H lat-long RGB image whose texels average `src` over their footprints.
 pub fn to_latlong<S: SphereSource>(src: &S, width: usize, height: usize) -> Image {
+    latlong_with_limits(src, width, height, &Limits::new(src, PI / height as f64))
+}
+
+/// [`to_latlong`] with a tighter quadrature: each leaf's error below `rel_tol` times the source's
+/// magnitude, cells down to `2^-depth` of a source texel (a rotation, which must keep the
+/// integral to 1e-4 even when a few sun texels carry most of it, uses 1e-9 and 12).
+pub fn to_latlong_precise<S: SphereSource>(src: &S, width: usize, height: usize, rel_tol: f64, depth: u32) -> Image {
+    latlong_with_limits(src, width, height, &Limits::with_tolerance(src, PI / height as f64, rel_tol, depth))
+}
+
+fn latlong_with_limits<S: SphereSource>(src: &S, width: usize, height: usize, lim: &Limits) -> Image {
     let mut out = Image::new(width, height, 3);
-    let lim = Limits::new(src, PI / height as f64);
     let (dp, dq) = (2.0 * PI / width as f64, PI / height as f64);
     out.data.par_chunks_mut(3 * width).enumerate().for_each(|(y, row)| {
         for x in 0..width {
             let r = [dp * x as f64, dp * (x + 1) as f64, dq * y as f64, dq * (y + 1) as f64];
-            row[3 * x..3 * x + 3].copy_from_slice(&average(src, &LatLongDomain, r, &lim));
+            row[3 * x..3 * x + 3].copy_from_slice(&average(src, &LatLongDomain, r, lim));
         }
     });
     out

@@ -16,7 +16,7 @@ use glam::{DMat3, DVec3};
 
 use crate::data::Image;
 use crate::geometry::latlong;
-use crate::maths::resample::{to_latlong, SphereSource};
+use crate::maths::resample::{to_latlong_precise, SphereSource};
 
 /// A rotation of the sphere, kept as its matrix (world to world, orthonormal, det +1).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -162,7 +162,7 @@ impl SphereSource for LatLongChannels<'_> {
 ///
 /// A whole-column yaw is an exact roll of the columns (the same bits). Any other rotation gives
 /// each output texel the solid-angle mean of the rotated map over its footprint
-/// (`resample::to_latlong`), which keeps the sphere integral to the resampler's tolerance
+/// (`resample::to_latlong_precise`, leaves to 1e-9 of the map's magnitude), which keeps the sphere integral
 /// (tested: 1e-4 relative).
 pub fn rotate_latlong(img: &Image, r: Rotation) -> Image {
     let (w, h, c) = (img.width, img.height, img.channels);
@@ -180,7 +180,7 @@ pub fn rotate_latlong(img: &Image, r: Rotation) -> Image {
     for first in (0..c).step_by(3) {
         let pick = [first, (first + 1).min(c - 1), (first + 2).min(c - 1)];
         let src = LatLongChannels::new(img, pick);
-        let rotated = to_latlong(&Rotated::new(&src, r), w, h);
+        let rotated = to_latlong_precise(&Rotated::new(&src, r), w, h, 1e-9, 12);
         for (px_out, px_rot) in out.data.chunks_exact_mut(c).zip(rotated.data.chunks_exact(3)) {
             for (j, &k) in pick.iter().enumerate() {
                 px_out[k] = px_rot[j];
