@@ -84,6 +84,15 @@ pub enum FieldKind {
         min: f64,
         max: f64,
     },
+    /// A list of numbers `[a, b, ...]` (a tuple `(a, b)` is read the same way), of an inclusive
+    /// length range, each number in the inclusive range `min..=max`. Its value is a
+    /// [`ParamValue::Tuple`].
+    NumberList {
+        min_len: usize,
+        max_len: usize,
+        min: f64,
+        max: f64,
+    },
 }
 
 impl FieldKind {
@@ -111,6 +120,9 @@ impl FieldKind {
             FieldKind::Choice(options) => options.join(" | "),
             FieldKind::Tuple { len, .. } => format!("({})", vec!["float"; *len].join(", ")),
             FieldKind::Color { .. } => "(r, g, b) or grey".into(),
+            FieldKind::NumberList { min, max, .. } => {
+                format!("list of numbers in [{}, {}]", fmt_bound(*min), fmt_bound(*max))
+            }
         }
     }
 
@@ -359,6 +371,27 @@ impl<const N: usize> Param for [f64; N] {
         }
     }
 }
+
+/// A list of numbers, `percentiles: [1, 50, 99]`: `#[range(min, max)]` bounds each number; the
+/// list holds at most [`MAX_NUMBER_LIST`] of them.
+impl Param for Vec<f64> {
+    fn kind(range: Option<(f64, f64)>) -> FieldKind {
+        let (min, max) = range.unwrap_or((f64::MIN, f64::MAX));
+        FieldKind::NumberList { min_len: 0, max_len: MAX_NUMBER_LIST, min, max }
+    }
+    fn to_value(&self) -> Option<ParamValue> {
+        Some(ParamValue::Tuple(self.clone()))
+    }
+    fn from_value(v: &ParamValue) -> Option<Self> {
+        match v {
+            ParamValue::Tuple(t) => Some(t.clone()),
+            _ => None,
+        }
+    }
+}
+
+/// The longest list a `Vec<f64>` parameter takes.
+pub const MAX_NUMBER_LIST: usize = 1024;
 
 /// A file to read (`path: "maps/grace.exr"` or `builtin:NAME`), relative to the pipeline file.
 #[derive(Clone, Debug, PartialEq)]

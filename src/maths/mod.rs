@@ -11,6 +11,7 @@ pub mod guide_table;
 pub mod hierarchical_warp;
 pub mod irradiance_cube;
 pub mod kernels;
+pub mod lights;
 pub mod mis;
 pub mod per_pixel;
 pub mod phong;
@@ -20,6 +21,7 @@ pub mod resample;
 pub mod rotation;
 pub mod sequences;
 pub mod sh;
+pub mod statistics;
 pub mod sun;
 
 /// Asks the processor to bring `value`'s cache line towards L1 (`prefetcht0`): a hint with no

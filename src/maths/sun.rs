@@ -44,7 +44,7 @@ use crate::data::{Image, Light};
 use crate::geometry::{latlong, unit};
 
 /// Rec. 709 luminance weights (ITU-R BT.709, the same as `Luminance(weights: Rec709)`).
-const REC709: [f64; 3] = [0.2126, 0.7152, 0.0722];
+pub(crate) const REC709: [f64; 3] = [0.2126, 0.7152, 0.0722];
 
 /// What [`extract_sun`] found, with the quantities of the module documentation.
 #[derive(Clone, Debug)]
@@ -63,7 +63,7 @@ pub struct SunExtraction {
 }
 
 /// The number of colour channels of `img`: 3 for RGB(A...), 1 for a grey map.
-fn colour_channels(img: &Image) -> usize {
+pub(crate) fn colour_channels(img: &Image) -> usize {
     if img.channels >= 3 {
         3
     } else {
@@ -71,13 +71,14 @@ fn colour_channels(img: &Image) -> usize {
     }
 }
 
-fn luminance(l: [f32; 3]) -> f64 {
+/// Rec. 709 luminance of an RGB triple, in f64.
+pub(crate) fn luminance(l: [f32; 3]) -> f64 {
     REC709[0] * l[0] as f64 + REC709[1] * l[1] as f64 + REC709[2] * l[2] as f64
 }
 
 /// The neighbours of texel (x, y) in the sun region's connectivity (see the module
 /// documentation), written into `out`; returns how many.
-fn neighbours(x: usize, y: usize, w: usize, h: usize, out: &mut [(usize, usize); 11]) -> usize {
+pub(crate) fn neighbours(x: usize, y: usize, w: usize, h: usize, out: &mut [(usize, usize); 11]) -> usize {
     let mut n = 0;
     let mut push = |nx: usize, ny: usize, out: &mut [(usize, usize); 11]| {
         if (nx, ny) != (x, y) && !out[..n].contains(&(nx, ny)) {
@@ -120,25 +121,11 @@ pub fn extract_sun(env: &Image, threshold_stops: f64) -> SunExtraction {
         return none(env, [0.0, 1.0, 0.0], 0.0, 0.0);
     }
 
-    // Luminance per texel (rows in parallel), the brightest texel and the mean.
-    let lum: Vec<f64> = (0..w * h).into_par_iter().map(|i| luminance(env.rgb(i % w, i / w))).collect();
+    // Luminance per texel (rows in parallel), the brightest texel and the level.
+    let lum = luminances(env);
     let brightest = lum.iter().enumerate().fold(0usize, |b, (i, &y)| if y > lum[b] { i } else { b });
     let brightest_dir = latlong::texel_direction(brightest % w, brightest / w, w, h);
-    let (mut weighted, mut area) = (0.0f64, 0.0f64);
-    for y in 0..h {
-        let d_omega = latlong::texel_solid_angle(y, w, h);
-        weighted += lum[y * w..(y + 1) * w].iter().sum::<f64>() * d_omega;
-        area += d_omega * w as f64;
-    }
-    let mean = weighted / area;
-    // The median of the luminances rounded to f32 (half the memory of an f64 copy; the level
-    // only sets the threshold).
-    let median = {
-        let mut v: Vec<f32> = lum.iter().map(|&y| y as f32).collect();
-        let k = v.len() / 2;
-        *v.select_nth_unstable_by(k, f32::total_cmp).1 as f64
-    };
-    let level = if median > 0.0 { median } else { mean };
+    let level = level(&lum, w, h);
     let threshold = level * 2f64.powf(threshold_stops);
     if !(level > 0.0) || !(lum[brightest] > threshold) {
         return none(env, brightest_dir, level.max(0.0), threshold.max(0.0));
@@ -220,6 +207,37 @@ pub fn extract_sun(env: &Image, threshold_stops: f64) -> SunExtraction {
         threshold,
         texels: region.len(),
         fill,
+    }
+}
+
+/// The Rec. 709 luminance of every texel of `env`, row-major (f64; rows in parallel).
+pub(crate) fn luminances(env: &Image) -> Vec<f64> {
+    let w = env.width;
+    (0..env.pixel_count()).into_par_iter().map(|i| luminance(env.rgb(i % w, i / w))).collect()
+}
+
+/// The reference level `m` of step 1 for the luminances `lum` of a `w x h` map (non-empty):
+/// their median (rank `floor(w h / 2)`, rounded to f32), or the solid-angle-weighted mean when
+/// the median is not positive.
+pub(crate) fn level(lum: &[f64], w: usize, h: usize) -> f64 {
+    let (mut weighted, mut area) = (0.0f64, 0.0f64);
+    for y in 0..h {
+        let d_omega = latlong::texel_solid_angle(y, w, h);
+        weighted += lum[y * w..(y + 1) * w].iter().sum::<f64>() * d_omega;
+        area += d_omega * w as f64;
+    }
+    let mean = weighted / area;
+    // The median of the luminances rounded to f32 (half the memory of an f64 copy; the level
+    // only sets the threshold).
+    let median = {
+        let mut v: Vec<f32> = lum.iter().map(|&y| y as f32).collect();
+        let k = v.len() / 2;
+        *v.select_nth_unstable_by(k, f32::total_cmp).1 as f64
+    };
+    if median > 0.0 {
+        median
+    } else {
+        mean
     }
 }
 

@@ -50,14 +50,23 @@ fn decode(bytes: &[u8]) -> Result<Value, String> {
     Ok(Value::new(Light { direction, solid_angle, radiance }))
 }
 
+/// A JSON array of three numbers.
+pub(crate) fn json_triple(v: [f64; 3]) -> serde_json::Value {
+    serde_json::Value::Array(v.iter().map(|&x| num(x)).collect())
+}
+
+/// The JSON object of a light (keys `direction`, `solid_angle`, `radiance`).
+pub(crate) fn to_json_value(l: &Light) -> serde_json::Value {
+    let mut map = serde_json::Map::new();
+    map.insert("direction".into(), json_triple(l.direction));
+    map.insert("solid_angle".into(), num(l.solid_angle));
+    map.insert("radiance".into(), json_triple(l.radiance));
+    serde_json::Value::Object(map)
+}
+
 /// The JSON text of a light (keys `direction`, `solid_angle`, `radiance`).
 pub fn to_json(l: &Light) -> String {
-    let arr = |v: [f64; 3]| serde_json::Value::Array(v.iter().map(|&x| num(x)).collect());
-    let mut map = serde_json::Map::new();
-    map.insert("direction".into(), arr(l.direction));
-    map.insert("solid_angle".into(), num(l.solid_angle));
-    map.insert("radiance".into(), arr(l.radiance));
-    serde_json::to_string_pretty(&serde_json::Value::Object(map)).expect("JSON of plain values") + "\n"
+    serde_json::to_string_pretty(&to_json_value(l)).expect("JSON of plain values") + "\n"
 }
 
 fn save(value: &Value, _: &SaveOptions) -> Result<Vec<u8>, String> {

@@ -10,6 +10,7 @@ pub mod curves;
 pub mod distribution;
 pub mod image;
 pub mod light;
+pub mod lights;
 pub mod metrics;
 pub mod samples;
 pub mod sh;
@@ -22,6 +23,7 @@ pub use cubemap::{CUBEMAP, MIP_CHAIN};
 pub use curves::CURVES;
 pub use distribution::DISTRIBUTION;
 pub use light::LIGHT;
+pub use lights::LIGHTS;
 pub use metrics::METRICS;
 pub use samples::SAMPLES;
 pub use sh::SH_COEFFICIENTS;
@@ -37,6 +39,7 @@ pub fn register_all(r: &mut Registry) {
         &METRICS,
         &SH_COEFFICIENTS,
         &LIGHT,
+        &LIGHTS,
         &CUBEMAP,
         &MIP_CHAIN,
     ] {
@@ -57,6 +60,7 @@ pub mod ty {
     pub const METRICS_T: ValueType = ValueType(&METRICS);
     pub const SH_COEFFICIENTS_T: ValueType = ValueType(&SH_COEFFICIENTS);
     pub const LIGHT_T: ValueType = ValueType(&LIGHT);
+    pub const LIGHTS_T: ValueType = ValueType(&LIGHTS);
     pub const CUBEMAP_T: ValueType = ValueType(&CUBEMAP);
     pub const MIP_CHAIN_T: ValueType = ValueType(&MIP_CHAIN);
     /// Either kind of image.

@@ -893,6 +893,15 @@ fn convert(field: &FieldSpec, value: &Ron) -> Result<ParamValue, String> {
             }
             _ => Err(found()),
         },
+        FieldKind::NumberList { min_len, max_len, min, max } => match value {
+            Ron::List(items) | Ron::Tuple { name: None, items } => {
+                if items.len() < *min_len || items.len() > *max_len {
+                    return Err(format!("expected {min_len} to {max_len} numbers, found {}", items.len()));
+                }
+                tuple(items, *min, *max, found)
+            }
+            _ => Err(found()),
+        },
     }
 }
 

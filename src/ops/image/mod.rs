@@ -10,11 +10,14 @@ pub mod flip_vertical;
 pub mod image_error;
 pub mod luminance;
 pub mod math;
+pub mod mean_light_vector;
 pub mod merge_channels;
 pub mod overlay;
 pub mod resize;
 pub mod rotate;
+pub mod solid_angle;
 pub mod split_channels;
+pub mod statistics;
 pub mod tonemap;
 
 use crate::engine::registry::Registry;
@@ -36,4 +39,7 @@ pub fn register(r: &mut Registry) {
     r.register(tonemap::spec());
     r.register(difference::spec());
     r.register(rotate::spec());
+    r.register(statistics::spec());
+    r.register(solid_angle::spec());
+    r.register(mean_light_vector::spec());
 }

@@ -1,0 +1,124 @@
+//! `lights`: parametric lights plus an ambient colour ([`Lights`]), as `ExtractLights` gives
+//! them. Saved as `.json`: `{"lights": [{"direction": [x, y, z], "solid_angle": sr, "radiance":
+//! [r, g, b]}, ...], "ambient": [r, g, b]}` (each light with the keys of a `light`; numbers as
+//! the shortest decimal that reads back to the same f64; NaN and Inf, which `ExtractLights`
+//! never produces, become `null`).
+
+use super::light::{json_triple, to_json_value};
+use crate::data::{Light, Lights};
+use crate::engine::cache::codec::{Reader, Writer};
+use crate::engine::value::{SaveOptions, TypeSpec, Value, ValueData, ValueType};
+
+pub static LIGHTS: TypeSpec = TypeSpec {
+    name: "lights",
+    doc: "parametric lights (each a direction, solid angle, RGB radiance) plus an ambient RGB radiance",
+    decode,
+    save_extensions: &["json"],
+    save: Some(save),
+};
+
+impl ValueData for Lights {
+    fn value_type(&self) -> ValueType {
+        ValueType(&LIGHTS)
+    }
+    fn approx_bytes(&self) -> usize {
+        std::mem::size_of::<Lights>() + self.lights.len() * std::mem::size_of::<Light>()
+    }
+    fn summary(&self) -> String {
+        let [r, g, b] = self.ambient;
+        format!("{} lights and an ambient of ({r:.4e}, {g:.4e}, {b:.4e})", self.lights.len())
+    }
+    fn display(&self) -> Option<String> {
+        let mut lines = Vec::new();
+        for (i, l) in self.lights.iter().enumerate() {
+            let [x, y, z] = l.direction;
+            let [r, g, b] = l.radiance;
+            lines.push(format!(
+                "light {i}: direction ({x}, {y}, {z}), solid_angle {}, radiance ({r}, {g}, {b})",
+                l.solid_angle
+            ));
+        }
+        let [r, g, b] = self.ambient;
+        lines.push(format!("ambient ({r}, {g}, {b})"));
+        Some(lines.join("\n"))
+    }
+    fn encode(&self, out: &mut Vec<u8>) {
+        let mut w = Writer(out);
+        w.u64(self.lights.len() as u64);
+        for l in &self.lights {
+            for v in l.direction.iter().chain([l.solid_angle].iter()).chain(l.radiance.iter()) {
+                w.f64(*v);
+            }
+        }
+        for v in self.ambient {
+            w.f64(v);
+        }
+    }
+}
+
+fn decode(bytes: &[u8]) -> Result<Value, String> {
+    let mut r = Reader::new(bytes);
+    let n = r.usize()?;
+    r.need(n.saturating_mul(7 * 8).saturating_add(3 * 8))?;
+    let mut lights = Vec::with_capacity(n);
+    for _ in 0..n {
+        let direction = [r.f64()?, r.f64()?, r.f64()?];
+        let solid_angle = r.f64()?;
+        let radiance = [r.f64()?, r.f64()?, r.f64()?];
+        lights.push(Light { direction, solid_angle, radiance });
+    }
+    let ambient = [r.f64()?, r.f64()?, r.f64()?];
+    r.finish()?;
+    Ok(Value::new(Lights { lights, ambient }))
+}
+
+/// The JSON text of lights (keys `lights`, each with `direction`, `solid_angle`, `radiance`, and
+/// `ambient`).
+pub fn to_json(l: &Lights) -> String {
+    let mut map = serde_json::Map::new();
+    map.insert("lights".into(), serde_json::Value::Array(l.lights.iter().map(to_json_value).collect()));
+    map.insert("ambient".into(), json_triple(l.ambient));
+    serde_json::to_string_pretty(&serde_json::Value::Object(map)).expect("JSON of plain values") + "\n"
+}
+
+fn save(value: &Value, _: &SaveOptions) -> Result<Vec<u8>, String> {
+    let l = value.get::<Lights>().ok_or("not lights")?;
+    Ok(to_json(l).into_bytes())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn round_trips_and_saves_json() {
+        let l = Lights {
+            lights: vec![
+                Light { direction: [0.0, 0.6, -0.8], solid_angle: 1e-3, radiance: [5e4, 4.5e4, 3.8e4] },
+                Light { direction: [1.0, 0.0, 0.0], solid_angle: 0.25, radiance: [2.0, 0.0, 1.5] },
+            ],
+            ambient: [0.1, 0.2, 0.3],
+        };
+        let mut bytes = Vec::new();
+        l.encode(&mut bytes);
+        assert_eq!(decode(&bytes).unwrap().get::<Lights>(), Some(&l));
+        assert!(decode(&bytes[..bytes.len() - 1]).is_err());
+        // A hostile count is refused before allocating.
+        let mut huge = Vec::new();
+        Writer(&mut huge).u64(u64::MAX / 2);
+        assert!(decode(&huge).is_err());
+        let json: serde_json::Value = serde_json::from_str(&to_json(&l)).unwrap();
+        assert_eq!(json.as_object().unwrap().len(), 2);
+        assert_eq!(json["ambient"][2].as_f64(), Some(0.3));
+        let lights = json["lights"].as_array().unwrap();
+        assert_eq!(lights.len(), 2);
+        assert_eq!(lights[0]["solid_angle"].as_f64(), Some(1e-3));
+        assert_eq!(lights[0]["direction"][2].as_f64(), Some(-0.8));
+        assert_eq!(lights[1]["radiance"][2].as_f64(), Some(1.5));
+        assert_eq!(lights[1].as_object().unwrap().len(), 3);
+        // No lights: an empty list.
+        let none = Lights { lights: Vec::new(), ambient: [1.0; 3] };
+        let json: serde_json::Value = serde_json::from_str(&to_json(&none)).unwrap();
+        assert_eq!(json["lights"].as_array().map(Vec::len), Some(0));
+    }
+}
