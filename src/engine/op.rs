@@ -252,14 +252,7 @@ impl OpSpec {
         f: fn(&CheckContext, C) -> Result<ValueType, String>,
         doc: &'static str,
     ) -> Self {
-        let ty = OutputType::Computed(
-            how,
-            Arc::new(move |ctx: &CheckContext| match C::from_check(ctx) {
-                Some(p) => f(ctx, p),
-                None => Err(format!("output {name:?}: its type depends on an input that is not wired")),
-            }),
-        );
-        self.output(name, ty, doc)
+        self.typed_output(name, how, f, doc)
     }
 
     /// Adds an output port of the type of one input: `.output_like("image", |p:
@@ -270,17 +263,24 @@ impl OpSpec {
         f: fn(C) -> Shape,
         doc: &'static str,
     ) -> Self {
-        self.output(
-            name,
-            OutputType::Computed(
-                "the input's type",
-                Arc::new(move |ctx: &CheckContext| match C::from_check(ctx) {
-                    Some(p) => Ok(f(p).ty),
-                    None => Err(format!("output {name:?}: its type is an input's, which is not wired")),
-                }),
-            ),
-            doc,
-        )
+        self.typed_output(name, "the input's type", move |_, p: C| Ok(f(p).ty), doc)
+    }
+
+    fn typed_output<C: CheckFields + 'static>(
+        self,
+        name: &'static str,
+        how: &'static str,
+        f: impl Fn(&CheckContext, C) -> Result<ValueType, String> + Send + Sync + 'static,
+        doc: &'static str,
+    ) -> Self {
+        let ty = OutputType::Computed(
+            how,
+            Arc::new(move |ctx: &CheckContext| match C::from_check(ctx) {
+                Some(p) => f(ctx, p),
+                None => Err(format!("output {name:?}: its type depends on an input that is not wired")),
+            }),
+        );
+        self.output(name, ty, doc)
     }
 
     /// The loader's content key (see the field), from its typed fields.

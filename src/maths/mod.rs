@@ -3,6 +3,7 @@
 //! lives below them, in [`crate::geometry::latlong`].
 
 pub mod chi_square;
+pub mod colour;
 pub mod error_metrics;
 pub mod fresnel;
 pub mod ggx;

@@ -56,22 +56,39 @@ pub trait SphereSource: Sync {
     fn magnitude(&self) -> f64;
 }
 
-/// A lat-long image (RGB; one channel is grey).
+/// Three channels of a lat-long image, read as piecewise constant: by default R, G, B (a
+/// one- or two-channel image reads its first channel as grey, as `Image::rgb` does), or any
+/// three channels named by index ([`LatLongSource::channels`]: a resampler of RGB values
+/// serves images of any channel count, three at a time).
 pub struct LatLongSource<'a> {
     img: &'a Image,
+    pick: [usize; 3],
     magnitude: f64,
 }
 
 impl<'a> LatLongSource<'a> {
     pub fn new(img: &'a Image) -> Self {
+        let pick = if img.channels < 3 { [0; 3] } else { [0, 1, 2] };
+        LatLongSource::channels(img, pick)
+    }
+
+    /// The channels `pick` of `img` (each index below `img.channels`).
+    pub fn channels(img: &'a Image, pick: [usize; 3]) -> Self {
         let (w, h) = (img.width, img.height);
-        let magnitude = (0..h)
+        let mut src = LatLongSource { img, pick, magnitude: 0.0 };
+        src.magnitude = (0..h)
             .map(|y| {
-                let row: f64 = (0..w).map(|x| max_abs(img.rgb(x, y))).sum();
+                let row: f64 = (0..w).map(|x| max_abs(src.texel(x, y))).sum();
                 row * latlong::texel_solid_angle(y, w, h)
             })
             .sum();
-        LatLongSource { img, magnitude }
+        src
+    }
+
+    #[inline]
+    fn texel(&self, x: usize, y: usize) -> [f32; 3] {
+        let px = self.img.pixel(x, y);
+        self.pick.map(|k| px[k])
     }
 }
 
@@ -81,7 +98,7 @@ impl SphereSource for LatLongSource<'_> {
         y * self.img.width + x
     }
     fn rgb(&self, t: usize) -> [f64; 3] {
-        self.img.rgb(t % self.img.width, t / self.img.width).map(f64::from)
+        self.texel(t % self.img.width, t / self.img.width).map(f64::from)
     }
     fn texel_angle(&self) -> f64 {
         (PI / self.img.height as f64).min(2.0 * PI / self.img.width as f64)

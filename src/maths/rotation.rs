@@ -15,8 +15,7 @@
 use glam::{DMat3, DVec3};
 
 use crate::data::Image;
-use crate::geometry::latlong;
-use crate::maths::resample::{to_latlong_precise, SphereSource};
+use crate::maths::resample::{to_latlong_precise, LatLongSource, SphereSource};
 
 /// A rotation of the sphere, kept as its matrix (world to world, orthonormal, det +1).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -119,45 +118,6 @@ impl<S: SphereSource> SphereSource for Rotated<'_, S> {
     }
 }
 
-/// Three channels of a lat-long image, read as piecewise constant (`pick` names them; a
-/// one-channel image picks channel 0 three times).
-struct LatLongChannels<'a> {
-    img: &'a Image,
-    pick: [usize; 3],
-    magnitude: f64,
-}
-
-impl<'a> LatLongChannels<'a> {
-    fn new(img: &'a Image, pick: [usize; 3]) -> Self {
-        let (w, h) = (img.width, img.height);
-        let magnitude = (0..h)
-            .map(|y| {
-                let row: f64 =
-                    (0..w).map(|x| pick.iter().map(|&k| (img.pixel(x, y)[k] as f64).abs()).fold(0.0, f64::max)).sum();
-                row * latlong::texel_solid_angle(y, w, h)
-            })
-            .sum();
-        LatLongChannels { img, pick, magnitude }
-    }
-}
-
-impl SphereSource for LatLongChannels<'_> {
-    fn texel_of(&self, d: DVec3) -> usize {
-        let (x, y) = latlong::texel_of_direction(d.into(), self.img.width, self.img.height);
-        y * self.img.width + x
-    }
-    fn rgb(&self, t: usize) -> [f64; 3] {
-        let px = self.img.pixel(t % self.img.width, t / self.img.width);
-        self.pick.map(|k| px[k] as f64)
-    }
-    fn texel_angle(&self) -> f64 {
-        (std::f64::consts::PI / self.img.height as f64).min(2.0 * std::f64::consts::PI / self.img.width as f64)
-    }
-    fn magnitude(&self) -> f64 {
-        self.magnitude
-    }
-}
-
 /// A lat-long map rotated by `r`, every channel alike, keeping its size and channel names.
 ///
 /// A whole-column yaw is an exact roll of the columns (the same bits). Any other rotation gives
@@ -179,7 +139,7 @@ pub fn rotate_latlong(img: &Image, r: Rotation) -> Image {
     let mut out = Image::with_names(w, h, img.names.clone(), vec![0.0; w * h * c]);
     for first in (0..c).step_by(3) {
         let pick = [first, (first + 1).min(c - 1), (first + 2).min(c - 1)];
-        let src = LatLongChannels::new(img, pick);
+        let src = LatLongSource::channels(img, pick);
         let rotated = to_latlong_precise(&Rotated::new(&src, r), w, h, 1e-9, 12);
         for (px_out, px_rot) in out.data.chunks_exact_mut(c).zip(rotated.data.chunks_exact(3)) {
             for (j, &k) in pick.iter().enumerate() {
@@ -193,6 +153,7 @@ pub fn rotate_latlong(img: &Image, r: Rotation) -> Image {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geometry::latlong;
 
     fn close(a: DVec3, b: DVec3) -> bool {
         (a - b).abs().max_element() < 1e-12

@@ -43,7 +43,7 @@ fn texel(px: &[f32]) -> (f64, Option<bool>) {
         return (0.0, Some(true));
     }
     let y = match c {
-        [r, g, b] => 0.2126 * *r as f64 + 0.7152 * *g as f64 + 0.0722 * *b as f64,
+        [r, g, b] => crate::maths::colour::rec709_luminance([*r, *g, *b]),
         [v] => *v as f64,
         _ => 0.0,
     };

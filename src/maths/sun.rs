@@ -42,9 +42,7 @@ use rayon::prelude::*;
 
 use crate::data::{Image, Light};
 use crate::geometry::{latlong, unit};
-
-/// Rec. 709 luminance weights (ITU-R BT.709, the same as `Luminance(weights: Rec709)`).
-pub(crate) const REC709: [f64; 3] = [0.2126, 0.7152, 0.0722];
+pub(crate) use crate::maths::colour::rec709_luminance as luminance;
 
 /// What [`extract_sun`] found, with the quantities of the module documentation.
 #[derive(Clone, Debug)]
@@ -69,11 +67,6 @@ pub(crate) fn colour_channels(img: &Image) -> usize {
     } else {
         1
     }
-}
-
-/// Rec. 709 luminance of an RGB triple, in f64.
-pub(crate) fn luminance(l: [f32; 3]) -> f64 {
-    REC709[0] * l[0] as f64 + REC709[1] * l[1] as f64 + REC709[2] * l[2] as f64
 }
 
 /// The neighbours of texel (x, y) in the sun region's connectivity (see the module

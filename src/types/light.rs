@@ -33,21 +33,34 @@ impl ValueData for Light {
         Some(format!("direction    ({x}, {y}, {z})\nsolid_angle  {}\nradiance     ({r}, {g}, {b})", self.solid_angle))
     }
     fn encode(&self, out: &mut Vec<u8>) {
-        let mut w = Writer(out);
-        for v in self.direction.iter().chain([self.solid_angle].iter()).chain(self.radiance.iter()) {
-            w.f64(*v);
-        }
+        write_light(&mut Writer(out), self);
     }
+}
+
+/// The bytes of one light in a cache payload: direction, solid angle, radiance (7 f64).
+pub(crate) const LIGHT_BYTES: usize = 7 * 8;
+
+/// Writes one light's [`LIGHT_BYTES`] (a `light` payload, and each entry of a `lights` one).
+pub(crate) fn write_light(w: &mut Writer, l: &Light) {
+    for v in l.direction.iter().chain([l.solid_angle].iter()).chain(l.radiance.iter()) {
+        w.f64(*v);
+    }
+}
+
+/// Reads what [`write_light`] wrote.
+pub(crate) fn read_light(r: &mut Reader) -> Result<Light, String> {
+    let direction = [r.f64()?, r.f64()?, r.f64()?];
+    let solid_angle = r.f64()?;
+    let radiance = [r.f64()?, r.f64()?, r.f64()?];
+    Ok(Light { direction, solid_angle, radiance })
 }
 
 fn decode(bytes: &[u8]) -> Result<Value, String> {
     let mut r = Reader::new(bytes);
-    r.need(7 * 8)?;
-    let direction = [r.f64()?, r.f64()?, r.f64()?];
-    let solid_angle = r.f64()?;
-    let radiance = [r.f64()?, r.f64()?, r.f64()?];
+    r.need(LIGHT_BYTES)?;
+    let light = read_light(&mut r)?;
     r.finish()?;
-    Ok(Value::new(Light { direction, solid_angle, radiance }))
+    Ok(Value::new(light))
 }
 
 /// A JSON array of three numbers.

@@ -4,7 +4,7 @@
 //! the shortest decimal that reads back to the same f64; NaN and Inf, which `ExtractLights`
 //! never produces, become `null`).
 
-use super::light::{json_triple, to_json_value};
+use super::light::{json_triple, read_light, to_json_value, write_light, LIGHT_BYTES};
 use crate::data::{Light, Lights};
 use crate::engine::cache::codec::{Reader, Writer};
 use crate::engine::value::{SaveOptions, TypeSpec, Value, ValueData, ValueType};
@@ -46,9 +46,7 @@ impl ValueData for Lights {
         let mut w = Writer(out);
         w.u64(self.lights.len() as u64);
         for l in &self.lights {
-            for v in l.direction.iter().chain([l.solid_angle].iter()).chain(l.radiance.iter()) {
-                w.f64(*v);
-            }
+            write_light(&mut w, l);
         }
         for v in self.ambient {
             w.f64(v);
@@ -59,14 +57,8 @@ impl ValueData for Lights {
 fn decode(bytes: &[u8]) -> Result<Value, String> {
     let mut r = Reader::new(bytes);
     let n = r.usize()?;
-    r.need(n.saturating_mul(7 * 8).saturating_add(3 * 8))?;
-    let mut lights = Vec::with_capacity(n);
-    for _ in 0..n {
-        let direction = [r.f64()?, r.f64()?, r.f64()?];
-        let solid_angle = r.f64()?;
-        let radiance = [r.f64()?, r.f64()?, r.f64()?];
-        lights.push(Light { direction, solid_angle, radiance });
-    }
+    r.need(n.saturating_mul(LIGHT_BYTES).saturating_add(3 * 8))?;
+    let lights = (0..n).map(|_| read_light(&mut r)).collect::<Result<Vec<_>, _>>()?;
     let ambient = [r.f64()?, r.f64()?, r.f64()?];
     r.finish()?;
     Ok(Value::new(Lights { lights, ambient }))

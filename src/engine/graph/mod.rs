@@ -113,6 +113,13 @@ impl Node {
     pub fn is_default_port(&self, port: usize) -> bool {
         port == 0 && !self.spec.outputs.is_empty()
     }
+    /// The pixel size of port `port` when known before running: the node's size for its
+    /// default port and its open ports (channels of its image); no size fact for any other.
+    pub fn port_size(&self, port: usize) -> Option<(u64, u64)> {
+        let open = self.ports.get(port).is_none_or(|p| self.spec.port(&p.name).is_none());
+        (self.is_default_port(port) || open).then_some(self.size).flatten()
+    }
+
     /// Whether this node produces a file for the output folder.
     pub fn writes_file(&self) -> bool {
         self.ports.iter().any(|p| p.ty == ValueType(&FILE))
@@ -144,9 +151,8 @@ pub type InputTypes = BTreeMap<&'static str, Vec<ValueType>>;
 pub type InputSizes = BTreeMap<&'static str, Vec<Option<(u64, u64)>>>;
 
 impl Pipeline {
-    /// The types and known sizes of what is wired into node `i` (what its typed fields see
-    /// before running, as validation saw them): a size is known for a producer's default port
-    /// and its open ports (channels of its image), not for its other named ports.
+    /// The types and known sizes ([`Node::port_size`]) of what is wired into node `i`: what its
+    /// typed fields see before running, as validation saw them.
     pub fn input_shapes(&self, i: usize) -> (InputTypes, InputSizes) {
         let node = &self.nodes[i];
         let mut types = InputTypes::new();
@@ -157,9 +163,7 @@ impl Pipeline {
                 .iter()
                 .map(|src| {
                     let producer = &self.nodes[src.node];
-                    let port = &producer.ports[src.port];
-                    let sized = producer.is_default_port(src.port) || producer.spec.port(&port.name).is_none();
-                    (port.ty, if sized { producer.size } else { None })
+                    (producer.ports[src.port].ty, producer.port_size(src.port))
                 })
                 .unzip();
             types.insert(w.field, t);

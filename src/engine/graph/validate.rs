@@ -642,30 +642,10 @@ fn infer_types(
         if !types_ok {
             continue;
         }
-        // Sizes of the inputs' default outputs where known (an open port is a channel of the
-        // image, same size; any other named port has no size fact).
         let input_sizes: BTreeMap<&'static str, Vec<Option<(u64, u64)>>> = nodes[i]
             .inputs
             .iter()
-            .map(|w| {
-                let sizes = w
-                    .sources
-                    .iter()
-                    .map(|s| {
-                        let producer = &nodes[s.node];
-                        let open = producer
-                            .spec
-                            .port(&producer.ports.get(s.port).map(|p| p.name.to_string()).unwrap_or_default())
-                            .is_none();
-                        if producer.is_default_port(s.port) || open {
-                            producer.size
-                        } else {
-                            None
-                        }
-                    })
-                    .collect();
-                (w.field, sizes)
-            })
+            .map(|w| (w.field, w.sources.iter().map(|s| nodes[s.node].port_size(s.port)).collect()))
             .collect();
         let ctx =
             CheckContext { params: &nodes[i].params, input_types: &input_types, input_sizes: &input_sizes, base_dir };

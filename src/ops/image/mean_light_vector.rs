@@ -57,11 +57,8 @@ fn moments(img: &Image) -> (DVec3, f64) {
                 return (v, s);
             }
             for (x, px) in img.row(y).chunks_exact(c).enumerate() {
-                let lum = if c >= 3 {
-                    0.2126 * px[0] as f64 + 0.7152 * px[1] as f64 + 0.0722 * px[2] as f64
-                } else {
-                    px[0] as f64
-                };
+                let lum =
+                    if c >= 3 { crate::maths::colour::rec709_luminance([px[0], px[1], px[2]]) } else { px[0] as f64 };
                 v += lum * DVec3::from(latlong::texel_direction(x, y, w, h));
                 s += lum;
             }

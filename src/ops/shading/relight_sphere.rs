@@ -26,6 +26,7 @@ use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
 use crate::engine::params::Rgb;
 use crate::engine::value::Value;
 use crate::geometry::latlong;
+use crate::maths::colour::rec709_luminance as rec709;
 use crate::maths::relight::{merge_duplicates, relight, Estimator, LightSample, SphereView};
 use crate::types::ty::*;
 
@@ -148,11 +149,6 @@ fn spread_coarse_samples(
         }
     }
     Ok(lights)
-}
-
-/// Rec. 709 luminance in f64.
-fn rec709(rgb: [f32; 3]) -> f64 {
-    0.2126 * rgb[0] as f64 + 0.7152 * rgb[1] as f64 + 0.0722 * rgb[2] as f64
 }
 
 /// Rec. 709 luminance as a light's share: NaN, infinite and negative values count as 0.
