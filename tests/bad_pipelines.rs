@@ -22,6 +22,7 @@ const EXPECTED_FILES: &[&str] = &[
     "cycle.ron",
     "duplicate_node.ron",
     "duplicate_output.ron",
+    "every_phase_at_once.ron",
     "field_twice.ron",
     "missing_field.ron",
     "missing_node.ron",
@@ -89,9 +90,15 @@ fn check_one(name: &str) -> Vec<String> {
     if output.code != Some(expect.exit) {
         problems.push(format!("exit code {:?}, expected {}", output.code, expect.exit));
     }
+    // The expected lines appear in the order written (errors are sorted by position).
+    let mut from = 0;
     for s in &expect.substrings {
-        if !output.stderr.contains(s.as_str()) {
-            problems.push(format!("stderr does not contain the expected substring\n    expected: {s}"));
+        match output.stderr[from..].find(s.as_str()) {
+            Some(at) => from += at + s.len(),
+            None if output.stderr.contains(s.as_str()) => {
+                problems.push(format!("stderr has the expected substring out of order\n    expected: {s}"))
+            }
+            None => problems.push(format!("stderr does not contain the expected substring\n    expected: {s}")),
         }
     }
     if output.stderr.contains("panicked") {
@@ -172,4 +179,43 @@ fn all_problems_of_a_file_are_reported_together() {
         .assert_stderr_contains(":4:46: node \"exp\": field \"stops\": expected float")
         .assert_stderr_contains("2 errors in");
     assert!(files_under(&sandbox.out()).is_empty());
+}
+
+/// The README's block of example errors is what the binary prints for the `tests/bad/` files
+/// its marker names (`<!-- errors of tests/bad: a b c -->`, then a fenced block): the first
+/// `error:` line of each, in the marker's order, so the README cannot drift from the messages.
+#[test]
+fn the_readme_error_block_is_what_the_binary_prints() {
+    let readme = std::fs::read_to_string(Path::new(common::MANIFEST_DIR).join("README.md")).expect("README.md");
+    let mut lines = readme.lines();
+    let names: Vec<&str> = lines
+        .by_ref()
+        .find_map(|l| l.trim().strip_prefix("<!-- errors of tests/bad:").and_then(|r| r.strip_suffix("-->")))
+        .expect("the README has no `<!-- errors of tests/bad: ... -->` marker")
+        .split_whitespace()
+        .collect();
+    assert!(!names.is_empty(), "the README's error marker names no file");
+    assert!(lines.next().is_some_and(|l| l.starts_with("```")), "the error marker must be followed by a fenced block");
+    let written: Vec<&str> = lines.take_while(|l| !l.starts_with("```")).collect();
+    let printed: Vec<String> = names
+        .iter()
+        .map(|name| {
+            let sandbox = Sandbox::new();
+            let rel = format!("tests/bad/{name}.ron");
+            let report = sandbox.next_report();
+            let cmd = sandbox.run_command(Path::new(&rel), &sandbox.out(), &sandbox.cache(), &report, &[]);
+            let output = run_command(cmd, RUN_TIMEOUT);
+            output
+                .stderr
+                .lines()
+                .find(|l| l.starts_with("error:"))
+                .unwrap_or_else(|| panic!("{rel} printed no error line:\n{}", output.describe()))
+                .to_string()
+        })
+        .collect();
+    assert!(
+        written == printed,
+        "the README's error block is not what the binary prints; paste this block instead:\n```text\n{}\n```",
+        printed.join("\n")
+    );
 }
