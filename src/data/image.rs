@@ -89,16 +89,25 @@ impl Image {
         &mut self.data[i..i + self.channels]
     }
 
-    /// Pixel (x, y) as RGB: the first three channels; one channel is replicated to grey, and a
-    /// second channel (alpha) is ignored.
+    /// Pixel (x, y) as RGB: the first three channels; one channel is replicated to grey, as is
+    /// one with an alpha (`Y A`: the alpha is ignored); two colour channels (`R G`, e.g. a BRDF
+    /// table's scale and bias) are (R, G, 0).
     #[inline]
     pub fn rgb(&self, x: usize, y: usize) -> [f32; 3] {
         let p = self.pixel(x, y);
-        if self.channels < 3 {
-            [p[0], p[0], p[0]]
-        } else {
-            [p[0], p[1], p[2]]
+        match self.channels {
+            1 => [p[0], p[0], p[0]],
+            2 if self.names[1] == "A" => [p[0], p[0], p[0]],
+            2 => [p[0], p[1], 0.0],
+            _ => [p[0], p[1], p[2]],
         }
+    }
+
+    /// The index of the alpha channel that RGBA formats write: the channel named `A` that
+    /// [`Image::rgb`] does not already use.
+    pub fn alpha_index(&self) -> Option<usize> {
+        let a = self.channel_index("A")?;
+        (a >= 3 || (self.channels == 2 && a == 1)).then_some(a)
     }
 
     /// One row's samples (width * channels floats).

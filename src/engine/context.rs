@@ -46,9 +46,19 @@ pub struct OpContext<'a> {
     pub content_key: Option<&'a [u8]>,
     /// The names of this node's open ports that consumers use (see [`OpenPorts`]).
     pub wanted_ports: &'a [String],
+    /// What [`OpContext::warn`] collected; the scheduler reports each, prefixed by the node.
+    pub(crate) warnings: Vec<String>,
 }
 
 impl<'a> OpContext<'a> {
+    /// Something the user should know that does not stop the node (input read in a surprising
+    /// way, values clamped by a format): reported once, as `warning: node "NAME": MESSAGE`.
+    pub fn warn(&mut self, message: impl Into<String>) {
+        let message = message.into();
+        if !self.warnings.contains(&message) {
+            self.warnings.push(message);
+        }
+    }
     /// A path parameter resolved against the pipeline file's folder (`builtin:` names unchanged).
     pub fn path(&self, path: &str) -> PathBuf {
         resolve_path(self.base_dir, path)

@@ -723,8 +723,12 @@ fn execute<'s>(s: &'s Shared<'s>, scope: &rayon::Scope<'s>, i: usize) {
         base_dir: &s.p.base_dir,
         content_key: s.content[i].as_deref(),
         wanted_ports: &open_ports,
+        warnings: Vec::new(),
     };
     let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| (node.spec.eval)(&mut ctx)));
+    for w in std::mem::take(&mut ctx.warnings) {
+        obs.warning(&format!("node {:?}: {w}", node.name));
+    }
     drop(ctx); // the inputs: a value whose last consumer this was is freed here
     let outcome = match result {
         Ok(Ok(outputs)) => match_ports(s.p, i, outputs).map_err(|m| RunError::Contract {

@@ -560,7 +560,7 @@ fn decode_inner(bytes: &[u8], options: &DecodeOptions) -> Result<Image, FormatEr
             let y = full_plane(std::mem::take(&mut list[yi]), w, h)?;
             let (ry, by) = (plane(&mut list, ryi)?, plane(&mut list, byi)?);
             if ry.is_none() && by.is_none() {
-                interleave(&[Some(y), None, None, None])
+                interleave(&[Some(y), None, None, plane(&mut list, find("A"))?])
             } else {
                 // Full-resolution chroma (which `RgbaInputFile` refuses): `YCAtoRGBA` per pixel.
                 let yw = primaries.luminance_weights();

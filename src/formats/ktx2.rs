@@ -191,10 +191,10 @@ fn key_values(entries: &[(&str, &[u8])]) -> Vec<u8> {
     out
 }
 
-/// The RGBA values of an image's pixels (RGB: alpha 1; one channel: grey, alpha 1; a channel
-/// named `A` is the alpha).
+/// The RGBA values of an image's pixels: [`Image::rgb`](crate::data::Image::rgb) and the
+/// channel named `A` (alpha 1 without one).
 pub fn image_rgba(img: &crate::data::Image) -> Vec<f32> {
-    let alpha = if img.channels >= 4 { img.channel_index("A") } else { None };
+    let alpha = img.alpha_index();
     let mut out = Vec::with_capacity(img.pixel_count() * 4);
     for y in 0..img.height {
         for x in 0..img.width {

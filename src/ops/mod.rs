@@ -9,6 +9,7 @@
 pub mod ibl;
 pub mod image;
 pub mod io;
+pub mod latlong_input;
 pub mod lights;
 pub mod plotting;
 pub mod sampling;

@@ -92,7 +92,8 @@ pub fn encode_image(img: &Image, o: &SaveOptions) -> Result<Vec<u8>, String> {
         "png" => formats::png::encode(img, o.exposure).map_err(|e| e.0),
         "exr" => formats::exr::encode_with(img, &o.exr).map_err(|e| e.0),
         "hdr" | "pfm" => {
-            // RGBE and PFM hold RGB (PFM also grey): alpha and further channels are dropped.
+            // RGBE and PFM hold RGB (PFM also grey): alpha and further channels are dropped
+            // (`channels_not_kept` says which, and `Save` warns).
             let rgb = if img.channels > 3 || img.channels == 2 {
                 crate::data::Image::from_fn_rgb(img.width, img.height, |x, y| img.rgb(x, y))
             } else {
@@ -102,6 +103,41 @@ pub fn encode_image(img: &Image, o: &SaveOptions) -> Result<Vec<u8>, String> {
         }
         other => Err(format!("unsupported image extension .{other}")),
     }
+}
+
+/// What a file of extension `ext` does not keep of `img`'s channels, said for a warning: the
+/// channels it drops, or the zero channel it adds to two colour channels; `None` when every
+/// channel is kept as it is. PNG refuses 2 and 5+ channels (an error, so nothing to say here);
+/// EXR keeps every channel under its name.
+pub fn channels_not_kept(img: &Image, ext: &str) -> Option<String> {
+    let (kept_alpha, max_colour) = match ext {
+        "hdr" | "pfm" => (false, 3),
+        "ktx2" => (true, 3),
+        "png" if img.channels != 2 && img.channels <= 4 => return None,
+        _ => return None,
+    };
+    let alpha = img.alpha_index().filter(|_| kept_alpha);
+    let dropped: Vec<&str> = (0..img.channels)
+        .filter(|&c| c >= max_colour && Some(c) != alpha)
+        .chain((img.channels == 2 && img.names[1] == "A" && !kept_alpha).then_some(1))
+        .map(|c| img.names[c].as_str())
+        .collect();
+    let keeps = if kept_alpha { "RGBA" } else { "RGB" };
+    if !dropped.is_empty() {
+        return Some(format!(
+            ".{ext} holds {keeps}: channel{} {} of the {}-channel image {} dropped (.exr keeps every channel)",
+            if dropped.len() == 1 { "" } else { "s" },
+            dropped.join(", "),
+            img.channels,
+            if dropped.len() == 1 { "is" } else { "are" },
+        ));
+    }
+    (img.channels == 2 && img.names[1] != "A").then(|| {
+        format!(
+            ".{ext} holds {keeps}: the two channels {} and {} are written as R and G, with B = 0 (.exr keeps the two channels as they are)",
+            img.names[0], img.names[1]
+        )
+    })
 }
 
 #[cfg(test)]
@@ -126,5 +162,87 @@ mod tests {
         }
         let y = Value::new(Image::new(2, 2, 1));
         assert_eq!(y.value_type(), ValueType(&SCALAR_FIELD));
+    }
+
+    /// Every format against every channel count: a channel the file does not hold is always
+    /// announced by `channels_not_kept` (or the encoder refuses the image), so `Save` never
+    /// loses one silently.
+    #[test]
+    fn no_format_loses_a_channel_silently() {
+        use crate::data::image::default_names;
+        let values = [0.25f32, 0.5, 0.75, 0.125, 0.375];
+        let mut cases: Vec<Vec<String>> = (1..=5).map(default_names).collect();
+        cases.push(vec!["R".into(), "G".into()]);
+        cases.push(vec!["R".into(), "G".into(), "B".into(), "Z".into()]);
+        for names in cases {
+            let c = names.len();
+            let data: Vec<f32> = (0..4).flat_map(|_| values[..c].iter().copied()).collect();
+            let img = Image::with_names(2, 2, names.clone(), data);
+            for ext in ["exr", "hdr", "pfm", "png", "ktx2"] {
+                let o = SaveOptions {
+                    ext: ext.into(),
+                    exposure: 0.0,
+                    plot_size: (1, 1),
+                    ktx_format: formats::ktx2::KtxFormat::Rgba32f,
+                    exr: Default::default(),
+                };
+                let stored: Vec<f32> = match ext {
+                    "ktx2" => formats::ktx2::image_rgba(&img)[..4].to_vec(),
+                    _ => match save(&Value::new(img.clone()), &o) {
+                        Ok(bytes) if ext == "png" => {
+                            // 8-bit: each byte read back both as sRGB colour and as linear alpha.
+                            let png = ::image::load_from_memory(&bytes).expect("decodes");
+                            let n = png.color().channel_count() as usize;
+                            png.as_bytes()[..n]
+                                .iter()
+                                .flat_map(|&b| {
+                                    let v = b as f32 / 255.0;
+                                    let srgb = if v <= 0.04045 { v / 12.92 } else { ((v + 0.055) / 1.055).powf(2.4) };
+                                    [srgb, v]
+                                })
+                                .collect()
+                        }
+                        Ok(bytes) if ext == "exr" => {
+                            // Every channel as stored (hdrflow's reader wants a colour channel).
+                            use ::exr::prelude::*;
+                            let file = read()
+                                .no_deep_data()
+                                .largest_resolution_level()
+                                .all_channels()
+                                .all_layers()
+                                .all_attributes()
+                                .from_buffered(std::io::Cursor::new(bytes))
+                                .expect("decodes");
+                            file.layer_data[0]
+                                .channel_data
+                                .list
+                                .iter()
+                                .map(|ch| ch.sample_data.value_by_flat_index(0).to_f32())
+                                .collect()
+                        }
+                        Ok(bytes) => formats::decode_by_extension(&bytes, ext).expect("decodes").pixel(0, 0).to_vec(),
+                        Err(_) => {
+                            assert!(ext == "png" && (c == 2 || c == 5), "{ext} refused {names:?}");
+                            continue;
+                        }
+                    },
+                };
+                let tol = if ext == "hdr" || ext == "png" { 0.02 } else { 1e-6 };
+                let lost: Vec<&String> = (0..c)
+                    .filter(|&k| !stored.iter().any(|s| (s - values[k]).abs() <= tol * values[k]))
+                    .map(|k| &names[k])
+                    .collect();
+                let note = channels_not_kept(&img, ext);
+                if !lost.is_empty() {
+                    let note = note.as_deref().unwrap_or_else(|| panic!(".{ext} loses {lost:?} of {names:?} silently"));
+                    for n in &lost {
+                        assert!(note.contains(n.as_str()), ".{ext} {names:?}: {note:?} does not name {n}");
+                    }
+                }
+                if c == 2 && names[1] != "A" && ext != "exr" && ext != "png" {
+                    assert!(note.is_some_and(|n| n.contains("B = 0")), ".{ext} {names:?}: the zero B is not said");
+                }
+            }
+        }
     }
 }

@@ -56,13 +56,13 @@ pub fn spec() -> OpSpec {
     .eval(eval)
 }
 
-fn eval(_: &mut OpContext, p: IrradianceCubemapParams) -> Result<Outputs, OpError> {
+fn eval(ctx: &mut OpContext, p: IrradianceCubemapParams) -> Result<Outputs, OpError> {
     let (texels, coeffs) = if let Some(c) = p.env.value().get::<Cubemap>() {
         super::check_cube_finite(c)?;
         let coeffs = (p.method == IrradianceMethod::Sh).then(|| project_cube(c, p.order));
         (Texels::from_cube(c), coeffs)
     } else {
-        let img = super::env_image(&p.env)?;
+        let img = super::env_image(ctx, &p.env)?;
         crate::ops::shading::reference_sphere::check_finite(img)?;
         let coeffs = (p.method == IrradianceMethod::Sh).then(|| project_latlong(img, p.order));
         (Texels::from_latlong(img), coeffs)

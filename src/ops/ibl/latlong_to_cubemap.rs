@@ -12,6 +12,7 @@ use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
 use crate::engine::value::Value;
 use crate::maths::resample::{to_cube, LatLongSource};
+use crate::ops::latlong_input::warn_unless_latlong;
 use crate::types::ty::*;
 
 crate::params! {
@@ -38,7 +39,8 @@ pub fn spec() -> OpSpec {
     .eval(eval)
 }
 
-fn eval(_: &mut OpContext, p: LatLongToCubemapParams) -> Result<Value, OpError> {
+fn eval(ctx: &mut OpContext, p: LatLongToCubemapParams) -> Result<Value, OpError> {
+    warn_unless_latlong(ctx, "image", p.image.width, p.image.height);
     let img = &*p.image;
     crate::ops::shading::reference_sphere::check_finite(img)?;
     Ok(Value::new(to_cube(&LatLongSource::new(img), p.size)))

@@ -10,6 +10,7 @@ use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
 use crate::engine::value::Value;
 use crate::maths::resample::{to_octahedral, LatLongSource};
+use crate::ops::latlong_input::warn_unless_latlong;
 use crate::types::ty::*;
 
 crate::params! {
@@ -36,7 +37,8 @@ pub fn spec() -> OpSpec {
     .eval(eval)
 }
 
-fn eval(_: &mut OpContext, p: LatLongToOctahedralParams) -> Result<Value, OpError> {
+fn eval(ctx: &mut OpContext, p: LatLongToOctahedralParams) -> Result<Value, OpError> {
+    warn_unless_latlong(ctx, "image", p.image.width, p.image.height);
     let img = &*p.image;
     crate::ops::shading::reference_sphere::check_finite(img)?;
     Ok(Value::new(to_octahedral(&LatLongSource::new(img), p.size)))

@@ -13,9 +13,10 @@ pub mod prefilter_specular;
 
 use crate::data::{Cubemap, Image};
 use crate::engine::fields::{AnyValue, Input};
-use crate::engine::op::OpError;
+use crate::engine::op::{OpContext, OpError};
 use crate::engine::registry::Registry;
 use crate::maths::resample::{to_cube, CubeSource, LatLongSource};
+use crate::ops::latlong_input::warn_unless_latlong;
 
 /// Declares the parameters of an operator that makes a lat-long map (`CubemapToLatLong`,
 /// `OctahedralToLatLong`): the operator's input fields (given in the braces, first, so that
@@ -69,23 +70,25 @@ pub(crate) fn check_cube_finite(c: &Cubemap) -> Result<(), OpError> {
 /// The `env` input (a lat-long image or a cube map) as a cube map of face size `size`: a cube of
 /// that size as it is, anything else resampled (energy-preserving). Non-finite texels are an
 /// error.
-pub(crate) fn env_cube(env: &Input<AnyValue>, size: usize) -> Result<Cubemap, OpError> {
+pub(crate) fn env_cube(ctx: &mut OpContext, env: &Input<AnyValue>, size: usize) -> Result<Cubemap, OpError> {
     if let Some(c) = env.value().get::<Cubemap>() {
         check_cube_finite(c)?;
         return Ok(if c.size == size { c.clone() } else { to_cube(&CubeSource::new(c), size) });
     }
-    let img = env_image(env)?;
+    let img = env_image(ctx, env)?;
     crate::ops::shading::reference_sphere::check_finite(img)?;
     Ok(to_cube(&LatLongSource::new(img), size))
 }
 
 /// The `env` input as a lat-long image, when it is not a cube map (validation accepts only these
-/// two types, so anything else is a bug in a declaration).
-pub(crate) fn env_image(env: &Input<AnyValue>) -> Result<&Image, OpError> {
-    env.value().get::<Image>().ok_or_else(|| {
+/// two types, so anything else is a bug in a declaration); warns when it is not 2:1.
+pub(crate) fn env_image<'v>(ctx: &mut OpContext, env: &'v Input<AnyValue>) -> Result<&'v Image, OpError> {
+    let img = env.value().get::<Image>().ok_or_else(|| {
         OpError::Invalid(format!(
             "input \"env\" is a {}, neither a lat-long image nor a cube map (a bug in its declaration)",
             env.value_type()
         ))
-    })
+    })?;
+    warn_unless_latlong(ctx, "env", img.width, img.height);
+    Ok(img)
 }

@@ -66,8 +66,8 @@ pub fn spec() -> OpSpec {
     .eval(eval)
 }
 
-fn eval(_: &mut OpContext, p: PrefilterSpecularParams) -> Result<Value, OpError> {
+fn eval(ctx: &mut OpContext, p: PrefilterSpecularParams) -> Result<Value, OpError> {
     let SpecularBrdf::Ggx = p.brdf;
-    let src = super::env_cube(&p.env, p.size)?;
+    let src = super::env_cube(ctx, &p.env, p.size)?;
     Ok(Value::new(prefilter(&src, p.levels, p.samples, p.sequence, p.exact)))
 }

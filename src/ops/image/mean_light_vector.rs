@@ -23,6 +23,7 @@ use crate::engine::fields::Input;
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
 use crate::engine::value::Value;
 use crate::geometry::latlong;
+use crate::ops::latlong_input::warn_unless_latlong;
 use crate::ops::shading::reference_sphere::check_finite;
 use crate::types::ty::*;
 
@@ -78,7 +79,8 @@ pub fn mean_light_vector(img: &Image) -> Result<[f64; 3], String> {
     Ok((v / s).to_array())
 }
 
-fn eval(_: &mut OpContext, p: MeanLightVectorParams) -> Result<Value, OpError> {
+fn eval(ctx: &mut OpContext, p: MeanLightVectorParams) -> Result<Value, OpError> {
+    warn_unless_latlong(ctx, "image", p.image.width, p.image.height);
     check_finite(&p.image)?;
     let [x, y, z] = mean_light_vector(&p.image).map_err(OpError::Invalid)?;
     let length = DVec3::new(x, y, z).length();

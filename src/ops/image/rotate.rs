@@ -12,6 +12,7 @@ use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec};
 use crate::engine::value::Value;
 use crate::maths::resample::{to_cube, CubeSource};
 use crate::maths::rotation::{rotate_latlong, Rotated, Rotation};
+use crate::ops::latlong_input::warn_unless_latlong;
 use crate::types::ty::*;
 
 crate::params! {
@@ -58,10 +59,11 @@ fn check(_: &CheckContext, p: RotateParams<Check>) -> Result<(), CheckProblem> {
     p.rotation().map(|_| ())
 }
 
-fn eval(_: &mut OpContext, p: RotateParams) -> Result<Value, OpError> {
+fn eval(ctx: &mut OpContext, p: RotateParams) -> Result<Value, OpError> {
     let r = p.rotation().map_err(|e| OpError::Invalid(e.message))?;
     let v = p.image.value();
     if let Some(img) = v.get::<Image>() {
+        warn_unless_latlong(ctx, "image", img.width, img.height);
         return Ok(Value::new(rotate_latlong(img, r)));
     }
     if let Some(cube) = v.get::<Cubemap>() {

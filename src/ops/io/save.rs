@@ -22,6 +22,7 @@ use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec, 
 use crate::engine::params::OutputPath;
 use crate::engine::value::{FileBlob, SaveOptions, Value, ValueType, FILE};
 use crate::formats::ktx2::KtxFormat;
+use crate::types::image::channels_not_kept;
 
 crate::params! {
     pub struct SaveParams {
@@ -92,9 +93,28 @@ fn check(_: &CheckContext, p: SaveParams<Check>) -> Result<(), CheckProblem> {
     Ok(())
 }
 
-fn eval(_: &mut OpContext, p: SaveParams) -> Result<Value, OpError> {
+fn eval(ctx: &mut OpContext, p: SaveParams) -> Result<Value, OpError> {
     let rel_path = p.path.0.clone();
     let value = p.input.value();
+    let ext = p.path.extension();
+    if let Some(note) = value.get::<Image>().and_then(|img| channels_not_kept(img, &ext)) {
+        ctx.warn(format!("{rel_path}: {note}"));
+    }
+    let half = match ext.as_str() {
+        "ktx2" if p.ktx_format == KtxFormat::Rgba16f => Some("are clamped to +-65504 (ktx_format: Rgba32f keeps them)"),
+        "exr" if p.half => Some("become infinite (half: false keeps them)"),
+        _ => None,
+    };
+    if let Some(fate) = half {
+        let (count, brightest) = beyond_half(value);
+        if count > 0 {
+            ctx.warn(format!(
+                "{rel_path}: {count} texel{} exceed{} the half-float maximum 65504 (the largest: {brightest}) and {fate}",
+                if count == 1 { "" } else { "s" },
+                if count == 1 { "s" } else { "" },
+            ));
+        }
+    }
     let fail = |m: String| OpError::Invalid(format!("encoding {rel_path}: {m}"));
     let save =
         value.value_type().spec().save.ok_or_else(|| fail(format!("a {} cannot be saved", value.value_type())))?;
@@ -113,7 +133,7 @@ fn eval(_: &mut OpContext, p: SaveParams) -> Result<Value, OpError> {
         }
     }
     let options = SaveOptions {
-        ext: p.path.extension(),
+        ext,
         exposure,
         plot_size: (p.plot_size[0] as u32, p.plot_size[1] as u32),
         ktx_format: p.ktx_format,
@@ -126,6 +146,32 @@ fn eval(_: &mut OpContext, p: SaveParams) -> Result<Value, OpError> {
     }
     let bytes = save(value, &options).map_err(fail)?;
     Ok(Value::new(FileBlob::new(rel_path, bytes)))
+}
+
+/// How many texels of an image, cube map or mip chain have a channel beyond the half-float
+/// range (|v| > 65504, infinities included), and the largest such magnitude.
+fn beyond_half(value: &Value) -> (usize, f32) {
+    let count = |data: &[f32], channels: usize| {
+        data.chunks_exact(channels.max(1)).fold((0, 0.0f32), |(n, top), t| {
+            let m = t.iter().fold(0.0f32, |m, v| m.max(v.abs()));
+            if m > 65504.0 {
+                (n + 1, top.max(m))
+            } else {
+                (n, top)
+            }
+        })
+    };
+    let sum =
+        |parts: &mut dyn Iterator<Item = (usize, f32)>| parts.fold((0, 0.0f32), |(n, t), (k, m)| (n + k, t.max(m)));
+    if let Some(img) = value.get::<Image>() {
+        count(&img.data, img.channels)
+    } else if let Some(c) = value.get::<crate::data::Cubemap>() {
+        count(&c.data, 3)
+    } else if let Some(chain) = value.get::<crate::data::MipChain>() {
+        sum(&mut chain.levels.iter().map(|c| count(&c.data, 3)))
+    } else {
+        (0, 0.0)
+    }
 }
 
 /// The stops that bring the 99.5th percentile of the non-black pixels' max channel to 1.0.

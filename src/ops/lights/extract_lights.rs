@@ -25,6 +25,7 @@ use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Outputs};
 use crate::engine::value::Value;
 use crate::maths::lights::extract_lights;
+use crate::ops::latlong_input::warn_unless_latlong;
 use crate::ops::shading::reference_sphere::check_finite;
 use crate::types::ty::*;
 
@@ -60,7 +61,8 @@ pub fn spec() -> OpSpec {
     .eval(eval)
 }
 
-fn eval(_: &mut OpContext, p: ExtractLightsParams) -> Result<Outputs, OpError> {
+fn eval(ctx: &mut OpContext, p: ExtractLightsParams) -> Result<Outputs, OpError> {
+    warn_unless_latlong(ctx, "env", p.env.width, p.env.height);
     let env = &*p.env;
     check_finite(env)?;
     let e = extract_lights(env, p.max_lights, p.threshold_stops);

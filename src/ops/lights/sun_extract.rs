@@ -23,6 +23,7 @@ use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Outputs};
 use crate::engine::value::Value;
 use crate::maths::sun::extract_sun;
+use crate::ops::latlong_input::warn_unless_latlong;
 use crate::ops::shading::reference_sphere::check_finite;
 use crate::types::ty::*;
 
@@ -50,7 +51,8 @@ pub fn spec() -> OpSpec {
     .eval(eval)
 }
 
-fn eval(_: &mut OpContext, p: SunExtractParams) -> Result<Outputs, OpError> {
+fn eval(ctx: &mut OpContext, p: SunExtractParams) -> Result<Outputs, OpError> {
+    warn_unless_latlong(ctx, "env", p.env.width, p.env.height);
     let env = &*p.env;
     check_finite(env)?;
     let s = extract_sun(env, p.threshold_stops);

@@ -7,6 +7,7 @@ use crate::data::Image;
 use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
 use crate::engine::value::Value;
+use crate::ops::latlong_input::warn_unless_latlong;
 use crate::types::ty::*;
 
 crate::params! {
@@ -34,7 +35,8 @@ pub fn spec() -> OpSpec {
     .eval(eval)
 }
 
-fn eval(_: &mut OpContext, p: BuildCdfParams) -> Result<Value, OpError> {
+fn eval(ctx: &mut OpContext, p: BuildCdfParams) -> Result<Value, OpError> {
+    warn_unless_latlong(ctx, "luminance", p.luminance.width, p.luminance.height);
     let dist =
         Distribution2D::build(&p.luminance, p.sin_theta, p.sanitize).map_err(|e| OpError::Invalid(e.to_string()))?;
     Ok(Value::new(dist))

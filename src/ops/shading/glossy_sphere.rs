@@ -24,6 +24,7 @@ use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
 use crate::engine::params::Rgb;
 use crate::engine::value::Value;
 use crate::maths::glossy::{glossy_sphere, GlossyBrdf, GlossyStrategy, Heuristic};
+use crate::ops::latlong_input::warn_unless_latlong;
 use crate::types::ty::*;
 
 super::glossy_params! {
@@ -61,7 +62,8 @@ pub fn spec() -> OpSpec {
     .eval(eval)
 }
 
-fn eval(_: &mut OpContext, p: GlossySphereParams) -> Result<Value, OpError> {
+fn eval(ctx: &mut OpContext, p: GlossySphereParams) -> Result<Value, OpError> {
+    warn_unless_latlong(ctx, "env", p.env.width, p.env.height);
     let (env, dist) = (&*p.env, &*p.cdf);
     // A NaN or infinite texel would make NaN pixels wherever a sample lands on it.
     super::reference_sphere::check_finite(env)?;

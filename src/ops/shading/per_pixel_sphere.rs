@@ -32,6 +32,7 @@ use crate::maths::glossy::Heuristic;
 use crate::maths::per_pixel::{
     relight_per_pixel_with, PerPixelOptions, PerPixelSequence, PerPixelStrategy, PerPixelWarp,
 };
+use crate::ops::latlong_input::warn_unless_latlong;
 use crate::types::ty::*;
 
 super::sphere_params! {
@@ -74,7 +75,8 @@ pub fn spec() -> OpSpec {
     .eval(eval)
 }
 
-fn eval(_: &mut OpContext, p: PerPixelParams) -> Result<Value, OpError> {
+fn eval(ctx: &mut OpContext, p: PerPixelParams) -> Result<Value, OpError> {
+    warn_unless_latlong(ctx, "env", p.env.width, p.env.height);
     let (env, dist) = (&*p.env, &*p.cdf);
     if (dist.width, dist.height) != (env.width, env.height) {
         return Err(OpError::Invalid(format!(

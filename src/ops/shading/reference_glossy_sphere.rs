@@ -15,6 +15,7 @@ use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
 use crate::engine::params::Rgb;
 use crate::engine::value::Value;
 use crate::maths::glossy::{reference_glossy_sphere, GlossyBrdf};
+use crate::ops::latlong_input::warn_unless_latlong;
 use crate::ops::shading::reference_sphere::check_finite;
 use crate::types::ty::*;
 
@@ -39,7 +40,8 @@ pub fn spec() -> OpSpec {
     .eval(eval)
 }
 
-fn eval(_: &mut OpContext, p: ReferenceGlossyParams) -> Result<Value, OpError> {
+fn eval(ctx: &mut OpContext, p: ReferenceGlossyParams) -> Result<Value, OpError> {
+    warn_unless_latlong(ctx, "env", p.env.width, p.env.height);
     let env = &*p.env;
     check_finite(env)?;
     let brdf = GlossyBrdf { diffuse: p.diffuse.0, specular: p.specular.0, exponent: p.exponent };

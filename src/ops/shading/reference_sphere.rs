@@ -15,6 +15,7 @@ use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Persist};
 use crate::engine::params::Rgb;
 use crate::engine::value::Value;
 use crate::maths::reference::{first_non_finite, reference_sphere};
+use crate::ops::latlong_input::warn_unless_latlong;
 use crate::types::ty::*;
 
 super::sphere_params! {
@@ -50,7 +51,8 @@ pub(crate) fn check_finite(env: &crate::data::Image) -> Result<(), OpError> {
     }
 }
 
-fn eval(_: &mut OpContext, p: ReferenceParams) -> Result<Value, OpError> {
+fn eval(ctx: &mut OpContext, p: ReferenceParams) -> Result<Value, OpError> {
+    warn_unless_latlong(ctx, "env", p.env.width, p.env.height);
     let env = &*p.env;
     check_finite(env)?;
     Ok(Value::new(reference_sphere(env, &sphere_view(p.size, p.view), p.albedo.0)))

@@ -28,6 +28,7 @@ use crate::engine::value::Value;
 use crate::geometry::latlong;
 use crate::maths::colour::rec709_luminance as rec709;
 use crate::maths::relight::{merge_duplicates, relight, Estimator, LightSample, SphereView};
+use crate::ops::latlong_input::warn_unless_latlong;
 use crate::types::ty::*;
 
 super::sphere_params! {
@@ -69,7 +70,8 @@ pub fn luminance_integral(env: &Image) -> f64 {
         .sum()
 }
 
-fn eval(_: &mut OpContext, p: RelightParams) -> Result<Value, OpError> {
+fn eval(ctx: &mut OpContext, p: RelightParams) -> Result<Value, OpError> {
+    warn_unless_latlong(ctx, "env", p.env.width, p.env.height);
     let estimator = p.estimator;
     let view = sphere_view(p.size, p.view);
     let image = relight_shared(&p.env, &p.samples, p.size, p.albedo.0, view.view_dir(), estimator)?;

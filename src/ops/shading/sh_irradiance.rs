@@ -25,6 +25,7 @@ use crate::engine::fields::Input;
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Outputs};
 use crate::engine::value::Value;
 use crate::maths::sh::{coefficient_name, project, sh_lm};
+use crate::ops::latlong_input::warn_unless_latlong;
 use crate::types::ty::*;
 
 crate::params! {
@@ -57,7 +58,8 @@ pub fn spec() -> OpSpec {
     .eval(eval)
 }
 
-fn eval(_: &mut OpContext, p: ShIrradianceParams) -> Result<Outputs, OpError> {
+fn eval(ctx: &mut OpContext, p: ShIrradianceParams) -> Result<Outputs, OpError> {
+    warn_unless_latlong(ctx, "env", p.env.width, p.env.height);
     let env = &*p.env;
     check_finite(env)?;
     let rgb = project(env, p.order, p.frame);

@@ -14,6 +14,7 @@ use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
 use crate::engine::params::Rgb;
 use crate::engine::value::Value;
 use crate::maths::sh::sh_sphere;
+use crate::ops::latlong_input::warn_unless_latlong;
 use crate::types::ty::*;
 
 super::sphere_params! {
@@ -41,7 +42,8 @@ pub fn spec() -> OpSpec {
     .eval(eval)
 }
 
-fn eval(_: &mut OpContext, p: ShSphereParams) -> Result<Value, OpError> {
+fn eval(ctx: &mut OpContext, p: ShSphereParams) -> Result<Value, OpError> {
+    warn_unless_latlong(ctx, "env", p.env.width, p.env.height);
     let env = &*p.env;
     check_finite(env)?;
     Ok(Value::new(sh_sphere(env, &sphere_view(p.size, p.view), p.albedo.0, p.order)))
