@@ -135,3 +135,71 @@ fn print_and_target_take_node_dot_port() {
     assert_eq!(bad.code, Some(2), "{}", bad.describe());
     assert!(bad.stderr.contains("unknown target node \"sun.nope\""), "{}", bad.stderr);
 }
+
+/// Issue 25.8: `--out` naming a file is a usage error (exit 2) found before anything runs.
+#[test]
+fn out_naming_an_existing_file_is_a_usage_error() {
+    let sb = Sandbox::new();
+    let file = sb.write("not_a_folder", "x");
+    let cache = arg(&sb.cache());
+    let run = run_hdrflow(["run", "graphs/example.ron", "--out", &arg(&file), "--cache-dir", &cache]);
+    run.assert_code(2).assert_stderr_contains("is a file; --out names the folder");
+    assert!(files_under(&sb.cache()).is_empty(), "nothing ran: {:?}", files_under(&sb.cache()));
+}
+
+/// Issue 25.8: `plan`'s columns line up whatever the length of the node names.
+#[test]
+fn plan_columns_line_up_past_long_node_names() {
+    let sb = Sandbox::new();
+    let graph = sb.write(
+        "long.ron",
+        r#"(
+    nodes: {
+        "a_node_name_well_past_twenty_four_characters": LoadHdr(path: "builtin:sky"),
+        "b": Luminance(image: "a_node_name_well_past_twenty_four_characters"),
+    },
+)"#,
+    );
+    let plan = run_hdrflow(["plan", &arg(&graph), "--cache-dir", &arg(&sb.cache())]);
+    plan.assert_success();
+    let rows: Vec<&str> = plan.stdout.lines().take(3).collect();
+    let column = |row: &str, word: &str| row.find(word).unwrap_or_else(|| panic!("{word} not in {row:?}"));
+    let op = column(rows[0], "operator");
+    assert_eq!(column(rows[1], "LoadHdr"), op, "{}", plan.stdout);
+    assert_eq!(column(rows[2], "Luminance"), op, "{}", plan.stdout);
+    let status = column(rows[0], "plan");
+    assert_eq!(column(rows[1], "computed"), status, "{}", plan.stdout);
+}
+
+/// Issue 25.8: `--print` of a distribution says what a user wants to know about it.
+#[test]
+fn print_of_a_distribution_gives_its_size_total_and_brightest_texel() {
+    let sb = Sandbox::new();
+    let graph = sb.write(
+        "cdf.ron",
+        r#"(
+    nodes: {
+        "env": LoadHdr(path: "builtin:sky"),
+        "lum": Luminance(image: "env"),
+        "cdf": BuildCdf(luminance: "lum"),
+    },
+)"#,
+    );
+    let run = run_hdrflow([
+        "run",
+        &arg(&graph),
+        "--out",
+        &arg(&sb.out()),
+        "--cache-dir",
+        &arg(&sb.cache()),
+        "--print",
+        "cdf",
+    ]);
+    run.assert_success();
+    let line = run.stdout.lines().find(|l| l.starts_with("cdf: ")).unwrap_or_else(|| panic!("{}", run.describe()));
+    for part in
+        ["distribution over luminance x sin(theta)", "luminance integral ", "brightest texel (", "% of the samples"]
+    {
+        assert!(line.contains(part), "{part:?} not in {line}");
+    }
+}

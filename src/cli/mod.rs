@@ -368,12 +368,15 @@ fn plan(registry: &Registry, args: &RunArgs) -> ExitCode {
     let cache = cache_of(args);
     match scheduler::plan(&p, &args.targets, cache.as_ref()) {
         Ok(plan) => {
-            outln!("{:<24} {:<18} {:<11} {:<16} outputs", "node", "operator", "plan", "key");
+            // Columns as wide as their longest entry, so long node names do not shift the rest.
+            let name_w = p.nodes.iter().map(|n| n.name.chars().count()).chain([4]).max().unwrap_or(4);
+            let op_w = p.nodes.iter().map(|n| n.spec.name.len()).chain([8]).max().unwrap_or(8);
+            outln!("{:<name_w$} {:<op_w$} {:<11} {:<16} outputs", "node", "operator", "plan", "key");
             for (i, n) in p.nodes.iter().enumerate() {
                 let key = plan.keys[i].map(|k| crate::engine::cache::key_hex(&k)[..16].to_string()).unwrap_or_default();
                 let ports: Vec<String> = n.ports.iter().map(|p| format!("{}: {}", p.name, p.ty)).collect();
                 outln!(
-                    "{:<24} {:<18} {:<11} {:<16} {}",
+                    "{:<name_w$} {:<op_w$} {:<11} {:<16} {}",
                     n.name,
                     n.spec.name,
                     plan.status[i].word(),
@@ -406,6 +409,11 @@ fn run_error_code(e: &crate::engine::error::RunError) -> u8 {
 }
 
 fn run(registry: &Registry, args: &RunArgs) -> ExitCode {
+    // A usage error, found before the pipeline is even read.
+    if args.out.exists() && !args.out.is_dir() {
+        eprintln!("error: --out {}: is a file; --out names the folder results are written into", args.out.display());
+        return ExitCode::from(2);
+    }
     let p = match load(registry, &args.graph) {
         Ok(p) => p,
         Err(code) => return code,

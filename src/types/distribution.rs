@@ -28,6 +28,41 @@ impl ValueData for Distribution2D {
     fn approx_bytes(&self) -> usize {
         Distribution2D::approx_bytes(self)
     }
+    /// What `--print cdf` shows: the size, the light it carries, and its brightest texel (where
+    /// it is and what share of the samples it draws: `P(x, y) = P(row y) P(x | y)`).
+    fn summary(&self) -> String {
+        let (w, h) = (self.width, self.height);
+        let weighting = if self.sin_theta { "luminance x sin(theta)" } else { "luminance" };
+        if !self.carries_light {
+            return format!("a {w} x {h} distribution carrying no light: uniform over solid angle");
+        }
+        let (mut best, mut at) = (0.0f64, (0, 0));
+        for y in 0..h {
+            let row = self.marginal_cdf[y + 1] - self.marginal_cdf[y];
+            let cdf = &self.conditional_cdf[y * (w + 1)..(y + 1) * (w + 1)];
+            for x in 0..w {
+                let p = row * (cdf[x + 1] - cdf[x]);
+                if p > best {
+                    (best, at) = (p, (x, y));
+                }
+            }
+        }
+        let (x, y) = at;
+        let d = crate::geometry::latlong::texel_direction(x, y, w, h);
+        format!(
+            "a {w} x {h} distribution over {weighting}; luminance integral {:.6e} (over the sphere, in sr); \
+             brightest texel ({x}, {y}), direction ({:.4}, {:.4}, {:.4}) (theta {:.2} deg, phi {:.2} deg), \
+             draws {:.3}% of the samples ({:.1}x a uniform texel's)",
+            self.luminance_integral,
+            d[0],
+            d[1],
+            d[2],
+            crate::geometry::latlong::theta_of_row(y, h).to_degrees(),
+            crate::geometry::latlong::phi_of_column(x, w).to_degrees(),
+            100.0 * best,
+            best * (w * h) as f64,
+        )
+    }
     fn encode(&self, out: &mut Vec<u8>) {
         let mut w = Writer(out);
         w.u64(self.width as u64);
