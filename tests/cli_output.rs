@@ -203,3 +203,23 @@ fn print_of_a_distribution_gives_its_size_total_and_brightest_texel() {
         assert!(line.contains(part), "{part:?} not in {line}");
     }
 }
+
+/// Issue 25.5: a filled cache that cannot be written (here: its lease folder is a file, as
+/// root ignores permission bits) is still read: the second run computes nothing, stores
+/// nothing, and says once why.
+#[test]
+fn a_cache_that_cannot_be_written_is_still_read() {
+    let sb = Sandbox::new();
+    let graph = sb.write("metrics.ron", METRICS_GRAPH);
+    let (out, cache) = (arg(&sb.out()), arg(&sb.cache()));
+    let base = ["run", &arg(&graph), "--out", &out, "--cache-dir", &cache];
+    run_hdrflow(base).assert_success();
+    let live = sb.cache().join("v1/live");
+    std::fs::remove_dir_all(&live).expect("the lease folder exists after a run");
+    std::fs::write(&live, "not a folder").unwrap();
+    let before = files_under(&sb.cache());
+    let warm = run_hdrflow(base);
+    warm.assert_success().assert_stderr_contains("reading the cache at").assert_stderr_contains("but storing nothing");
+    assert!(warm.stdout.contains(" 0 computed,"), "every result came from the read-only cache:\n{}", warm.describe());
+    assert_eq!(files_under(&sb.cache()), before, "nothing was stored");
+}

@@ -984,7 +984,8 @@ fn out_naming_a_regular_file_fails_before_anything_is_computed() {
     let out = sb.write("not-a-folder", "precious");
     let report = sb.join("report.json");
     let o = common::run_command(sb.run_command(&graph, &out, &sb.cache(), &report, &[]), RUN_TIMEOUT);
-    o.assert_code(1).assert_stderr_contains(&format!("output folder {}: it exists and is not a folder", out.display()));
+    // A usage error (issue 25.8).
+    o.assert_code(2).assert_stderr_contains(&format!("--out {}: is a file; --out names the folder", out.display()));
     assert!(!o.stderr.contains("computed"), "something was computed:\n{}", o.describe());
     assert!(!report.exists(), "a failed run wrote its report");
     assert_eq!(files_under(&sb.cache()), Vec::<std::path::PathBuf>::new(), "the cache received entries");

@@ -461,17 +461,21 @@ fn run_in_pool(p: &Pipeline, options: &RunOptions) -> Result<RunOutcome, RunErro
     let n = p.nodes.len();
 
     // The run's lease on the cache (pruning by other processes spares what it uses) is also the
-    // check that the folder is usable: if it cannot be taken, one warning, and the run goes on
-    // without the cache.
-    let (cache, _lease) = match options.cache.as_ref().map(|c| (c, c.lease())) {
-        Some((c, Ok(lease))) => (Some(c), Some(lease)),
+    // check that the folder can be written: if it cannot be taken, one warning, and the run
+    // reads the cache (a shared, read-only cache still serves its entries) but stores nothing.
+    let (cache, _lease, read_only) = match options.cache.as_ref().map(|c| (c, c.lease())) {
+        Some((c, Ok(lease))) => (Some(c), Some(lease), false),
+        Some((c, Err(e))) if c.root().is_dir() => {
+            obs.warning(&format!("{e}; reading the cache at {} but storing nothing in it", c.root().display()));
+            (Some(c), None, true)
+        }
         Some((_, Err(e))) => {
             obs.warning(&format!("{e}; running without the cache"));
-            (None, None)
+            (None, None, false)
         }
-        None => (None, None),
+        None => (None, None, false),
     };
-    let cache_failed = AtomicBool::new(false);
+    let cache_failed = AtomicBool::new(read_only);
     let limit_warned = AtomicBool::new(false);
 
     let slots: Vec<Vec<Slot>> = p
