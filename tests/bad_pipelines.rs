@@ -19,6 +19,7 @@ use common::{files_under, run_command, Sandbox, RUN_TIMEOUT};
 
 /// One error kind per file; the list guards against a file being lost or renamed.
 const EXPECTED_FILES: &[&str] = &[
+    "channel_mismatch.ron",
     "cycle.ron",
     "duplicate_node.ron",
     "duplicate_output.ron",

@@ -27,6 +27,21 @@ pub fn check_same_size(a: &'static str, a_shape: Shape, b: &'static str, b_shape
         _ => Ok(()),
     }
 }
+
+/// [`check_same_size`], and the same value type (a one-channel scalar field against a colour
+/// image is found before running, from the producers' declared outputs).
+pub fn check_same_shape(a: &'static str, a_shape: Shape, b: &'static str, b_shape: Shape) -> Result<(), CheckProblem> {
+    if a_shape.ty != b_shape.ty {
+        return Err(CheckProblem::at(
+            b,
+            format!(
+                "{b:?} gives {} but {a:?} gives {}: they must have the same channels (Luminance makes a scalar field of an image)",
+                b_shape.ty, a_shape.ty
+            ),
+        ));
+    }
+    check_same_size(a, a_shape, b, b_shape)
+}
 pub use crate::engine::cache::Persist;
 use crate::engine::value::{Value, ValueType};
 

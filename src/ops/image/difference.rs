@@ -35,7 +35,7 @@ use rayon::prelude::*;
 use crate::data::{Image, Metrics};
 use crate::engine::fields::{Check, Input};
 use crate::engine::op::{
-    check_same_size, CheckContext, CheckProblem, OpContext, OpError, OpSpec, OutputType, Outputs, Persist,
+    check_same_shape, CheckContext, CheckProblem, OpContext, OpError, OpSpec, OutputType, Outputs, Persist,
 };
 use crate::engine::value::Value;
 use crate::types::ty::*;
@@ -77,7 +77,7 @@ pub fn spec() -> OpSpec {
 
 /// `a` and `b`, when both sizes are known before running, must be equal.
 fn check(_: &CheckContext, p: DifferenceParams<Check>) -> Result<(), CheckProblem> {
-    check_same_size("a", p.a, "b", p.b)
+    check_same_shape("a", p.a, "b", p.b)
 }
 
 /// The per-pixel error d as a scalar field named `E`.

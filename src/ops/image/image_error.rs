@@ -10,7 +10,7 @@
 
 use crate::data::Image;
 use crate::engine::fields::{Check, Input};
-use crate::engine::op::{check_same_size, CheckContext, CheckProblem, OpContext, OpError, OpSpec, OutputType};
+use crate::engine::op::{check_same_shape, CheckContext, CheckProblem, OpContext, OpError, OpSpec, OutputType};
 use crate::engine::value::Value;
 use crate::types::ty::*;
 
@@ -50,7 +50,7 @@ pub fn spec() -> OpSpec {
 
 /// The image and the reference, when both sizes are known before running, must be equal.
 fn check(_: &CheckContext, p: ImageErrorParams<Check>) -> Result<(), CheckProblem> {
-    check_same_size("image", p.image, "reference", p.reference)
+    check_same_shape("image", p.image, "reference", p.reference)
 }
 
 /// The inscribed-disc mask of a `size` x `size` image: true where `SphereView::normal_at` is
