@@ -48,27 +48,31 @@ pub struct Axis {
 }
 
 impl Axis {
-    /// Parses `NODE.FIELD=GLOB_OR_LIST` (`over`: a value with `*`, `?` or `[` is a glob, its
-    /// matches sorted) or `NODE.FIELD=V1,V2,...`.
+    /// Parses `NODE.FIELD=V1,V2,...` (`(0,1,0),(1,0,0)` is two tuples). For `--over`, each
+    /// value with `*`, `?` or `[` is a glob, replaced by its matching files, sorted
+    /// (`maps/*_1k.hdr,extra/one.hdr` is every match, then the one file).
     pub fn parse(s: &str, over: bool) -> Result<Axis, String> {
         let flag = if over { "--over" } else { "--sweep" };
         let o = Override::parse(s).map_err(|e| e.replace("--set", flag))?;
-        let values: Vec<String> = if over && o.value.contains(['*', '?', '[']) {
-            let mut v = Vec::new();
-            for entry in glob::glob(&o.value).map_err(|e| format!("{flag} {s:?}: bad pattern: {e}"))? {
+        let mut values = Vec::new();
+        for item in split_list(&o.value) {
+            if !(over && item.contains(['*', '?', '['])) {
+                values.push(item);
+                continue;
+            }
+            let mut matches = Vec::new();
+            for entry in glob::glob(&item).map_err(|e| format!("{flag} {s:?}: bad pattern {item:?}: {e}"))? {
                 let path = entry.map_err(|e| format!("{flag} {s:?}: {e}"))?;
                 if path.is_file() {
-                    v.push(path.display().to_string());
+                    matches.push(path.display().to_string());
                 }
             }
-            v.sort();
-            if v.is_empty() {
-                return Err(format!("{flag} {s:?}: no file matches {:?}", o.value));
+            if matches.is_empty() {
+                return Err(format!("{flag} {s:?}: no file matches {item:?}"));
             }
-            v
-        } else {
-            split_list(&o.value)
-        };
+            matches.sort();
+            values.extend(matches);
+        }
         if values.iter().any(|v| v.is_empty()) {
             return Err(format!("{flag} {s:?}: an empty value"));
         }
@@ -564,4 +568,27 @@ pub fn csv(rows: &[ItemRow]) -> String {
         s.push('\n');
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Axis;
+
+    /// Issue 25.6: a comma-separated `--over` list expands each glob and keeps plain names.
+    #[test]
+    fn an_over_list_mixing_a_glob_and_a_file_expands_each_item() {
+        let dir = tempfile::tempdir().unwrap();
+        for name in ["b_1k.hdr", "a_1k.hdr", "c_2k.hdr"] {
+            std::fs::write(dir.path().join(name), b"").unwrap();
+        }
+        let d = dir.path().display();
+        let axis = Axis::parse(&format!("env.path={d}/*_1k.hdr,{d}/c_2k.hdr"), true).unwrap();
+        let names: Vec<String> =
+            axis.values.iter().map(|v| v.rsplit('/').next().unwrap_or_default().to_string()).collect();
+        assert_eq!(names, ["a_1k.hdr", "b_1k.hdr", "c_2k.hdr"]);
+        let err = Axis::parse(&format!("env.path={d}/*_4k.hdr,{d}/c_2k.hdr"), true).unwrap_err();
+        assert!(err.ends_with(&format!("no file matches \"{d}/*_4k.hdr\"")), "{err}");
+        // --sweep values are never globs.
+        assert_eq!(Axis::parse("e.stops=1,2", false).unwrap().values, ["1", "2"]);
+    }
 }

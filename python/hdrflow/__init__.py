@@ -13,6 +13,7 @@ See the README's "Python" section for the whole story.
 
 from __future__ import annotations
 
+import difflib
 import inspect
 import json
 import marshal
@@ -26,7 +27,7 @@ import numpy as np
 from . import _hdrflow
 from ._hdrflow import PipelineError, RunError
 
-__all__ = ["run", "batch", "ops", "operator", "Result", "Ron", "PipelineError", "RunError", "value_types"]
+__all__ = ["run", "batch", "op", "ops", "operator", "Result", "Ron", "PipelineError", "RunError", "value_types"]
 
 
 class Ron(str):
@@ -264,6 +265,77 @@ def _param_kind(name: str, default: Any) -> str:
     raise TypeError(f"field {name!r}: a default of type {type(default).__name__} (use float, int, bool or str)")
 
 
+def _near_type_name(spec: str, types: Mapping[str, str]) -> Optional[str]:
+    """The value type ``spec`` is a near miss of (other case, a typo), if any."""
+    lower = {t.lower(): t for t in types}
+    if spec.lower() in lower:
+        return lower[spec.lower()]
+    close = difflib.get_close_matches(spec.lower(), list(lower), n=1, cutoff=0.8)
+    return lower[close[0]] if close else None
+
+
+def op(
+    name: str,
+    /,
+    *,
+    cache_dir: Optional[Union[str, os.PathLike]] = None,
+    no_cache: bool = False,
+    **fields: Any,
+) -> Any:
+    """Runs one operator on arrays, for a notebook: ``hdrflow.op("Rotate", image=env, yaw=90)``.
+
+    Each input field takes an array ((H, W) or (H, W, C) float: C=1 a scalar field), a file
+    name or ``builtin:`` map (loaded with ``LoadHdr``), or a list of these for a list input;
+    every other field is a parameter, converted as ``run(set=...)`` converts values. Returns the
+    value of the operator's first output port (an array for images; the other ports of a node
+    come back from ``run``). It builds and runs a one-node pipeline, validated and cached as any
+    run is (the arrays' contents are in the key).
+    """
+    spec = next((o for o in ops() if o["name"] == name), None)
+    if spec is None:
+        names = [o["name"] for o in ops()]
+        close = difflib.get_close_matches(name, names, n=1)
+        hint = f"; did you mean {close[0]!r}?" if close else f" (operators: {', '.join(names)})"
+        raise ValueError(f"unknown operator {name!r}{hint}")
+    inputs_of = {f["name"] for f in spec["fields"] if f["input"]}
+    nodes: list = []
+    arrays: dict = {}
+
+    def source(field: str, k: int, value: Any) -> str:
+        node = f"{field}_{k}"
+        if isinstance(value, (str, os.PathLike)):
+            path = os.fspath(value)
+            path = path if path.startswith("builtin:") else os.path.abspath(path)
+            nodes.append(f'"{node}": LoadHdr(path: {_ron_string(path)})')
+            return node
+        arr = _image_array(value, f"{name}({field}=...)")
+        # A placeholder of the array's type and size (operators check sizes before running);
+        # the array is its value, so the placeholder is not run.
+        h, w = arr.shape[:2]
+        if arr.shape[2] == 1:
+            nodes.append(f'"{node}_src": Constant(width: {w}, height: {h})')
+            nodes.append(f'"{node}": Luminance(image: "{node}_src")')
+        else:
+            nodes.append(f'"{node}": Constant(width: {w}, height: {h})')
+        arrays[node] = arr
+        return node
+
+    written = []
+    for field, value in fields.items():
+        if field in inputs_of:
+            if isinstance(value, (list, tuple)):
+                refs = [source(field, k, v) for k, v in enumerate(value)]
+                written.append(f"{field}: [{', '.join(_ron_string(r) for r in refs)}]")
+            else:
+                written.append(f"{field}: {_ron_string(source(field, 0, value))}")
+        else:
+            written.append(f"{field}: {_to_ron(value)}")
+    nodes.append(f'"op": {name}({", ".join(written)})')
+    text = "(nodes: {\n    " + ",\n    ".join(nodes) + ",\n})"
+    r = run(text, targets=["op"], inputs=arrays, cache_dir=cache_dir, no_cache=no_cache)
+    return r["op"]
+
+
 def operator(
     name: str,
     fields: Mapping[str, Any],
@@ -302,6 +374,12 @@ def operator(
                 raise ValueError(f"field {field!r}: use an identifier")
             if isinstance(spec, str) and spec in types:
                 decl.append((field, "input:" + types[spec], None, f"input ({types[spec]})"))
+            elif isinstance(spec, str) and _near_type_name(spec, types):
+                # "Image" for "image": a string parameter by accident, not an input.
+                raise ValueError(
+                    f"field {field!r}: {spec!r} is not a value type; did you mean {_near_type_name(spec, types)!r}? "
+                    f"(value types: {', '.join(sorted(types))}; type names are matched exactly)"
+                )
             else:
                 decl.append((field, _param_kind(field, spec), spec, "parameter"))
         text = doc if doc is not None else (inspect.getdoc(fn) or f"Python function {fn.__qualname__}")

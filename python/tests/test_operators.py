@@ -126,3 +126,30 @@ def test_a_function_without_source_is_keyed_by_its_compiled_code(cache):
     define("image * 3")
     r = hdrflow.run(graph, inputs={"env": env}, cache_dir=cache)
     assert r.status("x") == "computed" and r["x"][0, 0, 0] == 3
+
+
+def test_a_type_name_near_miss_is_an_error_not_a_string_parameter():
+    with pytest.raises(ValueError, match=r"'Image' is not a value type; did you mean 'image'\?"):
+        hdrflow.operator("NearMiss", fields={"x": "Image"})(lambda x: x)
+    with pytest.raises(ValueError, match=r"did you mean 'scalar_field'\?|did you mean 'scalar field'\?"):
+        hdrflow.operator("NearMiss2", fields={"x": "scalar_feild"})(lambda x: x)
+    # A string parameter far from every type name is still a parameter.
+    hdrflow.operator("FarFromTypes", fields={"x": "image", "label": "hello"})(lambda x, label: x)
+
+
+def test_op_runs_one_operator_on_arrays_and_caches_it(cache):
+    env = np.random.default_rng(3).random((8, 16, 3)).astype(np.float32)
+    out = hdrflow.op("Exposure", image=env, stops=1.0, cache_dir=cache)
+    assert out.shape == (8, 16, 3) and np.array_equal(out, env * 2)
+    # A whole-column yaw is an exact roll (the README's Rotate section): 90 degrees = 4 columns.
+    rolled = hdrflow.op("Rotate", image=env, yaw=90, cache_dir=cache)
+    assert np.array_equal(rolled, np.roll(env, -4, axis=1)) or np.array_equal(rolled, np.roll(env, 4, axis=1))
+    # One channel is a scalar field; a file name is loaded.
+    y = hdrflow.op("Luminance", image="builtin:sky", cache_dir=cache)
+    assert y.ndim == 3 and y.shape[2] == 1
+    field = hdrflow.op("Exposure", image=y[:, :, 0], stops=-1.0, cache_dir=cache)
+    assert np.allclose(field, y * 0.5)
+    with pytest.raises(ValueError, match="did you mean 'Rotate'"):
+        hdrflow.op("Rotat", image=env)
+    with pytest.raises(ValueError, match="has no field"):
+        hdrflow.op("Rotate", image=env, yawn=3, cache_dir=cache)
