@@ -270,6 +270,8 @@ pub struct BatchOptions<'a> {
     pub jobs: Option<usize>,
     pub keep_going: bool,
     pub observer: &'a dyn BatchObserver,
+    /// Set from outside (the CLI's Ctrl-C handler): no further item starts; running ones finish.
+    pub cancel: Option<&'a AtomicBool>,
 }
 
 /// A finished batch.
@@ -280,8 +282,11 @@ pub struct BatchOutcome {
     pub shared_evaluations: usize,
     pub item_nodes: usize,
     pub total_ms: f64,
-    /// Items not started because an earlier one failed (without `keep_going`).
+    /// Items not started because an earlier one failed (without `keep_going`), or because the
+    /// batch was cancelled.
     pub not_started: usize,
+    /// `cancel` was set before every item had started.
+    pub cancelled: bool,
 }
 
 fn overrides(item: &Item) -> Vec<Override> {
@@ -413,7 +418,7 @@ pub fn run(items: &[Item], pipelines: &[Pipeline], options: &BatchOptions) -> Ba
     std::thread::scope(|s| {
         for _ in 0..at_once {
             s.spawn(|| loop {
-                if stop.load(Ordering::SeqCst) {
+                if stop.load(Ordering::SeqCst) || options.cancel.is_some_and(|c| c.load(Ordering::SeqCst)) {
                     break;
                 }
                 let k = next.fetch_add(1, Ordering::SeqCst);
@@ -502,6 +507,7 @@ pub fn run(items: &[Item], pipelines: &[Pipeline], options: &BatchOptions) -> Ba
         item_nodes,
         total_ms: start.elapsed().as_secs_f64() * 1e3,
         not_started,
+        cancelled: not_started > 0 && options.cancel.is_some_and(|c| c.load(Ordering::SeqCst)),
     }
 }
 

@@ -260,3 +260,56 @@ fn three_concurrent_shards_share_one_cache_and_one_folder() {
     full.assert_success();
     assert_eq!(snapshot(&reference), snapshot(&out));
 }
+
+/// Issue 25.6: Ctrl-C (SIGINT) stops a batch cleanly: no item starts after it, the running one
+/// finishes, the report marks the rest "not started", one line says how many finished and how
+/// to resume, and the exit code is 130.
+#[cfg(unix)]
+#[test]
+fn ctrl_c_writes_the_report_and_says_how_to_resume() {
+    let sb = Sandbox::new();
+    let g = library(&sb, 512, 256);
+    let glob = format!("env.path={}/maps/*.pfm", sb.path().display());
+    let out = sb.out();
+    let report = sb.join("report.json");
+    let child = hdrflow_command([
+        "batch".to_string(),
+        g.display().to_string(),
+        "--over".into(),
+        glob,
+        "--sweep".into(),
+        "e.stops=0,1".into(),
+        "--jobs".into(),
+        "1".into(),
+        "--out".into(),
+        out.display().to_string(),
+        "--cache-dir".into(),
+        sb.cache().display().to_string(),
+        "--report".into(),
+        report.display().to_string(),
+    ])
+    .stdout(std::process::Stdio::piped())
+    .stderr(std::process::Stdio::piped())
+    .spawn()
+    .unwrap();
+    let t0 = Instant::now();
+    while !out.join("m0/stops=0/e.pfm").exists() && t0.elapsed() < Duration::from_secs(60) {
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    let sent = std::process::Command::new("kill").args(["-INT", &child.id().to_string()]).status().unwrap();
+    assert!(sent.success());
+    let output = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(130), "stderr:\n{stderr}");
+    let line = stderr.lines().find(|l| l.contains("items finished")).unwrap_or_else(|| panic!("{stderr}"));
+    assert!(line.contains("run the same command again to resume"), "{line}");
+    let finished: usize =
+        line.split("interrupted: ").nth(1).and_then(|r| r.split(' ').next()).and_then(|n| n.parse().ok()).expect(line);
+    assert!((1..12).contains(&finished), "{line}");
+    let rows: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&report).expect("the report is written")).unwrap();
+    let rows = rows.as_array().unwrap();
+    assert_eq!(rows.len(), 12, "a row for every item");
+    let not_started = rows.iter().filter(|r| r["status"] == "not started").count();
+    assert_eq!(not_started, 12 - finished, "{rows:?}");
+}

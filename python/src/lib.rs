@@ -492,6 +492,7 @@ fn run_batch(
         jobs: jobs.filter(|&j| j > 0),
         keep_going,
         observer: &QuietBatch,
+        cancel: None,
     };
     let outcome = py.detach(|| batch::run(&items, &pipelines, &options));
     Ok(batch::json_rows(&outcome.rows).to_string())

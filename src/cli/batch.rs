@@ -3,6 +3,7 @@
 use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Mutex;
 use std::time::Instant;
 
@@ -232,6 +233,22 @@ pub(crate) fn batch(registry: &Registry, args: &BatchArgs) -> ExitCode {
     let cache =
         CacheStore::new(args.cache_dir.clone().unwrap_or_else(CacheStore::default_dir), args.cache_limit_mb << 20)
             .with_policy(args.persist.into());
+    // Ctrl-C: no further item starts, the running ones finish and the report is written with
+    // the rest marked "not started"; a second Ctrl-C quits at once (exit 130).
+    static CANCEL: AtomicBool = AtomicBool::new(false);
+    let bar_for_handler = progress.bar.clone();
+    if let Err(e) = ctrlc::set_handler(move || {
+        if CANCEL.swap(true, Ordering::SeqCst) {
+            std::process::exit(130);
+        }
+        let line = "interrupted: finishing the running items, then writing the report (Ctrl-C again to quit now)";
+        match &bar_for_handler {
+            Some(bar) => bar.println(line),
+            None => eprintln!("{line}"),
+        }
+    }) {
+        eprintln!("warning: Ctrl-C will not stop the batch cleanly: {e}");
+    }
     let options = BatchOptions {
         out_dir: args.out.clone(),
         cache: cache.clone(),
@@ -239,6 +256,7 @@ pub(crate) fn batch(registry: &Registry, args: &BatchArgs) -> ExitCode {
         jobs: args.jobs,
         keep_going: args.keep_going,
         observer: &progress,
+        cancel: Some(&CANCEL),
     };
     let outcome = batch::run(&items, &pipelines, &options);
     if let Some(bar) = &progress.bar {
@@ -292,6 +310,15 @@ pub(crate) fn batch(registry: &Registry, args: &BatchArgs) -> ExitCode {
                 return ExitCode::from(1);
             }
         }
+    }
+    if outcome.cancelled {
+        eprintln!(
+            "interrupted: {} of {} items finished; run the same command again to resume (finished items come from the cache){}",
+            outcome.rows.len(),
+            items.len(),
+            args.report.as_ref().map_or(String::new(), |r| format!("; {} marks the rest \"not started\"", r.display()))
+        );
+        return ExitCode::from(130);
     }
     if cache.root().is_dir() {
         if let Err(e) = cache.prune(cache_limit_bytes(args.cache_limit_mb).min(default_max_bytes())) {
