@@ -498,12 +498,25 @@ fn run_batch(
     Ok(batch::json_rows(&outcome.rows).to_string())
 }
 
+/// The `hdrflow` command line over this process's registry (the built-ins plus the operators
+/// registered from Python): what `hdrflow run --python FILE ...` hands over to. `args` starts
+/// with the program name. The GIL is released while it runs, so that Python operators can
+/// take it on the worker threads. Returns the exit code.
+#[pyfunction]
+fn cli_main(py: Python<'_>, args: Vec<String>) -> u8 {
+    let registry = with_registry(|r| r.clone());
+    let code = py.detach(|| hdrflow::cli::main_from(registry, args));
+    // `ExitCode` has no accessor, but compares equal to the code it was made from.
+    (0..=255u8).find(|&k| code == std::process::ExitCode::from(k)).unwrap_or(1)
+}
+
 #[pymodule]
 fn _hdrflow(m: &Bound<'_, PyModule>) -> PyResult<()> {
     let py = m.py();
     m.add("PipelineError", py.get_type::<PipelineError>())?;
     m.add("RunError", py.get_type::<RunError>())?;
     m.add_function(wrap_pyfunction!(run_pipeline, m)?)?;
+    m.add_function(wrap_pyfunction!(cli_main, m)?)?;
     m.add_function(wrap_pyfunction!(run_batch, m)?)?;
     m.add_function(wrap_pyfunction!(ops, m)?)?;
     m.add_function(wrap_pyfunction!(value_types, m)?)?;

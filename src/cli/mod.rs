@@ -27,6 +27,7 @@ macro_rules! out {
 
 mod batch;
 mod progress;
+mod python;
 mod slurm;
 mod watch;
 
@@ -55,6 +56,10 @@ use crate::engine::scheduler::{self, NodeStatus, RunOptions};
 struct Cli {
     #[command(subcommand)]
     command: Command,
+    /// Register the Python operators (`@hdrflow.operator`) this file defines, then run the
+    /// command with them (needs the hdrflow Python package; interpreter: $HDRFLOW_PYTHON, else python3)
+    #[arg(long, global = true, value_name = "FILE")]
+    python: Option<PathBuf>,
 }
 
 #[derive(Subcommand)]
@@ -239,6 +244,10 @@ where
     I: IntoIterator<Item = T>,
     T: Into<std::ffi::OsString> + Clone,
 {
+    let args: Vec<std::ffi::OsString> = args.into_iter().map(Into::into).collect();
+    if let (Some(file), rest) = python::take_python_flag(args.clone()) {
+        return python::hand_over(file, rest);
+    }
     let cli = match Cli::try_parse_from(args) {
         Ok(c) => c,
         Err(e) => {
