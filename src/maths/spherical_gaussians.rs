@@ -336,3 +336,6 @@ pub fn render(sg: &SphericalGaussians, width: usize, height: usize) -> Image {
     });
     out
 }
+
+#[cfg(test)]
+mod tests;

@@ -178,4 +178,3 @@ fn extend(
     }
     best
 }
-
