@@ -110,7 +110,7 @@ fn one_lobe_comes_back_and_a_rendered_lobe_integrates_to_the_closed_form() {
         let got = &sg(&v, node).lobes[0];
         let a = angle(got.axis, want.axis);
         eprintln!("{node}: axis {a:.1e} rad, sharpness {:.1e}", rel(got.sharpness, want.sharpness));
-        assert!(a < 1e-3 && a < 1e-7, "{node}: axis off by {a} rad");
+        assert!(a < 1e-7, "{node}: axis off by {a} rad (the issue asks for 1e-3)");
         assert!(rel(got.sharpness, want.sharpness) < 1e-7, "{node}: {got:?}");
         for c in 0..3 {
             assert!(rel(got.amplitude[c], want.amplitude[c]) < 1e-7, "{node}: {got:?}");

@@ -54,23 +54,21 @@ pub struct SphericalGaussians {
 impl SphericalGaussians {
     /// `L(d)` per channel.
     pub fn value(&self, d: [f64; 3]) -> [f64; 3] {
-        let mut sum = [0.0; 3];
-        for lobe in &self.lobes {
-            for (s, v) in sum.iter_mut().zip(lobe.value(d)) {
-                *s += v;
-            }
-        }
-        sum
+        value_of(&self.lobes, d)
     }
 
     /// The integral over the sphere per channel (the sum of the lobes' closed forms).
     pub fn integral(&self) -> [f64; 3] {
-        let mut sum = [0.0; 3];
-        for lobe in &self.lobes {
-            for (s, v) in sum.iter_mut().zip(lobe.integral()) {
-                *s += v;
-            }
-        }
-        sum
+        sum_of(self.lobes.iter().map(SgLobe::integral))
     }
+}
+
+/// `L(d) = sum_k L_k(d)` per channel, the lobes added in order.
+pub fn value_of(lobes: &[SgLobe], d: [f64; 3]) -> [f64; 3] {
+    sum_of(lobes.iter().map(|l| l.value(d)))
+}
+
+/// The per-channel sum of RGB triples, in order.
+fn sum_of(items: impl Iterator<Item = [f64; 3]>) -> [f64; 3] {
+    items.fold([0.0; 3], |s, v| [s[0] + v[0], s[1] + v[1], s[2] + v[2]])
 }

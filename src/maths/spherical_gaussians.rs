@@ -51,6 +51,7 @@ use std::ops::Range;
 use glam::DVec3;
 use rayon::prelude::*;
 
+use crate::data::sg::value_of;
 use crate::data::{Image, SgLobe, SphericalGaussians};
 use crate::geometry::latlong;
 use crate::maths::colour::rec709_luminance;
@@ -150,7 +151,7 @@ impl Target {
     pub fn energy(&self, lobes: &[SgLobe]) -> f64 {
         self.blocks(|r| {
             r.map(|t| {
-                let model = model_at(lobes, self.dirs[t]);
+                let model = value_of(lobes, self.dirs[t].into());
                 self.weight[t] * (0..3).map(|c| (self.value[t][c] - model[c]).powi(2)).sum::<f64>()
             })
             .sum::<f64>()
@@ -163,7 +164,7 @@ impl Target {
     fn residual(&self, lobes: &[SgLobe]) -> Vec<[f64; 3]> {
         self.blocks(|r| {
             r.map(|t| {
-                let model = model_at(lobes, self.dirs[t]);
+                let model = value_of(lobes, self.dirs[t].into());
                 std::array::from_fn(|c| self.value[t][c] - model[c])
             })
             .collect::<Vec<[f64; 3]>>()
@@ -227,19 +228,6 @@ fn kernels(lobes: &[SgLobe], d: DVec3, g: &mut [f64]) {
     for (gk, lobe) in g.iter_mut().zip(lobes) {
         *gk = lobe.kernel(d.into());
     }
-}
-
-/// `L(d)` of the lobes.
-#[inline]
-fn model_at(lobes: &[SgLobe], d: DVec3) -> [f64; 3] {
-    let mut sum = [0.0; 3];
-    for lobe in lobes {
-        let g = lobe.kernel(d.into());
-        for c in 0..3 {
-            sum[c] += lobe.amplitude[c] * g;
-        }
-    }
-    sum
 }
 
 /// The lobes with the first [`REVIVE`] dead ones (all amplitudes 0, so they have no gradient
@@ -328,7 +316,7 @@ pub fn render(sg: &SphericalGaussians, width: usize, height: usize) -> Image {
     }
     out.data.par_chunks_mut(3 * width).enumerate().for_each(|(y, row)| {
         for x in 0..width {
-            let v = model_at(&sg.lobes, DVec3::from(latlong::texel_direction(x, y, width, height)));
+            let v = sg.value(latlong::texel_direction(x, y, width, height));
             for c in 0..3 {
                 row[3 * x + c] = v[c] as f32;
             }

@@ -33,8 +33,8 @@ impl Target {
                 kernels(lobes, d, &mut g);
                 let mut res = self.value[t];
                 for (lobe, gk) in lobes.iter().zip(&g) {
-                    for c in 0..3 {
-                        res[c] -= lobe.amplitude[c] * gk;
+                    for (r, a) in res.iter_mut().zip(lobe.amplitude) {
+                        *r -= a * gk;
                     }
                 }
                 active.clear();
