@@ -299,3 +299,28 @@ nodes: {
     }
     let _ = std::fs::remove_dir_all(&out);
 }
+
+#[test]
+fn the_example_graph_runs_and_saves_what_the_docs_say() {
+    let registry = hdrflow::builtin_registry();
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("graphs/spherical_gaussians.ron");
+    let p = hdrflow::Pipeline::load(&path, &registry, &[]).expect("graphs/spherical_gaussians.ron is valid");
+    let out = tempfile::tempdir().unwrap();
+    let options = RunOptions {
+        targets: p.nodes.iter().map(|n| n.name.clone()).collect(),
+        out_dir: out.path().into(),
+        cache: None,
+        jobs: Some(2),
+        observer: &Silent,
+    };
+    let v = scheduler::run(&p, &options).expect("runs").values;
+    assert_eq!(sg(&v, "sg").lobes.len(), 12);
+    assert!(metric(&v, "sg", "relative_rmse") < 0.06, "{}", metric(&v, "sg", "relative_rmse"));
+    let metrics: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.path().join("sg/fit.json")).unwrap()).unwrap();
+    let keys: Vec<&String> = metrics.as_object().unwrap().keys().collect();
+    assert_eq!(keys, ["relative_rmse", "iterations", "fit_width", "fit_height"]);
+    for file in ["sg/lobes.json", "sg/preview.exr", "sg/relative_error.png"] {
+        assert!(out.path().join(file).exists(), "{file}");
+    }
+}
