@@ -1,7 +1,7 @@
 //! `SphericalGaussians(env, lobes: 12, iterations: 30, seed: 0)`: `lobes` spherical Gaussians
 //! `a exp(lambda (mu . d - 1))` fitted to a lat-long map by solid-angle-weighted least squares
-//! (`maths::spherical_gaussians`: Fibonacci axes aligned on the brightest texel, then rounds of
-//! a Levenberg-Marquardt step on axes and sharpnesses and exact NNLS amplitudes).
+//! (`maths::spherical_gaussians`: a matching-pursuit start on the residual's peaks, then rounds
+//! of a Levenberg-Marquardt step on axes and sharpnesses and exact NNLS amplitudes).
 //!
 //! - Port `lobes`: the `sg` value, most energetic lobe first (axes in hdrflow's world
 //!   coordinates: +Y up, the lat-long centre column faces -Z).
@@ -10,8 +10,8 @@
 //!   round changed nothing), `fit_width`, `fit_height` (the input's size, or 256 x 128 when it
 //!   is larger: the fit runs on an energy-preserving resampled copy).
 //!
-//! `seed` turns the initial Fibonacci set about its first point (the brightest texel) by
-//! `2 pi mix64(seed) / 2^64`; seed 0 does not turn it. The result is a pure function of the
+//! `seed` (0: none) jitters each starting axis by a pseudo-random tangent offset of up to a
+//! quarter of its lobe's width (SplitMix64 seeded with `seed`). The result is a pure function of the
 //! map and the three fields (bit-identical across runs and thread counts). NaN or infinite
 //! texels are an error; `lobes` outside [1, 256] is refused before anything runs.
 
@@ -34,7 +34,7 @@ crate::params! {
         /// rounds of (Levenberg-Marquardt step on axes and sharpness, NNLS amplitudes)
         #[range(0, 10000)]
         pub iterations: usize = 30,
-        /// turns the initial axes about the brightest direction (0: not turned)
+        /// jitters the starting axes by up to a quarter of each lobe's width (0: no jitter)
         pub seed: u64 = 0,
     }
 }
