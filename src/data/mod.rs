@@ -8,6 +8,7 @@ pub mod light;
 pub mod lights;
 pub mod metrics;
 pub mod samples;
+pub mod sg;
 pub mod sh;
 
 pub use cubemap::{Cubemap, MipChain};
@@ -18,4 +19,5 @@ pub use light::Light;
 pub use lights::Lights;
 pub use metrics::Metrics;
 pub use samples::{Sample, SampleSet};
+pub use sg::{SgLobe, SphericalGaussians};
 pub use sh::{ShCoefficients, ShFrame};

@@ -25,3 +25,20 @@ pub fn unit(v: DVec3) -> Option<DVec3> {
         None
     }
 }
+
+/// `n` unit directions spread evenly over the sphere: the spherical Fibonacci lattice
+/// (Gonzalez 2010, "Measurement of areas on a sphere using Fibonacci and latitude-longitude
+/// lattices"): point `k` at height `y = 1 - 2 (k + 1/2) / n` (equal-area bands, +Y first) and
+/// azimuth `2 pi phi (k + 1/2)` (`phi` the golden ratio), so each holds about `4 pi / n` sr.
+pub fn fibonacci_sphere(n: usize) -> Vec<[f64; 3]> {
+    let golden = std::f64::consts::PI * (1.0 + 5f64.sqrt());
+    (0..n)
+        .map(|k| {
+            let i = k as f64 + 0.5;
+            let y = 1.0 - 2.0 * i / n as f64;
+            let r = (1.0 - y * y).sqrt();
+            let phi = golden * i;
+            [r * phi.cos(), y, r * phi.sin()]
+        })
+        .collect()
+}

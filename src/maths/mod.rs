@@ -12,6 +12,7 @@ pub mod guide_table;
 pub mod hierarchical_warp;
 pub mod irradiance_cube;
 pub mod kernels;
+pub mod least_squares;
 pub mod lights;
 pub mod mis;
 pub mod per_pixel;
@@ -22,6 +23,7 @@ pub mod resample;
 pub mod rotation;
 pub mod sequences;
 pub mod sh;
+pub mod spherical_gaussians;
 pub mod statistics;
 pub mod sun;
 

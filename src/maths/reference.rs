@@ -282,16 +282,7 @@ pub(crate) mod tests {
 
     /// Unit directions spread over the sphere (Fibonacci lattice), including the poles' region.
     pub(crate) fn fibonacci(n: usize) -> Vec<[f64; 3]> {
-        let golden = PI * (1.0 + 5f64.sqrt());
-        (0..n)
-            .map(|k| {
-                let i = k as f64 + 0.5;
-                let z = 1.0 - 2.0 * i / n as f64;
-                let r = (1.0 - z * z).sqrt();
-                let phi = golden * i;
-                [r * phi.cos(), z, r * phi.sin()]
-            })
-            .collect()
+        crate::geometry::fibonacci_sphere(n)
     }
 
     fn normals_for_tests() -> Vec<[f64; 3]> {

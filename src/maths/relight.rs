@@ -332,16 +332,7 @@ mod tests {
     /// (Gonzalez 2010, "Measurement of areas on a sphere using Fibonacci and latitude-longitude
     /// lattices"). Integrating max(n.w, 0) over 1024 of them errs by ~3e-4 (checked offline).
     fn fibonacci(n: usize) -> Vec<[f32; 3]> {
-        let golden = PI * (1.0 + 5f64.sqrt());
-        (0..n)
-            .map(|k| {
-                let i = k as f64 + 0.5;
-                let z = 1.0 - 2.0 * i / n as f64;
-                let r = (1.0 - z * z).sqrt();
-                let phi = golden * i;
-                [(r * phi.cos()) as f32, z as f32, (r * phi.sin()) as f32]
-            })
-            .collect()
+        crate::geometry::fibonacci_sphere(n).iter().map(|d| d.map(|v| v as f32)).collect()
     }
 
     fn len(a: [f64; 3]) -> f64 {

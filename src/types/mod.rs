@@ -13,6 +13,7 @@ pub mod light;
 pub mod lights;
 pub mod metrics;
 pub mod samples;
+pub mod sg;
 pub mod sh;
 
 use crate::engine::registry::Registry;
@@ -26,6 +27,7 @@ pub use light::LIGHT;
 pub use lights::LIGHTS;
 pub use metrics::METRICS;
 pub use samples::SAMPLES;
+pub use sg::SG;
 pub use sh::SH_COEFFICIENTS;
 
 /// Registers every built-in value type.
@@ -40,6 +42,7 @@ pub fn register_all(r: &mut Registry) {
         &SH_COEFFICIENTS,
         &LIGHT,
         &LIGHTS,
+        &SG,
         &CUBEMAP,
         &MIP_CHAIN,
     ] {
@@ -61,6 +64,7 @@ pub mod ty {
     pub const SH_COEFFICIENTS_T: ValueType = ValueType(&SH_COEFFICIENTS);
     pub const LIGHT_T: ValueType = ValueType(&LIGHT);
     pub const LIGHTS_T: ValueType = ValueType(&LIGHTS);
+    pub const SG_T: ValueType = ValueType(&SG);
     pub const CUBEMAP_T: ValueType = ValueType(&CUBEMAP);
     pub const MIP_CHAIN_T: ValueType = ValueType(&MIP_CHAIN);
     /// Either kind of image.
