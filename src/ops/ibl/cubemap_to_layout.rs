@@ -18,7 +18,7 @@ crate::params! {
         /// the cube map
         #[input(&[CUBEMAP_T])]
         pub cubemap: Input<Cubemap>,
-        /// HorizontalCross, VerticalCross, Dice, Horizon or Strip (docs/toolkit/cube_layouts.md)
+        /// where each face sits and how it is turned (docs/toolkit/cube_layouts.md)
         pub layout: CubeLayout,
     }
 }

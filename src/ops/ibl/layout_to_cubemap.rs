@@ -20,7 +20,7 @@ crate::params! {
         /// the layout image (RGB first; one channel is read as grey)
         #[input(ANY_IMAGE)]
         pub image: Input<Image>,
-        /// HorizontalCross, VerticalCross, Dice, Horizon or Strip (docs/toolkit/cube_layouts.md)
+        /// where each face sits and how it is turned (docs/toolkit/cube_layouts.md)
         pub layout: CubeLayout,
     }
 }
