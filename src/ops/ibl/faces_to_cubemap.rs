@@ -1,7 +1,9 @@
 //! `FacesToCubemap(px, nx, py, ny, pz, nz)`: a cube map from six face images (typically six
 //! `LoadHdr`), each as `CubemapFace` writes it: the OpenGL / KTX faces of `geometry::cubemap`,
 //! which are also cmft's `--inputFacePosX` ... `--inputFaceNegZ`. (py360convert's face lists,
-//! F R B L U D, are turned differently: load them as one `Horizon` with `LayoutToCubemap`.)
+//! F R B L U D, are turned differently: its F, R, B, L are -Z, +X, +Z, -X mirrored left-right,
+//! its U, D are +Y, -Y mirrored top-bottom; its `horizon` image of them reads with
+//! `LayoutToCubemap(layout: Horizon)`.)
 //!
 //! The faces must be square and of one size: a pipeline error at the offending field when the
 //! sizes are known before running, the node's error when it runs otherwise. RGB is the first
