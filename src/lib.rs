@@ -8,7 +8,8 @@
 //! - [`engine`]: pipeline files, validation, the parallel demand-driven scheduler, the cache;
 //!   it knows no operator and no data type.
 //! - [`data`], [`maths`], [`formats`], [`plotting`]: data types, mathematics, file formats, plots.
-//! - [`geometry`]: the lat-long convention, below all of them (it depends on nothing else);
+//! - [`geometry`]: the lat-long and cube conventions, below all of them (it depends on nothing
+//!   but [`choice`]);
 //!   [`cpu`]: the processor features every SIMD path asks for; [`choice`]: the one way to
 //!   declare an enum that pipelines choose by name.
 //!

@@ -1,13 +1,19 @@
 //! Image-based lighting: cube maps and equal-area octahedral maps from lat-long ones and back
-//! (energy-preserving), the specular prefiltered chain, diffuse irradiance and the split-sum BRDF
-//! texture. Conventions: `geometry::cubemap` (face order and axes), `geometry::octahedral`
-//! (pbrt-v4's mapping and axes), `maths::ggx` (roughness, lobe, DFG), `maths::irradiance_cube`.
+//! (energy-preserving), cube maps to and from one image of a layout (crosses, dice, strips) and
+//! six face images (exact copies), the specular prefiltered chain, diffuse irradiance and the
+//! split-sum BRDF texture. Conventions: `geometry::cubemap` (face order and axes),
+//! `geometry::cube_layout` (layouts), `geometry::octahedral` (pbrt-v4's mapping and axes),
+//! `maths::ggx` (roughness, lobe, DFG), `maths::irradiance_cube`.
 
 pub mod brdf_lut;
+pub mod cubemap_face;
 pub mod cubemap_to_latlong;
+pub mod cubemap_to_layout;
+pub mod faces_to_cubemap;
 pub mod irradiance_cubemap;
 pub mod latlong_to_cubemap;
 pub mod latlong_to_octahedral;
+pub mod layout_to_cubemap;
 pub mod octahedral_to_latlong;
 pub mod prefilter_specular;
 
@@ -42,6 +48,10 @@ pub(crate) use latlong_size_params;
 pub fn register(r: &mut Registry) {
     r.register(latlong_to_cubemap::spec());
     r.register(cubemap_to_latlong::spec());
+    r.register(cubemap_to_layout::spec());
+    r.register(layout_to_cubemap::spec());
+    r.register(cubemap_face::spec());
+    r.register(faces_to_cubemap::spec());
     r.register(latlong_to_octahedral::spec());
     r.register(octahedral_to_latlong::spec());
     r.register(prefilter_specular::spec());
@@ -56,7 +66,7 @@ pub(crate) fn check_cube_finite(c: &Cubemap) -> Result<(), OpError> {
             let t = i / 3;
             let s = c.size;
             Err(OpError::Invalid(format!(
-                "texel ({}, {}) of face {} of the cube map is {}: filtering needs finite radiance",
+                "texel ({}, {}) of face {} of the cube map is {}: cube maps must hold finite radiance",
                 t % s,
                 (t / s) % s,
                 crate::geometry::cubemap::FACE_NAMES[t / (s * s)],

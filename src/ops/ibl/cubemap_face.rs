@@ -1,0 +1,35 @@
+//! `CubemapFace(cubemap, face)`: one face of a cube map as an S x S RGB image, to `Save` as a
+//! face file (`PosX` ... `NegZ`, cmft's posx ... negz), exactly as stored: texel (x, y) of face
+//! F looks along `geometry::cubemap`'s table (the OpenGL / KTX faces; image right and down in
+//! world axes: +X -Z, -Y; -X +Z, -Y; +Y +X, +Z; -Y +X, -Z; +Z +X, -Y; -Z -X, -Y).
+//! `FacesToCubemap` of the six is the cube map again, bit for bit (tests).
+
+use crate::data::Cubemap;
+use crate::engine::fields::{Check, Input};
+use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Persist};
+use crate::engine::value::Value;
+use crate::geometry::cube_layout::CubeFace;
+use crate::types::ty::*;
+
+crate::params! {
+    pub struct CubemapFaceParams {
+        /// the cube map
+        #[input(&[CUBEMAP_T])]
+        pub cubemap: Input<Cubemap>,
+        /// PosX, NegX, PosY, NegY, PosZ or NegZ
+        pub face: CubeFace,
+    }
+}
+
+pub fn spec() -> OpSpec {
+    OpSpec::new("CubemapFace", "ibl", 1, "One face of a cube map as an image, as stored (OpenGL / KTX axes)")
+        .output("image", OutputType::Fixed(IMAGE_T), "the face (RGB, S x S)")
+        .size(|_, p: CubemapFaceParams<Check>| p.cubemap.size.map(|(_, s)| (s, s)))
+        .persist(Persist::IfSmall)
+        .code_hash(crate::op_code_hash!())
+        .eval(eval)
+}
+
+fn eval(_: &mut OpContext, p: CubemapFaceParams) -> Result<Value, OpError> {
+    Ok(Value::new(p.cubemap.face_image(p.face.index())))
+}
