@@ -1,8 +1,10 @@
 //! Geometry shared by every layer: the lat-long convention (and its per-size tables,
-//! [`latlong_grid`]), and the one vector helper that glam does not provide with the rounding
+//! [`latlong_grid`]), the azimuthal disc layouts ([`azimuthal`]: angular probe, sky angular,
+//! mirror ball), and the one vector helper that glam does not provide with the rounding
 //! hdrflow's results were computed with. A leaf module: it depends on nothing else in the crate,
 //! so [`crate::data`] and [`crate::formats`] can use it without depending on [`crate::maths`].
 
+pub mod azimuthal;
 pub mod cubemap;
 pub mod latlong;
 pub mod latlong_grid;

@@ -9,6 +9,7 @@
 pub mod ibl;
 pub mod image;
 pub mod io;
+pub mod layouts;
 pub mod lights;
 pub mod plotting;
 pub mod sampling;
@@ -20,6 +21,7 @@ use crate::engine::registry::Registry;
 pub fn register_all(registry: &mut Registry) {
     io::register(registry);
     image::register(registry);
+    layouts::register(registry);
     sampling::register(registry);
     shading::register(registry);
     lights::register(registry);
