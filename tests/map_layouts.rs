@@ -104,6 +104,10 @@ fn the_mirror_ball_matches_its_closed_form_and_round_trips_away_from_the_silhoue
             }
         }
     }
+    // The source is piecewise constant: a texel holds f at its centre, which differs from f on
+    // a pixel's footprint by up to |grad f| (1 per radian) times half a texel's diagonal (4.3e-3
+    // rad at 1024 x 512), hence 5e-3; a layout off by one pixel would be off by about
+    // |grad f| 4 / N = 1.6e-2 near the ball's centre.
     eprintln!("ball vs closed form: worst {worst:.2e}");
     assert!(worst < 5e-3, "{worst}");
     // Back to lat-long: the same map away from the back direction -c = -X.
@@ -400,4 +404,50 @@ fn bad_inputs_are_pipeline_errors_naming_the_node() {
     let e = run(text, &["b"]).unwrap_err();
     eprintln!("{e}");
     assert!(e.contains("\"b\"") && e.contains("fill has 2 values"), "{e}");
+}
+
+/// The documented example, `graphs/map_layouts.ron`, run by the binary on the bundled park map:
+/// it writes every file, the ball keeps the map's integral (its 69,000 sun included), and the
+/// unwrapped ball's mask covers the share 0.95^2 of the sphere.
+#[test]
+fn the_documented_pipeline_runs_on_the_park() {
+    let sb = common::Sandbox::new();
+    let graph = std::path::Path::new(common::MANIFEST_DIR).join("graphs/map_layouts.ron");
+    let started = std::time::Instant::now();
+    let (_, report) = sb.run_ok(&graph, &[]);
+    eprintln!("graphs/map_layouts.ron: {:.2?}", started.elapsed());
+    assert_eq!(report.status_of("s_ball"), "computed");
+    let load = |name: &str| {
+        let bytes = common::read_file(&sb.out().join(name));
+        hdrflow::formats::decode_by_extension(&bytes, name.rsplit('.').next().unwrap()).expect("decodes")
+    };
+    for f in ["unwrap_mask.exr", "sky_angular.png", "angular.exr", "sky_latlong.exr", "sky_full.exr"] {
+        assert!(sb.out().join(f).is_file(), "{f} not written");
+    }
+    let park = load_park();
+    let ball = load("ball.exr");
+    let want = hdrflow::maths::resample::latlong_integral(&park);
+    let map = hdrflow::geometry::azimuthal::DiscMap::mirror_ball(DVec3::X, DVec3::Y, DVec3::Z);
+    let got = hdrflow::maths::disc_image::disc_integral(&ball, &map);
+    let rel = (0..3).map(|k| ((got[k] - want[k]) / want[k]).abs()).fold(0.0, f64::max);
+    eprintln!("park: ball integral {got:?} vs {want:?} ({rel:.1e})");
+    assert!(rel < 2e-3, "{rel}");
+    let mask = load("unwrap_mask.exr");
+    let (w, h) = (mask.width, mask.height);
+    let mut seen = 0.0;
+    for y in 0..h {
+        for x in 0..w {
+            let m = mask.pixel(x, y)[0];
+            assert!(m == 0.0 || m == 1.0, "{m}");
+            seen += m as f64 * latlong::texel_solid_angle(y, w, h);
+        }
+    }
+    let share = seen / (4.0 * PI);
+    eprintln!("park: the unwrapped ball saw {share:.5} of the sphere (0.95^2 = 0.9025)");
+    assert!((share - 0.9025).abs() < 5e-3, "{share}");
+}
+
+fn load_park() -> Image {
+    let path = std::path::Path::new(common::MANIFEST_DIR).join("assets/maps/rooitou_park_1k.hdr");
+    hdrflow::formats::decode_by_extension(&common::read_file(&path), "hdr").expect("the park decodes")
 }

@@ -62,12 +62,8 @@ impl DiscMap {
 
     /// The upper hemisphere seen from below: zenith (+Y) at the centre, +X right, +Z up (-Z at
     /// the bottom), the horizon on the rim, alpha = (pi / 2) r.
-    pub const SKY_ANGULAR: DiscMap = DiscMap {
-        right: DVec3::X,
-        up: DVec3::Z,
-        axis: DVec3::Y,
-        radial: Radial::Equidistant { max_angle: FRAC_PI_2 },
-    };
+    pub const SKY_ANGULAR: DiscMap =
+        DiscMap { right: DVec3::X, up: DVec3::Z, axis: DVec3::Y, radial: Radial::Equidistant { max_angle: FRAC_PI_2 } };
 
     /// A mirror ball photographed by a camera with screen axes `right`, `up` and `towards_camera`
     /// = `right x up` (an orthonormal right-handed frame; the camera looks along
@@ -286,6 +282,32 @@ mod tests {
         let ring = 2.0 * PI * (m.angle_at_radius(r0).cos() - m.angle_at_radius(r1).cos());
         let area = PI * (r1 * r1 - r0 * r0);
         assert!((ring / area - m.density(0.5005, 0.0)).abs() < 1e-5);
+    }
+
+    #[test]
+    fn skylibs_layouts_relate_as_documented() {
+        // skylibs (envmap/projections.py), image coordinates a, b in [0, 1], b down:
+        // sphere: u = 2a - 1, w = 2b - 1, t = atan2(u, -w), p = 2 asin(r):
+        //   (sin p sin t, sin p cos t, -cos p), centre -Z, +X right: hdrflow's ball seen by a
+        //   camera looking along +Z (right -X, up +Y, c = -Z), mirrored left to right.
+        // skyangular: t = atan2(1 - 2b, 2a - 1), p = (pi / 2) r: (sin p cos t, cos p, sin p sin t).
+        let ball_plus_z = DiscMap::mirror_ball(DVec3::NEG_X, DVec3::Y, DVec3::NEG_Z);
+        for i in 1..20 {
+            for j in 1..20 {
+                let (a, b) = (i as f64 / 20.0, j as f64 / 20.0);
+                let (u, w) = (2.0 * a - 1.0, 2.0 * b - 1.0);
+                let r = (u * u + w * w).sqrt();
+                if u * u + w * w > 1.0 {
+                    continue;
+                }
+                let (t, p) = (u.atan2(-w), 2.0 * r.asin());
+                let sphere = DVec3::new(p.sin() * t.sin(), p.sin() * t.cos(), -p.cos());
+                assert!(close(ball_plus_z.direction(-u, -w).unwrap(), sphere, 1e-12), "sphere ({a}, {b})");
+                let (t, p) = ((1.0 - 2.0 * b).atan2(2.0 * a - 1.0), PI / 2.0 * r);
+                let sky = DVec3::new(p.sin() * t.cos(), p.cos(), p.sin() * t.sin());
+                assert!(close(DiscMap::SKY_ANGULAR.direction(u, -w).unwrap(), sky, 1e-12), "skyangular ({a}, {b})");
+            }
+        }
     }
 
     #[test]

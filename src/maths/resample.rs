@@ -352,12 +352,7 @@ pub fn to_octahedral<S: SphereSource>(src: &S, n: usize) -> Image {
 /// A resampling of every channel of `img`, three at a time: `f` resamples the RGB view
 /// [`LatLongSource::channels`] of channels `(k, k + 1, k + 2)` (the last ones repeated when fewer
 /// are left) to a `width x height` RGB image, and the channels are gathered back, names kept.
-pub fn per_channel_triples(
-    img: &Image,
-    width: usize,
-    height: usize,
-    f: impl Fn(&LatLongSource) -> Image,
-) -> Image {
+pub fn per_channel_triples(img: &Image, width: usize, height: usize, f: impl Fn(&LatLongSource) -> Image) -> Image {
     let c = img.channels;
     let mut out = Image::with_names(width, height, img.names.clone(), vec![0.0; width * height * c]);
     for first in (0..c).step_by(3) {

@@ -22,12 +22,17 @@ crate::params! {
 }
 
 pub fn spec() -> OpSpec {
-    OpSpec::new("LatLongToSkyLatLong", "layouts", 1, "The upper hemisphere of a lat-long map: its upper half rows, exactly")
-        .output_like("image", |p: LatLongToSkyLatLongParams<Check>| p.env, "the W x H/2 sky lat-long map")
-        .size(|_, p: LatLongToSkyLatLongParams<Check>| p.env.size.map(|(w, h)| (w, h / 2)))
-        .check(check)
-        .code_hash(crate::op_code_hash!())
-        .eval(eval)
+    OpSpec::new(
+        "LatLongToSkyLatLong",
+        "layouts",
+        1,
+        "The upper hemisphere of a lat-long map: its upper half rows, exactly",
+    )
+    .output_like("image", |p: LatLongToSkyLatLongParams<Check>| p.env, "the W x H/2 sky lat-long map")
+    .size(|_, p: LatLongToSkyLatLongParams<Check>| p.env.size.map(|(w, h)| (w, h / 2)))
+    .check(check)
+    .code_hash(crate::op_code_hash!())
+    .eval(eval)
 }
 
 fn check(_: &CheckContext, p: LatLongToSkyLatLongParams<Check>) -> Result<(), CheckProblem> {
