@@ -369,13 +369,13 @@ fn bad_inputs_are_pipeline_errors_naming_the_node() {
     let wide = save(&sb, "wide.pfm", &Image::new(64, 48, 3));
     let square = save(&sb, "square.pfm", &Image::new(64, 64, 3));
     let cases = [
-        (format!(r#""b": MirrorBallToLatLong(image: "in"),"#), wide.clone(), "must be square"),
-        (format!(r#""b": SkyAngularToLatLong(image: "in"),"#), wide.clone(), "must be square"),
-        (format!(r#""b": MirrorBallToLatLong(image: "in", ball_fraction: 0),"#), square.clone(), "(0, 1]"),
-        (format!(r#""b": MirrorBallToLatLong(image: "in", ball_fraction: 1.5),"#), square.clone(), "ball_fraction"),
-        (format!(r#""b": MirrorBallToLatLong(image: "in", yaw: 5, look: (0, 0, -1)),"#), square.clone(), "not both"),
-        (format!(r#""b": LatLongToMirrorBall(env: "in", look: (0, 0, 0)),"#), square.clone(), "non-zero"),
-        (format!(r#""b": LatLongToSkyLatLong(env: "odd"),"#), square.clone(), "odd height"),
+        (r#""b": MirrorBallToLatLong(image: "in"),"#, wide.as_str(), "must be square"),
+        (r#""b": SkyAngularToLatLong(image: "in"),"#, wide.as_str(), "must be square"),
+        (r#""b": MirrorBallToLatLong(image: "in", ball_fraction: 0),"#, square.as_str(), "(0, 1]"),
+        (r#""b": MirrorBallToLatLong(image: "in", ball_fraction: 1.5),"#, square.as_str(), "ball_fraction"),
+        (r#""b": MirrorBallToLatLong(image: "in", yaw: 5, look: (0, 0, -1)),"#, square.as_str(), "not both"),
+        (r#""b": LatLongToMirrorBall(env: "in", look: (0, 0, 0)),"#, square.as_str(), "non-zero"),
+        (r#""b": LatLongToSkyLatLong(env: "odd"),"#, square.as_str(), "odd height"),
     ];
     for (node, input, needle) in cases {
         let text = format!(
