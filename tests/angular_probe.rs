@@ -9,7 +9,7 @@ mod common;
 use std::path::Path;
 
 use hdrflow::data::Image;
-use hdrflow::ops::image::angular_to_latlong::angular_to_latlong;
+use hdrflow::ops::layouts::angular_to_latlong::angular_to_latlong;
 
 fn load(name: &str) -> Option<Image> {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data/envmaps").join(name);

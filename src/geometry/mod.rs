@@ -1,10 +1,12 @@
 //! Geometry shared by every layer: the lat-long convention (and its per-size tables,
-//! [`latlong_grid`]), the cube-map faces and their layouts in one image ([`cube_layout`]), and
-//! the one vector helper that glam does not provide with the rounding hdrflow's results were
-//! computed with. A leaf module: it depends on nothing else in the crate but [`crate::choice`]
-//! (the `choice!` macro, itself below every layer), so [`crate::data`] and [`crate::formats`]
-//! can use it without depending on [`crate::maths`].
+//! [`latlong_grid`]), the cube-map faces and their layouts in one image ([`cube_layout`]), the
+//! azimuthal disc layouts ([`azimuthal`]: angular probe, sky angular, mirror ball), and the one
+//! vector helper that glam does not provide with the rounding hdrflow's results were computed
+//! with. A leaf module: it depends on nothing else in the crate but [`crate::choice`] (the
+//! `choice!` macro, itself below every layer), so [`crate::data`] and [`crate::formats`] can use
+//! it without depending on [`crate::maths`].
 
+pub mod azimuthal;
 pub mod cube_layout;
 pub mod cubemap;
 pub mod latlong;

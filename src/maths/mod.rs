@@ -4,6 +4,7 @@
 
 pub mod chi_square;
 pub mod colour;
+pub mod disc_image;
 pub mod error_metrics;
 pub mod fresnel;
 pub mod ggx;

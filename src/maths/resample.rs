@@ -177,8 +177,8 @@ fn max_abs(v: [f32; 3]) -> f64 {
 }
 
 /// The parametrisation of an output texel's footprint: (p, q) to a direction, and the exact solid
-/// angle of a (p, q) rectangle.
-trait Footprint: Sync {
+/// angle of a (p, q) rectangle (`maths::disc_image` adds the azimuthal discs).
+pub(crate) trait Footprint: Sync {
     fn dir(&self, p: f64, q: f64) -> DVec3;
     fn solid_angle(&self, p0: f64, p1: f64, q0: f64, q1: f64) -> f64;
 }
@@ -217,7 +217,7 @@ impl Footprint for OctDomain {
 }
 
 /// Subdivision limits (see the module documentation).
-struct Limits {
+pub(crate) struct Limits {
     forced: u32,
     boundary: u32,
     max: u32,
@@ -225,7 +225,7 @@ struct Limits {
 }
 
 impl Limits {
-    fn new<S: SphereSource>(src: &S, out_texel_angle: f64) -> Limits {
+    pub(crate) fn new<S: SphereSource>(src: &S, out_texel_angle: f64) -> Limits {
         Limits::with_tolerance(src, out_texel_angle, 1e-7, 8)
     }
     /// `rel_tol` times the source's magnitude per leaf, down to `2^-depth` of a source texel.
@@ -292,7 +292,8 @@ fn integrate<S: SphereSource, F: Footprint>(
     *weight += omega;
 }
 
-fn average<S: SphereSource, F: Footprint>(src: &S, fp: &F, r: [f64; 4], lim: &Limits) -> [f32; 3] {
+/// The solid-angle mean of `src` over the cell `r = [p0, p1, q0, q1]` of `fp`.
+pub(crate) fn average<S: SphereSource, F: Footprint>(src: &S, fp: &F, r: [f64; 4], lim: &Limits) -> [f32; 3] {
     let mut acc = [0.0; 3];
     let mut weight = 0.0;
     let [p0, p1, q0, q1] = r;
@@ -345,6 +346,24 @@ pub fn to_octahedral<S: SphereSource>(src: &S, n: usize) -> Image {
             row[3 * x..3 * x + 3].copy_from_slice(&average(src, &OctDomain, r, &lim));
         }
     });
+    out
+}
+
+/// A resampling of every channel of `img`, three at a time: `f` resamples the RGB view
+/// [`LatLongSource::channels`] of channels `(k, k + 1, k + 2)` (the last ones repeated when fewer
+/// are left) to a `width x height` RGB image, and the channels are gathered back, names kept.
+pub fn per_channel_triples(img: &Image, width: usize, height: usize, f: impl Fn(&LatLongSource) -> Image) -> Image {
+    let c = img.channels;
+    let mut out = Image::with_names(width, height, img.names.clone(), vec![0.0; width * height * c]);
+    for first in (0..c).step_by(3) {
+        let pick = [first, (first + 1).min(c - 1), (first + 2).min(c - 1)];
+        let resampled = f(&LatLongSource::channels(img, pick));
+        for (px_out, px) in out.data.chunks_exact_mut(c).zip(resampled.data.chunks_exact(3)) {
+            for (j, &k) in pick.iter().enumerate() {
+                px_out[k] = px[j];
+            }
+        }
+    }
     out
 }
 

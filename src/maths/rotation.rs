@@ -15,7 +15,7 @@
 use glam::{DMat3, DVec3};
 
 use crate::data::Image;
-use crate::maths::resample::{to_latlong_precise, LatLongSource, SphereSource};
+use crate::maths::resample::{per_channel_triples, to_latlong_precise, SphereSource};
 
 /// A rotation of the sphere, kept as its matrix (world to world, orthonormal, det +1).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -136,18 +136,7 @@ pub fn rotate_latlong(img: &Image, r: Rotation) -> Image {
         }
         return out;
     }
-    let mut out = Image::with_names(w, h, img.names.clone(), vec![0.0; w * h * c]);
-    for first in (0..c).step_by(3) {
-        let pick = [first, (first + 1).min(c - 1), (first + 2).min(c - 1)];
-        let src = LatLongSource::channels(img, pick);
-        let rotated = to_latlong_precise(&Rotated::new(&src, r), w, h, 1e-9, 12);
-        for (px_out, px_rot) in out.data.chunks_exact_mut(c).zip(rotated.data.chunks_exact(3)) {
-            for (j, &k) in pick.iter().enumerate() {
-                px_out[k] = px_rot[j];
-            }
-        }
-    }
-    out
+    per_channel_triples(img, w, h, |src| to_latlong_precise(&Rotated::new(src, r), w, h, 1e-9, 12))
 }
 
 #[cfg(test)]

@@ -10,6 +10,7 @@ pub mod ibl;
 pub mod image;
 pub mod io;
 pub mod latlong_input;
+pub mod layouts;
 pub mod lights;
 pub mod plotting;
 pub mod sampling;
@@ -21,6 +22,7 @@ use crate::engine::registry::Registry;
 pub fn register_all(registry: &mut Registry) {
     io::register(registry);
     image::register(registry);
+    layouts::register(registry);
     sampling::register(registry);
     shading::register(registry);
     lights::register(registry);

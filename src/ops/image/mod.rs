@@ -1,6 +1,5 @@
 //! Per-image operations.
 
-pub mod angular_to_latlong;
 pub mod blur;
 pub mod constant;
 pub mod crop;
@@ -28,7 +27,6 @@ pub fn register(r: &mut Registry) {
     r.register(resize::spec());
     r.register(exposure::spec());
     r.register(constant::spec());
-    r.register(angular_to_latlong::spec());
     r.register(overlay::spec());
     r.register(image_error::spec());
     r.register(split_channels::spec());

@@ -1,0 +1,46 @@
+//! `LatLongToSkyAngular(env, size: 512)`: the upper hemisphere of a lat-long map as a disc seen
+//! from below looking up (`geometry::azimuthal::DiscMap::SKY_ANGULAR`): the zenith (+Y) at the
+//! centre, the horizon on the rim, the radius proportional to the zenith angle
+//! (`r = theta / (pi / 2)`), +X on the right and -Z at the bottom (+Z at the top), as skylibs'
+//! `skyangular`.
+//!
+//! Each `size x size` pixel whose centre is in the disc is the solid-angle mean of the map over
+//! its footprint (`maths::disc_image::latlong_to_disc`, leaves weighted by
+//! `dOmega/dA = (pi / 2) sin(pi r / 2) / r`); outside the disc 0. `SkyAngularToLatLong` is the
+//! inverse on the upper hemisphere.
+
+use crate::data::Image;
+use crate::engine::fields::{Check, Input};
+use crate::engine::op::{OpContext, OpError, OpSpec};
+use crate::engine::value::Value;
+use crate::geometry::azimuthal::DiscMap;
+use crate::maths::disc_image::latlong_to_disc;
+use crate::types::ty::*;
+
+crate::params! {
+    pub struct LatLongToSkyAngularParams {
+        /// the lat-long map (any channels); its lower hemisphere is not used
+        #[input(ANY_IMAGE)]
+        pub env: Input<Image>,
+        /// output width and height
+        #[range(1, 1 << 14)]
+        pub size: usize = 512,
+    }
+}
+
+pub fn spec() -> OpSpec {
+    OpSpec::new(
+        "LatLongToSkyAngular",
+        "layouts",
+        1,
+        "The upper hemisphere as a disc seen from below (zenith at the centre, -Z at the bottom, r = theta / 90 deg)",
+    )
+    .output_like("image", |p: LatLongToSkyAngularParams<Check>| p.env, "the size x size sky-angular disc")
+    .size(|_, p: LatLongToSkyAngularParams<Check>| Some((p.size as u64, p.size as u64)))
+    .code_hash(crate::op_code_hash!())
+    .eval(eval)
+}
+
+fn eval(_: &mut OpContext, p: LatLongToSkyAngularParams) -> Result<Value, OpError> {
+    Ok(Value::new(latlong_to_disc(&p.env, &DiscMap::SKY_ANGULAR, p.size)))
+}

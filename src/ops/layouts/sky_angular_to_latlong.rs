@@ -1,0 +1,65 @@
+//! `SkyAngularToLatLong(image, width: 1024, height: 512, fill: [])`: a sky-angular disc (the
+//! upper hemisphere seen from below, zenith at the centre, -Z at the bottom, `r = theta / (pi /
+//! 2)`; see `LatLongToSkyAngular`) to a lat-long map.
+//!
+//! Each texel is a bilinear lookup at its centre direction's disc point, taps whose pixel centres
+//! lie outside the disc weighing 0 (`maths::disc_image::disc_to_latlong`). The lower hemisphere,
+//! which the disc does not hold, is the constant `fill` per channel (none given: 0; one number:
+//! every channel; else one per channel). Port `mask`: 1 where the disc saw the texel (the upper
+//! hemisphere), 0 where it was filled. A non-square image is an error (before the run when its
+//! size is known).
+
+use crate::data::Image;
+use crate::engine::fields::{Check, Input};
+use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec, OutputType, Outputs};
+use crate::engine::value::Value;
+use crate::geometry::azimuthal::DiscMap;
+use crate::maths::disc_image::disc_to_latlong;
+use crate::types::ty::*;
+
+use super::{check_square, fill_unseen, fill_values, require_square};
+
+crate::params! {
+    pub struct SkyAngularToLatLongParams {
+        /// the sky-angular disc (square)
+        #[input(ANY_IMAGE)]
+        pub image: Input<Image>,
+        /// output width
+        #[range(1, 1 << 28)]
+        pub width: usize = 1024,
+        /// output height
+        #[range(1, 1 << 28)]
+        pub height: usize = 512,
+        /// the lower hemisphere's value: [] is 0, [v] every channel, or one per channel
+        pub fill: Vec<f64> = Vec::new(),
+    }
+}
+
+const WHAT: &str = "a sky-angular";
+
+pub fn spec() -> OpSpec {
+    OpSpec::new(
+        "SkyAngularToLatLong",
+        "layouts",
+        1,
+        "A sky-angular disc (upper hemisphere seen from below) to a lat-long map, the lower hemisphere a constant fill",
+    )
+    .output_like("image", |p: SkyAngularToLatLongParams<Check>| p.image, "the lat-long map")
+    .output("mask", OutputType::Fixed(SCALAR_T), "1 where the disc saw the texel, 0 where it was filled")
+    .size(|_, p: SkyAngularToLatLongParams<Check>| Some((p.width as u64, p.height as u64)))
+    .check(check)
+    .code_hash(crate::op_code_hash!())
+    .eval(eval)
+}
+
+fn check(_: &CheckContext, p: SkyAngularToLatLongParams<Check>) -> Result<(), CheckProblem> {
+    check_square("image", p.image, WHAT)
+}
+
+fn eval(_: &mut OpContext, p: SkyAngularToLatLongParams) -> Result<Outputs, OpError> {
+    require_square(&p.image, "image", WHAT)?;
+    let fill = fill_values(&p.fill, p.image.channels)?;
+    let mut out = disc_to_latlong(&p.image, &DiscMap::SKY_ANGULAR, 1.0, p.width, p.height);
+    fill_unseen(&mut out.image, &out.mask, &fill);
+    Ok(Outputs::new().with("image", Value::new(out.image)).with("mask", Value::new(out.mask)))
+}

@@ -1,0 +1,51 @@
+//! `SkyLatLongToLatLong(image, fill: [])`: a W x h sky lat-long map (the upper hemisphere, as
+//! `LatLongToSkyLatLong` makes it) back to a W x 2h lat-long map: the upper h rows are the
+//! input, bit for bit; the lower hemisphere is the constant `fill` per channel (none given: 0;
+//! one number: every channel; else one per channel). Port `mask`: 1 on the sky rows, 0 below.
+
+use crate::data::Image;
+use crate::engine::fields::{Check, Input};
+use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Outputs};
+use crate::engine::value::Value;
+use crate::types::ty::*;
+
+use super::fill_values;
+
+crate::params! {
+    pub struct SkyLatLongToLatLongParams {
+        /// the sky lat-long map (the upper hemisphere, zenith in row 0)
+        #[input(ANY_IMAGE)]
+        pub image: Input<Image>,
+        /// the lower hemisphere's value: [] is 0, [v] every channel, or one per channel
+        pub fill: Vec<f64> = Vec::new(),
+    }
+}
+
+pub fn spec() -> OpSpec {
+    OpSpec::new(
+        "SkyLatLongToLatLong",
+        "layouts",
+        1,
+        "A sky lat-long map (upper hemisphere) to a full lat-long map, the lower hemisphere a constant fill",
+    )
+    .output_like("image", |p: SkyLatLongToLatLongParams<Check>| p.image, "the W x 2h lat-long map")
+    .output("mask", OutputType::Fixed(SCALAR_T), "1 on the sky (upper) rows, 0 on the filled ones")
+    .size(|_, p: SkyLatLongToLatLongParams<Check>| p.image.size.map(|(w, h)| (w, 2 * h)))
+    .code_hash(crate::op_code_hash!())
+    .eval(eval)
+}
+
+fn eval(_: &mut OpContext, p: SkyLatLongToLatLongParams) -> Result<Outputs, OpError> {
+    let sky = &*p.image;
+    let (w, h, c) = (sky.width, sky.height, sky.channels);
+    let fill = fill_values(&p.fill, c)?;
+    let mut data = Vec::with_capacity(w * 2 * h * c);
+    data.extend_from_slice(&sky.data);
+    for _ in 0..w * h {
+        data.extend_from_slice(&fill);
+    }
+    let mut mask = vec![1.0f32; w * h];
+    mask.resize(w * 2 * h, 0.0);
+    let image = Image::with_names(w, 2 * h, sky.names.clone(), data);
+    Ok(Outputs::new().with("image", Value::new(image)).with("mask", Value::new(Image::from_vec(w, 2 * h, 1, mask))))
+}
