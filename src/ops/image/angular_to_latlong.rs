@@ -16,6 +16,7 @@ use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec};
 use crate::engine::value::Value;
 use crate::geometry::latlong;
+use crate::maths::bilinear;
 use crate::types::ty::*;
 
 crate::params! {
@@ -76,25 +77,10 @@ pub fn angular_to_latlong(probe: &Image, width: usize, height: usize) -> Image {
             // Continuous pixel coordinates (centres at +0.5).
             let fx = (u + 1.0) * 0.5 * pw - 0.5;
             let fy = (1.0 - v) * 0.5 * ph - 0.5;
-            let (x0, y0) = (fx.floor(), fy.floor());
-            let (tx, ty) = (fx - x0, fy - y0);
-            acc.fill(0.0);
-            let mut wsum = 0.0;
-            for (dx, dy, w) in
-                [(0, 0, (1.0 - tx) * (1.0 - ty)), (1, 0, tx * (1.0 - ty)), (0, 1, (1.0 - tx) * ty), (1, 1, tx * ty)]
-            {
-                let (sx, sy) = (x0 as isize + dx, y0 as isize + dy);
-                if w > 0.0 && inside(sx, sy) {
-                    let p = probe.pixel(sx as usize, sy as usize);
-                    for k in 0..c {
-                        acc[k] += w * p[k] as f64;
-                    }
-                    wsum += w;
-                }
-            }
-            if wsum > 0.0 {
+            let tap = |sx: isize, sy: isize| inside(sx, sy).then_some((sx as usize, sy as usize));
+            if bilinear::lookup(probe, fx, fy, tap, &mut acc) {
                 for k in 0..c {
-                    row[x * c + k] = (acc[k] / wsum) as f32;
+                    row[x * c + k] = acc[k] as f32;
                 }
             }
         }
