@@ -96,8 +96,10 @@ impl View<'_> {
             }
             return;
         }
+        // A leaf none of whose nine points has a ray lies beyond the circle or disc (its
+        // solid angle is 0 up to rounding, which must not get a weight).
         let omega = self.lens.rect_solid_angle(p00.x, p11.x, p00.y, p11.y);
-        if omega > 0.0 {
+        if omega > 0.0 && all.iter().any(|p| p.uv.is_some()) {
             let d = self.r * self.lens.ray_clamped(xm, ym);
             let (i, j) = latlong::texel_of_direction(d.into(), self.env.width, self.env.height);
             add(acc, weight, self.env.pixel(i, j), omega);
