@@ -208,8 +208,9 @@ impl Lens {
         match self.model {
             Model::Perspective => cubemap::rect_solid_angle(x0 * s, x1 * s, y0 * s, y1 * s),
             Model::Orthographic => {
+                // Beyond the disc the four terms cancel to rounding, which must not go negative.
                 let f = |x: f64, y: f64| orthographic_antiderivative(x * s, y * s);
-                f(x1, y1) - f(x0, y1) - f(x1, y0) + f(x0, y0)
+                (f(x1, y1) - f(x0, y1) - f(x1, y0) + f(x0, y0)).max(0.0)
             }
             _ => self.jacobian(0.5 * (x0 + x1), 0.5 * (y0 + y1)) * (x1 - x0) * (y1 - y0),
         }
