@@ -4,35 +4,40 @@
 //!
 //! In the map's texel coordinates `(u, v) = (W phi / 2 pi, H theta / pi)` (texel (i, j) is the
 //! square `[i, i + 1] x [j, j + 1]`) the solid angle is `dOmega = (2 pi / W)(pi / H) sin(theta)
-//! du dv`, and a small plane cell's footprint is nearly the quadrilateral of its corners'
-//! `(u, v)`. A cell of the pixel is integrated **exactly as that quadrilateral**: clipped
+//! du dv`, and a small plane cell's footprint is nearly the octagon of its corners' and edge
+//! midpoints' `(u, v)`. A cell of the pixel is integrated **exactly as that octagon**: clipped
 //! against every texel it overlaps (Sutherland-Hodgman), each piece weighted by its area times
 //! `sin(theta)` at its centroid (the midpoint rule within a texel: relative error
-//! `O(texel^2)`). A cell is taken as a quadrilateral when
+//! `O(texel^2)`). Where the lens has an exact rectangle solid angle (perspective,
+//! orthographic: `Lens::rect_solid_angle`) the cell gets that, shared among its pieces in
+//! those proportions. A cell is taken as an octagon when
 //!
 //! - its corners, edge midpoints and centre all have rays (inside a fisheye's circle);
-//! - it spans at most [`MAX_SPAN`] texels in u and in v (a cell around a pole spans every
-//!   column, so it is never taken; the seam is unwrapped);
-//! - it is flat: each edge midpoint lies within [`FLATNESS`] times the span of the average of
-//!   the edge's ends, and the centre of the average of the corners (or all nine points fall in
-//!   one texel), so the straight edges misplace at most about that fraction of the cell.
+//! - it spans at most [`MAX_SPAN`] texels in u and in v (a cell near a pole spans many
+//!   columns; the seam is unwrapped);
+//! - it is flat: each edge midpoint lies within `4 FLATNESS` times the span of the chord
+//!   between the edge's ends (so the octagon's half-edges, whose deviation is about a quarter
+//!   of that, misplace about [`FLATNESS`] of the cell), or all nine points fall in one texel.
 //!
-//! Otherwise it is split in four in the plane, down to 2^-6 of a source texel's angle, where a
-//! small cell is clipped flat or not; a cell with a point without a ray or too wide there (at a
-//! pole, on the fisheye circle, at the rim of a 180-degree orthographic view) is a leaf: the
-//! texel at its centre's (clamped) ray, weighted by `Lens::rect_solid_angle` (exact on the
-//! orthographic disc's rim; 0 for a fisheye leaf whose centre is beyond the circle). The
-//! weights are normalised per pixel, so a constant map stays exactly constant. Pixel corners
-//! are computed once for the whole view and shared by neighbours.
+//! Otherwise it is split in four in the plane, down to 2^-3 of a source texel's angle, where a
+//! small cell is clipped flat or not (weighted by the lens's solid angle); near a pole, and on
+//! the rim of an orthographic disc (whose Jacobian is singular), 3 levels further; across a
+//! fisheye's circle down to 2^-6 of the pixel. A cell still not clipped there is a leaf: the
+//! texel at its centre's (clamped) ray, weighted by `Lens::rect_solid_angle`. A cell none of
+//! whose nine points has a ray, and whose solid angle is 0 to rounding, is beyond the circle or
+//! disc and is dropped. The weights are normalised per pixel, so a constant map stays exactly
+//! constant; a pixel with no weight is 0. Pixel corners are computed once for the whole view.
 //!
-//! `maths::resample` integrates footprints by bisecting towards texel edges until a tolerance
-//! is met; for a view finer than the map (every dataset crop) that resolves each edge crossing
-//! a pixel with hundreds of leaves (measured: 12 s for a 512 x 512 crop of a 1k map at a
-//! per-pixel tolerance of 1e-4, 34 s at 1e-5), where the exact clip needs one cell.
+//! Why not `maths::resample`: it integrates footprints by bisecting towards texel edges until
+//! a tolerance is met, and for a view finer than the map (every dataset crop) that resolves
+//! each edge crossing a pixel with hundreds of leaves (measured: 12 s for a 512 x 512 crop of
+//! the 1k park at a per-pixel tolerance of 1e-4, 34 s at 1e-5), where one octagon is exact.
+//!
 //! The tests check the result against the exact means of a map of four constant quadrants
-//! (spherical polygons, Van Oosterom and Strackee's triangle formula) to 1e-4 (values 1 to 4),
-//! and against a brute force of 512 x 512 sub-rays per pixel on texel noise (values 1 to 2) to
-//! 1e-3, which is that brute force's own error (docs/toolkit/camera.md has the measured numbers).
+//! (spherical polygons, Van Oosterom and Strackee's triangle formula) to 5e-4 (values 1 to 4),
+//! and against a brute force of 384 x 384 sub-rays per pixel on texel noise (values 1 to 2)
+//! to 1e-3 inside the circle or disc and 1e-2 on its rim (docs/toolkit/camera.md has the
+//! measured numbers).
 
 use std::f64::consts::PI;
 
@@ -43,10 +48,9 @@ use crate::data::Image;
 use crate::geometry::latlong;
 use crate::maths::camera::{Lens, Model};
 
-/// The largest span, in texels along u and along v, of a cell clipped as a quadrilateral.
+/// The largest span, in texels along u and along v, of a cell clipped as an octagon.
 pub const MAX_SPAN: f64 = 2.0;
-/// How far (relative to the cell's span) an edge midpoint or the centre may lie from the
-/// straight-edged quadrilateral.
+/// How far (relative to the cell's span) the octagon's edges may lie from the footprint's.
 pub const FLATNESS: f64 = 1e-3;
 /// Splitting goes this many levels below the source texel's size.
 const EXTRA_DEPTH: i32 = 3;

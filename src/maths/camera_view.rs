@@ -203,7 +203,7 @@ mod tests {
             .sum();
         let (t0, t1) = (std::f64::consts::PI * y0 as f64 / h as f64, std::f64::consts::PI * (y0 + 1) as f64 / h as f64);
         let want = 1000.0 * 2.0 * std::f64::consts::PI / w as f64 * (t0.cos() - t1.cos());
-        assert!((energy - want).abs() < 1e-4 * want, "{energy} vs {want}");
+        assert!((energy - want).abs() < 2e-5 * want, "{energy} vs {want}");
     }
 
     #[test]
@@ -262,7 +262,8 @@ mod tests {
         let area = mean(&project(&env, &lens, r, Filter::Area));
         let bilinear = mean(&project(&env, &lens, r, Filter::Bilinear));
         assert!((area - want).abs() < 1e-5 * want, "area {area} vs {want}");
-        assert!((bilinear - want).abs() < 1e-3 * want, "bilinear {bilinear} vs {want}");
+        // Measured: 6e-7 (Area) and 8e-7 (Bilinear, exact for a linear map up to the poles).
+        assert!((bilinear - want).abs() < 1e-5 * want, "bilinear {bilinear} vs {want}");
     }
 
     #[test]
