@@ -103,6 +103,17 @@ fn the_worked_example_runs_and_its_views_agree() {
 }
 
 #[test]
+fn the_documented_example_is_a_valid_pipeline() {
+    let doc = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/docs/toolkit/camera.md")).unwrap();
+    let start = doc.find("```ron\n").expect("docs/toolkit/camera.md has a RON example") + "```ron\n".len();
+    let text = &doc[start..start + doc[start..].find("```").unwrap()];
+    let registry = hdrflow::builtin_registry();
+    let graphs = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/graphs"));
+    let p = hdrflow::Pipeline::parse(text, "camera.md", graphs, &registry, &[]).map_err(|e| e.to_string());
+    assert_eq!(p.expect("the example parses and validates").nodes.len(), 10);
+}
+
+#[test]
 fn the_centre_pixel_sees_the_direction_rotate_predicts() {
     // builtin:linear is 1 + b.d; the centre pixel of an odd view looks along R (-Z).
     let text = r#"(nodes: {
