@@ -2,6 +2,10 @@
 //! relighting and its SIMD kernels, and statistical tests. The lat-long convention they all use
 //! lives below them, in [`crate::geometry::latlong`].
 
+pub mod bilinear;
+pub mod camera;
+pub mod camera_area;
+pub mod camera_view;
 pub mod chi_square;
 pub mod colour;
 pub mod disc_image;

@@ -4,6 +4,7 @@ pub mod blur;
 pub mod constant;
 pub mod crop;
 pub mod difference;
+pub mod embed;
 pub mod exposure;
 pub mod flip_vertical;
 pub mod image_error;
@@ -12,6 +13,7 @@ pub mod math;
 pub mod mean_light_vector;
 pub mod merge_channels;
 pub mod overlay;
+pub mod project;
 pub mod resize;
 pub mod rotate;
 pub mod solid_angle;
@@ -40,4 +42,6 @@ pub fn register(r: &mut Registry) {
     r.register(statistics::spec());
     r.register(solid_angle::spec());
     r.register(mean_light_vector::spec());
+    r.register(project::spec());
+    r.register(embed::spec());
 }
