@@ -73,6 +73,18 @@ fn expectation(path: &Path) -> Result<Expectation, String> {
     Ok(Expectation { substrings, exit })
 }
 
+/// Runs `hdrflow run REL` with an empty output and cache folder of its own; returns the sandbox
+/// (to inspect the folders), the report path and the output.
+fn run_bad(rel: &str) -> (Sandbox, std::path::PathBuf, common::Output) {
+    let sandbox = Sandbox::new();
+    std::fs::create_dir_all(sandbox.out()).expect("out folder");
+    std::fs::create_dir_all(sandbox.cache()).expect("cache folder");
+    let report = sandbox.next_report();
+    let cmd = sandbox.run_command(Path::new(rel), &sandbox.out(), &sandbox.cache(), &report, &[]);
+    let output = run_command(cmd, RUN_TIMEOUT);
+    (sandbox, report, output)
+}
+
 /// Runs one bad pipeline; returns a description of every way it failed the expectation.
 fn check_one(name: &str) -> Vec<String> {
     let rel = format!("tests/bad/{name}");
@@ -80,12 +92,7 @@ fn check_one(name: &str) -> Vec<String> {
         Ok(e) => e,
         Err(e) => return vec![e],
     };
-    let sandbox = Sandbox::new();
-    std::fs::create_dir_all(sandbox.out()).expect("out folder");
-    std::fs::create_dir_all(sandbox.cache()).expect("cache folder");
-    let report = sandbox.next_report();
-    let cmd = sandbox.run_command(Path::new(&rel), &sandbox.out(), &sandbox.cache(), &report, &[]);
-    let output = run_command(cmd, RUN_TIMEOUT);
+    let (sandbox, report, output) = run_bad(&rel);
 
     let mut problems = Vec::new();
     if output.code != Some(expect.exit) {
@@ -201,11 +208,8 @@ fn the_readme_error_block_is_what_the_binary_prints() {
     let printed: Vec<String> = names
         .iter()
         .map(|name| {
-            let sandbox = Sandbox::new();
             let rel = format!("tests/bad/{name}.ron");
-            let report = sandbox.next_report();
-            let cmd = sandbox.run_command(Path::new(&rel), &sandbox.out(), &sandbox.cache(), &report, &[]);
-            let output = run_command(cmd, RUN_TIMEOUT);
+            let (_, _, output) = run_bad(&rel);
             output
                 .stderr
                 .lines()

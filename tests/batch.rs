@@ -15,7 +15,8 @@ fn library(sb: &Sandbox, w: usize, h: usize) -> PathBuf {
     sb.write("g.ron", common::batch_graph("maps/m0.pfm"))
 }
 
-fn batch(sb: &Sandbox, graph: &Path, out: &Path, extra: &[&str]) -> Output {
+/// `batch GRAPH --over env.path=MAPS/*.pfm --out OUT --cache-dir CACHE EXTRA...`.
+fn batch_args(sb: &Sandbox, graph: &Path, out: &Path, extra: &[&str]) -> Vec<String> {
     let glob = format!("env.path={}/maps/*.pfm", sb.path().display());
     let mut args: Vec<String> = vec![
         "batch".into(),
@@ -28,7 +29,11 @@ fn batch(sb: &Sandbox, graph: &Path, out: &Path, extra: &[&str]) -> Output {
         sb.cache().display().to_string(),
     ];
     args.extend(extra.iter().map(|s| s.to_string()));
-    run_hdrflow(&args)
+    args
+}
+
+fn batch(sb: &Sandbox, graph: &Path, out: &Path, extra: &[&str]) -> Output {
+    run_hdrflow(batch_args(sb, graph, out, extra))
 }
 
 fn snapshot(dir: &Path) -> Vec<(PathBuf, Vec<u8>)> {
@@ -269,29 +274,14 @@ fn three_concurrent_shards_share_one_cache_and_one_folder() {
 fn ctrl_c_writes_the_report_and_says_how_to_resume() {
     let sb = Sandbox::new();
     let g = library(&sb, 512, 256);
-    let glob = format!("env.path={}/maps/*.pfm", sb.path().display());
     let out = sb.out();
     let report = sb.join("report.json");
-    let child = hdrflow_command([
-        "batch".to_string(),
-        g.display().to_string(),
-        "--over".into(),
-        glob,
-        "--sweep".into(),
-        "e.stops=0,1".into(),
-        "--jobs".into(),
-        "1".into(),
-        "--out".into(),
-        out.display().to_string(),
-        "--cache-dir".into(),
-        sb.cache().display().to_string(),
-        "--report".into(),
-        report.display().to_string(),
-    ])
-    .stdout(std::process::Stdio::piped())
-    .stderr(std::process::Stdio::piped())
-    .spawn()
-    .unwrap();
+    let r = report.display().to_string();
+    let child = hdrflow_command(batch_args(&sb, &g, &out, &["--sweep", "e.stops=0,1", "--jobs", "1", "--report", &r]))
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
     let t0 = Instant::now();
     while !out.join("m0/stops=0/e.pfm").exists() && t0.elapsed() < Duration::from_secs(60) {
         std::thread::sleep(Duration::from_millis(2));

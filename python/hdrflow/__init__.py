@@ -291,9 +291,10 @@ def op(
     come back from ``run``). It builds and runs a one-node pipeline, validated and cached as any
     run is (the arrays' contents are in the key).
     """
-    spec = next((o for o in ops() if o["name"] == name), None)
+    every = ops()
+    spec = next((o for o in every if o["name"] == name), None)
     if spec is None:
-        names = [o["name"] for o in ops()]
+        names = [o["name"] for o in every]
         close = difflib.get_close_matches(name, names, n=1)
         hint = f"; did you mean {close[0]!r}?" if close else f" (operators: {', '.join(names)})"
         raise ValueError(f"unknown operator {name!r}{hint}")

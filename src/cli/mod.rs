@@ -58,6 +58,8 @@ struct Cli {
     command: Command,
     /// Register the Python operators (`@hdrflow.operator`) this file defines, then run the
     /// command with them (needs the hdrflow Python package; interpreter: $HDRFLOW_PYTHON, else python3)
+    // Taken out of the arguments before they are parsed (`python::take_python_flag`): declared
+    // here for `--help` and completions only.
     #[arg(long, global = true, value_name = "FILE")]
     python: Option<PathBuf>,
 }

@@ -10,7 +10,8 @@ pub fn warn_unless_latlong(ctx: &mut OpContext, field: &str, width: usize, heigh
     if width != 2 * height {
         ctx.warn(format!(
             "field {field:?} is {width} x {height}, not 2:1, but is read as a lat-long map \
-             (convert an angular probe with AngularToLatLong first)"
+             (convert an angular probe with AngularToLatLong first, a chrome ball with \
+             MirrorBallToLatLong, a cube cross with LayoutToCubemap and CubemapToLatLong)"
         ));
     }
 }

@@ -110,15 +110,15 @@ pub fn encode_image(img: &Image, o: &SaveOptions) -> Result<Vec<u8>, String> {
 /// channel is kept as it is. PNG refuses 2 and 5+ channels (an error, so nothing to say here);
 /// EXR keeps every channel under its name.
 pub fn channels_not_kept(img: &Image, ext: &str) -> Option<String> {
-    let (kept_alpha, max_colour) = match ext {
-        "hdr" | "pfm" => (false, 3),
-        "ktx2" => (true, 3),
-        "png" if img.channels != 2 && img.channels <= 4 => return None,
+    // RGB formats, and KTX2 (RGBA); PNG and EXR keep what they accept.
+    let kept_alpha = match ext {
+        "hdr" | "pfm" => false,
+        "ktx2" => true,
         _ => return None,
     };
     let alpha = img.alpha_index().filter(|_| kept_alpha);
     let dropped: Vec<&str> = (0..img.channels)
-        .filter(|&c| c >= max_colour && Some(c) != alpha)
+        .filter(|&c| c >= 3 && Some(c) != alpha)
         .chain((img.channels == 2 && img.names[1] == "A" && !kept_alpha).then_some(1))
         .map(|c| img.names[c].as_str())
         .collect();

@@ -17,6 +17,7 @@ use crate::engine::value::Value;
 use crate::maths::camera::{fov_problem, Lens, Model};
 use crate::maths::camera_view::embed;
 use crate::maths::rotation::Rotation;
+use crate::ops::latlong_input::warn_unless_latlong;
 use crate::types::ty::*;
 
 crate::params! {
@@ -94,7 +95,10 @@ fn check(_: &CheckContext, p: EmbedParams<Check>) -> Result<(), CheckProblem> {
     Ok(())
 }
 
-fn eval(_: &mut OpContext, p: EmbedParams) -> Result<Outputs, OpError> {
+fn eval(ctx: &mut OpContext, p: EmbedParams) -> Result<Outputs, OpError> {
+    if let Some(env) = &p.env {
+        warn_unless_latlong(ctx, "env", env.width, env.height);
+    }
     let view = &*p.view;
     let lens = Lens::new(p.model, p.fov, view.width, view.height).map_err(OpError::Invalid)?;
     let rotation = Rotation::from_yaw_pitch_roll(p.yaw, p.pitch, p.roll);

@@ -20,6 +20,7 @@ use crate::engine::value::Value;
 use crate::maths::camera::{fov_problem, Lens, Model};
 use crate::maths::camera_view::{project, Filter};
 use crate::maths::rotation::Rotation;
+use crate::ops::latlong_input::warn_unless_latlong;
 use crate::types::ty::*;
 
 crate::params! {
@@ -64,7 +65,8 @@ fn check(_: &CheckContext, p: ProjectParams<Check>) -> Result<(), CheckProblem> 
     fov_problem(p.model, p.fov).map_or(Ok(()), |e| Err(CheckProblem::at("fov", e)))
 }
 
-fn eval(_: &mut OpContext, p: ProjectParams) -> Result<Value, OpError> {
+fn eval(ctx: &mut OpContext, p: ProjectParams) -> Result<Value, OpError> {
+    warn_unless_latlong(ctx, "env", p.env.width, p.env.height);
     let lens = Lens::new(p.model, p.fov, p.width, p.height).map_err(OpError::Invalid)?;
     let rotation = Rotation::from_yaw_pitch_roll(p.yaw, p.pitch, p.roll);
     Ok(Value::new(project(&p.env, &lens, rotation, p.filter)))

@@ -151,27 +151,26 @@ fn eval(ctx: &mut OpContext, p: SaveParams) -> Result<Value, OpError> {
 /// How many texels of an image, cube map or mip chain have a channel beyond the half-float
 /// range (|v| > 65504, infinities included), and the largest such magnitude.
 fn beyond_half(value: &Value) -> (usize, f32) {
-    let count = |data: &[f32], channels: usize| {
-        data.chunks_exact(channels.max(1)).fold((0, 0.0f32), |(n, top), t| {
-            let m = t.iter().fold(0.0f32, |m, v| m.max(v.abs()));
-            if m > 65504.0 {
-                (n + 1, top.max(m))
-            } else {
-                (n, top)
-            }
-        })
-    };
-    let sum =
-        |parts: &mut dyn Iterator<Item = (usize, f32)>| parts.fold((0, 0.0f32), |(n, t), (k, m)| (n + k, t.max(m)));
-    if let Some(img) = value.get::<Image>() {
-        count(&img.data, img.channels)
+    // (data, channels) of every texel array the value holds.
+    let arrays: Vec<(&[f32], usize)> = if let Some(img) = value.get::<Image>() {
+        vec![(&img.data, img.channels)]
     } else if let Some(c) = value.get::<crate::data::Cubemap>() {
-        count(&c.data, 3)
+        vec![(&c.data, 3)]
     } else if let Some(chain) = value.get::<crate::data::MipChain>() {
-        sum(&mut chain.levels.iter().map(|c| count(&c.data, 3)))
+        chain.levels.iter().map(|c| (c.data.as_slice(), 3)).collect()
     } else {
-        (0, 0.0)
+        Vec::new()
+    };
+    let mut found = (0, 0.0f32);
+    for (data, channels) in arrays {
+        for texel in data.chunks_exact(channels.max(1)) {
+            let m = texel.iter().fold(0.0f32, |m, v| m.max(v.abs()));
+            if m > 65504.0 {
+                found = (found.0 + 1, found.1.max(m));
+            }
+        }
     }
+    found
 }
 
 /// The stops that bring the 99.5th percentile of the non-black pixels' max channel to 1.0.

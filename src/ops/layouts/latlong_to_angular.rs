@@ -13,6 +13,7 @@ use crate::engine::op::{OpContext, OpError, OpSpec};
 use crate::engine::value::Value;
 use crate::geometry::azimuthal::DiscMap;
 use crate::maths::disc_image::latlong_to_disc;
+use crate::ops::latlong_input::warn_unless_latlong;
 use crate::types::ty::*;
 
 crate::params! {
@@ -39,6 +40,7 @@ pub fn spec() -> OpSpec {
     .eval(eval)
 }
 
-fn eval(_: &mut OpContext, p: LatLongToAngularParams) -> Result<Value, OpError> {
+fn eval(ctx: &mut OpContext, p: LatLongToAngularParams) -> Result<Value, OpError> {
+    warn_unless_latlong(ctx, "env", p.env.width, p.env.height);
     Ok(Value::new(latlong_to_disc(&p.env, &DiscMap::ANGULAR, p.size)))
 }

@@ -15,6 +15,7 @@ use crate::engine::fields::{Check, Input};
 use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec};
 use crate::engine::value::Value;
 use crate::maths::disc_image::latlong_to_disc;
+use crate::ops::latlong_input::warn_unless_latlong;
 use crate::types::ty::*;
 
 use super::{ball_map, ball_params};
@@ -50,7 +51,8 @@ fn check(_: &CheckContext, p: LatLongToMirrorBallParams<Check>) -> Result<(), Ch
     ball_map(p.yaw, p.pitch, p.roll, p.look).map(|_| ())
 }
 
-fn eval(_: &mut OpContext, p: LatLongToMirrorBallParams) -> Result<Value, OpError> {
+fn eval(ctx: &mut OpContext, p: LatLongToMirrorBallParams) -> Result<Value, OpError> {
+    warn_unless_latlong(ctx, "env", p.env.width, p.env.height);
     let map = ball_map(p.yaw, p.pitch, p.roll, p.look).map_err(|e| OpError::Invalid(e.message))?;
     Ok(Value::new(latlong_to_disc(&p.env, &map, p.size)))
 }

@@ -9,6 +9,7 @@ use crate::data::Image;
 use crate::engine::fields::{Check, Input};
 use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec};
 use crate::engine::value::Value;
+use crate::ops::latlong_input::warn_unless_latlong;
 use crate::types::ty::*;
 
 use super::check_even_height;
@@ -48,6 +49,7 @@ pub fn sky_half(env: &Image) -> Result<Image, OpError> {
     Ok(Image::with_names(w, h / 2, env.names.clone(), env.data[..w * (h / 2) * c].to_vec()))
 }
 
-fn eval(_: &mut OpContext, p: LatLongToSkyLatLongParams) -> Result<Value, OpError> {
+fn eval(ctx: &mut OpContext, p: LatLongToSkyLatLongParams) -> Result<Value, OpError> {
+    warn_unless_latlong(ctx, "env", p.env.width, p.env.height);
     Ok(Value::new(sky_half(&p.env)?))
 }

@@ -20,6 +20,7 @@ use crate::engine::fields::Input;
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Outputs};
 use crate::engine::value::Value;
 use crate::maths::spherical_gaussians::fit;
+use crate::ops::latlong_input::warn_unless_latlong;
 use crate::ops::shading::reference_sphere::check_finite;
 use crate::types::ty::*;
 
@@ -52,7 +53,8 @@ pub fn spec() -> OpSpec {
     .eval(eval)
 }
 
-fn eval(_: &mut OpContext, p: SphericalGaussiansParams) -> Result<Outputs, OpError> {
+fn eval(ctx: &mut OpContext, p: SphericalGaussiansParams) -> Result<Outputs, OpError> {
+    warn_unless_latlong(ctx, "env", p.env.width, p.env.height);
     let env = &*p.env;
     check_finite(env)?;
     let f = fit(env, p.lobes, p.iterations, p.seed);
