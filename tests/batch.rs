@@ -104,6 +104,10 @@ fn a_batch_shares_nodes_reports_metrics_and_resumes_from_the_cache() {
     // 12 items x 9 nodes; `flat`, `soft`, `s3` once, `env` and `blur` once per map, the rest per
     // item: 3 + 12 + 12 x 4 = 63.
     assert!(out.stderr.contains("63 node evaluations for 108 items x nodes"), "{}", out.describe());
+    // Shared: `flat`, `soft`, `s3`, and `env`, `blur` of each of the 6 maps; one number for the
+    // first line and the summary (issue 25.6).
+    assert!(out.stderr.contains("shared: 15 nodes used by several items"), "{}", out.describe());
+    assert!(out.stderr.contains("(15 for nodes shared by several items)"), "{}", out.describe());
     assert!(out.stderr.contains("[12/12]"), "one line per item off a terminal: {}", out.describe());
     assert_eq!(
         files_under(&sb.out().join("m3/stops=1")),
@@ -128,6 +132,33 @@ fn a_batch_shares_nodes_reports_metrics_and_resumes_from_the_cache() {
         again.describe()
     );
     assert_eq!(before, snapshot(&sb.out()));
+}
+
+/// A shared node inside the shared part that two items' shared nodes need (`soft` under each
+/// map's `mix`) is computed once, not once per job: the summary's shared count is the first
+/// line's, and the total is exactly the distinct keys (issue 25.6).
+#[test]
+fn a_shared_node_two_shared_jobs_need_is_computed_once() {
+    let sb = Sandbox::new();
+    for i in 0..2 {
+        sb.write(format!("maps/m{i}.pfm"), common::small_pfm(16, 8, 1.0 + i as f32));
+    }
+    let g = sb.write(
+        "g.ron",
+        r#"( nodes: {
+  "env":  LoadHdr(path: "maps/m0.pfm"),
+  "flat": Constant(width: 16, height: 8, color: 0.25),
+  "soft": Blur(image: "flat", sigma: 2),
+  "mix":  Math(a: "env", b: "soft", op: Add),
+  "e":    Exposure(image: "mix", stops: 0),
+  "s1":   Save(input: "e", path: "e.pfm"),
+} )"#,
+    );
+    let out = batch(&sb, &g, &sb.out(), &["--sweep", "e.stops=0,1,2", "--jobs", "1"]);
+    out.assert_success();
+    // Shared: flat, soft once; env, mix per map (2 x 2): 6. Per item: e, s1 (6 x 2 = 12).
+    assert!(out.stderr.contains("shared: 6 nodes used by several items"), "{}", out.describe());
+    assert!(out.stderr.contains("18 node evaluations for 36 items x nodes (6 for nodes shared"), "{}", out.describe());
 }
 
 #[test]

@@ -98,15 +98,35 @@ fn parse_shard(s: &str) -> Result<(usize, usize), String> {
     Ok((i, n))
 }
 
+/// The bar while items run.
+fn items_style() -> ProgressStyle {
+    ProgressStyle::with_template("{bar:30} {pos}/{len} items, {msg} [{elapsed_precise}, eta {eta}]").expect("template")
+}
+
+/// The bar during the shared phase: no item has finished, so no item count or eta yet.
+fn shared_style() -> ProgressStyle {
+    ProgressStyle::with_template("{spinner} {msg} [{elapsed_precise}]").expect("template")
+}
+
 struct Progress {
     total: usize,
     quiet: bool,
     bar: Option<ProgressBar>,
     counts: Mutex<[usize; 3]>,
     start: Instant,
+    /// The bar shows the shared phase.
+    sharing: AtomicBool,
 }
 
 impl Progress {
+    /// Back to the item bar after the shared phase (once).
+    fn items_phase(&self, bar: &ProgressBar) {
+        if self.sharing.swap(false, Ordering::SeqCst) {
+            bar.disable_steady_tick();
+            bar.set_style(items_style());
+            bar.set_message(self.message());
+        }
+    }
     fn message(&self) -> String {
         let c = self.counts.lock().expect("progress lock");
         let done = c[0] + c[1] + c[2];
@@ -117,9 +137,28 @@ impl Progress {
 impl BatchObserver for Progress {
     fn shared_phase(&self, nodes: usize) {
         if let Some(bar) = &self.bar {
-            bar.set_message(format!("computing {nodes} nodes shared by several items"));
+            self.sharing.store(true, Ordering::SeqCst);
+            bar.set_style(shared_style());
+            bar.set_message(format!("shared nodes 0/{nodes} (computed once for several items)"));
+            bar.enable_steady_tick(std::time::Duration::from_millis(200));
         } else if !self.quiet {
             eprintln!("shared: {nodes} nodes used by several items, computed once first");
+        }
+    }
+    fn shared_progress(&self, done: usize, total: usize) {
+        // Off a terminal one line per shared node would drown the item lines: the first line
+        // and the summary give the count.
+        if let Some(bar) = &self.bar {
+            bar.set_message(format!("shared nodes {done}/{total} (computed once for several items)"));
+            if done == total {
+                self.items_phase(bar);
+            }
+        }
+    }
+    fn item_started(&self, _item: &Item) {
+        // A failed shared job leaves the count short of its total.
+        if let Some(bar) = &self.bar {
+            self.items_phase(bar);
         }
     }
     fn item_finished(&self, row: &ItemRow) {
@@ -222,14 +261,17 @@ pub(crate) fn batch(registry: &Registry, args: &BatchArgs) -> ExitCode {
     let terminal = std::io::stderr().is_terminal() && !args.quiet;
     let bar = terminal.then(|| {
         let bar = ProgressBar::new(items.len() as u64);
-        bar.set_style(
-            ProgressStyle::with_template("{bar:30} {pos}/{len} items, {msg} [{elapsed_precise}, eta {eta}]")
-                .expect("template"),
-        );
+        bar.set_style(items_style());
         bar
     });
-    let progress =
-        Progress { total: items.len(), quiet: args.quiet, bar, counts: Mutex::new([0; 3]), start: Instant::now() };
+    let progress = Progress {
+        total: items.len(),
+        quiet: args.quiet,
+        bar,
+        counts: Mutex::new([0; 3]),
+        start: Instant::now(),
+        sharing: AtomicBool::new(false),
+    };
     let cache =
         CacheStore::new(args.cache_dir.clone().unwrap_or_else(CacheStore::default_dir), args.cache_limit_mb << 20)
             .with_policy(args.persist.into());
@@ -267,7 +309,7 @@ pub(crate) fn batch(registry: &Registry, args: &BatchArgs) -> ExitCode {
     if !args.quiet {
         let secs = progress.start.elapsed().as_secs_f64();
         eprintln!(
-            "{} items: {} computed, {} cached, {} failed, {} not started; {:.2} s ({:.2} items/s); {} node evaluations for {} items x nodes ({} shared)",
+            "{} items: {} computed, {} cached, {} failed, {} not started; {:.2} s ({:.2} items/s); {} node evaluations for {} items x nodes ({} for nodes shared by several items)",
             items.len(),
             count(ItemStatus::Computed),
             count(ItemStatus::Cached),
@@ -428,4 +470,34 @@ fn emit_slurm(file: &std::path::Path, total_items: usize, args: &BatchArgs) -> E
 /// `--cache-limit-mb` in bytes (saturating: a huge value means no limit, not an overflow).
 fn cache_limit_bytes(mb: u64) -> u64 {
     mb.saturating_mul(1 << 20)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Issue 25.6: through the shared phase the terminal bar says what it is doing ("shared
+    /// nodes 12/101"), not `0/6 items ... eta 0s`, and goes back to the item count after it.
+    #[test]
+    fn the_bar_counts_shared_nodes_then_items() {
+        let progress = Progress {
+            total: 6,
+            quiet: false,
+            bar: Some(ProgressBar::hidden()),
+            counts: Mutex::new([0; 3]),
+            start: Instant::now(),
+            sharing: AtomicBool::new(false),
+        };
+        let bar = progress.bar.as_ref().unwrap();
+        progress.shared_phase(101);
+        assert!(bar.message().starts_with("shared nodes 0/101"), "{}", bar.message());
+        progress.shared_progress(12, 101);
+        assert!(bar.message().starts_with("shared nodes 12/101"), "{}", bar.message());
+        progress.shared_progress(101, 101);
+        assert_eq!(bar.message(), "0 computed, 0 cached, 0 failed, 6 left");
+        // Once back, a late event does not switch the bar again.
+        let item = Item { index: 0, dir: "m0".into(), values: Vec::new() };
+        progress.item_started(&item);
+        assert_eq!(bar.message(), "0 computed, 0 cached, 0 failed, 6 left");
+    }
 }
