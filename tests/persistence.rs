@@ -139,7 +139,7 @@ fn a_batch_stays_within_its_cache_limit_and_keeps_what_items_still_need() {
     };
     // The shared node ran once in both (items never recompute it), so every item did the same work.
     assert_eq!(evals(&tight_rows), evals(&free_rows), "{}\n{}", free.stderr, tight.stderr);
-    assert!(tight.stderr.contains("shared)"), "{}", tight.stderr);
+    assert!(tight.stderr.contains("shared by several items)"), "{}", tight.stderr);
     let shared = |o: &Output| o.stderr.rsplit_once('(').map(|(_, s)| s.to_string());
     assert_eq!(shared(&tight), shared(&free));
     // Once the last item has ended nothing is pinned: the folder is within the limit.
