@@ -1,0 +1,191 @@
+//! What the workers of a run share (steps 4 and 5 of the module doc of `scheduler`): each output
+//! port's slot with the count of consumers it still waits for, the queue of ready nodes by the
+//! memory they free, and the files and errors the run collects.
+
+use std::cmp::Reverse;
+use std::collections::BinaryHeap;
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::Mutex;
+use std::time::Instant;
+
+use super::output::write_output;
+use super::{NodeReport, NodeStatus, PortReport, RunOptions};
+use crate::engine::cache::{key_hex, CacheStore, Key};
+use crate::engine::error::RunError;
+use crate::engine::graph::Pipeline;
+use crate::engine::value::{FileBlob, Value};
+
+/// One output port's value while the run holds it, and how many consumers it still waits for.
+pub(super) struct Slot {
+    pub value: Mutex<Option<Value>>,
+    pub remaining: AtomicUsize,
+}
+
+/// Per-node timing for the report.
+#[derive(Clone, Copy, Default)]
+pub(super) struct Timing {
+    pub ms: f64,
+    pub start_ms: f64,
+    pub thread: Option<usize>,
+    /// Its results are in the cache (loaded from it, or stored after computing).
+    pub stored: bool,
+    /// What a later run would spend to get its results back without the cache: its own
+    /// compute time plus that of every input chain not stored either (see `cache::policy`).
+    pub recompute_ms: f64,
+}
+
+/// The release counts: per node and port, the consumers that will take its value (one per
+/// input edge of a computed node, so a node reading a port twice counts twice), plus one if
+/// the node is a target (the caller takes its values at the end). A port whose count is 0 is
+/// dropped as soon as it is produced.
+pub(super) fn release_counts(p: &Pipeline, is_compute: &[bool], is_target: &[bool]) -> Vec<Vec<usize>> {
+    let mut counts: Vec<Vec<usize>> =
+        p.nodes.iter().enumerate().map(|(i, node)| vec![usize::from(is_target[i]); node.ports.len()]).collect();
+    for (i, node) in p.nodes.iter().enumerate() {
+        if is_compute[i] {
+            for s in node.sources() {
+                counts[s.node][s.port] += 1;
+            }
+        }
+    }
+    counts
+}
+
+/// The nodes whose inputs are all ready, not yet started. `pop` gives the one that frees the
+/// most bytes by starting (the inputs it is the last consumer of, as of when it was queued),
+/// then the earliest in file order: large values (a distribution, a full map) stay alive as
+/// briefly as possible, and outputs do not depend on the order. A heap keeps this O(log n) per
+/// node for wide graphs.
+#[derive(Default)]
+pub(super) struct ReadyQueue(Mutex<BinaryHeap<(usize, Reverse<usize>)>>);
+
+impl ReadyQueue {
+    pub fn push(&self, frees: usize, node: usize) {
+        self.0.lock().expect("ready lock").push((frees, Reverse(node)));
+    }
+    pub fn pop(&self) -> Option<usize> {
+        self.0.lock().expect("ready lock").pop().map(|(_, Reverse(i))| i)
+    }
+}
+
+/// Everything the workers share.
+pub(super) struct State<'a> {
+    pub p: &'a Pipeline,
+    pub options: &'a RunOptions<'a>,
+    pub cache: Option<&'a CacheStore>,
+    /// Storing failed once (or the cache is read-only): nothing more is stored.
+    pub cache_failed: AtomicBool,
+    /// The run's add limit was reached and said so.
+    pub limit_warned: AtomicBool,
+    pub start: Instant,
+    pub keys: &'a [Option<Key>],
+    pub content: &'a [Option<Vec<u8>>],
+    pub slots: Vec<Vec<Slot>>,
+    pub timing: Vec<Mutex<Timing>>,
+    /// Per node, the computed inputs it still waits for (an input edge each).
+    pub pending: Vec<AtomicUsize>,
+    /// Per node, the computed nodes that consume it.
+    pub consumers: Vec<Vec<usize>>,
+    pub abort: AtomicBool,
+    pub first_error: Mutex<Option<RunError>>,
+    pub written: Mutex<Vec<PathBuf>>,
+    pub files: Mutex<Vec<(String, String)>>,
+    pub ready: ReadyQueue,
+    pub is_target: Vec<bool>,
+    /// The open ports targets produced that no consumer names (kept for the caller: a
+    /// `SplitChannels` target returns every channel).
+    pub target_extras: Mutex<Vec<(usize, String, Value)>>,
+}
+
+impl State<'_> {
+    /// Bytes of the values node `i` is the last consumer of.
+    pub fn frees(&self, i: usize) -> usize {
+        let node = &self.p.nodes[i];
+        let mut bytes = 0;
+        for src in node.sources() {
+            let uses = node.sources().filter(|s| *s == src).count();
+            let slot = &self.slots[src.node][src.port];
+            if slot.remaining.load(Ordering::SeqCst) == uses {
+                if let Some(v) = slot.value.lock().expect("slot lock").as_ref() {
+                    bytes += v.approx_bytes() / uses;
+                }
+            }
+        }
+        bytes
+    }
+
+    pub fn fail(&self, e: RunError) {
+        self.abort.store(true, Ordering::SeqCst);
+        self.first_error.lock().expect("error lock").get_or_insert(e);
+    }
+
+    /// Stores a node's outputs in its port slots (ports nothing waits for are dropped), after
+    /// writing its files into the output folder.
+    pub fn store(&self, i: usize, outputs: Vec<Value>) -> Result<(), RunError> {
+        for (port, value) in outputs.into_iter().enumerate() {
+            if let Some(f) = value.get::<FileBlob>() {
+                for (rel_path, bytes) in f.files() {
+                    self.files.lock().expect("files lock").push((self.p.nodes[i].name.clone(), rel_path.to_string()));
+                    if let Some(path) = write_output(&self.options.out_dir, rel_path, bytes)? {
+                        self.written.lock().expect("written lock").push(path);
+                    }
+                }
+            }
+            let slot = &self.slots[i][port];
+            if slot.remaining.load(Ordering::SeqCst) > 0 {
+                *slot.value.lock().expect("slot lock") = Some(value);
+            }
+        }
+        Ok(())
+    }
+
+    /// A consumer's copy of port `port` of node `j`: the value itself for the last consumer, so
+    /// the run's reference is gone once it has started.
+    pub fn acquire(&self, j: usize, port: usize) -> Value {
+        let slot = &self.slots[j][port];
+        let mut guard = slot.value.lock().expect("slot lock");
+        let left = slot.remaining.fetch_sub(1, Ordering::SeqCst) - 1;
+        if left == 0 {
+            guard.take().expect("a port's value stays until its last consumer")
+        } else {
+            guard.clone().expect("a port's value stays until its last consumer")
+        }
+    }
+
+    /// Node `i`'s line in the report.
+    pub fn report(&self, i: usize, status: NodeStatus) -> NodeReport {
+        let t = *self.timing[i].lock().expect("timing lock");
+        node_report(self.p, i, status, t, self.keys)
+    }
+}
+
+pub(super) fn node_report(p: &Pipeline, i: usize, status: NodeStatus, t: Timing, keys: &[Option<Key>]) -> NodeReport {
+    NodeReport {
+        name: p.nodes[i].name.clone(),
+        op: p.nodes[i].spec.name,
+        status,
+        ms: t.ms,
+        start_ms: t.start_ms,
+        thread: t.thread,
+        key: keys[i].map(|k| key_hex(&k)).unwrap_or_default(),
+        ports: p.nodes[i].ports.iter().map(|port| PortReport { name: port.name.clone(), ty: port.ty.name() }).collect(),
+        stored: t.stored,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::ReadyQueue;
+
+    /// The node that frees the most starts first; equal ones in file order.
+    #[test]
+    fn the_ready_queue_starts_what_frees_most_then_file_order() {
+        let q = ReadyQueue::default();
+        for (frees, node) in [(0, 4), (100, 7), (0, 2), (100, 3), (5, 0)] {
+            q.push(frees, node);
+        }
+        let order: Vec<usize> = std::iter::from_fn(|| q.pop()).collect();
+        assert_eq!(order, [3, 7, 0, 2, 4]);
+    }
+}
