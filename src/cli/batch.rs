@@ -475,6 +475,23 @@ fn cache_limit_bytes(mb: u64) -> u64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::cli::testing::{exit_code, parse_error};
+
+    #[test]
+    fn argument_errors() {
+        assert_eq!(parse_error(&["batch"]).0, clap::error::ErrorKind::MissingRequiredArgument);
+        for bad in ["3/2", "1", "a/b", "0/0"] {
+            assert!(parse_shard(bad).unwrap_err().contains("expected I/N with 0 <= I < N"), "{bad}");
+        }
+        assert_eq!(parse_shard("1/3"), Ok((1, 3)));
+        // No --over or --sweep: a usage error (2) before anything runs.
+        let dir = tempfile::tempdir().unwrap();
+        let g = dir.path().join("g.ron");
+        std::fs::write(&g, r#"(nodes: { "env": LoadHdr(path: "builtin:sky") })"#).unwrap();
+        let out = dir.path().join("out");
+        let code = exit_code(&["batch", g.to_str().unwrap(), "--out", out.to_str().unwrap(), "--quiet"]);
+        assert_eq!(code, ExitCode::from(2));
+    }
 
     /// Issue 25.6: through the shared phase the terminal bar says what it is doing ("shared
     /// nodes 12/101"), not `0/6 items ... eta 0s`, and goes back to the item count after it.

@@ -1,0 +1,197 @@
+//! `hdrflow bench`: run time against error for every relighting strategy and the peers, the
+//! point targets, or `--glossy`.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::Args;
+
+#[derive(Args)]
+pub(super) struct BenchArgs {
+    /// Output folder for results.csv, summary.md and the charts.
+    #[arg(long, default_value = "bench/out")]
+    pub(super) out: PathBuf,
+    /// Folder of real environment maps (Grace Cathedral, the park, the two interiors); maps
+    /// that are missing are skipped with a message.
+    #[arg(long, default_value = "../shared/data/envmaps")]
+    pub(super) data: PathBuf,
+    /// Sample counts (per image for shared samples, per pixel for per-pixel strategies).
+    #[arg(long, value_delimiter = ',', default_value = "16,64,256,1024,4096")]
+    pub(super) counts: Vec<usize>,
+    /// Sphere image size in pixels.
+    #[arg(long, default_value_t = 128)]
+    pub(super) size: usize,
+    /// Timed repetitions per point (after one warm-up run, on the first seed); the median is
+    /// reported.
+    #[arg(long, default_value_t = 5)]
+    pub(super) repeats: usize,
+    /// Independent seeds per stochastic point (1, 2, ..., N; scrambles for Sobol and Halton):
+    /// each error is their mean, with a 95% confidence interval when N >= 2.
+    #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u64).range(1..))]
+    pub(super) seeds: u64,
+    /// Only these maps (names: sky, grace, park, fagans, studio).
+    #[arg(long, value_delimiter = ',')]
+    pub(super) maps: Vec<String>,
+    /// Folder with the peers' scripts; they run when their Python dependencies are present.
+    #[arg(long, default_value = "bench/peers")]
+    pub(super) peers: PathBuf,
+    /// Do not run the peers.
+    #[arg(long)]
+    pub(super) no_peers: bool,
+    /// A quick run: counts 16,64,256, 3 repeats, 64x64 sphere, no peers, no targets (still
+    /// --seeds seeds, 8 by default: 35 s to a minute on 2 cores).
+    #[arg(long)]
+    pub(super) quick: bool,
+    /// Measure only the point targets (relight speed, BuildCdf, decoding, the seed graph).
+    #[arg(long)]
+    pub(super) targets_only: bool,
+    /// Redraw the charts from this results.csv (into --out) without measuring anything.
+    #[arg(long, value_name = "RESULTS_CSV")]
+    pub(super) replot: Option<PathBuf>,
+    /// Measure GlossySphere's strategies and SunExtract instead (glossy.csv, glossy.md).
+    #[arg(long)]
+    pub(super) glossy: bool,
+    /// --glossy: the sphere's size in pixels (its exact reference costs pixels x texels).
+    #[arg(long, default_value_t = 64)]
+    pub(super) glossy_size: usize,
+    /// --glossy: samples per pixel.
+    #[arg(long, value_delimiter = ',', default_value = "4,16,64,256")]
+    pub(super) glossy_spp: Vec<usize>,
+    /// --glossy: Phong exponents.
+    #[arg(long, value_delimiter = ',', default_value = "10,200")]
+    pub(super) exponents: Vec<f64>,
+}
+
+pub(super) fn bench(args: &BenchArgs) -> ExitCode {
+    use crate::bench::{BenchConfig, MapSpec};
+    let candidates = [
+        ("sky", "builtin:sky".to_string(), false),
+        ("grace", args.data.join("grace_latlong.exr").display().to_string(), true),
+        ("park", args.data.join("rooitou_park_1k.hdr").display().to_string(), false),
+        ("fagans", args.data.join("st_fagans_interior_1k.hdr").display().to_string(), false),
+        ("studio", args.data.join("studio_small_03_1k.hdr").display().to_string(), false),
+    ];
+    let mut maps = Vec::new();
+    for (name, source, flip) in candidates {
+        if !args.maps.is_empty() && !args.maps.iter().any(|m| m == name) {
+            continue;
+        }
+        if !source.starts_with("builtin:") && !std::path::Path::new(&source).is_file() {
+            eprintln!("SKIPPED map {name}: {source} not found");
+            continue;
+        }
+        maps.push(MapSpec { name: name.to_string(), source, flip_vertical: flip });
+    }
+    if maps.is_empty() {
+        eprintln!("error: no map to benchmark");
+        return ExitCode::from(2);
+    }
+    if args.glossy {
+        let config = crate::bench::glossy::GlossyBenchConfig {
+            maps,
+            spp: args.glossy_spp.clone(),
+            exponents: args.exponents.clone(),
+            size: args.glossy_size,
+            repeats: if args.quick { 1 } else { args.repeats },
+            seed: 1,
+            out_dir: args.out.clone(),
+        };
+        eprintln!("hdrflow bench --glossy on {} threads", rayon::current_num_threads());
+        return match crate::bench::glossy::run(&config, &|line| eprintln!("{line}")) {
+            Ok(rows) => {
+                outln!("{} points; wrote {}/glossy.csv and glossy.md", rows.len(), args.out.display());
+                ExitCode::SUCCESS
+            }
+            Err(e) => {
+                eprintln!("error: {e}");
+                ExitCode::from(1)
+            }
+        };
+    }
+    let config = BenchConfig {
+        maps,
+        counts: if args.quick { vec![16, 64, 256] } else { args.counts.clone() },
+        size: if args.quick { 64 } else { args.size },
+        repeats: if args.quick { 3 } else { args.repeats },
+        albedo: 0.8,
+        view: (90.0, 90.0),
+        seed: 1,
+        seeds: args.seeds as usize,
+        out_dir: args.out.clone(),
+        peers_dir: (!args.no_peers && !args.quick).then(|| args.peers.clone()),
+    };
+    if let Some(csv) = &args.replot {
+        return match crate::bench::replot(&config, csv) {
+            Ok(n) => {
+                outln!("redrew {n} charts into {}", args.out.display());
+                ExitCode::SUCCESS
+            }
+            Err(e) => {
+                eprintln!("error: {e}");
+                ExitCode::from(1)
+            }
+        };
+    }
+    eprintln!(
+        "hdrflow bench on {} threads; {} seed{} per stochastic point (seeds {} to {}){}",
+        rayon::current_num_threads(),
+        config.seeds,
+        if config.seeds == 1 { "" } else { "s" },
+        config.seed,
+        config.seed + config.seeds as u64 - 1,
+        if args.quick { "; --quick: counts 16,64,256, 64x64 sphere, 3 repeats, no peers, no targets" } else { "" }
+    );
+    if !args.quick {
+        let peers = (!args.no_peers).then_some(args.peers.as_path());
+        match crate::bench::targets::measure(&args.data, peers, config.repeats, &|line| eprintln!("{line}")) {
+            Ok(targets) => {
+                let md = crate::bench::targets::markdown(&targets);
+                out!("{md}");
+                let path = args.out.join("targets.md");
+                if let Err(e) = std::fs::create_dir_all(&args.out)
+                    .and_then(|_| crate::engine::cache::store::write_atomic(&path, md.as_bytes()))
+                {
+                    eprintln!("error: writing {}: {e}", path.display());
+                    return ExitCode::from(1);
+                }
+            }
+            Err(e) => {
+                eprintln!("error: {e}");
+                return ExitCode::from(1);
+            }
+        }
+        if args.targets_only {
+            return ExitCode::SUCCESS;
+        }
+    }
+    match crate::bench::run(&config, &|line| eprintln!("{line}")) {
+        Ok(rows) => {
+            outln!(
+                "{} points; wrote {}/results.csv, summary.md and time_error_*.png/.svg",
+                rows.len(),
+                args.out.display()
+            );
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::from(1)
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use clap::error::ErrorKind;
+
+    use crate::cli::testing::parse_error;
+
+    #[test]
+    fn argument_errors() {
+        let (kind, msg) = parse_error(&["bench", "--seeds", "0"]);
+        assert_eq!(kind, ErrorKind::ValueValidation);
+        assert!(msg.contains("--seeds"), "{msg}");
+        assert_eq!(parse_error(&["bench", "--counts", "16,x"]).0, ErrorKind::ValueValidation);
+        assert_eq!(parse_error(&["bench", "--size", "-3"]).0, ErrorKind::UnknownArgument);
+    }
+}
