@@ -48,6 +48,8 @@ pub struct OpContext<'a> {
     pub wanted_ports: &'a [String],
     /// What [`OpContext::warn`] collected; the scheduler reports each, prefixed by the node.
     pub(crate) warnings: Vec<String>,
+    /// Where [`OpContext::release`] hands a value back (the scheduler; None: it is just dropped).
+    pub(crate) release_to: Option<&'a (dyn Fn(Value) + Sync)>,
 }
 
 impl<'a> OpContext<'a> {
@@ -57,6 +59,17 @@ impl<'a> OpContext<'a> {
         let message = message.into();
         if !self.warnings.contains(&message) {
             self.warnings.push(message);
+        }
+    }
+    /// Hands back an input this operator has finished with before its own work is done (a `Save`
+    /// that has made its 8-bit copy of an image, before the long deflate): the value is dropped
+    /// now, and if this node was its last consumer the run counts its bytes as freed, so a node
+    /// waiting for memory may start (see `scheduler::admission`). Pass the input's value
+    /// (`p.image.into_value()`).
+    pub fn release(&self, value: Value) {
+        match self.release_to {
+            Some(to) => to(value),
+            None => drop(value),
         }
     }
     /// A path parameter resolved against the pipeline file's folder (`builtin:` names unchanged).

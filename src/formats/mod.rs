@@ -29,6 +29,7 @@ pub mod ktx2;
 pub mod pfm;
 pub mod png;
 pub mod rgbe;
+pub mod srgb8;
 pub mod yca;
 
 use crate::data::Image;

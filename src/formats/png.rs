@@ -36,6 +36,20 @@ pub fn linear_to_srgb8(c: f64) -> u8 {
 /// 1 channel -> greyscale (L8), 3 channels -> RGB8, 4 channels -> RGBA8 (alpha is coverage:
 /// clamped to [0, 1], neither exposed nor sRGB-encoded); anything else is an error.
 pub fn encode(image: &Image, exposure_stops: f64) -> Result<Vec<u8>, FormatError> {
+    to_srgb8(image, exposure_stops)?.encode()
+}
+
+/// An image's 8-bit samples, ready to be compressed: the first step of [`encode`], apart so that
+/// a caller can let go of the float image before the compression.
+pub struct Srgb8 {
+    bytes: Vec<u8>,
+    width: u32,
+    height: u32,
+    color: ExtendedColorType,
+}
+
+/// The 8-bit samples of `image` after multiplying by `2^exposure_stops` (see [`encode`]).
+pub fn to_srgb8(image: &Image, exposure_stops: f64) -> Result<Srgb8, FormatError> {
     let (w, h, c) = (image.width, image.height, image.channels);
     if w == 0 || h == 0 {
         return Err(FormatError(format!("cannot write an empty {w}x{h} image as PNG")));
@@ -54,6 +68,7 @@ pub fn encode(image: &Image, exposure_stops: f64) -> Result<Vec<u8>, FormatError
         return Err(FormatError(format!("image buffer has {} samples, expected {w}x{h}x{c}", image.data.len())));
     }
     let gain = exposure_stops.exp2();
+    let table = super::srgb8::Srgb8Table::new();
     let mut bytes = vec![0u8; image.data.len()];
     let row = w * c;
     bytes.par_chunks_mut(row).zip(image.data.par_chunks(row)).for_each(|(dst, src)| {
@@ -63,15 +78,22 @@ pub fn encode(image: &Image, exposure_stops: f64) -> Result<Vec<u8>, FormatError
                 (s.clamp(0.0, 1.0) * 255.0).round() as u8
             } else {
                 // 0 * Inf (a huge exposure on black) is NaN -> 0.
-                linear_to_srgb8(s as f64 * gain)
+                table.code(s as f64 * gain)
             };
         }
     });
-    let mut out = Vec::new();
-    PngEncoder::new(&mut out)
-        .write_image(&bytes, w32, h32, color)
-        .map_err(|e| FormatError(format!("PNG encoding failed: {e}")))?;
-    Ok(out)
+    Ok(Srgb8 { bytes, width: w32, height: h32, color })
+}
+
+impl Srgb8 {
+    /// The PNG file: the samples compressed by the `image` crate's `PngEncoder`.
+    pub fn encode(self) -> Result<Vec<u8>, FormatError> {
+        let mut out = Vec::new();
+        PngEncoder::new(&mut out)
+            .write_image(&self.bytes, self.width, self.height, self.color)
+            .map_err(|e| FormatError(format!("PNG encoding failed: {e}")))?;
+        Ok(out)
+    }
 }
 
 #[cfg(test)]

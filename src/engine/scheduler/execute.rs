@@ -68,31 +68,49 @@ fn check_type(node: &crate::engine::graph::Node, k: usize, value: &Value) -> Res
 }
 
 /// Queues a node whose inputs are ready and spawns a task that starts the best queued node
-/// at the time it runs (see `ReadyQueue`).
+/// that may start at the time it runs (see `admission`).
 pub(super) fn enqueue<'s>(s: &'s State<'s>, scope: &rayon::Scope<'s>, i: usize) {
-    s.ready.push(s.frees(i), i);
+    s.ready.push(i, s.frees(i));
+    pump(s, scope);
+}
+
+/// Spawns a task that starts the best queued node that may start, if any. Called whenever that
+/// may have changed: a node queued, finished, or an input released early. A task that starts a
+/// node spawns another while nodes are queued, so an idle worker takes the next.
+pub(super) fn pump<'s>(s: &'s State<'s>, scope: &rayon::Scope<'s>) {
     scope.spawn(move |scope| {
         if let Some(next) = s.ready.pop() {
+            if s.ready.has_queued() {
+                pump(s, scope);
+            }
             execute(s, scope, next);
+            pump(s, scope);
         }
     });
 }
 
 /// Runs node `i`: takes its inputs, evaluates it (a panic is an error of that node), checks
-/// its outputs, stores them in the cache if worth it and in its slots, then queues every
-/// consumer that was waiting only for it.
+/// its outputs, stores them in the cache if worth it and in its slots, counts it as finished,
+/// then queues every consumer that was waiting only for it.
 fn execute<'s>(s: &'s State<'s>, scope: &rayon::Scope<'s>, i: usize) {
     if s.abort.load(Ordering::SeqCst) {
-        return;
+        return s.ready.finished(i);
     }
     let node = &s.p.nodes[i];
     let obs = s.options.observer;
     obs.node_started(&node.name);
     let t0 = Instant::now();
     let start_ms = t0.duration_since(s.start).as_secs_f64() * 1e3;
-    let Matched { values, extra } = match evaluate(s, i) {
+    let release = move |v: Value| {
+        s.release(i, v);
+        pump(s, scope);
+    };
+    let Matched { values, extra } = match evaluate(s, i, &release) {
         Ok(m) => m,
-        Err(e) => return s.fail(e),
+        Err(e) => {
+            s.ready.finished(i);
+            return s.fail(e);
+        }
     };
     let compute_ms = t0.elapsed().as_secs_f64() * 1e3;
     let recompute_ms = compute_ms + unstored_inputs_ms(s, i);
@@ -100,7 +118,9 @@ fn execute<'s>(s: &'s State<'s>, scope: &rayon::Scope<'s>, i: usize) {
     if s.is_target[i] {
         s.target_extras.lock().expect("extras lock").extend(extra.into_iter().map(|(n, v)| (i, n, v)));
     }
-    if let Err(e) = s.store(i, values) {
+    let stored_in_slots = s.store(i, values);
+    s.ready.finished(i);
+    if let Err(e) = stored_in_slots {
         return s.fail(e);
     }
     let elapsed = t0.elapsed().as_secs_f64() * 1e3;
@@ -118,12 +138,12 @@ fn execute<'s>(s: &'s State<'s>, scope: &rayon::Scope<'s>, i: usize) {
 /// Node `i`'s operator on its inputs, with its warnings reported and its outputs matched to
 /// its ports. The inputs are dropped before it returns: a value whose last consumer this was is
 /// freed here.
-fn evaluate(s: &State, i: usize) -> Result<Matched, RunError> {
+fn evaluate(s: &State, i: usize, release: &(dyn Fn(Value) + Sync)) -> Result<Matched, RunError> {
     let node = &s.p.nodes[i];
     let inputs: Vec<(&'static str, Vec<Value>)> = node
         .inputs
         .iter()
-        .map(|w| (w.field, w.sources.iter().map(|src| s.acquire(src.node, src.port)).collect()))
+        .map(|w| (w.field, w.sources.iter().map(|src| s.acquire(i, src.node, src.port)).collect()))
         .collect();
     let open_ports: Vec<String> =
         node.ports.iter().filter(|p| node.spec.port(&p.name).is_none()).map(|p| p.name.to_string()).collect();
@@ -135,6 +155,7 @@ fn evaluate(s: &State, i: usize) -> Result<Matched, RunError> {
         content_key: s.content[i].as_deref(),
         wanted_ports: &open_ports,
         warnings: Vec::new(),
+        release_to: Some(release),
     };
     let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| (node.spec.eval)(&mut ctx)));
     for w in std::mem::take(&mut ctx.warnings) {

@@ -13,17 +13,21 @@
 //!    ready, so independent nodes run at once, and operators use the same pool for their own
 //!    data parallelism. Each result is checked against its declared type and stored in the cache
 //!    as soon as it exists.
-//! 5. **Memory** (`state`). Among the nodes ready to start, the one that frees the most memory goes
-//!    first (the bytes of the inputs it is the last consumer of). Every output port counts the consumers still to start (plus one if its node
-//!    is a target). A consumer takes a clone of the value, and the last one takes the value
-//!    itself, so the engine's reference is gone as soon as the last consumer has started and
-//!    the value is freed when that consumer finishes with it; an operator that is the last
-//!    consumer of an input can reuse its buffer (`OpContext::take`). Ports nothing consumes are
+//! 5. **Memory** (`state`, `admission`). Among the nodes ready to start, the one that lowers the
+//!    memory the run holds the most goes first (the bytes of the inputs it is the last consumer
+//!    of, minus its predicted output), and a node that makes a large value waits while starting it
+//!    would raise the run's peak and other nodes are running. Every output port counts the
+//!    consumers still to start (plus one if its node is a target). A consumer takes a clone of
+//!    the value, and the last one takes the value itself, so the engine's reference is gone as
+//!    soon as the last consumer has started and the value is freed when that consumer finishes
+//!    with it, or earlier if it hands it back (`OpContext::release`); an operator that is the
+//!    last consumer of an input can reuse its buffer (`Input::take`). Ports nothing consumes are
 //!    dropped as soon as they are produced (after the cache has stored them).
 //! 6. **Outputs** (`output`). File values (from `Save`) are written into the output folder atomically, and
 //!    only when their bytes differ from what is already there. The folder is checked (created,
 //!    a folder, writable) before anything is computed.
 
+mod admission;
 mod execute;
 mod load;
 mod output;
@@ -40,6 +44,7 @@ use crate::engine::cache::CacheStore;
 use crate::engine::error::RunError;
 use crate::engine::graph::Pipeline;
 use crate::engine::value::Value;
+use admission::Admission;
 pub use output::check_output_dir;
 pub use plan::{compute_keys, plan, Plan};
 use state::{release_counts, Slot, State, Timing};
@@ -211,7 +216,7 @@ fn run_in_pool(p: &Pipeline, options: &RunOptions) -> Result<RunOutcome, RunErro
         first_error: Mutex::new(None),
         written: Mutex::new(Vec::new()),
         files: Mutex::new(Vec::new()),
-        ready: Default::default(),
+        ready: admission_for(p),
         is_target,
         target_extras: Mutex::new(Vec::new()),
     };
@@ -227,6 +232,17 @@ fn run_in_pool(p: &Pipeline, options: &RunOptions) -> Result<RunOutcome, RunErro
         }
     });
     finish(state, &status, &targets)
+}
+
+/// The ready queue, with each node's default output type and pixel count when known before
+/// running (what its memory is predicted from, see `admission`).
+fn admission_for(p: &Pipeline) -> Admission {
+    Admission::new(p.nodes.iter().map(output_shape).collect())
+}
+
+/// A node's default output type and pixel count, when its size is known before running.
+fn output_shape(node: &crate::engine::graph::Node) -> Option<(crate::engine::value::ValueType, u64)> {
+    Some((node.output_type()?, node.size.map(|(w, h)| w.saturating_mul(h))?))
 }
 
 /// The outcome of a run that has ended: its report and the targets' values.

@@ -1,14 +1,13 @@
 //! What the workers of a run share (steps 4 and 5 of the module doc of `scheduler`): each output
-//! port's slot with the count of consumers it still waits for, the queue of ready nodes by the
-//! memory they free, and the files and errors the run collects.
+//! port's slot with the count of consumers it still waits for, the queue of ready nodes with the
+//! run's count of bytes held (`admission`), and the files and errors the run collects.
 
-use std::cmp::Reverse;
-use std::collections::BinaryHeap;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::Mutex;
 use std::time::Instant;
 
+use super::admission::Admission;
 use super::output::write_output;
 use super::{NodeReport, NodeStatus, PortReport, RunOptions};
 use crate::engine::cache::{key_hex, CacheStore, Key};
@@ -52,23 +51,6 @@ pub(super) fn release_counts(p: &Pipeline, is_compute: &[bool], is_target: &[boo
     counts
 }
 
-/// The nodes whose inputs are all ready, not yet started. `pop` gives the one that frees the
-/// most bytes by starting (the inputs it is the last consumer of, as of when it was queued),
-/// then the earliest in file order: large values (a distribution, a full map) stay alive as
-/// briefly as possible, and outputs do not depend on the order. A heap keeps this O(log n) per
-/// node for wide graphs.
-#[derive(Default)]
-pub(super) struct ReadyQueue(Mutex<BinaryHeap<(usize, Reverse<usize>)>>);
-
-impl ReadyQueue {
-    pub fn push(&self, frees: usize, node: usize) {
-        self.0.lock().expect("ready lock").push((frees, Reverse(node)));
-    }
-    pub fn pop(&self) -> Option<usize> {
-        self.0.lock().expect("ready lock").pop().map(|(_, Reverse(i))| i)
-    }
-}
-
 /// Everything the workers share.
 pub(super) struct State<'a> {
     pub p: &'a Pipeline,
@@ -91,7 +73,7 @@ pub(super) struct State<'a> {
     pub first_error: Mutex<Option<RunError>>,
     pub written: Mutex<Vec<PathBuf>>,
     pub files: Mutex<Vec<(String, String)>>,
-    pub ready: ReadyQueue,
+    pub ready: Admission,
     pub is_target: Vec<bool>,
     /// The open ports targets produced that no consumer names (kept for the caller: a
     /// `SplitChannels` target returns every channel).
@@ -134,23 +116,42 @@ impl State<'_> {
             }
             let slot = &self.slots[i][port];
             if slot.remaining.load(Ordering::SeqCst) > 0 {
+                let node = &self.p.nodes[i];
+                let shape = if node.is_default_port(port) { super::output_shape(node) } else { None };
+                self.ready.stored(value.approx_bytes(), shape);
                 *slot.value.lock().expect("slot lock") = Some(value);
             }
         }
         Ok(())
     }
 
-    /// A consumer's copy of port `port` of node `j`: the value itself for the last consumer, so
-    /// the run's reference is gone once it has started.
-    pub fn acquire(&self, j: usize, port: usize) -> Value {
+    /// Consumer `i`'s copy of port `port` of node `j`: the value itself for the last consumer,
+    /// so the run's reference is gone once it has started (the value is then counted as held by
+    /// `i` until it finishes or releases it).
+    pub fn acquire(&self, i: usize, j: usize, port: usize) -> Value {
         let slot = &self.slots[j][port];
         let mut guard = slot.value.lock().expect("slot lock");
         let left = slot.remaining.fetch_sub(1, Ordering::SeqCst) - 1;
         if left == 0 {
-            guard.take().expect("a port's value stays until its last consumer")
+            let value = guard.take().expect("a port's value stays until its last consumer");
+            self.ready.took(i, value.approx_bytes());
+            value
         } else {
             guard.clone().expect("a port's value stays until its last consumer")
         }
+    }
+
+    /// Running node `i` hands back input value `v` before finishing (`OpContext::release`): it is
+    /// dropped now, and no longer counted as held if `i` took it as its last consumer (no slot of
+    /// `i`'s inputs still holds it).
+    pub fn release(&self, i: usize, v: Value) {
+        let in_a_slot = self.p.nodes[i].sources().any(|src| {
+            let slot = self.slots[src.node][src.port].value.lock().expect("slot lock");
+            slot.as_ref().is_some_and(|held| held.ptr_eq(&v))
+        });
+        let bytes = if in_a_slot { 0 } else { v.approx_bytes() };
+        drop(v);
+        self.ready.released(i, bytes);
     }
 
     /// Node `i`'s line in the report.
@@ -171,21 +172,5 @@ pub(super) fn node_report(p: &Pipeline, i: usize, status: NodeStatus, t: Timing,
         key: keys[i].map(|k| key_hex(&k)).unwrap_or_default(),
         ports: p.nodes[i].ports.iter().map(|port| PortReport { name: port.name.clone(), ty: port.ty.name() }).collect(),
         stored: t.stored,
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::ReadyQueue;
-
-    /// The node that frees the most starts first; equal ones in file order.
-    #[test]
-    fn the_ready_queue_starts_what_frees_most_then_file_order() {
-        let q = ReadyQueue::default();
-        for (frees, node) in [(0, 4), (100, 7), (0, 2), (100, 3), (5, 0)] {
-            q.push(frees, node);
-        }
-        let order: Vec<usize> = std::iter::from_fn(|| q.pop()).collect();
-        assert_eq!(order, [3, 7, 0, 2, 4]);
     }
 }

@@ -144,6 +144,15 @@ fn eval(ctx: &mut OpContext, p: SaveParams) -> Result<Value, OpError> {
         let (first_path, first) = files.next().ok_or_else(|| fail("an empty mip chain".into()))?;
         return Ok(Value::new(FileBlob { rel_path: first_path, bytes: first, more: files.collect() }));
     }
+    if let (Some(img), "png") = (value.get::<Image>(), options.ext.as_str()) {
+        // An image as PNG (the bytes of `types::image`'s encoder): the 8-bit copy first, then the
+        // float image is handed back before the deflate, which takes most of the time, so that a
+        // run drawing several large overlays need not hold two at once (`scheduler::admission`).
+        let srgb = crate::formats::png::to_srgb8(img, options.exposure).map_err(|e| fail(e.to_string()))?;
+        ctx.release(p.input.into_value());
+        let bytes = srgb.encode().map_err(|e| fail(e.to_string()))?;
+        return Ok(Value::new(FileBlob::new(rel_path, bytes)));
+    }
     let bytes = save(value, &options).map_err(fail)?;
     Ok(Value::new(FileBlob::new(rel_path, bytes)))
 }
