@@ -21,6 +21,7 @@
 //! = the 95% CI) and `summary.md` into the output folder.
 
 pub mod glossy;
+pub mod peak_memory;
 pub mod stats;
 pub mod targets;
 

@@ -12,6 +12,8 @@
 //! - `graphs/seed.ron` on the built-in map: cold (empty cache) and fully cached.
 //! - `ReferenceSphere` 512x512 on a 1024x512 map against the machine's arithmetic floor (the
 //!   clock measured in the same run, the FP pipe model of [`FLOOR_CYCLES_PER_TERM`]).
+//! - `graphs/seed.ron`'s peak resident memory on an 8192x4096 map, at most 3x the map's float
+//!   bytes (`peak_memory`: the binary run as a child process).
 
 use std::path::Path;
 use std::time::Instant;
@@ -220,6 +222,8 @@ pub fn measure(data: &Path, peers: Option<&Path>, repeats: usize, log: &dyn Fn(&
     });
     // 5. ReferenceSphere 512x512 on a 1024x512 map against the machine's arithmetic floor.
     out.push(reference_against_floor(&maps, log));
+    // 6. The seed graph's peak resident memory on an 8192x4096 map (`peak_memory`).
+    out.push(super::peak_memory::seed_peak(log));
     Ok(out)
 }
 

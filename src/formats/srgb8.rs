@@ -112,16 +112,28 @@ mod tests {
         }
     }
 
-    #[test]
-    fn the_table_gives_the_exact_code_on_a_stride_of_all_f32_in_0_1() {
+    /// How many f32 among every `stride`-th bit pattern in [0, 1] get another code by table.
+    fn mismatches_in_0_1(stride: u32) -> usize {
         let table = Srgb8Table::new();
         let end = 1.0f32.to_bits() + 8;
-        let bad = (0..end / 7 + 1)
+        (0..end / stride + 1)
             .into_par_iter()
-            .map(|i| f32::from_bits(i * 7) as f64)
+            .map(|i| f32::from_bits(i * stride) as f64)
             .filter(|&c| table.code(c) != linear_to_srgb8(c))
-            .count();
-        assert_eq!(bad, 0);
+            .count()
+    }
+
+    #[test]
+    fn the_table_gives_the_exact_code_on_a_stride_of_all_f32_in_0_1() {
+        assert_eq!(mismatches_in_0_1(7), 0);
+    }
+
+    /// Every f32 in [0, 1] (1.07e9 values; about 6 s on 2 cores): `cargo test --release --lib
+    /// srgb8 -- --ignored`.
+    #[test]
+    #[ignore]
+    fn the_table_gives_the_exact_code_on_every_f32_in_0_1() {
+        assert_eq!(mismatches_in_0_1(1), 0);
     }
 
     #[test]

@@ -234,9 +234,13 @@ mod tests {
         assert_eq!(q.lock().predicted(0), Prediction::Unknown, "no image seen yet");
         q.stored(400 * MB, Some((IMAGE_T, MAP)));
         q.stored(MB, Some((SAMPLES_T, MAP)));
-        let m = q.lock();
-        assert_eq!((m.predicted(0), m.predicted(1)), (Prediction::Bytes(400 * MB), Prediction::Bytes(100 * MB)));
-        assert_eq!(m.predicted(2), Prediction::Bytes(MB), "samples drawn on the map's grid are small");
+        let bytes = |n| match q.lock().predicted(n) {
+            Prediction::Bytes(b) => b,
+            Prediction::Unknown => panic!("node {n}: its type was seen"),
+        };
+        assert!(bytes(0).abs_diff(400 * MB) <= 1, "{}", bytes(0));
+        assert!(bytes(1).abs_diff(100 * MB) <= 16, "{}", bytes(1));
+        assert!(bytes(2).abs_diff(MB) <= 1, "samples drawn on the map's grid are small: {}", bytes(2));
     }
 
     /// A node that makes a large value goes after one that makes a small one, and after one
@@ -248,7 +252,8 @@ mod tests {
         q.push(0, 0);
         q.push(1, 0);
         q.push(2, 400 * MB);
-        let order: Vec<usize> = std::iter::from_fn(|| q.pop()).collect();
+        // One at a time, each finished before the next starts (so none waits for memory).
+        let order: Vec<usize> = std::iter::from_fn(|| q.pop().inspect(|&n| q.finished(n))).collect();
         assert_eq!(order, [2, 1, 0]);
     }
 
