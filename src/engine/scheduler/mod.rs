@@ -324,6 +324,17 @@ mod tests {
         Ok(Value::new(Image::new(1, 1, 3)))
     }
 
+    /// Per `Release` node: whether its input was gone right after it handed it back (true) and
+    /// whether its copy of a shared input was (false: another consumer still needs it).
+    static RELEASED: Mutex<Vec<(String, bool)>> = Mutex::new(Vec::new());
+
+    fn release(ctx: &mut OpContext, p: PassParams) -> Result<Value, OpError> {
+        let weak = Arc::downgrade(&p.x.arc());
+        ctx.release(p.x.into_value());
+        RELEASED.lock().unwrap().push((ctx.node.to_string(), weak.upgrade().is_none()));
+        Ok(Value::new(Image::new(1, 1, 3)))
+    }
+
     fn pipeline(text: &str) -> Pipeline {
         let mut r = Registry::empty();
         crate::types::register_all(&mut r);
@@ -334,6 +345,11 @@ mod tests {
             OpSpec::new("Pass", "test", 1, "reads x and y")
                 .output("image", OutputType::Fixed(IMAGE_T), "it")
                 .eval(pass),
+        );
+        r.register(
+            OpSpec::new("Release", "test", 1, "hands x back first")
+                .output("image", OutputType::Fixed(IMAGE_T), "it")
+                .eval(release),
         );
         Pipeline::parse(text, "t.ron", Path::new("."), &r, &[]).expect("validates")
     }
@@ -411,6 +427,21 @@ mod tests {
         let made = MADE.lock().unwrap();
         assert!(made.iter().filter(|(n, _)| n.starts_with("o_")).all(|(_, w)| w.upgrade().is_none()));
         assert_eq!(outcome.values.keys().collect::<Vec<_>>(), ["o_c1", "o_c2"]);
+    }
+
+    /// A value its last consumer hands back early (`OpContext::release`) is freed then, before
+    /// that node finishes; an earlier consumer's copy handed back frees nothing.
+    #[test]
+    fn a_value_handed_back_by_its_last_consumer_is_freed_then() {
+        let p = pipeline(
+            r#"(nodes: { "r_a": Src(width: 64), "r_b": Src(width: 64), "r_1": Release(x: "r_a"),
+                "r_2": Release(x: "r_b"), "r_3": Pass(x: "r_b") })"#,
+        );
+        let obs = Events::default();
+        run_one_thread(&p, &["r_1", "r_2", "r_3"], &obs);
+        let released: Vec<(String, bool)> =
+            RELEASED.lock().unwrap().iter().filter(|(n, _)| n.starts_with("r_")).cloned().collect();
+        assert_eq!(released, [("r_1".to_string(), true), ("r_2".to_string(), false)]);
     }
 
     /// A node served from the cache needs none of its inputs: they are not computed.
