@@ -85,9 +85,26 @@ fn save(value: &Value, o: &SaveOptions) -> Result<Vec<u8>, String> {
     .into_bytes())
 }
 
-/// The JSON, one coefficient row per line (`serde_json`'s pretty printer would put every number
-/// on a line of its own).
+/// The JSON object: `frame`, `order`, `basis` (one line naming the convention and the axes) and
+/// `coefficients`, `(order + 1)^2` rows `[r, g, b]` in `(l, m)` order (as in a label's `sh`).
+pub fn to_json_value(c: &ShCoefficients) -> serde_json::Value {
+    let mut map = serde_json::Map::new();
+    map.insert("frame".into(), c.frame.name().into());
+    map.insert("order".into(), c.order.into());
+    map.insert("basis".into(), c.frame.basis().into());
+    let rows = c.rgb.iter().map(|v| serde_json::Value::Array(v.iter().map(|&x| num(x)).collect())).collect();
+    map.insert("coefficients".into(), serde_json::Value::Array(rows));
+    serde_json::Value::Object(map)
+}
+
+/// The JSON text, one coefficient row per line.
 fn json(c: &ShCoefficients) -> String {
+    super::json::text(&to_json_value(c))
+}
+
+/// The text version 2 wrote (kept in the tests only, to check `json` gives the same bytes).
+#[cfg(test)]
+fn old_json(c: &ShCoefficients) -> String {
     let text = |s: &str| serde_json::Value::String(s.to_string()).to_string();
     let mut out = String::from("{\n");
     let _ = writeln!(out, "  \"frame\": {},", text(c.frame.name()));
@@ -208,5 +225,8 @@ mod tests {
         // An empty set of coefficients (never produced, but valid JSON all the same).
         let empty = ShCoefficients { order: 0, frame: ShFrame::Paper, rgb: vec![] };
         assert!(serde_json::from_str::<serde_json::Value>(&super::json(&empty)).is_ok());
+        for c in [c, empty] {
+            assert_eq!(super::json(&c), super::old_json(&c));
+        }
     }
 }
