@@ -102,23 +102,6 @@ fn json(c: &ShCoefficients) -> String {
     super::json::text(&to_json_value(c))
 }
 
-/// The text version 2 wrote (kept in the tests only, to check `json` gives the same bytes).
-#[cfg(test)]
-fn old_json(c: &ShCoefficients) -> String {
-    let text = |s: &str| serde_json::Value::String(s.to_string()).to_string();
-    let mut out = String::from("{\n");
-    let _ = writeln!(out, "  \"frame\": {},", text(c.frame.name()));
-    let _ = writeln!(out, "  \"order\": {},", c.order);
-    let _ = writeln!(out, "  \"basis\": {},", text(c.frame.basis()));
-    out.push_str("  \"coefficients\": [");
-    for (i, v) in c.rgb.iter().enumerate() {
-        let sep = if i + 1 < c.rgb.len() { "," } else { "" };
-        let _ = write!(out, "\n    [{}, {}, {}]{sep}", num(v[0]), num(v[1]), num(v[2]));
-    }
-    out.push_str(if c.rgb.is_empty() { "]\n}\n" } else { "\n  ]\n}\n" });
-    out
-}
-
 fn csv(c: &ShCoefficients) -> String {
     let mut out = String::from("l,m,r,g,b,frame\n");
     for (l, m, v) in c.iter() {
@@ -225,8 +208,5 @@ mod tests {
         // An empty set of coefficients (never produced, but valid JSON all the same).
         let empty = ShCoefficients { order: 0, frame: ShFrame::Paper, rgb: vec![] };
         assert!(serde_json::from_str::<serde_json::Value>(&super::json(&empty)).is_ok());
-        for c in [c, empty] {
-            assert_eq!(super::json(&c), super::old_json(&c));
-        }
     }
 }
