@@ -133,8 +133,12 @@ def main():
                 # Per pixel (a sun of 6e4 in a few pixels would swamp a mean over the crop).
                 rel = np.abs(ca - cb) / (np.abs(ca) + 1e-3 * np.mean(np.abs(ca)))
                 crop_diff.append(float(np.median(rel)))
+    per_map_rmse = {}
     for row in peer["rows"]:
         rmse["peer"].append(row["sg_relative_rmse"])
+    for i, m in enumerate(maps):
+        stem = pathlib.Path(m).stem
+        per_map_rmse[stem] = {k: float(np.mean(v[i * len(yaws):(i + 1) * len(yaws)])) for k, v in rmse.items()}
     summary = {
         "machine": f"{os.cpu_count()} cores, load average {os.getloadavg()[0]:.1f} at the end",
         "maps": len(maps), "items": items, "crops": items * CROPS, "workers": a.workers,
@@ -147,6 +151,7 @@ def main():
         "ratio_warm": peer_wall / warm,
         "hdrflow_one_item_seconds_by_operator": per_op,
         "peer_mean_item_seconds_by_stage": peer_stages,
+        "peer_rows": peer["rows"],
         "agreement": {
             "sh_max_abs_diff_over_l00": worst["sh"],
             "camera_matrix_max_abs_diff": worst["matrix"],
@@ -155,6 +160,7 @@ def main():
             "light_direction_max_angle_deg": worst["light_angle_deg"],
             "light_solid_angle_ratio_peer_over_hdrflow": worst["light_solid_angle_ratio"],
             "sg_relative_rmse_mean": {k: float(np.mean(v)) for k, v in rmse.items()},
+            "sg_relative_rmse_by_map": per_map_rmse,
             "crop_median_pixel_relative_diff": {"median": float(np.median(crop_diff)), "max": float(np.max(crop_diff))},
         },
     }
