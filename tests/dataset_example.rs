@@ -116,7 +116,8 @@ fn the_dataset_example_writes_four_labelled_crops_per_azimuth() {
     let mut band1 = Vec::new();
     for yaw in YAWS {
         let dir = item_dir(&out, yaw);
-        let (sh, lobes, lights) = (json(&dir.join("map/sh.json")), json(&dir.join("map/lobes.json")), json(&dir.join("map/lights.json")));
+        let (sh, lobes, lights) =
+            (json(&dir.join("map/sh.json")), json(&dir.join("map/lobes.json")), json(&dir.join("map/lights.json")));
         for (k, (cyaw, cpitch)) in CROPS.into_iter().enumerate() {
             let exr = read_file(&dir.join(format!("crop_{k}.exr")));
             assert_eq!(&exr[..4], &[0x76, 0x2f, 0x31, 0x01], "crop_{k}.exr is an EXR");
@@ -142,7 +143,10 @@ fn the_dataset_example_writes_four_labelled_crops_per_azimuth() {
             assert_eq!(cam["model"], "Perspective");
             assert_eq!((cam["width"].as_u64(), cam["height"].as_u64()), (Some(256), Some(256)));
             assert_eq!(cam["fov"].as_f64(), Some(60.0));
-            assert_eq!((cam["yaw"].as_f64(), cam["pitch"].as_f64(), cam["roll"].as_f64()), (Some(cyaw), Some(cpitch), Some(0.0)));
+            assert_eq!(
+                (cam["yaw"].as_f64(), cam["pitch"].as_f64(), cam["roll"].as_f64()),
+                (Some(cyaw), Some(cpitch), Some(0.0))
+            );
             // world_to_camera is R^T: it takes the crop's centre ray R (0, 0, -1) to (0, 0, -1).
             let m: Vec<[f64; 3]> = cam["world_to_camera"].as_array().unwrap().iter().map(triple).collect();
             let m: [[f64; 3]; 3] = m.try_into().expect("3 rows");
@@ -180,7 +184,10 @@ fn the_dataset_example_writes_four_labelled_crops_per_azimuth() {
             assert!((l00[ch] - l00_0[ch]).abs() < 1e-9 * l00_0[ch].abs(), "yaw {yaw}: L_00");
             let want = apply(r, [x0[ch], y0[ch], z0[ch]]);
             let have = [x[ch], y[ch], z[ch]];
-            assert!((0..3).all(|j| (want[j] - have[j]).abs() < 1e-9 * l00_0[ch].abs()), "yaw {yaw}: band 1 {have:?} vs {want:?}");
+            assert!(
+                (0..3).all(|j| (want[j] - have[j]).abs() < 1e-9 * l00_0[ch].abs()),
+                "yaw {yaw}: band 1 {have:?} vs {want:?}"
+            );
         }
     }
 
@@ -236,7 +243,9 @@ fn a_label_wired_to_the_wrong_values_is_refused_before_anything_runs() {
     out.assert_stderr_contains(
         r#"bad.ron:5:32: node "label": field "camera" expects camera, but node "crop" (Project) gives image"#,
     );
-    out.assert_stderr_contains(r#"node "label": field "sh" expects sh coefficients, but node "sg" (SphericalGaussians) gives sg"#);
+    out.assert_stderr_contains(
+        r#"node "label": field "sh" expects sh coefficients, but node "sg" (SphericalGaussians) gives sg"#,
+    );
     out.assert_stderr_contains(r#"cannot save a value of type camera as ".exr": use one of .json"#);
     assert!(files_under(&sb.out()).is_empty());
 }

@@ -64,7 +64,8 @@ mod tests {
             assert!((apply(m, r.apply(DVec3::Y)) - DVec3::Y).length() < 1e-12);
         }
         // Yaw 90 looks left (-X): the world's -X is straight ahead of that camera.
-        let left = Camera { model: Model::Perspective, fov: 60.0, width: 8, height: 6, yaw: 90.0, pitch: 0.0, roll: 0.0 };
+        let left =
+            Camera { model: Model::Perspective, fov: 60.0, width: 8, height: 6, yaw: 90.0, pitch: 0.0, roll: 0.0 };
         assert!((left.forward() - DVec3::NEG_X).length() < 1e-12);
         assert!((apply(left.world_to_camera(), DVec3::NEG_X) - DVec3::NEG_Z).length() < 1e-12);
     }

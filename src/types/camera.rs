@@ -94,7 +94,8 @@ mod tests {
 
     #[test]
     fn round_trips_and_saves_json() {
-        let c = Camera { model: Model::Fisheye, fov: 187.5, width: 640, height: 480, yaw: -30.0, pitch: 12.5, roll: 3.0 };
+        let c =
+            Camera { model: Model::Fisheye, fov: 187.5, width: 640, height: 480, yaw: -30.0, pitch: 12.5, roll: 3.0 };
         let mut bytes = Vec::new();
         c.encode(&mut bytes);
         assert_eq!(decode(&bytes).unwrap().get::<Camera>(), Some(&c));

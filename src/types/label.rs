@@ -123,7 +123,15 @@ mod tests {
 
     fn full() -> Label {
         Label {
-            camera: Camera { model: Model::Perspective, fov: 60.0, width: 4, height: 3, yaw: 45.0, pitch: 5.0, roll: 0.0 },
+            camera: Camera {
+                model: Model::Perspective,
+                fov: 60.0,
+                width: 4,
+                height: 3,
+                yaw: 45.0,
+                pitch: 5.0,
+                roll: 0.0,
+            },
             sh: Some(ShCoefficients { order: 1, frame: ShFrame::World, rgb: vec![[1.0, 2.0, 3.0]; 4] }),
             sgs: Some(SphericalGaussians {
                 lobes: vec![SgLobe { axis: [0.0, 1.0, 0.0], sharpness: 3.5, amplitude: [0.5, 0.25, 0.125] }],
@@ -177,7 +185,8 @@ mod tests {
             ktx_format: crate::formats::ktx2::KtxFormat::Rgba32f,
             exr: Default::default(),
         };
-        let saved = |v: Value| own(&String::from_utf8((v.value_type().spec().save.unwrap())(&v, &opts).unwrap()).unwrap());
+        let saved =
+            |v: Value| own(&String::from_utf8((v.value_type().spec().save.unwrap())(&v, &opts).unwrap()).unwrap());
         assert_eq!(json["camera"], saved(Value::new(l.camera)));
         assert_eq!(json["sh"], saved(Value::new(l.sh.clone().unwrap())));
         assert_eq!(json["spherical_gaussians"], saved(Value::new(l.sgs.clone().unwrap())));

@@ -71,7 +71,8 @@ mod tests {
     #[test]
     fn the_label_matrix_puts_a_bright_texel_where_project_shows_it() {
         let (w, h) = (256, 128);
-        let views = [(20.0, -15.0, 0.0, [0.3, -0.2]), (-110.0, 35.0, 25.0, [-0.5, 0.4]), (160.0, -40.0, -70.0, [0.1, 0.6])];
+        let views =
+            [(20.0, -15.0, 0.0, [0.3, -0.2]), (-110.0, 35.0, 25.0, [-0.5, 0.4]), (160.0, -40.0, -70.0, [0.1, 0.6])];
         for (yaw, pitch, roll, [a, b]) in views {
             let cam = Camera { model: Model::Perspective, fov: 100.0, width: 201, height: 151, yaw, pitch, roll };
             // A texel the camera sees off-centre, at camera ray (a, b, -1) turned by the view.
@@ -95,7 +96,10 @@ mod tests {
             assert!(lum(brightest) > 0.0);
             let (bx, by) = ((brightest % cam.width) as f64 + 0.5, (brightest / cam.width) as f64 + 0.5);
             // Bilinear lookups peak at the texel centre (the texel spans 1.4 degrees, 2.8 crop pixels).
-            assert!((bx - px).abs() < 2.0 && (by - py).abs() < 2.0, "matrix says ({px}, {py}), Project shows ({bx}, {by})");
+            assert!(
+                (bx - px).abs() < 2.0 && (by - py).abs() < 2.0,
+                "matrix says ({px}, {py}), Project shows ({bx}, {by})"
+            );
         }
     }
 }

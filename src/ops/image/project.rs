@@ -58,7 +58,11 @@ crate::params! {
 pub fn spec() -> OpSpec {
     OpSpec::new("Project", "image", 2, "A perspective, fisheye or orthographic camera view of a lat-long map")
         .output_like("image", |p: ProjectParams<Check>| p.env, "the view, width x height, env's channels")
-        .output("camera", OutputType::Fixed(CAMERA_T), "the view's camera (model, fov, size, angles, world-to-camera matrix)")
+        .output(
+            "camera",
+            OutputType::Fixed(CAMERA_T),
+            "the view's camera (model, fov, size, angles, world-to-camera matrix)",
+        )
         .size(|_, p: ProjectParams<Check>| Some((p.width as u64, p.height as u64)))
         .check(check)
         .code_hash(crate::op_code_hash!())
@@ -72,8 +76,15 @@ fn check(_: &CheckContext, p: ProjectParams<Check>) -> Result<(), CheckProblem> 
 fn eval(ctx: &mut OpContext, p: ProjectParams) -> Result<Outputs, OpError> {
     warn_unless_latlong(ctx, "env", p.env.width, p.env.height);
     let lens = Lens::new(p.model, p.fov, p.width, p.height).map_err(OpError::Invalid)?;
-    let camera =
-        Camera { model: p.model, fov: p.fov, width: p.width, height: p.height, yaw: p.yaw, pitch: p.pitch, roll: p.roll };
+    let camera = Camera {
+        model: p.model,
+        fov: p.fov,
+        width: p.width,
+        height: p.height,
+        yaw: p.yaw,
+        pitch: p.pitch,
+        roll: p.roll,
+    };
     let view = project(&p.env, &lens, camera.rotation(), p.filter);
     Ok(Outputs::new().with("image", Value::new(view)).with("camera", Value::new(camera)))
 }
