@@ -6,6 +6,7 @@
 //! it on `builtin_registry()` and run the command line over it with `hdrflow::cli::main_with`
 //! (see `examples/custom_operator.rs`).
 
+pub mod dataset;
 pub mod ibl;
 pub mod image;
 pub mod io;
@@ -28,6 +29,7 @@ pub fn register_all(registry: &mut Registry) {
     lights::register(registry);
     plotting::register(registry);
     ibl::register(registry);
+    dataset::register(registry);
 }
 
 /// A registry with every built-in value type and operator.

@@ -5,10 +5,13 @@
 //! encoders. The engine knows none of them; `register_all` adds them to a registry. A value
 //! type from outside the crate is declared the same way (see `examples/custom_operator.rs`).
 
+pub mod camera;
 pub mod cubemap;
 pub mod curves;
 pub mod distribution;
 pub mod image;
+pub(crate) mod json;
+pub mod label;
 pub mod light;
 pub mod lights;
 pub mod metrics;
@@ -20,9 +23,11 @@ use crate::engine::registry::Registry;
 use crate::engine::value::ValueType;
 
 pub use self::image::{IMAGE, SCALAR_FIELD};
+pub use camera::CAMERA;
 pub use cubemap::{CUBEMAP, MIP_CHAIN};
 pub use curves::CURVES;
 pub use distribution::DISTRIBUTION;
+pub use label::LABEL;
 pub use light::LIGHT;
 pub use lights::LIGHTS;
 pub use metrics::METRICS;
@@ -45,6 +50,8 @@ pub fn register_all(r: &mut Registry) {
         &SG,
         &CUBEMAP,
         &MIP_CHAIN,
+        &CAMERA,
+        &LABEL,
     ] {
         r.register_type(spec);
     }
@@ -67,6 +74,8 @@ pub mod ty {
     pub const SG_T: ValueType = ValueType(&SG);
     pub const CUBEMAP_T: ValueType = ValueType(&CUBEMAP);
     pub const MIP_CHAIN_T: ValueType = ValueType(&MIP_CHAIN);
+    pub const CAMERA_T: ValueType = ValueType(&CAMERA);
+    pub const LABEL_T: ValueType = ValueType(&LABEL);
     /// Either kind of image.
     pub const ANY_IMAGE: &[ValueType] = &[IMAGE_T, SCALAR_T];
 }

@@ -72,6 +72,11 @@ fn decode(bytes: &[u8]) -> Result<Value, String> {
 
 /// The JSON text of the lobes: `{"lobes": [{"axis", "sharpness", "amplitude"}, ...]}`.
 pub fn to_json(sg: &SphericalGaussians) -> String {
+    serde_json::to_string_pretty(&to_json_value(sg)).expect("JSON of plain values") + "\n"
+}
+
+/// The JSON object of the lobes (as in [`to_json`] and a label's `spherical_gaussians`).
+pub fn to_json_value(sg: &SphericalGaussians) -> serde_json::Value {
     let lobes = sg
         .lobes
         .iter()
@@ -85,7 +90,7 @@ pub fn to_json(sg: &SphericalGaussians) -> String {
         .collect();
     let mut map = serde_json::Map::new();
     map.insert("lobes".into(), serde_json::Value::Array(lobes));
-    serde_json::to_string_pretty(&serde_json::Value::Object(map)).expect("JSON of plain values") + "\n"
+    serde_json::Value::Object(map)
 }
 
 fn save(value: &Value, _: &SaveOptions) -> Result<Vec<u8>, String> {

@@ -85,21 +85,21 @@ fn save(value: &Value, o: &SaveOptions) -> Result<Vec<u8>, String> {
     .into_bytes())
 }
 
-/// The JSON, one coefficient row per line (`serde_json`'s pretty printer would put every number
-/// on a line of its own).
+/// The JSON object: `frame`, `order`, `basis` (one line naming the convention and the axes) and
+/// `coefficients`, `(order + 1)^2` rows `[r, g, b]` in `(l, m)` order (as in a label's `sh`).
+pub fn to_json_value(c: &ShCoefficients) -> serde_json::Value {
+    let mut map = serde_json::Map::new();
+    map.insert("frame".into(), c.frame.name().into());
+    map.insert("order".into(), c.order.into());
+    map.insert("basis".into(), c.frame.basis().into());
+    let rows = c.rgb.iter().map(|v| serde_json::Value::Array(v.iter().map(|&x| num(x)).collect())).collect();
+    map.insert("coefficients".into(), serde_json::Value::Array(rows));
+    serde_json::Value::Object(map)
+}
+
+/// The JSON text, one coefficient row per line.
 fn json(c: &ShCoefficients) -> String {
-    let text = |s: &str| serde_json::Value::String(s.to_string()).to_string();
-    let mut out = String::from("{\n");
-    let _ = writeln!(out, "  \"frame\": {},", text(c.frame.name()));
-    let _ = writeln!(out, "  \"order\": {},", c.order);
-    let _ = writeln!(out, "  \"basis\": {},", text(c.frame.basis()));
-    out.push_str("  \"coefficients\": [");
-    for (i, v) in c.rgb.iter().enumerate() {
-        let sep = if i + 1 < c.rgb.len() { "," } else { "" };
-        let _ = write!(out, "\n    [{}, {}, {}]{sep}", num(v[0]), num(v[1]), num(v[2]));
-    }
-    out.push_str(if c.rgb.is_empty() { "]\n}\n" } else { "\n  ]\n}\n" });
-    out
+    super::json::text(&to_json_value(c))
 }
 
 fn csv(c: &ShCoefficients) -> String {
