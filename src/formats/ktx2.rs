@@ -37,6 +37,13 @@ crate::choice! {
     }
 }
 
+/// What `Save` writes unless told otherwise (and an encoder given no format).
+impl Default for KtxFormat {
+    fn default() -> Self {
+        KtxFormat::Rgba16f
+    }
+}
+
 impl KtxFormat {
     /// The Vulkan format number written in the header.
     pub fn vk_format(self) -> u32 {

@@ -26,6 +26,7 @@ pub mod reference;
 pub mod relight;
 pub mod resample;
 pub mod rotation;
+pub(crate) mod row_kernels;
 pub mod sequences;
 pub mod sh;
 pub mod spherical_gaussians;

@@ -39,3 +39,34 @@ pub fn builtin_registry() -> Registry {
     register_all(&mut r);
     r
 }
+
+include!(concat!(env!("OUT_DIR"), "/op_sources.rs"));
+
+/// The code hash of the built-in operator file at `file` (`file!()`, relative or absolute: the
+/// entry of `build.rs`'s table of operator files it ends with), zero for a file the table does
+/// not hold. An operator passes it to the engine with `OpSpec::code_hash`.
+pub fn builtin_code_hash(file: &str) -> [u8; 32] {
+    let file = file.replace('\\', "/");
+    OP_SOURCES.iter().find(|(path, _)| file.ends_with(path)).map(|(_, h)| *h).unwrap_or([0; 32])
+}
+
+/// The code hash of the built-in operator file this macro is written in (see `OpSpec::code`).
+#[doc(hidden)]
+#[macro_export]
+macro_rules! op_code_hash {
+    () => {
+        $crate::ops::builtin_code_hash(file!())
+    };
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn every_operator_file_has_a_code_hash() {
+        assert!(super::OP_SOURCES.len() > 20);
+        let h = super::builtin_code_hash("/abs/prefix/src/ops/image/exposure.rs");
+        assert_ne!(h, [0; 32]);
+        assert_eq!(h, super::builtin_code_hash("src/ops/image/exposure.rs"));
+        assert_ne!(h, super::builtin_code_hash("src/ops/image/luminance.rs"));
+    }
+}
