@@ -178,13 +178,7 @@ mod tests {
         let l = full();
         let json: serde_json::Value = serde_json::from_str(&to_json(&l)).unwrap();
         let own = |text: &str| serde_json::from_str::<serde_json::Value>(text).unwrap();
-        let opts = SaveOptions {
-            ext: "json".into(),
-            exposure: 0.0,
-            plot_size: (1, 1),
-            ktx_format: crate::formats::ktx2::KtxFormat::Rgba32f,
-            exr: Default::default(),
-        };
+        let opts = SaveOptions::new("json");
         let saved =
             |v: Value| own(&String::from_utf8((v.value_type().spec().save.unwrap())(&v, &opts).unwrap()).unwrap());
         assert_eq!(json["camera"], saved(Value::new(l.camera)));
