@@ -137,7 +137,7 @@ pub fn load_map(spec: &MapSpec) -> Result<Image, String> {
     } else {
         let bytes = std::fs::read(&spec.source).map_err(|e| format!("{}: {e}", spec.source))?;
         let ext = Path::new(&spec.source).extension().map(|e| e.to_string_lossy().to_lowercase()).unwrap_or_default();
-        crate::formats::decode_by_extension(&bytes, &ext).map_err(|e| format!("{}: {}", spec.source, e.0))?
+        crate::formats::decode_by_extension(&bytes, &ext).map_err(|e| format!("{}: {}", spec.source, e))?
     };
     if spec.flip_vertical {
         img = img.flipped_vertical();
@@ -475,7 +475,7 @@ fn run_peers(
             };
             let img = std::fs::read(out.join(image))
                 .map_err(|e| e.to_string())
-                .and_then(|b| crate::formats::pfm::decode(&b).map_err(|e| e.0))
+                .and_then(|b| crate::formats::pfm::decode(&b).map_err(|e| e.to_string()))
                 .map_err(|e| format!("peer {script} image {image}: {e}"))?;
             let m = image_error(&img, reference, Some(mask)).map_err(|e| format!("peer {script}: {e}"))?;
             let error = (metric(&m, "relative_rmse"), metric(&m, "psnr"));

@@ -29,7 +29,7 @@ use super::{FormatError, MAX_PIXELS};
 use crate::data::Image;
 
 fn err(msg: impl Into<String>) -> FormatError {
-    FormatError(msg.into())
+    FormatError::Invalid(msg.into())
 }
 
 /// The next whitespace-separated token from `pos` (skipping leading ASCII whitespace).
@@ -219,7 +219,7 @@ mod tests {
         for n in 0..bytes.len() {
             assert!(decode(&bytes[..n]).is_err(), "prefix {n}");
         }
-        let e = decode(&bytes[..bytes.len() - 1]).unwrap_err().0;
+        let e = decode(&bytes[..bytes.len() - 1]).unwrap_err().to_string();
         assert!(e.contains("truncated"), "{e}");
     }
 
@@ -230,14 +230,14 @@ mod tests {
         assert!(decode(&f).is_err());
         let mut f = b"PF\n10000 10000\n-1.0\n".to_vec();
         f.extend_from_slice(&[0u8; 100]);
-        assert!(decode(&f).unwrap_err().0.contains("truncated"));
+        assert!(decode(&f).unwrap_err().to_string().contains("truncated"));
         assert!(decode(b"PF\n18446744073709551615 2\n-1.0\n").is_err());
         assert!(decode(b"PF\n0 2\n-1.0\n").is_err());
     }
 
     #[test]
     fn bad_magic_and_bad_tokens() {
-        assert!(decode(b"P6\n1 1\n255\n\0\0\0").unwrap_err().0.contains("bad magic"));
+        assert!(decode(b"P6\n1 1\n255\n\0\0\0").unwrap_err().to_string().contains("bad magic"));
         assert!(decode(b"").is_err());
         assert!(decode(b"PFX 1 1 -1\n\0\0\0\0").is_err());
         assert!(decode(b"PF\n1 1\nNaN\n\0\0\0\0\0\0\0\0\0\0\0\0").is_err());

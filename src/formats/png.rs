@@ -38,20 +38,23 @@ pub fn linear_to_srgb8(c: f64) -> u8 {
 pub fn encode(image: &Image, exposure_stops: f64) -> Result<Vec<u8>, FormatError> {
     let (w, h, c) = (image.width, image.height, image.channels);
     if w == 0 || h == 0 {
-        return Err(FormatError(format!("cannot write an empty {w}x{h} image as PNG")));
+        return Err(FormatError::Invalid(format!("cannot write an empty {w}x{h} image as PNG")));
     }
     let color = match c {
         1 => ExtendedColorType::L8,
         3 => ExtendedColorType::Rgb8,
         4 => ExtendedColorType::Rgba8,
-        _ => return Err(FormatError(format!("cannot write a {c}-channel image as PNG (1, 3 or 4)"))),
+        _ => return Err(FormatError::Invalid(format!("cannot write a {c}-channel image as PNG (1, 3 or 4)"))),
     };
     let (Ok(w32), Ok(h32)) = (u32::try_from(w), u32::try_from(h)) else {
-        return Err(FormatError(format!("image too large for PNG: {w}x{h}")));
+        return Err(FormatError::Invalid(format!("image too large for PNG: {w}x{h}")));
     };
     let n = w.checked_mul(h).and_then(|p| p.checked_mul(c));
     if n != Some(image.data.len()) {
-        return Err(FormatError(format!("image buffer has {} samples, expected {w}x{h}x{c}", image.data.len())));
+        return Err(FormatError::Invalid(format!(
+            "image buffer has {} samples, expected {w}x{h}x{c}",
+            image.data.len()
+        )));
     }
     let gain = exposure_stops.exp2();
     let mut bytes = vec![0u8; image.data.len()];
@@ -70,7 +73,7 @@ pub fn encode(image: &Image, exposure_stops: f64) -> Result<Vec<u8>, FormatError
     let mut out = Vec::new();
     PngEncoder::new(&mut out)
         .write_image(&bytes, w32, h32, color)
-        .map_err(|e| FormatError(format!("PNG encoding failed: {e}")))?;
+        .map_err(|e| FormatError::Invalid(format!("PNG encoding failed: {e}")))?;
     Ok(out)
 }
 

@@ -140,7 +140,7 @@ pub fn encode_ktx2(levels: &[Cubemap], o: &SaveOptions) -> Result<Vec<u8>, Strin
         .zip(&rgba)
         .map(|(c, rgba)| crate::formats::ktx2::Level { width: c.size, height: c.size, rgba })
         .collect();
-    crate::formats::ktx2::encode(&levels, 6, o.get_or_default()).map_err(|e| e.0)
+    crate::formats::ktx2::encode(&levels, 6, o.get_or_default()).map_err(|e| e.to_string())
 }
 
 /// Every level's strip, at `template` with `{level}` replaced by the level number.

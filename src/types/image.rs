@@ -80,7 +80,7 @@ fn save(value: &Value, o: &SaveOptions) -> Result<Vec<u8>, String> {
     if o.ext == "ktx2" {
         let rgba = formats::ktx2::image_rgba(img);
         let level = formats::ktx2::Level { width: img.width, height: img.height, rgba: &rgba };
-        return formats::ktx2::encode(&[level], 1, o.get_or_default()).map_err(|e| e.0);
+        return formats::ktx2::encode(&[level], 1, o.get_or_default()).map_err(|e| e.to_string());
     }
     encode_image(img, o)
 }
@@ -89,8 +89,8 @@ fn save(value: &Value, o: &SaveOptions) -> Result<Vec<u8>, String> {
 pub fn encode_image(img: &Image, o: &SaveOptions) -> Result<Vec<u8>, String> {
     let ext = o.ext.as_str();
     match ext {
-        "png" => formats::png::encode(img, o.exposure).map_err(|e| e.0),
-        "exr" => formats::exr::encode_with(img, &o.get_or_default()).map_err(|e| e.0),
+        "png" => formats::png::encode(img, o.exposure).map_err(|e| e.to_string()),
+        "exr" => formats::exr::encode_with(img, &o.get_or_default()).map_err(|e| e.to_string()),
         "hdr" | "pfm" => {
             // RGBE and PFM hold RGB (PFM also grey): alpha and further channels are dropped
             // (`channels_not_kept` says which, and `Save` warns).
