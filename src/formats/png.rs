@@ -137,18 +137,24 @@ mod tests {
 
     #[test]
     fn refuses_bad_shapes() {
-        assert!(encode(&Image::from_vec(0, 0, 3, vec![]), 0.0).is_err());
-        assert!(encode(&Image::from_vec(1, 1, 2, vec![0.0; 2]), 0.0).is_err());
-        assert!(encode(
-            &Image {
-                width: 2,
-                height: 1,
-                channels: 3,
-                names: crate::data::image::default_names(3),
-                data: vec![0.0; 3]
-            },
-            0.0
-        )
-        .is_err());
+        let message = |r: Result<Vec<u8>, FormatError>| r.unwrap_err().to_string();
+        assert_eq!(message(encode(&Image::from_vec(0, 0, 3, vec![]), 0.0)), "cannot write an empty 0x0 image as PNG");
+        assert_eq!(
+            message(encode(&Image::from_vec(1, 1, 2, vec![0.0; 2]), 0.0)),
+            "cannot write a 2-channel image as PNG (1, 3 or 4)"
+        );
+        assert_eq!(
+            message(encode(
+                &Image {
+                    width: 2,
+                    height: 1,
+                    channels: 3,
+                    names: crate::data::image::default_names(3),
+                    data: vec![0.0; 3]
+                },
+                0.0
+            )),
+            "image buffer has 3 samples, expected 2x1x3"
+        );
     }
 }

@@ -787,7 +787,8 @@ mod tests {
         // A repeat code first in a scanline has no previous pixel.
         let mut f = header("-Y 1 +X 10");
         f.extend_from_slice(&[1, 1, 1, 9, 0, 0, 0, 0]);
-        assert!(decode(&f).is_err());
+        let e = decode(&f).unwrap_err().to_string();
+        assert_eq!(e, "scanline 0: old-style repeat code at the start of a scanline");
     }
 
     #[test]
@@ -890,18 +891,21 @@ EXPOSURE=2\nFORMAT=32-bit_rle_rgbe\n\n-Y 1 +X 2\n"
     fn bad_magic() {
         let e = decode(b"P6\n1 1\n255\n\0\0\0").unwrap_err().to_string();
         assert!(e.starts_with("not a Radiance file (bad magic"), "{e}");
-        assert!(decode(b"").is_err());
+        let e = decode(b"").unwrap_err().to_string();
+        assert!(e.starts_with("not a Radiance file (bad magic"), "{e}");
     }
 
     #[test]
     fn truncation_never_panics() {
         let bytes = encode(&random_image(20, 3, 7));
         for n in 0..bytes.len() {
-            assert!(decode(&bytes[..n]).is_err(), "prefix of {n} bytes decoded");
+            let e = decode(&bytes[..n]).unwrap_err().to_string();
+            assert!(e.contains("truncated"), "prefix of {n} bytes: {e}");
         }
         let flat = encode(&random_image(5, 3, 8));
         for n in 0..flat.len() {
-            assert!(decode(&flat[..n]).is_err());
+            let e = decode(&flat[..n]).unwrap_err().to_string();
+            assert!(e.contains("truncated"), "prefix of {n} bytes: {e}");
         }
     }
 
@@ -930,7 +934,8 @@ EXPOSURE=2\nFORMAT=32-bit_rle_rgbe\n\n-Y 1 +X 2\n"
         let mut f = header("-Y 200000 +X 200000");
         f.extend_from_slice(&[0u8; 100]);
         let t = std::time::Instant::now();
-        assert!(decode(&f).is_err());
+        let e = decode(&f).unwrap_err().to_string();
+        assert_eq!(e, "image too large: 200000x200000 pixels (limit 268435456)");
         // Within MAX_PIXELS but far more than 100 bytes could encode: the lower bound catches it.
         let mut f = header("-Y 10000 +X 10000");
         f.extend_from_slice(&[0u8; 100]);
@@ -939,7 +944,7 @@ EXPOSURE=2\nFORMAT=32-bit_rle_rgbe\n\n-Y 1 +X 2\n"
         assert!(t.elapsed().as_millis() < 500);
         let mut f = header("-Y 0 +X 5");
         f.extend_from_slice(&[0u8; 100]);
-        assert!(decode(&f).is_err());
+        assert_eq!(decode(&f).unwrap_err().to_string(), "empty image: header claims 5x0 pixels");
     }
 
     #[test]
@@ -962,7 +967,8 @@ EXPOSURE=2\nFORMAT=32-bit_rle_rgbe\n\n-Y 1 +X 2\n"
         let mut f = header("-Y 1 +X 8");
         f.extend_from_slice(&[2, 2, 0, 9]);
         f.extend_from_slice(&[0u8; 40]);
-        assert!(decode(&f).is_err());
+        let e = decode(&f).unwrap_err().to_string();
+        assert_eq!(e, "scanline 0: RLE scanline length 9 does not match the image width 8");
     }
 
     #[test]

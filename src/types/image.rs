@@ -158,7 +158,8 @@ mod tests {
         assert_eq!(back.value_type(), ValueType(&IMAGE));
         assert_eq!(back.get::<Image>().unwrap(), &img);
         for cut in [0, 8, bytes.len() - 1] {
-            assert!(decode(&bytes[..cut]).is_err());
+            let e = decode(&bytes[..cut]).unwrap_err();
+            assert!(e.starts_with("truncated: need"), "cut at {cut}: {e}");
         }
         let y = Value::new(Image::new(2, 2, 1));
         assert_eq!(y.value_type(), ValueType(&SCALAR_FIELD));

@@ -99,11 +99,13 @@ mod tests {
         let mut bytes = Vec::new();
         l.encode(&mut bytes);
         assert_eq!(decode(&bytes).unwrap().get::<Lights>(), Some(&l));
-        assert!(decode(&bytes[..bytes.len() - 1]).is_err());
+        let e = decode(&bytes[..bytes.len() - 1]).unwrap_err();
+        assert!(e.starts_with("truncated: need"), "{e}");
         // A hostile count is refused before allocating.
         let mut huge = Vec::new();
         Writer(&mut huge).u64(u64::MAX / 2);
-        assert!(decode(&huge).is_err());
+        let e = decode(&huge).unwrap_err();
+        assert!(e.starts_with("truncated: need") && e.ends_with("0 left"), "{e}");
         let json: serde_json::Value = serde_json::from_str(&to_json(&l)).unwrap();
         assert_eq!(json.as_object().unwrap().len(), 2);
         assert_eq!(json["ambient"][2].as_f64(), Some(0.3));

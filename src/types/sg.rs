@@ -114,11 +114,13 @@ mod tests {
         sg.encode(&mut bytes);
         assert_eq!(bytes.len(), 8 + 2 * LOBE_BYTES);
         assert_eq!(decode(&bytes).unwrap().get::<SphericalGaussians>(), Some(&sg));
-        assert!(decode(&bytes[..bytes.len() - 1]).is_err());
+        let e = decode(&bytes[..bytes.len() - 1]).unwrap_err();
+        assert!(e.starts_with("truncated: need"), "{e}");
         // A hostile count is refused before allocating.
         let mut huge = Vec::new();
         Writer(&mut huge).u64(u64::MAX / 2);
-        assert!(decode(&huge).is_err());
+        let e = decode(&huge).unwrap_err();
+        assert!(e.starts_with("truncated: need") && e.ends_with("0 left"), "{e}");
         let json: serde_json::Value = serde_json::from_str(&to_json(&sg)).unwrap();
         assert_eq!(json.as_object().unwrap().keys().collect::<Vec<_>>(), ["lobes"]);
         let lobes = json["lobes"].as_array().unwrap();

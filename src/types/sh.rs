@@ -149,7 +149,8 @@ mod tests {
             let back = decode(&bytes).unwrap();
             assert_eq!(back.get::<ShCoefficients>(), Some(&c));
             for cut in [0, 8, 20, bytes.len() - 1] {
-                assert!(decode(&bytes[..cut]).is_err(), "cut at {cut}");
+                let e = decode(&bytes[..cut]).unwrap_err();
+                assert!(e.starts_with("truncated: need"), "cut at {cut}: {e}");
             }
         }
         // A count that does not match the order, an unknown frame, a huge order.
@@ -166,7 +167,8 @@ mod tests {
         assert!(decode(&bytes).unwrap_err().contains("unknown SH frame"));
         let mut bytes = Vec::new();
         Writer(&mut bytes).u64(u64::MAX);
-        assert!(decode(&bytes).is_err());
+        let e = decode(&bytes).unwrap_err();
+        assert!(e.contains("SH order") && e.ends_with("is out of range"), "{e}");
     }
 
     #[test]
