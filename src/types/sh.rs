@@ -12,6 +12,7 @@
 
 use std::fmt::Write as _;
 
+use super::csv_text;
 use super::json_num as num;
 use crate::data::{ShCoefficients, ShFrame};
 use crate::engine::cache::codec::{Reader, Writer};
@@ -103,11 +104,11 @@ fn json(c: &ShCoefficients) -> String {
 }
 
 fn csv(c: &ShCoefficients) -> String {
-    let mut out = String::from("l,m,r,g,b,frame\n");
-    for (l, m, v) in c.iter() {
-        let _ = writeln!(out, "{l},{m},{},{},{},{}", v[0], v[1], v[2], c.frame.name());
-    }
-    out
+    let header = ["l", "m", "r", "g", "b", "frame"].map(String::from);
+    let rows = c.iter().map(|(l, m, v)| {
+        [l.to_string(), m.to_string(), v[0].to_string(), v[1].to_string(), v[2].to_string(), c.frame.name().into()]
+    });
+    csv_text(std::iter::once(header).chain(rows))
 }
 
 /// A number for the table: fixed with 6 decimals in [1e-3, 1e7), else scientific.
