@@ -820,7 +820,7 @@ mod tests {
         for y in 0..img.height {
             for x in 0..img.width {
                 let p = img.rgb(x, y);
-                let l = 0.2126 * p[0] as f64 + 0.7152 * p[1] as f64 + 0.0722 * p[2] as f64;
+                let l = crate::maths::colour::rec709_luminance(p);
                 if l > best.0 {
                     best = (l, y, x);
                 }
