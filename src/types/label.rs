@@ -156,7 +156,8 @@ mod tests {
             let mut bytes = Vec::new();
             l.encode(&mut bytes);
             assert_eq!(decode(&bytes).unwrap().get::<Label>(), Some(&l), "parts {mask:03b}");
-            assert!(decode(&bytes[..bytes.len() - 1]).is_err());
+            let e = decode(&bytes[..bytes.len() - 1]).unwrap_err();
+            assert!(e.contains("truncated: need"), "parts {mask:03b}: {e}");
             let json: serde_json::Value = serde_json::from_str(&to_json(&l)).unwrap();
             let keys: Vec<&String> = json.as_object().unwrap().keys().collect();
             let want: Vec<&str> = [(0, "camera"), (1, "sh"), (2, "spherical_gaussians"), (4, "lights")]
