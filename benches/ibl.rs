@@ -251,7 +251,8 @@ fn sun_split(maps: &[(String, Image)]) {
         let reference = prefilter(&whole, 5, 1, LobeSequence::Sobol, true);
         let sun_exact = prefilter(&sun, 5, 1, LobeSequence::Sobol, true);
         let total = hdrflow::maths::sun::integral(img);
-        let lum = |c: [f64; 3]| 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2];
+        let [wr, wg, wb] = hdrflow::maths::colour::REC709;
+        let lum = |c: [f64; 3]| wr * c[0] + wg * c[1] + wb * c[2];
         let share = 1.0 - lum(hdrflow::maths::sun::integral(&split.residual)) / lum(total);
         let mut cells = Vec::new();
         for n in counts {

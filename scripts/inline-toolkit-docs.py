@@ -9,7 +9,7 @@ readme = (root / "README.md").read_text()
 begin, end = "<!-- toolkit docs: begin -->\n", "<!-- toolkit docs: end -->"
 head, rest = readme.split(begin, 1)
 _, tail = rest.split(end, 1)
-order = ["light_analysis", "map_layouts", "camera", "cube_layouts", "spherical_gaussians"]
+order = ["light_analysis", "map_layouts", "camera", "cube_layouts", "spherical_gaussians", "dataset"]
 parts = [
     "## Environment-map toolkit\n\nOperators a lighting-research dataset pipeline is built from (lat-long conventions as in\n"
     "[Conventions](#conventions); `Rotate` is described under [Rotations](#rotations)).\n"

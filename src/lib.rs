@@ -43,6 +43,7 @@ pub mod engine;
 pub mod formats;
 pub mod geometry;
 pub mod maths;
+mod memory;
 pub mod ops;
 pub mod plotting;
 pub mod report;

@@ -240,6 +240,6 @@ fn a_flat_part_behind_a_deep_part_is_read() {
     check(&load(name, &DecodeOptions { layer: Some("beauty".into()), ..Default::default() }));
     check(&load(name, &DecodeOptions { part: Some(1), ..Default::default() }));
     let bytes = std::fs::read(format!("{DIR}/{name}")).unwrap();
-    let e = decode_with(&bytes, &DecodeOptions { part: Some(0), ..Default::default() }).unwrap_err().0;
+    let e = decode_with(&bytes, &DecodeOptions { part: Some(0), ..Default::default() }).unwrap_err().to_string();
     assert!(e.contains("part 0") && e.contains("deep"), "{e}");
 }

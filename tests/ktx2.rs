@@ -13,13 +13,7 @@ use hdrflow::Value;
 use ktx2::{dfd, ColorModel, Format, Reader, TransferFunction};
 
 fn save(value: Value, format: KtxFormat) -> Result<Vec<u8>, String> {
-    let options = SaveOptions {
-        ext: "ktx2".into(),
-        exposure: 0.0,
-        plot_size: (800, 500),
-        ktx_format: format,
-        exr: Default::default(),
-    };
+    let options = SaveOptions::new("ktx2").with(format);
     (value.value_type().spec().save.unwrap())(&value, &options)
 }
 

@@ -1,12 +1,14 @@
 //! `engine::graph::Pipeline::parse` on arbitrary text (the bytes as lossy UTF-8), with the
-//! built-in registry: `Ok` or `Err`, never a panic. Seed the corpus with `../graphs/*.ron`:
-//! `mkdir -p corpus/pipeline && cp ../graphs/*.ron corpus/pipeline/`.
+//! built-in registry: `Ok` or `Err`, never a panic (`checks::pipeline`). Seed the corpus with
+//! `../graphs/*.ron`: `mkdir -p corpus/pipeline && cp ../graphs/*.ron corpus/pipeline/`.
 #![no_main]
 
-use std::path::Path;
+#[path = "../checks.rs"]
+mod checks;
+
 use std::sync::OnceLock;
 
-use hdrflow::{Pipeline, Registry};
+use hdrflow::Registry;
 use libfuzzer_sys::fuzz_target;
 
 fn registry() -> &'static Registry {
@@ -14,7 +16,4 @@ fn registry() -> &'static Registry {
     R.get_or_init(hdrflow::builtin_registry)
 }
 
-fuzz_target!(|data: &[u8]| {
-    let text = String::from_utf8_lossy(data);
-    let _ = Pipeline::parse(&text, "fuzz.ron", Path::new("."), registry(), &[]);
-});
+fuzz_target!(|data: &[u8]| checks::pipeline(data, registry()));

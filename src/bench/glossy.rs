@@ -120,10 +120,18 @@ pub fn run(config: &GlossyBenchConfig, log: &dyn Fn(&str)) -> Result<Vec<GlossyR
             }
         }
     }
-    let mut csv = String::from("map,exponent,strategy,spp,ms,relative_rmse\n");
-    for r in &rows {
-        let _ = writeln!(csv, "{},{},{},{},{:.3},{:.6}", r.map, r.exponent, r.strategy, r.spp, r.ms, r.relative_rmse);
-    }
+    let header = ["map", "exponent", "strategy", "spp", "ms", "relative_rmse"].map(String::from);
+    let records = rows.iter().map(|r| {
+        [
+            r.map.clone(),
+            r.exponent.to_string(),
+            r.strategy.clone(),
+            r.spp.to_string(),
+            format!("{:.3}", r.ms),
+            format!("{:.6}", r.relative_rmse),
+        ]
+    });
+    let csv = crate::types::csv_text(std::iter::once(header).chain(records));
     write_atomic(&config.out_dir.join("glossy.csv"), csv.as_bytes()).map_err(|e| format!("glossy.csv: {e}"))?;
     write_atomic(&config.out_dir.join("glossy.md"), markdown(config, &rows).as_bytes())
         .map_err(|e| format!("glossy.md: {e}"))?;

@@ -138,7 +138,7 @@ pub fn load_map(spec: &MapSpec) -> Result<Image, String> {
     } else {
         let bytes = std::fs::read(&spec.source).map_err(|e| format!("{}: {e}", spec.source))?;
         let ext = Path::new(&spec.source).extension().map(|e| e.to_string_lossy().to_lowercase()).unwrap_or_default();
-        crate::formats::decode_by_extension(&bytes, &ext).map_err(|e| format!("{}: {}", spec.source, e.0))?
+        crate::formats::decode_by_extension(&bytes, &ext).map_err(|e| format!("{}: {}", spec.source, e))?
     };
     if spec.flip_vertical {
         img = img.flipped_vertical();
@@ -476,7 +476,7 @@ fn run_peers(
             };
             let img = std::fs::read(out.join(image))
                 .map_err(|e| e.to_string())
-                .and_then(|b| crate::formats::pfm::decode(&b).map_err(|e| e.0))
+                .and_then(|b| crate::formats::pfm::decode(&b).map_err(|e| e.to_string()))
                 .map_err(|e| format!("peer {script} image {image}: {e}"))?;
             let m = image_error(&img, reference, Some(mask)).map_err(|e| format!("peer {script}: {e}"))?;
             let error = (metric(&m, "relative_rmse"), metric(&m, "psnr"));
@@ -519,16 +519,21 @@ pub fn replot(config: &BenchConfig, csv_path: &Path) -> Result<usize, String> {
 /// Parses a `results.csv`: the current columns
 /// `map,strategy,family,count,ms,relative_rmse,psnr,rmse_ci95,seeds`, or the older files
 /// without the last two (read as one seed: CI 0 for deterministic rows, unknown (NaN) for the
-/// others). Errors name the line.
+/// others). The first line is the header; blank lines are skipped. Errors name the line.
 pub fn read_csv(text: &str) -> Result<Vec<BenchRow>, String> {
     let mut rows = Vec::new();
-    for (i, line) in text.lines().enumerate().skip(1) {
-        if line.trim().is_empty() {
+    let mut reader = csv::ReaderBuilder::new().flexible(true).from_reader(text.as_bytes());
+    for record in reader.records() {
+        let record = record.map_err(|e| match e.position() {
+            Some(p) => format!("{}: {e}", p.line()),
+            None => e.to_string(),
+        })?;
+        let line = record.position().map_or(0, |p| p.line());
+        if record.len() == 1 && record[0].trim().is_empty() {
             continue;
         }
-        let fields = split_csv_line(line);
-        let c: Vec<&str> = fields.iter().map(String::as_str).collect();
-        let bad = || format!("{}: expected map,strategy,family,count,ms,relative_rmse,psnr[,rmse_ci95,seeds]", i + 1);
+        let c: Vec<&str> = record.iter().collect();
+        let bad = || format!("{line}: expected map,strategy,family,count,ms,relative_rmse,psnr[,rmse_ci95,seeds]");
         if c.len() != 7 && c.len() != 9 {
             return Err(bad());
         }
@@ -583,52 +588,27 @@ fn write_chart(config: &BenchConfig, map: &str, rows: &[BenchRow]) -> Result<(),
     Ok(())
 }
 
-/// A CSV field, quoted when it holds a comma or a quote (RFC 4180).
-fn csv_field(s: &str) -> String {
-    if s.contains([',', '"']) {
-        format!("\"{}\"", s.replace('"', "\"\""))
-    } else {
-        s.to_string()
-    }
-}
-
-/// Splits one RFC 4180 CSV line (quoted fields may hold commas and doubled quotes).
-fn split_csv_line(line: &str) -> Vec<String> {
-    let mut fields = vec![String::new()];
-    let mut quoted = false;
-    let mut chars = line.chars().peekable();
-    while let Some(c) = chars.next() {
-        match (c, quoted) {
-            ('"', true) if chars.peek() == Some(&'"') => {
-                chars.next();
-                fields.last_mut().expect("one field").push('"');
-            }
-            ('"', _) => quoted = !quoted,
-            (',', false) => fields.push(String::new()),
-            (c, _) => fields.last_mut().expect("one field").push(c),
-        }
-    }
-    fields
+/// The text of a `results.csv` (see [`read_csv`]; names quoted where RFC 4180 asks).
+fn csv_of(rows: &[BenchRow]) -> String {
+    let header = ["map", "strategy", "family", "count", "ms", "relative_rmse", "psnr", "rmse_ci95", "seeds"];
+    let records = rows.iter().map(|r| {
+        vec![
+            r.map.clone(),
+            r.strategy.clone(),
+            r.family.clone(),
+            r.count.to_string(),
+            format!("{:.4}", r.ms),
+            format!("{:.6e}", r.relative_rmse),
+            format!("{:.3}", r.psnr),
+            format!("{:.6e}", r.rmse_ci95),
+            r.seeds.to_string(),
+        ]
+    });
+    crate::types::csv_text(std::iter::once(header.map(String::from).to_vec()).chain(records))
 }
 
 fn write_csv(path: &Path, rows: &[BenchRow]) -> Result<(), String> {
-    let mut s = String::from("map,strategy,family,count,ms,relative_rmse,psnr,rmse_ci95,seeds\n");
-    for r in rows {
-        let _ = writeln!(
-            s,
-            "{},{},{},{},{:.4},{:.6e},{:.3},{:.6e},{}",
-            csv_field(&r.map),
-            csv_field(&r.strategy),
-            r.family,
-            r.count,
-            r.ms,
-            r.relative_rmse,
-            r.psnr,
-            r.rmse_ci95,
-            r.seeds
-        );
-    }
-    write_atomic(path, s.as_bytes()).map_err(|e| format!("{}: {e}", path.display()))
+    write_atomic(path, csv_of(rows).as_bytes()).map_err(|e| format!("{}: {e}", path.display()))
 }
 
 /// The time a strategy needs to reach `error`, interpolated log-log along its measured points
@@ -865,8 +845,24 @@ mod tests {
 
     #[test]
     fn csv_fields_with_commas_round_trip() {
-        let line = format!("{},{},x", csv_field("a, \"b\""), csv_field("plain"));
-        assert_eq!(split_csv_line(&line), vec!["a, \"b\"".to_string(), "plain".into(), "x".into()]);
+        let row = |map: &str, strategy: &str| BenchRow {
+            map: map.into(),
+            strategy: strategy.into(),
+            family: "shared".into(),
+            count: 16,
+            ms: 0.5,
+            relative_rmse: 0.025,
+            psnr: 30.0,
+            rmse_ci95: 1.5e-3,
+            seeds: 8,
+        };
+        let rows = [row("a, \"b\"", "plain"), row("sky", "line\nbreak")];
+        let text = csv_of(&rows);
+        assert!(text.contains("\"a, \"\"b\"\"\",plain,shared,16,0.5000,2.500000e-2,30.000,1.500000e-3,8\n"), "{text}");
+        let back = read_csv(&text).unwrap();
+        assert_eq!(back.len(), 2);
+        assert_eq!((back[0].map.as_str(), back[0].strategy.as_str()), ("a, \"b\"", "plain"));
+        assert_eq!((back[1].strategy.as_str(), back[1].seeds, back[1].rmse_ci95), ("line\nbreak", 8, 1.5e-3));
     }
 
     #[test]

@@ -155,7 +155,7 @@ pub fn measure(data: &Path, peers: Option<&Path>, repeats: usize, log: &dyn Fn(&
         crate::formats::rgbe::encode(&resize(&crate::formats::builtin::builtin("sky").expect("built-in"), 1024, 512))
     };
     let (ours_ms, ours) = time_median(repeats * 2, || crate::formats::rgbe::decode(&hdr_bytes));
-    ours.map_err(|e| e.0)?;
+    ours.map_err(|e| e.to_string())?;
     let (theirs_ms, theirs) = time_median(repeats * 2, || {
         image::load_from_memory_with_format(&hdr_bytes, image::ImageFormat::Hdr).map(|i| i.to_rgb32f())
     });
@@ -327,13 +327,13 @@ fn exr_files(data: &Path, dir: &Path) -> Result<Vec<(String, std::path::PathBuf)
     std::fs::create_dir_all(dir).map_err(|e| e.to_string())?;
     let sky = resize(&crate::formats::builtin::builtin("sky").expect("built-in"), 2048, 1024);
     // Also kept as f32, the source of the files OpenImageIO writes (not timed itself).
-    std::fs::write(dir.join(SKY_F32), encode_with(&sky, &EncodeOptions::default()).map_err(|e| e.0)?)
+    std::fs::write(dir.join(SKY_F32), encode_with(&sky, &EncodeOptions::default()).map_err(|e| e.to_string())?)
         .map_err(|e| e.to_string())?;
     for (name, compression) in
         [("zip", ExrCompression::Zip), ("piz", ExrCompression::Piz), ("dwaa", ExrCompression::Dwaa)]
     {
         let path = dir.join(format!("sky_{name}.exr"));
-        let bytes = encode_with(&sky, &EncodeOptions { compression, half: true }).map_err(|e| e.0)?;
+        let bytes = encode_with(&sky, &EncodeOptions { compression, half: true }).map_err(|e| e.to_string())?;
         std::fs::write(&path, bytes).map_err(|e| e.to_string())?;
         files.push((format!("sky 2048x1024, half, {} (written by hdrflow)", name.to_uppercase()), path));
     }
@@ -393,7 +393,7 @@ fn exr_against_oiio(
         let (ours, decoded) = time_median(repeats * 2, || {
             std::fs::read(path)
                 .map_err(|e| e.to_string())
-                .and_then(|b| crate::formats::exr::decode(&b).map_err(|e| e.0))
+                .and_then(|b| crate::formats::exr::decode(&b).map_err(|e| e.to_string()))
         });
         decoded?;
         log(&format!("EXR decode {name}: ours {ours:.2} ms, OpenImageIO {version} {theirs:.2} ms"));

@@ -255,8 +255,16 @@ mod tests {
         // The last of two values for one key wins.
         let got = apply_slurm_args(vec![], &["time=1".into(), "time=2".into()]).unwrap();
         assert_eq!(got, vec![SbatchLine { key: "time".into(), value: Some("2".into()) }]);
-        for bad in ["=x", "a b=1", "--=1", "t\n=1", "time=a\nb", "comment=\"x\""] {
-            assert!(apply_slurm_args(vec![], &[bad.into()]).is_err(), "{bad:?}");
+        for (bad, why) in [
+            ("=x", "expected KEY=VALUE or KEY"),
+            ("a b=1", "expected KEY=VALUE or KEY"),
+            ("--=1", "expected KEY=VALUE or KEY"),
+            ("t\n=1", "expected KEY=VALUE or KEY"),
+            ("time=a\nb", "cannot hold a line break or a double quote"),
+            ("comment=\"x\"", "cannot hold a line break or a double quote"),
+        ] {
+            let e = apply_slurm_args(vec![], &[bad.into()]).unwrap_err();
+            assert!(e.starts_with(&format!("--slurm-arg {bad:?}: ")) && e.contains(why), "{bad:?}: {e}");
         }
     }
 

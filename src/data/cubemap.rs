@@ -164,7 +164,8 @@ mod tests {
             }
         }
         assert_eq!(c.to_strip(), c.to_layout(CubeLayout::Strip));
-        assert!(Cubemap::from_layout(&Image::new(10, 3, 3), CubeLayout::Dice).is_err());
+        let e = Cubemap::from_layout(&Image::new(10, 3, 3), CubeLayout::Dice).unwrap_err();
+        assert!(e.starts_with("a Dice image is 4 faces wide and 3 high") && e.ends_with("this one is 10 x 3"), "{e}");
     }
 
     #[test]

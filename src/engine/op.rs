@@ -317,7 +317,8 @@ impl OpSpec {
     }
 
     /// The hash `code` would compute, given directly (the built-in operators take theirs from
-    /// the table `build.rs` makes: `crate::op_code_hash!()`).
+    /// the table of their files' hashes that `build.rs` makes: `crate::op_code_hash!()`, in
+    /// `crate::ops`).
     pub fn code_hash(mut self, hash: [u8; 32]) -> Self {
         self.code_hash = hash;
         self
@@ -337,33 +338,3 @@ impl OpSpec {
 }
 
 pub use crate::engine::normalise::normalise_source;
-
-include!(concat!(env!("OUT_DIR"), "/op_sources.rs"));
-
-/// The code hash of the built-in operator file at `file` (`file!()`, relative or absolute: the
-/// table entry it ends with), zero for a file the table does not hold.
-pub fn builtin_code_hash(file: &str) -> [u8; 32] {
-    let file = file.replace('\\', "/");
-    OP_SOURCES.iter().find(|(path, _)| file.ends_with(path)).map(|(_, h)| *h).unwrap_or([0; 32])
-}
-
-/// The code hash of the built-in operator file this macro is written in (see `OpSpec::code`).
-#[doc(hidden)]
-#[macro_export]
-macro_rules! op_code_hash {
-    () => {
-        $crate::engine::op::builtin_code_hash(file!())
-    };
-}
-
-#[cfg(test)]
-mod tests {
-    #[test]
-    fn every_operator_file_has_a_code_hash() {
-        assert!(super::OP_SOURCES.len() > 20);
-        let h = super::builtin_code_hash("/abs/prefix/src/ops/image/exposure.rs");
-        assert_ne!(h, [0; 32]);
-        assert_eq!(h, super::builtin_code_hash("src/ops/image/exposure.rs"));
-        assert_ne!(h, super::builtin_code_hash("src/ops/image/luminance.rs"));
-    }
-}

@@ -181,9 +181,7 @@ fn studio() -> Image {
 mod tests {
     use super::*;
 
-    fn luminance(p: [f32; 3]) -> f64 {
-        0.2126 * p[0] as f64 + 0.7152 * p[1] as f64 + 0.0722 * p[2] as f64
-    }
+    use crate::maths::colour::rec709_luminance as luminance;
 
     #[test]
     fn all_builtins_exist_with_sizes_and_sane_values() {

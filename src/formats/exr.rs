@@ -47,9 +47,11 @@
 //!    or `deeptile` while the version field's deep bit is clear is flat (OpenEXR reads it): the
 //!    attribute is dropped from an in-memory copy and the file read as flat.
 //!
-//! Errors from the `exr` crate become [`FormatError`]s carrying their text. As a belt-and-braces
-//! guard against panics on hostile input inside the dependency, the whole decode runs under
-//! `std::panic::catch_unwind`, and a panic becomes `FormatError("exr decoder panicked: ...")`.
+//! Errors from the `exr` crate become [`FormatError::Invalid`]s carrying their text. As a
+//! belt-and-braces guard against panics on hostile input inside the dependency, the whole decode
+//! runs under `std::panic::catch_unwind`, and a panic becomes [`FormatError::DecoderPanicked`]
+//! (shown as "exr decoder panicked: ..."): an error for the user, a failure for the fuzz target
+//! and the corpus replays (`fuzz/checks.rs`).
 //!
 //! # Writing
 //!
@@ -91,15 +93,23 @@ pub fn decode(bytes: &[u8]) -> Result<Image, FormatError> {
 
 /// Decodes an OpenEXR file from memory (see the module docs).
 pub fn decode_with(bytes: &[u8], options: &DecodeOptions) -> Result<Image, FormatError> {
-    match catch_unwind(AssertUnwindSafe(|| decode_inner(bytes, options))) {
+    caught(|| decode_inner(bytes, options), FormatError::DecoderPanicked)
+}
+
+/// `f()`, with a panic inside it turned into the error `panicked(message)`.
+fn caught<T>(
+    f: impl FnOnce() -> Result<T, FormatError>,
+    panicked: fn(String) -> FormatError,
+) -> Result<T, FormatError> {
+    match catch_unwind(AssertUnwindSafe(f)) {
         Ok(result) => result,
-        Err(payload) => Err(FormatError(format!("exr decoder panicked: {}", panic_message(&*payload)))),
+        Err(payload) => Err(panicked(panic_message(&*payload))),
     }
 }
 
 fn read_meta(bytes: &[u8]) -> Result<MetaData, FormatError> {
     MetaData::read_from_buffered(Cursor::new(bytes), false)
-        .map_err(|e| FormatError(format!("not a readable EXR file: {e}")))
+        .map_err(|e| FormatError::Invalid(format!("not a readable EXR file: {e}")))
 }
 
 /// The byte position just past the header(s), where the chunk offset tables start.
@@ -179,10 +189,10 @@ fn check_sizes(bytes: &[u8], meta: &MetaData, window: Window) -> Result<usize, F
         let pixels = w
             .checked_mul(h)
             .filter(|&p| p <= MAX_PIXELS)
-            .ok_or_else(|| FormatError(format!("image too large: {w}x{h} pixels (limit {MAX_PIXELS})")))?;
+            .ok_or_else(|| FormatError::Invalid(format!("image too large: {w}x{h} pixels (limit {MAX_PIXELS})")))?;
         let display = header.shared_attributes.display_window.size;
         if window == Window::Display && display.0.checked_mul(display.1).is_none_or(|p| p > MAX_PIXELS) {
-            return Err(FormatError(format!(
+            return Err(FormatError::Invalid(format!(
                 "display window too large: {}x{} pixels (limit {MAX_PIXELS})",
                 display.0, display.1
             )));
@@ -197,7 +207,7 @@ fn check_sizes(bytes: &[u8], meta: &MetaData, window: Window) -> Result<usize, F
             })
             .sum();
         if decoded > MAX_DECODED_BYTES {
-            return Err(FormatError(format!(
+            return Err(FormatError::Invalid(format!(
                 "image too large: {w}x{h} pixels x {} channels decode to {decoded} bytes (limit {MAX_DECODED_BYTES})",
                 header.channels.list.len()
             )));
@@ -207,10 +217,10 @@ fn check_sizes(bytes: &[u8], meta: &MetaData, window: Window) -> Result<usize, F
     }
     // The chunk offset tables: present in full, every offset inside the file past them.
     let end = headers_end(bytes, meta.requirements.has_multiple_layers)
-        .ok_or_else(|| FormatError("truncated: EXR header runs past the end of the file".into()))?;
+        .ok_or_else(|| FormatError::Invalid("truncated: EXR header runs past the end of the file".into()))?;
     let table_end = end as u128 + 8 * chunks;
     if table_end > bytes.len() as u128 {
-        return Err(FormatError(format!(
+        return Err(FormatError::Invalid(format!(
             "truncated: the header promises {chunks} chunks, whose offset table alone needs {table_end} bytes, \
              but the file has {}",
             bytes.len()
@@ -220,7 +230,7 @@ fn check_sizes(bytes: &[u8], meta: &MetaData, window: Window) -> Result<usize, F
         let slot = &bytes[end + 8 * i..end + 8 * i + 8];
         let offset = u64::from_le_bytes(slot.try_into().expect("8 bytes"));
         if offset < table_end as u64 || offset >= bytes.len() as u64 {
-            return Err(FormatError(format!(
+            return Err(FormatError::Invalid(format!(
                 "truncated or damaged: chunk {i} starts at byte {offset}, outside the file's {} bytes of pixel data",
                 bytes.len()
             )));
@@ -262,7 +272,7 @@ fn choose_part(meta: &MetaData, options: &DecodeOptions) -> Result<(usize, Strin
     let layer = options.layer.as_deref().filter(|l| !l.is_empty());
     let chosen = if let Some(p) = options.part {
         if p >= meta.headers.len() {
-            return Err(FormatError(format!("EXR file has no part {p} ({})", describe())));
+            return Err(FormatError::Invalid(format!("EXR file has no part {p} ({})", describe())));
         }
         match layer {
             Some(l) if part_name(&meta.headers[p]) != l => (p, l.to_string()),
@@ -274,13 +284,13 @@ fn choose_part(meta: &MetaData, options: &DecodeOptions) -> Result<(usize, Strin
         } else if let Some(p) = (0..meta.headers.len()).find(|&p| !meta.headers[p].deep && has_colour(&names(p), l)) {
             (p, l.to_string())
         } else {
-            return Err(FormatError(format!("EXR file has no part or layer {l:?} ({})", describe())));
+            return Err(FormatError::Invalid(format!("EXR file has no part or layer {l:?} ({})", describe())));
         }
     } else {
         match (0..meta.headers.len()).find(|&p| !meta.headers[p].deep && has_colour(&names(p), "")) {
             Some(p) => (p, String::new()),
             None => {
-                return Err(FormatError(format!(
+                return Err(FormatError::Invalid(format!(
                     "EXR file has no part with a colour channel (R, G, B or Y) that is not deep data ({})",
                     describe()
                 )))
@@ -288,7 +298,7 @@ fn choose_part(meta: &MetaData, options: &DecodeOptions) -> Result<(usize, Strin
         }
     };
     if meta.headers[chosen.0].deep {
-        return Err(FormatError(format!("EXR part {} is deep data, which is not supported", chosen.0)));
+        return Err(FormatError::Invalid(format!("EXR part {} is deep data, which is not supported", chosen.0)));
     }
     Ok(chosen)
 }
@@ -313,7 +323,7 @@ fn read_part(bytes: &[u8], part: usize, parallel: bool) -> Result<(usize, usize,
     use ::exr::meta::BlockDescription;
     use rayon::prelude::*;
 
-    let failed = |e: ::exr::error::Error| FormatError(format!("EXR decoding failed: {e}"));
+    let failed = |e: ::exr::error::Error| FormatError::Invalid(format!("EXR decoding failed: {e}"));
     let reader = ::exr::block::read(Cursor::new(bytes), false).map_err(failed)?;
     let meta = reader.meta_data().clone();
     let header = &meta.headers[part];
@@ -337,7 +347,7 @@ fn read_part(bytes: &[u8], part: usize, parallel: bool) -> Result<(usize, usize,
         let band = usize::try_from(bounds.position.1).unwrap_or(usize::MAX) / band_rows;
         bands
             .get_mut(band)
-            .ok_or_else(|| FormatError(format!("EXR block outside part {part}'s data window")))?
+            .ok_or_else(|| FormatError::Invalid(format!("EXR block outside part {part}'s data window")))?
             .push(chunk);
     }
 
@@ -381,7 +391,7 @@ fn read_part(bytes: &[u8], part: usize, parallel: bool) -> Result<(usize, usize,
                 let start = (index.position.1 - *first) * *cw + index.position.0;
                 let out = plane
                     .get_mut(start..start + index.sample_count)
-                    .ok_or_else(|| FormatError(format!("EXR block outside part {part}'s data window")))?;
+                    .ok_or_else(|| FormatError::Invalid(format!("EXR block outside part {part}'s data window")))?;
                 let bytes = line.value;
                 match header.channels.list[index.channel].sample_type {
                     SampleType::F16 => {
@@ -446,7 +456,7 @@ fn full_plane(channel: DecodedChannel, w: usize, h: usize) -> Result<Vec<f32>, F
     let (sx, sy) = (channel.sampling.0.max(1), channel.sampling.1.max(1));
     let (cw, ch) = (w / sx, h / sy);
     if values.len() != cw * ch || (sx > 1 || sy > 1) && (cw == 0 || ch == 0) {
-        return Err(FormatError(format!(
+        return Err(FormatError::Invalid(format!(
             "EXR channel {} has {} samples for {w}x{h} pixels at sampling {sx}x{sy}",
             channel.name,
             values.len()
@@ -489,7 +499,7 @@ fn chromaticities_of(c: Option<&Chromaticities>) -> Primaries {
 fn decode_inner(bytes: &[u8], options: &DecodeOptions) -> Result<Image, FormatError> {
     let meta = read_meta(bytes)?;
     if meta.headers.is_empty() {
-        return Err(FormatError("EXR file has no layers".into()));
+        return Err(FormatError::Invalid("EXR file has no layers".into()));
     }
     if let Some(fixed) = drop_wrong_deep_type(bytes, &meta) {
         return decode_inner(&fixed, options);
@@ -503,7 +513,7 @@ fn decode_inner(bytes: &[u8], options: &DecodeOptions) -> Result<Image, FormatEr
     let pixels = w
         .checked_mul(h)
         .filter(|&p| p > 0 && p <= MAX_PIXELS)
-        .ok_or_else(|| FormatError(format!("bad EXR layer size {w}x{h}")))?;
+        .ok_or_else(|| FormatError::Invalid(format!("bad EXR layer size {w}x{h}")))?;
     let names: Vec<String> = list.iter().map(|c| c.name.clone()).collect();
     let find = |want: &str| -> Option<usize> {
         if prefix.is_empty() {
@@ -540,7 +550,7 @@ fn decode_inner(bytes: &[u8], options: &DecodeOptions) -> Result<Image, FormatEr
             let (y, ry, by) = (half_plane(yi), half_plane(ryi), half_plane(byi));
             let chroma = (w / 2) * (h / 2);
             if w % 2 != 0 || h % 2 != 0 || y.len() != pixels || ry.len() != chroma || by.len() != chroma {
-                return Err(FormatError(format!(
+                return Err(FormatError::Invalid(format!(
                     "EXR luminance/chroma part {part}: {}, {} and {} samples for {w}x{h} pixels",
                     y.len(),
                     ry.len(),
@@ -587,7 +597,7 @@ fn decode_inner(bytes: &[u8], options: &DecodeOptions) -> Result<Image, FormatEr
             }
         }
     } else {
-        return Err(FormatError(format!(
+        return Err(FormatError::Invalid(format!(
             "EXR part {part} has no R, G, B or Y channel{} (channels: {})",
             if prefix.is_empty() { String::new() } else { format!(" in layer {prefix:?}") },
             if names.is_empty() { "none".to_string() } else { names.join(", ") }
@@ -718,10 +728,10 @@ pub fn encode(image: &Image) -> Result<Vec<u8>, FormatError> {
 pub fn encode_with(image: &Image, options: &EncodeOptions) -> Result<Vec<u8>, FormatError> {
     let (w, h, c) = (image.width, image.height, image.channels);
     if w == 0 || h == 0 {
-        return Err(FormatError(format!("cannot write an empty {w}x{h} image as EXR")));
+        return Err(FormatError::Invalid(format!("cannot write an empty {w}x{h} image as EXR")));
     }
     if c == 0 || image.names.len() != c {
-        return Err(FormatError(format!(
+        return Err(FormatError::Invalid(format!(
             "cannot write an image with {c} channels and {} names as EXR",
             image.names.len()
         )));
@@ -730,16 +740,16 @@ pub fn encode_with(image: &Image, options: &EncodeOptions) -> Result<Vec<u8>, Fo
     sorted.sort();
     sorted.dedup();
     if sorted.len() != c || sorted.iter().any(|n| n.is_empty()) {
-        return Err(FormatError(format!("EXR channel names must be unique and non-empty: {:?}", image.names)));
+        return Err(FormatError::Invalid(format!("EXR channel names must be unique and non-empty: {:?}", image.names)));
     }
     let pixels = w * h;
     if image.data.len() != pixels * c {
-        return Err(FormatError(format!("image buffer has {} samples, expected {w}x{h}x{c}", image.data.len())));
+        return Err(FormatError::Invalid(format!(
+            "image buffer has {} samples, expected {w}x{h}x{c}",
+            image.data.len()
+        )));
     }
-    match catch_unwind(AssertUnwindSafe(|| encode_inner(image, options))) {
-        Ok(result) => result,
-        Err(payload) => Err(FormatError(format!("exr encoder panicked: {}", panic_message(&*payload)))),
-    }
+    caught(|| encode_inner(image, options), FormatError::EncoderPanicked)
 }
 
 fn encode_inner(image: &Image, options: &EncodeOptions) -> Result<Vec<u8>, FormatError> {
@@ -771,7 +781,7 @@ fn encode_inner(image: &Image, options: &EncodeOptions) -> Result<Vec<u8>, Forma
     let mut out: Vec<u8> = Vec::new();
     let writer = exr_image.write();
     let writer = if w * h < PARALLEL_MIN_PIXELS { writer.non_parallel() } else { writer };
-    writer.to_buffered(Cursor::new(&mut out)).map_err(|e| FormatError(format!("EXR encoding failed: {e}")))?;
+    writer.to_buffered(Cursor::new(&mut out)).map_err(|e| FormatError::Invalid(format!("EXR encoding failed: {e}")))?;
     Ok(out)
 }
 
@@ -810,7 +820,7 @@ mod tests {
         for y in 0..img.height {
             for x in 0..img.width {
                 let p = img.rgb(x, y);
-                let l = 0.2126 * p[0] as f64 + 0.7152 * p[1] as f64 + 0.0722 * p[2] as f64;
+                let l = crate::maths::colour::rec709_luminance(p);
                 if l > best.0 {
                     best = (l, y, x);
                 }
@@ -824,17 +834,37 @@ mod tests {
     }
 
     #[test]
+    fn a_panic_inside_the_decoder_is_the_decoder_panicked_error() {
+        let r: Result<(), _> = caught(|| panic!("index out of bounds"), FormatError::DecoderPanicked);
+        match r {
+            Err(FormatError::DecoderPanicked(m)) => assert_eq!(m, "index out of bounds"),
+            other => panic!("{other:?}"),
+        }
+        let e = caught(|| -> Result<(), _> { panic!("{}", 7) }, FormatError::DecoderPanicked).unwrap_err();
+        assert_eq!(e.to_string(), "exr decoder panicked: 7");
+        assert!(matches!(caught(|| Ok(3), FormatError::DecoderPanicked), Ok(3)));
+    }
+
+    #[test]
     fn garbage_is_an_error() {
-        assert!(decode(b"").is_err());
-        assert!(decode(b"this is not an exr file at all").is_err());
+        let message = |bytes: &[u8]| decode(bytes).unwrap_err().to_string();
+        assert!(message(b"").starts_with("not a readable EXR file"));
+        assert_eq!(
+            message(b"this is not an exr file at all"),
+            "not a readable EXR file: invalid: file identifier missing"
+        );
         // The EXR magic number followed by junk.
         let mut f = vec![0x76, 0x2f, 0x31, 0x01, 2, 0, 0, 0];
         f.extend((0..500u32).map(|i| (i * 37 % 251) as u8));
-        assert!(decode(&f).is_err());
+        assert!(message(&f).starts_with("not a readable EXR file: invalid:"), "{}", message(&f));
         // A valid file cut short.
         let bytes = encode(&test_image(20, 20, 3)).unwrap();
         for n in [0, 4, 8, 40, bytes.len() / 3] {
-            assert!(decode(&bytes[..n]).is_err(), "prefix {n}");
+            let e = message(&bytes[..n]);
+            assert!(
+                e.starts_with("not a readable EXR file") || e.starts_with("truncated or damaged"),
+                "prefix {n}: {e}"
+            );
         }
         for n in (0..bytes.len()).step_by(97) {
             let _ = decode(&bytes[..n]); // must not panic through (caught or not)
@@ -874,12 +904,13 @@ mod tests {
         bytes[at + 12..at + 16].copy_from_slice(&9999i32.to_le_bytes());
         let t = std::time::Instant::now();
         // 10000 rows in 16-row ZIP chunks: an offset table of 625 x 8 bytes cannot fit.
-        let e = decode(&bytes).unwrap_err().0;
+        let e = decode(&bytes).unwrap_err().to_string();
         assert!(e.contains("truncated") && e.contains("625 chunks"), "{e}");
         // And beyond MAX_PIXELS.
         bytes[at + 8..at + 12].copy_from_slice(&99999i32.to_le_bytes());
         bytes[at + 12..at + 16].copy_from_slice(&99999i32.to_le_bytes());
-        assert!(decode(&bytes).is_err());
+        let e = decode(&bytes).unwrap_err().to_string();
+        assert_eq!(e, "image too large: 100000x100000 pixels (limit 268435456)");
         assert!(t.elapsed().as_millis() < 1000);
     }
 
@@ -976,7 +1007,8 @@ mod tests {
                 assert!((plane[y * w + x] - want_row[x] - add).abs() < 1e-6, "{plane:?}");
             }
         }
-        assert!(full_plane(decoded("RY", vec![0.0; 5], 2), w, h).is_err());
+        let e = full_plane(decoded("RY", vec![0.0; 5], 2), w, h).unwrap_err().to_string();
+        assert_eq!(e, "EXR channel RY has 5 samples for 6x4 pixels at sampling 2x2");
     }
 
     #[test]
@@ -1039,16 +1071,16 @@ mod tests {
         let with = |part: Option<usize>, layer: Option<&str>| {
             decode_with(&bytes, &DecodeOptions { part, layer: layer.map(str::to_string), ..Default::default() })
         };
-        let e = with(Some(0), None).unwrap_err().0;
+        let e = with(Some(0), None).unwrap_err().to_string();
         assert!(e.contains("part 0") && e.contains("Z"), "{e}");
         assert_eq!(first(with(Some(1), None).unwrap()), [1.0, 2.0, 3.0]);
         assert_eq!(first(with(None, Some("beauty")).unwrap()), [1.0, 2.0, 3.0]);
         assert_eq!(first(with(None, Some("diffuse")).unwrap()), [4.0, 5.0, 6.0]);
         assert_eq!(first(with(Some(2), Some("spec")).unwrap()), [8.0, 9.0, 10.0]);
-        assert!(with(Some(5), None).unwrap_err().0.contains("no part 5"));
-        assert!(with(None, Some("nope")).unwrap_err().0.contains("\"nope\""));
+        assert!(with(Some(5), None).unwrap_err().to_string().contains("no part 5"));
+        assert!(with(None, Some("nope")).unwrap_err().to_string().contains("\"nope\""));
         let depth_only = single(2, 2, vec![channel("Z", vec![1.0; 4], 1)], Compression::ZIP16);
-        let e = decode(&depth_only).unwrap_err().0;
+        let e = decode(&depth_only).unwrap_err().to_string();
         assert!(e.contains("no part with a colour channel") && e.contains("Z"), "{e}");
     }
 

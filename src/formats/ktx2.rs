@@ -37,6 +37,13 @@ crate::choice! {
     }
 }
 
+/// What `Save` writes unless told otherwise (and an encoder given no format).
+impl Default for KtxFormat {
+    fn default() -> Self {
+        KtxFormat::Rgba16f
+    }
+}
+
 impl KtxFormat {
     /// The Vulkan format number written in the header.
     pub fn vk_format(self) -> u32 {
@@ -68,7 +75,7 @@ pub struct Level<'a> {
 /// Encodes a texture of `face_count` (1 or 6) faces and the given levels (level 0 first; level k
 /// must be max(1, width >> k) x max(1, height >> k)).
 pub fn encode(levels: &[Level], face_count: usize, format: KtxFormat) -> Result<Vec<u8>, FormatError> {
-    let err = |m: String| Err(FormatError(m));
+    let err = |m: String| Err(FormatError::Invalid(m));
     if face_count != 1 && face_count != 6 {
         return err(format!("a KTX2 texture has 1 or 6 faces, not {face_count}"));
     }
@@ -248,7 +255,7 @@ mod tests {
             KtxFormat::Rgba16f,
         )
         .unwrap_err();
-        assert!(e.0.contains("level 1 must be 2x2"), "{e}");
+        assert!(e.to_string().contains("level 1 must be 2x2"), "{e}");
         let px = [1.0e5f32, -1.0e5, 0.5, 1.0];
         let b = encode(&[Level { width: 1, height: 1, rgba: &px }], 1, KtxFormat::Rgba16f).unwrap();
         let data = &b[b.len() - 8..];

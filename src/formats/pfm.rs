@@ -29,7 +29,7 @@ use super::{FormatError, MAX_PIXELS};
 use crate::data::Image;
 
 fn err(msg: impl Into<String>) -> FormatError {
-    FormatError(msg.into())
+    FormatError::Invalid(msg.into())
 }
 
 /// The next whitespace-separated token from `pos` (skipping leading ASCII whitespace).
@@ -217,9 +217,12 @@ mod tests {
     fn truncated() {
         let bytes = encode(&Image::from_vec(3, 2, 3, vec![1.0; 18]));
         for n in 0..bytes.len() {
-            assert!(decode(&bytes[..n]).is_err(), "prefix {n}");
+            let e = decode(&bytes[..n]).unwrap_err().to_string();
+            // A prefix cuts the magic ("PF\n" -> "P"), the scale ("-1.0" -> "-") or the data.
+            let refused = ["truncated", "not a PFM file (bad magic", "bad PFM scale \"-\""];
+            assert!(refused.iter().any(|r| e.starts_with(r)), "prefix {n}: {e}");
         }
-        let e = decode(&bytes[..bytes.len() - 1]).unwrap_err().0;
+        let e = decode(&bytes[..bytes.len() - 1]).unwrap_err().to_string();
         assert!(e.contains("truncated"), "{e}");
     }
 
@@ -227,21 +230,26 @@ mod tests {
     fn huge_header() {
         let mut f = b"PF\n100000 100000\n-1.0\n".to_vec();
         f.extend_from_slice(&[0u8; 100]);
-        assert!(decode(&f).is_err());
+        assert_eq!(decode(&f).unwrap_err().to_string(), "image too large: 100000x100000 pixels (limit 268435456)");
         let mut f = b"PF\n10000 10000\n-1.0\n".to_vec();
         f.extend_from_slice(&[0u8; 100]);
-        assert!(decode(&f).unwrap_err().0.contains("truncated"));
-        assert!(decode(b"PF\n18446744073709551615 2\n-1.0\n").is_err());
-        assert!(decode(b"PF\n0 2\n-1.0\n").is_err());
+        assert!(decode(&f).unwrap_err().to_string().contains("truncated"));
+        let e = decode(b"PF\n18446744073709551615 2\n-1.0\n").unwrap_err().to_string();
+        assert_eq!(e, "image too large: 18446744073709551615x2 pixels (limit 268435456)");
+        assert_eq!(decode(b"PF\n0 2\n-1.0\n").unwrap_err().to_string(), "empty image: header claims 0x2 pixels");
     }
 
     #[test]
     fn bad_magic_and_bad_tokens() {
-        assert!(decode(b"P6\n1 1\n255\n\0\0\0").unwrap_err().0.contains("bad magic"));
-        assert!(decode(b"").is_err());
-        assert!(decode(b"PFX 1 1 -1\n\0\0\0\0").is_err());
-        assert!(decode(b"PF\n1 1\nNaN\n\0\0\0\0\0\0\0\0\0\0\0\0").is_err());
-        assert!(decode(b"PF\n1 -1\n-1.0\n\0\0\0\0\0\0\0\0\0\0\0\0").is_err());
-        assert!(decode(b"PF\n1 1\n-1.0").is_err());
+        assert!(decode(b"P6\n1 1\n255\n\0\0\0").unwrap_err().to_string().contains("bad magic"));
+        let message = |bytes: &[u8]| decode(bytes).unwrap_err().to_string();
+        assert_eq!(message(b""), "not a PFM file (bad magic: expected \"PF\" or \"Pf\")");
+        assert_eq!(message(b"PFX 1 1 -1\n\0\0\0\0"), "not a PFM file (bad magic: no whitespace after \"PF\"/\"Pf\")");
+        assert_eq!(
+            message(b"PF\n1 1\nNaN\n\0\0\0\0\0\0\0\0\0\0\0\0"),
+            "bad PFM scale NaN (must be finite and non-zero)"
+        );
+        assert_eq!(message(b"PF\n1 -1\n-1.0\n\0\0\0\0\0\0\0\0\0\0\0\0"), "bad PFM height \"-1\"");
+        assert_eq!(message(b"PF\n1 1\n-1.0"), "truncated PFM header (no whitespace byte after the scale)");
     }
 }

@@ -52,20 +52,23 @@ pub struct Srgb8 {
 pub fn to_srgb8(image: &Image, exposure_stops: f64) -> Result<Srgb8, FormatError> {
     let (w, h, c) = (image.width, image.height, image.channels);
     if w == 0 || h == 0 {
-        return Err(FormatError(format!("cannot write an empty {w}x{h} image as PNG")));
+        return Err(FormatError::Invalid(format!("cannot write an empty {w}x{h} image as PNG")));
     }
     let color = match c {
         1 => ExtendedColorType::L8,
         3 => ExtendedColorType::Rgb8,
         4 => ExtendedColorType::Rgba8,
-        _ => return Err(FormatError(format!("cannot write a {c}-channel image as PNG (1, 3 or 4)"))),
+        _ => return Err(FormatError::Invalid(format!("cannot write a {c}-channel image as PNG (1, 3 or 4)"))),
     };
     let (Ok(w32), Ok(h32)) = (u32::try_from(w), u32::try_from(h)) else {
-        return Err(FormatError(format!("image too large for PNG: {w}x{h}")));
+        return Err(FormatError::Invalid(format!("image too large for PNG: {w}x{h}")));
     };
     let n = w.checked_mul(h).and_then(|p| p.checked_mul(c));
     if n != Some(image.data.len()) {
-        return Err(FormatError(format!("image buffer has {} samples, expected {w}x{h}x{c}", image.data.len())));
+        return Err(FormatError::Invalid(format!(
+            "image buffer has {} samples, expected {w}x{h}x{c}",
+            image.data.len()
+        )));
     }
     let gain = exposure_stops.exp2();
     let table = super::srgb8::Srgb8Table::new();
@@ -91,7 +94,7 @@ impl Srgb8 {
         let mut out = Vec::new();
         PngEncoder::new(&mut out)
             .write_image(&self.bytes, self.width, self.height, self.color)
-            .map_err(|e| FormatError(format!("PNG encoding failed: {e}")))?;
+            .map_err(|e| FormatError::Invalid(format!("PNG encoding failed: {e}")))?;
         Ok(out)
     }
 }
@@ -156,18 +159,24 @@ mod tests {
 
     #[test]
     fn refuses_bad_shapes() {
-        assert!(encode(&Image::from_vec(0, 0, 3, vec![]), 0.0).is_err());
-        assert!(encode(&Image::from_vec(1, 1, 2, vec![0.0; 2]), 0.0).is_err());
-        assert!(encode(
-            &Image {
-                width: 2,
-                height: 1,
-                channels: 3,
-                names: crate::data::image::default_names(3),
-                data: vec![0.0; 3]
-            },
-            0.0
-        )
-        .is_err());
+        let message = |r: Result<Vec<u8>, FormatError>| r.unwrap_err().to_string();
+        assert_eq!(message(encode(&Image::from_vec(0, 0, 3, vec![]), 0.0)), "cannot write an empty 0x0 image as PNG");
+        assert_eq!(
+            message(encode(&Image::from_vec(1, 1, 2, vec![0.0; 2]), 0.0)),
+            "cannot write a 2-channel image as PNG (1, 3 or 4)"
+        );
+        assert_eq!(
+            message(encode(
+                &Image {
+                    width: 2,
+                    height: 1,
+                    channels: 3,
+                    names: crate::data::image::default_names(3),
+                    data: vec![0.0; 3]
+                },
+                0.0
+            )),
+            "image buffer has 3 samples, expected 2x1x3"
+        );
     }
 }

@@ -76,7 +76,7 @@ use super::{FormatError, MAX_PIXELS};
 use crate::data::Image;
 
 fn err(msg: impl Into<String>) -> FormatError {
-    FormatError(msg.into())
+    FormatError::Invalid(msg.into())
 }
 
 /// The largest value an RGBE pixel can hold: mantissa byte 255, exponent byte 255 -> 255 * 2^119.
@@ -232,7 +232,7 @@ fn parse_header(bytes: &[u8]) -> Result<Header, FormatError> {
     if bytes.starts_with(b"#?RADIANCE") || bytes.starts_with(b"#?RGBE") {
         parse_header_lines(bytes, true)
     } else {
-        parse_header_lines(bytes, false).map_err(|e| err(format!("not a Radiance file (bad magic, and {})", e.0)))
+        parse_header_lines(bytes, false).map_err(|e| err(format!("not a Radiance file (bad magic, and {})", e)))
     }
 }
 
@@ -782,12 +782,13 @@ mod tests {
         // A repeat past the end of the row is an error naming the scanline.
         let mut f = header("-Y 1 +X 10");
         f.extend_from_slice(&[128, 0, 0, 129, 1, 1, 1, 10]);
-        let e = decode(&f).unwrap_err().0;
+        let e = decode(&f).unwrap_err().to_string();
         assert!(e.contains("scanline 0") && e.contains("past the end"), "{e}");
         // A repeat code first in a scanline has no previous pixel.
         let mut f = header("-Y 1 +X 10");
         f.extend_from_slice(&[1, 1, 1, 9, 0, 0, 0, 0]);
-        assert!(decode(&f).is_err());
+        let e = decode(&f).unwrap_err().to_string();
+        assert_eq!(e, "scanline 0: old-style repeat code at the start of a scanline");
     }
 
     #[test]
@@ -808,7 +809,7 @@ EXPOSURE=2\nFORMAT=32-bit_rle_rgbe\n\n-Y 1 +X 2\n"
     fn xyze_and_bad_format_refused() {
         let mut f = b"#?RADIANCE\nFORMAT=32-bit_rle_xyze\n\n-Y 1 +X 1\n".to_vec();
         f.extend_from_slice(&[1, 2, 3, 4]);
-        assert!(decode(&f).unwrap_err().0.contains("xyze"));
+        assert!(decode(&f).unwrap_err().to_string().contains("xyze"));
     }
 
     #[test]
@@ -881,27 +882,30 @@ EXPOSURE=2\nFORMAT=32-bit_rle_rgbe\n\n-Y 1 +X 2\n"
         for bad in
             [&b"oconv\n\x01\x02\n\n-Y 1 +X 1\n\x80\x80\x80\x81"[..], b"hello\n\nworld\n1234", b"\x89PNG\r\n\x1a\n"]
         {
-            let e = decode(bad).unwrap_err().0;
+            let e = decode(bad).unwrap_err().to_string();
             assert!(e.starts_with("not a Radiance file (bad magic"), "{e}");
         }
     }
 
     #[test]
     fn bad_magic() {
-        let e = decode(b"P6\n1 1\n255\n\0\0\0").unwrap_err().0;
+        let e = decode(b"P6\n1 1\n255\n\0\0\0").unwrap_err().to_string();
         assert!(e.starts_with("not a Radiance file (bad magic"), "{e}");
-        assert!(decode(b"").is_err());
+        let e = decode(b"").unwrap_err().to_string();
+        assert!(e.starts_with("not a Radiance file (bad magic"), "{e}");
     }
 
     #[test]
     fn truncation_never_panics() {
         let bytes = encode(&random_image(20, 3, 7));
         for n in 0..bytes.len() {
-            assert!(decode(&bytes[..n]).is_err(), "prefix of {n} bytes decoded");
+            let e = decode(&bytes[..n]).unwrap_err().to_string();
+            assert!(e.contains("truncated"), "prefix of {n} bytes: {e}");
         }
         let flat = encode(&random_image(5, 3, 8));
         for n in 0..flat.len() {
-            assert!(decode(&flat[..n]).is_err());
+            let e = decode(&flat[..n]).unwrap_err().to_string();
+            assert!(e.contains("truncated"), "prefix of {n} bytes: {e}");
         }
     }
 
@@ -930,16 +934,17 @@ EXPOSURE=2\nFORMAT=32-bit_rle_rgbe\n\n-Y 1 +X 2\n"
         let mut f = header("-Y 200000 +X 200000");
         f.extend_from_slice(&[0u8; 100]);
         let t = std::time::Instant::now();
-        assert!(decode(&f).is_err());
+        let e = decode(&f).unwrap_err().to_string();
+        assert_eq!(e, "image too large: 200000x200000 pixels (limit 268435456)");
         // Within MAX_PIXELS but far more than 100 bytes could encode: the lower bound catches it.
         let mut f = header("-Y 10000 +X 10000");
         f.extend_from_slice(&[0u8; 100]);
-        let e = decode(&f).unwrap_err().0;
+        let e = decode(&f).unwrap_err().to_string();
         assert!(e.starts_with("truncated: header claims 10000x10000 pixels but only 100 bytes follow"), "{e}");
         assert!(t.elapsed().as_millis() < 500);
         let mut f = header("-Y 0 +X 5");
         f.extend_from_slice(&[0u8; 100]);
-        assert!(decode(&f).is_err());
+        assert_eq!(decode(&f).unwrap_err().to_string(), "empty image: header claims 5x0 pixels");
     }
 
     #[test]
@@ -947,22 +952,23 @@ EXPOSURE=2\nFORMAT=32-bit_rle_rgbe\n\n-Y 1 +X 2\n"
         let mut f = header("-Y 1 +X 8");
         f.extend_from_slice(&[2, 2, 0, 8, 128 + 9, 7]);
         f.extend_from_slice(&[0u8; 40]);
-        let e = decode(&f).unwrap_err().0;
+        let e = decode(&f).unwrap_err().to_string();
         assert!(e.contains("scanline 0") && e.contains("past the end"), "{e}");
         // Literal past the end, and a zero count.
         let mut f = header("-Y 1 +X 8");
         f.extend_from_slice(&[2, 2, 0, 8, 4, 1, 2, 3, 4, 5, 1, 2, 3, 4, 5]);
         f.extend_from_slice(&[0u8; 40]);
-        assert!(decode(&f).unwrap_err().0.contains("past the end"));
+        assert!(decode(&f).unwrap_err().to_string().contains("past the end"));
         let mut f = header("-Y 1 +X 8");
         f.extend_from_slice(&[2, 2, 0, 8, 0]);
         f.extend_from_slice(&[0u8; 40]);
-        assert!(decode(&f).unwrap_err().0.contains("count 0"));
+        assert!(decode(&f).unwrap_err().to_string().contains("count 0"));
         // Encoded width disagrees with the header.
         let mut f = header("-Y 1 +X 8");
         f.extend_from_slice(&[2, 2, 0, 9]);
         f.extend_from_slice(&[0u8; 40]);
-        assert!(decode(&f).is_err());
+        let e = decode(&f).unwrap_err().to_string();
+        assert_eq!(e, "scanline 0: RLE scanline length 9 does not match the image width 8");
     }
 
     #[test]

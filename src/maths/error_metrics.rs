@@ -162,10 +162,17 @@ mod tests {
         let m = image_error(&a, &zero, None).unwrap();
         assert_eq!(m.get("relative_rmse"), Some(f64::INFINITY));
         assert_eq!(m.get("psnr"), Some(-PSNR_CAP));
-        assert!(image_error(&a, &Image::new(2, 2, 1), None).is_err());
-        assert!(image_error(&a, &Image::new(2, 3, 3), None).is_err());
-        assert!(image_error(&a, &a, Some(&[true; 3])).is_err());
-        assert!(image_error(&a, &a, Some(&[false; 4])).is_err());
+        let refused = |e: Result<_, String>, why: &str| e.is_err_and(|e| e == why);
+        assert!(refused(
+            image_error(&a, &Image::new(2, 2, 1), None),
+            "image is 2x2 with 3 channel(s), reference is 2x2 with 1 channel(s)"
+        ));
+        assert!(refused(
+            image_error(&a, &Image::new(2, 3, 3), None),
+            "image is 2x2 with 3 channel(s), reference is 2x3 with 3 channel(s)"
+        ));
+        assert!(refused(image_error(&a, &a, Some(&[true; 3])), "mask has 3 entries for 4 pixels"));
+        assert!(refused(image_error(&a, &a, Some(&[false; 4])), "the mask selects no pixel"));
         let mut nan = a.clone();
         nan.data[5] = f32::NAN;
         let m = image_error(&nan, &a, None).unwrap();

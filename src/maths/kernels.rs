@@ -22,7 +22,7 @@
 //! - `acc += c * w` per channel, a product then a sum (no FMA contraction);
 //!
 //! and after the last block sums the 8 lanes in one fixed pairwise order (`hsum`). The
-//! kernels are chosen at run time ([`Kernel::detect`]): AVX-512 when the CPU has it (four normals
+//! kernels are chosen at run time (`crate::cpu::fastest`): AVX-512 when the CPU has it (four normals
 //! per pass, two per register, each light block broadcast to both halves), AVX otherwise (two
 //! normals per pass, sharing the light loads), SSE2 otherwise on x86_64 (the baseline), and one portable
 //! scalar loop elsewhere (also the reference the tests compare the others with). Results are
@@ -82,6 +82,7 @@
 
 use glam::DVec3;
 
+use crate::cpu;
 use crate::geometry::unit;
 
 /// Lights per [`Block`]: one AVX register, or two SSE registers, of f32.
@@ -401,36 +402,45 @@ mod x86 {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Kernel {
     /// The portable loop: the only one off x86_64, and the reference in tests.
-    #[cfg_attr(target_arch = "x86_64", allow(dead_code))]
     Scalar,
     /// x86_64 without AVX (SSE2 is part of the x86_64 baseline).
     #[cfg(target_arch = "x86_64")]
     Sse2,
-    /// Returned by [`Kernel::detect`] when the CPU has AVX (and not AVX-512).
+    /// The fastest when the CPU has AVX (and not AVX-512).
     #[cfg(target_arch = "x86_64")]
     Avx,
-    /// Returned by [`Kernel::detect`] when the CPU has AVX-512 F and DQ: four normals per pass.
+    /// The fastest when the CPU has AVX-512 F and DQ: four normals per pass.
     #[cfg(target_arch = "x86_64")]
     Avx512,
 }
 
-impl Kernel {
-    /// The fastest kernel this CPU runs.
-    pub fn detect() -> Kernel {
+impl cpu::Kernels for Kernel {
+    const FASTEST_FIRST: &'static [Kernel] = &[
         #[cfg(target_arch = "x86_64")]
-        {
-            if crate::cpu::has_avx512() {
-                Kernel::Avx512
-            } else if is_x86_feature_detected!("avx") {
-                Kernel::Avx
-            } else {
-                Kernel::Sse2
-            }
-        }
-        #[cfg(not(target_arch = "x86_64"))]
-        Kernel::Scalar
-    }
+        Kernel::Avx512,
+        #[cfg(target_arch = "x86_64")]
+        Kernel::Avx,
+        #[cfg(target_arch = "x86_64")]
+        Kernel::Sse2,
+        Kernel::Scalar,
+    ];
 
+    /// What `for_each_sum` needs for the kernel (`accumulate_wide`'s AVX kernel also needs FMA,
+    /// and falls back to the portable loop without it).
+    fn needs(self) -> cpu::Features {
+        match self {
+            Kernel::Scalar => cpu::Features::BASELINE,
+            #[cfg(target_arch = "x86_64")]
+            Kernel::Sse2 => cpu::Features::BASELINE,
+            #[cfg(target_arch = "x86_64")]
+            Kernel::Avx => cpu::Features { avx: true, ..cpu::Features::BASELINE },
+            #[cfg(target_arch = "x86_64")]
+            Kernel::Avx512 => cpu::Features { avx512: true, ..cpu::Features::BASELINE },
+        }
+    }
+}
+
+impl Kernel {
     /// Calls `out(i, s(normals[i]))` for every normal, in order, with
     /// `s(n) = sum_j max(n . d_j, 0) w_j` over the lights of `blocks` (summed in f32 as the module
     /// documentation says). The AVX kernel takes the normals two at a time. Asked for on a CPU
@@ -445,7 +455,7 @@ impl Kernel {
                 }
             }
             #[cfg(target_arch = "x86_64")]
-            Kernel::Avx512 if crate::cpu::has_avx512() => {
+            Kernel::Avx512 if cpu::has_avx512() => {
                 let mut quads = normals.chunks_exact(4);
                 for (k, q) in quads.by_ref().enumerate() {
                     // SAFETY: the CPU has AVX-512 F and DQ (the match guard).
@@ -466,7 +476,7 @@ impl Kernel {
                 }
             }
             #[cfg(target_arch = "x86_64")]
-            Kernel::Avx | Kernel::Avx512 if is_x86_feature_detected!("avx") => {
+            Kernel::Avx | Kernel::Avx512 if cpu::has_avx() => {
                 let mut pairs = normals.chunks_exact(2);
                 for (k, pair) in pairs.by_ref().enumerate() {
                     // SAFETY: the CPU has AVX (the match guard).
@@ -503,8 +513,7 @@ impl Kernel {
         assert_eq!(normals.len(), acc.len(), "one accumulator per normal");
         #[cfg(target_arch = "x86_64")]
         {
-            let avx512 = crate::cpu::has_avx512();
-            if self == Kernel::Avx512 && avx512 {
+            if self == Kernel::Avx512 && cpu::has_avx512() {
                 let mut pairs = normals.chunks_exact(2).zip(acc.chunks_exact_mut(2));
                 for (p, a) in pairs.by_ref() {
                     let [a0, a1] = a else { unreachable!("chunks of 2") };
@@ -520,10 +529,7 @@ impl Kernel {
                 }
                 return;
             }
-            if matches!(self, Kernel::Avx | Kernel::Avx512)
-                && is_x86_feature_detected!("avx")
-                && is_x86_feature_detected!("fma")
-            {
+            if matches!(self, Kernel::Avx | Kernel::Avx512) && cpu::has_avx_fma() {
                 for (n, a) in normals.iter().zip(acc.iter_mut()) {
                     // SAFETY: the CPU has AVX and FMA (checked above).
                     unsafe { x86::wide1_avx(blocks, *n, a) };
@@ -607,21 +613,9 @@ mod tests {
         v.as_vec3().to_array()
     }
 
-    /// Kernels the CPU can run.
+    /// Kernels the CPU can run, the portable one first.
     fn kernels() -> Vec<Kernel> {
-        #[allow(unused_mut)]
-        let mut k = vec![Kernel::Scalar];
-        #[cfg(target_arch = "x86_64")]
-        {
-            k.push(Kernel::Sse2);
-            if is_x86_feature_detected!("avx") {
-                k.push(Kernel::Avx);
-            }
-            if crate::cpu::has_avx512() {
-                k.push(Kernel::Avx512);
-            }
-        }
-        k
+        cpu::available()
     }
 
     fn sums(kernel: Kernel, blocks: &[Block], normals: &[[f32; 3]]) -> Vec<[f32; 3]> {

@@ -26,6 +26,7 @@ pub mod reference;
 pub mod relight;
 pub mod resample;
 pub mod rotation;
+pub(crate) mod row_kernels;
 pub mod sequences;
 pub mod sh;
 pub mod spherical_gaussians;
@@ -57,8 +58,8 @@ pub(crate) mod test_maps {
         let lum: Vec<f32> = (0..env.height)
             .flat_map(|y| (0..env.width).map(move |x| (x, y)))
             .map(|(x, y)| {
-                let [r, g, b] = env.rgb(x, y);
-                0.2126 * r + 0.7152 * g + 0.0722 * b
+                let ([r, g, b], [wr, wg, wb]) = (env.rgb(x, y), crate::maths::colour::REC709_F32);
+                wr * r + wg * g + wb * b
             })
             .collect();
         Distribution2D::build(&Image::from_vec(env.width, env.height, 1, lum), true, false).unwrap()

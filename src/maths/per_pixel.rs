@@ -84,7 +84,7 @@ use std::f64::consts::PI;
 use glam::DVec3;
 use rayon::prelude::*;
 
-use crate::cpu::has_avx512;
+use crate::cpu;
 use crate::data::{Distribution2D, Image};
 use crate::geometry::latlong_grid::{point_in_band, sincos_turns, LatLongGrid};
 use crate::maths::guide_table::{GuidedDistribution, GuidedDraw};
@@ -96,10 +96,31 @@ use crate::maths::sequences::{
     bits_to_unit, mix64, nested_uniform_scramble, sobol_2d_bits, unit_f64, SplitMix64, GOLDEN_GAMMA,
 };
 
-/// Declares `$batch(wide, args)`: the lane loop `$lanes(args)` compiled a second time, as
-/// `$avx512`, for AVX-512F and DQ, and called when `wide` (the caller checked the processor with
-/// [`has_avx512`]); otherwise, and off x86_64, the baseline compilation. The two run the same
-/// IEEE operations in the same order, so they give the same bits.
+/// Which compilation of the batch lane loops runs (see [`avx512_batch!`]): both give the same bits.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum BatchKernel {
+    /// Compiled for AVX-512F and DQ; asked for without them (or off x86_64), `Baseline` runs.
+    Avx512,
+    /// The baseline compilation, every processor.
+    Baseline,
+}
+
+impl cpu::Kernels for BatchKernel {
+    const FASTEST_FIRST: &'static [BatchKernel] = &[BatchKernel::Avx512, BatchKernel::Baseline];
+
+    fn needs(self) -> cpu::Features {
+        match self {
+            BatchKernel::Avx512 => cpu::Features { avx512: true, ..cpu::Features::BASELINE },
+            BatchKernel::Baseline => cpu::Features::BASELINE,
+        }
+    }
+}
+
+/// Declares `$batch(kernel, args)`: the lane loop `$lanes(args)` compiled a second time, as
+/// `$avx512`, for AVX-512F and DQ, and called for [`BatchKernel::Avx512`] when the processor has
+/// them ([`cpu::has_avx512`], checked on every call: a cached load); otherwise, and off x86_64,
+/// the baseline compilation. The two run the same IEEE operations in the same order, so they
+/// give the same bits.
 macro_rules! avx512_batch {
     ($(#[$doc:meta])* fn $batch:ident / $avx512:ident = $lanes:ident($($arg:ident: $ty:ty),* $(,)?)) => {
         #[cfg(target_arch = "x86_64")]
@@ -110,13 +131,13 @@ macro_rules! avx512_batch {
 
         $(#[$doc])*
         #[inline(always)]
-        fn $batch(wide: bool, $($arg: $ty),*) {
+        fn $batch(kernel: BatchKernel, $($arg: $ty),*) {
             #[cfg(target_arch = "x86_64")]
-            if wide {
-                // SAFETY: `wide` is only true when the processor has AVX-512F and DQ.
+            if kernel == BatchKernel::Avx512 && cpu::has_avx512() {
+                // SAFETY: the processor has AVX-512F and DQ (checked just above).
                 return unsafe { $avx512($($arg),*) };
             }
-            let _ = wide;
+            let _ = kernel;
             $lanes($($arg),*)
         }
     };
@@ -199,7 +220,7 @@ struct CosineBatch<'g> {
 }
 
 avx512_batch! {
-    /// [`cosine_batch_lanes`], with AVX-512 when `wide` (the processor has it).
+    /// [`cosine_batch_lanes`], with AVX-512 when asked and the processor has it.
     fn cosine_batch / cosine_batch_avx512 = cosine_batch_lanes(
         batch: &CosineBatch,
         out: &mut [[f64; BATCH]; 3],
@@ -218,7 +239,7 @@ fn band_point_lanes(band: &[[f64; BATCH]; 3], v: &[f64; BATCH], out: &mut [[f64;
 }
 
 avx512_batch! {
-    /// [`band_point_lanes`], with AVX-512 when `wide`.
+    /// [`band_point_lanes`], with AVX-512 when asked and the processor has it.
     fn band_point_batch / band_point_avx512 = band_point_lanes(
         band: &[[f64; BATCH]; 3],
         v: &[f64; BATCH],
@@ -271,7 +292,7 @@ fn mis_lanes(batch: &MisBatch, count: usize, sums: &mut [[f64; BATCH]; 3]) {
 }
 
 avx512_batch! {
-    /// [`mis_lanes`], with AVX-512 when `wide`.
+    /// [`mis_lanes`], with AVX-512 when asked and the processor has it.
     fn mis_batch / mis_avx512 = mis_lanes(batch: &MisBatch, count: usize, sums: &mut [[f64; BATCH]; 3])
 }
 
@@ -364,11 +385,11 @@ impl PixelUniforms {
     /// 32 bits (2.3e-10) are far finer than any texel, so `Random` takes both from one 64-bit
     /// draw. Each sample draws its requests in order, then the next sample, and the pixel's
     /// generator advances by the `count` samples' draws. Lanes past `count` are filled too (a
-    /// fixed-length loop vectorises; they are unused). With AVX-512 when `wide`, same bits.
+    /// fixed-length loop vectorises; they are unused). `kernel` as in [`avx512_batch!`].
     #[inline(always)]
-    fn batch(&mut self, wide: bool, start: usize, count: usize, requests: usize, out: &mut [[f64; BATCH]; 4]) {
+    fn batch(&mut self, kernel: BatchKernel, start: usize, count: usize, requests: usize, out: &mut [[f64; BATCH]; 4]) {
         let lanes = UniformLanes { rng: &self.rng, sobol: self.sobol, start, requests };
-        uniform_batch(wide, &lanes, out);
+        uniform_batch(kernel, &lanes, out);
         self.rng.skip((count * lanes.draws_per_sample()) as u64);
     }
 }
@@ -429,7 +450,7 @@ fn uniform_lanes(lanes: &UniformLanes, out: &mut [[f64; BATCH]; 4]) {
 }
 
 avx512_batch! {
-    /// [`uniform_lanes`], with AVX-512 when `wide`.
+    /// [`uniform_lanes`], with AVX-512 when asked and the processor has it.
     fn uniform_batch / uniform_lanes_avx512 = uniform_lanes(lanes: &UniformLanes, out: &mut [[f64; BATCH]; 4])
 }
 
@@ -458,8 +479,8 @@ struct Scene<'a> {
     records: Vec<TexelRecord>,
     /// How the environment technique draws its texel; `None` for `Cosine` and `Uniform`.
     texels: Option<TexelSampler<'a>>,
-    /// Whether the batch functions may use AVX-512 ([`has_avx512`]).
-    wide: bool,
+    /// Which compilation of the batch functions runs (the fastest the processor has).
+    kernel: BatchKernel,
 }
 
 /// The environment technique's texel sampler, one per [`PerPixelWarp`].
@@ -540,7 +561,7 @@ impl<'a> Scene<'a> {
             PerPixelWarp::Inversion => TexelSampler::Guided(GuidedDistribution::new(dist)),
             PerPixelWarp::Hierarchical => TexelSampler::Hierarchical(HierarchicalWarp::new(dist)),
         });
-        Scene { env, grid, records, texels, wide: has_avx512() }
+        Scene { env, grid, records, texels, kernel: cpu::fastest() }
     }
 
     #[inline]
@@ -601,7 +622,7 @@ impl<'a> Scene<'a> {
             match strategy {
                 PerPixelStrategy::Environment => {
                     let sampler = self.texels.as_ref().expect("built for this strategy");
-                    uniforms.batch(self.wide, start, count, 1, &mut batch_uniforms);
+                    uniforms.batch(self.kernel, start, count, 1, &mut batch_uniforms);
                     for i in 0..count {
                         sampler.start(&mut draws, i, batch_uniforms[0][i], batch_uniforms[1][i]);
                     }
@@ -615,7 +636,7 @@ impl<'a> Scene<'a> {
                     }
                 }
                 PerPixelStrategy::Cosine | PerPixelStrategy::Uniform => {
-                    uniforms.batch(self.wide, start, count, 1, &mut batch_uniforms);
+                    uniforms.batch(self.kernel, start, count, 1, &mut batch_uniforms);
                     for i in 0..count {
                         let (u1, u2) = (batch_uniforms[0][i], batch_uniforms[1][i]);
                         dirs[i] = if strategy == PerPixelStrategy::Cosine {
@@ -631,14 +652,14 @@ impl<'a> Scene<'a> {
                     // The environment technique's texel search runs in stages between which
                     // the batch's reads are prefetched (see `GuidedDistribution::start`); the
                     // cosine technique's arithmetic fills the wait.
-                    uniforms.batch(self.wide, start, count, 2, &mut batch_uniforms);
+                    uniforms.batch(self.kernel, start, count, 2, &mut batch_uniforms);
                     for i in 0..count {
                         sampler.start(&mut draws, i, batch_uniforms[0][i], batch_uniforms[1][i]);
                     }
                     cosine.u = [batch_uniforms[2], batch_uniforms[3]];
                     // Cosine technique: the directions (arithmetic only, while the guide
                     // entries arrive) ...
-                    cosine_batch(self.wide, &cosine, &mut mis.dir[1], &mut cosine_guesses);
+                    cosine_batch(self.kernel, &cosine, &mut mis.dir[1], &mut cosine_guesses);
                     sampler.resume(&mut draws, count);
                     // ... and the texels containing them (while the CDF entries arrive).
                     for i in 0..count {
@@ -657,7 +678,7 @@ impl<'a> Scene<'a> {
                         [env_band[0][i], env_band[1][i], env_band[2][i]] = [self.grid.turns_in_column(x, rx), c0, c1];
                         env_v[i] = ry;
                     }
-                    band_point_batch(self.wide, &env_band, &env_v, &mut mis.dir[0]);
+                    band_point_batch(self.kernel, &env_band, &env_v, &mut mis.dir[0]);
                     // Stage 2: the records, then the weights and sums lane by lane.
                     for i in 0..count {
                         for t in 0..2 {
@@ -666,7 +687,7 @@ impl<'a> Scene<'a> {
                             mis.pdf[t][i] = r.pdf;
                         }
                     }
-                    mis_batch(self.wide, &mis, count, &mut lane_sums);
+                    mis_batch(self.kernel, &mis, count, &mut lane_sums);
                 }
             }
             // Stage 2: read the texels' records and accumulate, in sample order.
@@ -874,13 +895,13 @@ mod tests {
     fn batches_match_the_sequential_draws() {
         for sequence in PerPixelSequence::ALL {
             for requests in [1, 2] {
-                for wide in [false, has_avx512()] {
+                for kernel in cpu::available::<BatchKernel>() {
                     let mut batched = PixelUniforms::new(sequence, pixel_seed(7, 3));
                     let mut sequential = PixelUniforms::new(sequence, pixel_seed(7, 3));
                     let mut start = 0;
                     for count in [16, 16, 5, 16, 1] {
                         let mut out = [[0.0; BATCH]; 4];
-                        batched.batch(wide, start, count, requests, &mut out);
+                        batched.batch(kernel, start, count, requests, &mut out);
                         for i in 0..count {
                             for k in 0..requests {
                                 let want = sequential_pair(&mut sequential, start + i, k);
@@ -906,7 +927,7 @@ mod tests {
             for start in (0..samples).step_by(BATCH) {
                 let mut out = [[0.0; BATCH]; 4];
                 let count = BATCH.min(samples - start);
-                u.batch(has_avx512(), start, count, 2, &mut out);
+                u.batch(cpu::fastest(), start, count, 2, &mut out);
                 for i in 0..count {
                     pairs[start + i] = [[out[0][i], out[1][i]], [out[2][i], out[3][i]]];
                 }
@@ -1054,7 +1075,7 @@ mod tests {
     /// so an image does not depend on the machine either.
     #[test]
     fn batch_functions_match_their_scalar_lanes() {
-        if !has_avx512() {
+        if !cpu::runs(BatchKernel::Avx512) {
             eprintln!("no AVX-512 here: only the scalar lanes run");
             return;
         }
@@ -1087,11 +1108,11 @@ mod tests {
             let (mut scalar, mut wide) = ([[0.0; BATCH]; 3], [[0.0; BATCH]; 3]);
             let (mut scalar_guess, mut wide_guess) = ([[0.0; BATCH]; 2], [[0.0; BATCH]; 2]);
             cosine_batch_lanes(&cosine, &mut scalar, &mut scalar_guess);
-            cosine_batch(true, &cosine, &mut wide, &mut wide_guess);
+            cosine_batch(BatchKernel::Avx512, &cosine, &mut wide, &mut wide_guess);
             assert_eq!(scalar.map(|a| a.map(f64::to_bits)), wide.map(|a| a.map(f64::to_bits)));
             assert_eq!(scalar_guess.map(|a| a.map(f64::to_bits)), wide_guess.map(|a| a.map(f64::to_bits)));
             band_point_lanes(&band, &v, &mut scalar);
-            band_point_batch(true, &band, &v, &mut wide);
+            band_point_batch(BatchKernel::Avx512, &band, &v, &mut wide);
             assert_eq!(scalar.map(|a| a.map(f64::to_bits)), wide.map(|a| a.map(f64::to_bits)));
             // Stage 2 of Mis on those directions, some densities 0 (as below the horizon).
             let heuristic = Heuristic::ALL[round % 2];
@@ -1113,7 +1134,7 @@ mod tests {
             let count = 1 + round % BATCH;
             let (mut scalar_sums, mut wide_sums) = ([[0.5; BATCH]; 3], [[0.5; BATCH]; 3]);
             mis_lanes(&mis, count, &mut scalar_sums);
-            mis_batch(true, &mis, count, &mut wide_sums);
+            mis_batch(BatchKernel::Avx512, &mis, count, &mut wide_sums);
             assert_eq!(scalar_sums.map(|a| a.map(f64::to_bits)), wide_sums.map(|a| a.map(f64::to_bits)));
             assert!(scalar_sums.iter().all(|lanes| lanes[count..].iter().all(|&v| v == 0.5)), "lanes past count");
         }

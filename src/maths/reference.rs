@@ -167,7 +167,7 @@ fn sum_tiles(kernel: Kernel, packed: &Packed, active: &[usize], normals: &[[f32;
 /// other (e.g. pixels in tile order, as [`reference_sphere`] passes them); the result does not
 /// depend on the order, the chunking or the number of threads.
 pub fn irradiance_exact(env: &Image, normals: &[[f64; 3]]) -> Vec<[f64; 3]> {
-    irradiance_exact_with(env, normals, Kernel::detect(), true)
+    irradiance_exact_with(env, normals, crate::cpu::fastest(), true)
 }
 
 fn irradiance_exact_with(env: &Image, normals: &[[f64; 3]], kernel: Kernel, cull: bool) -> Vec<[f64; 3]> {
@@ -461,7 +461,7 @@ pub(crate) mod tests {
         {
             assert!(same(&plain, &irradiance_exact_with(&env, &ns, Kernel::Sse2, true)));
             assert!(same(&plain, &irradiance_exact_with(&env, &ns, Kernel::Sse2, false)));
-            if is_x86_feature_detected!("avx") {
+            if crate::cpu::has_avx() {
                 assert!(same(&plain, &irradiance_exact_with(&env, &ns, Kernel::Avx, true)));
                 // An odd count exercises the unpaired last normal.
                 let odd = &ns[..ns.len() - 1 + ns.len() % 2];

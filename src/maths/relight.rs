@@ -272,7 +272,7 @@ impl LiveLights {
 /// the relative rounding is ~1e-6. Lights with a non-finite weight or direction are ignored:
 /// callers must refuse them first (`RelightSphere` reports them as an error).
 pub fn relight(view: &SphereView, lights: &[LightSample], scale: [f32; 3]) -> Image {
-    relight_with(Kernel::detect(), view, lights, scale)
+    relight_with(crate::cpu::fastest(), view, lights, scale)
 }
 
 fn relight_with(kernel: Kernel, view: &SphereView, lights: &[LightSample], scale: [f32; 3]) -> Image {
@@ -636,7 +636,7 @@ mod tests {
         {
             let sse = relight_with(Kernel::Sse2, &view, &lights, scale);
             assert!(sse.data.iter().zip(&reference.data).all(|(a, b)| a.to_bits() == b.to_bits()));
-            if is_x86_feature_detected!("avx") {
+            if crate::cpu::has_avx() {
                 let avx = relight_with(Kernel::Avx, &view, &lights, scale);
                 assert!(avx.data.iter().zip(&reference.data).all(|(a, b)| a.to_bits() == b.to_bits()));
             }

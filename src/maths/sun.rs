@@ -3,8 +3,9 @@
 //!
 //! For a W x H lat-long map with texel radiance `L_i` (RGB: the first three channels; a map of
 //! fewer channels is grey, its first channel), luminance `Y_i = 0.2126 R + 0.7152 G + 0.0722 B`
-//! (Rec. 709) and midpoint solid angle `dOmega_i` ([`latlong::texel_solid_angle`], the measure
-//! of every integral in hdrflow, so "integral" below means `sum_i L_i dOmega_i`):
+//! (Rec. 709, [`crate::maths::colour::REC709`]) and midpoint solid angle `dOmega_i`
+//! ([`latlong::texel_solid_angle`], the measure of every integral in hdrflow, so "integral"
+//! below means `sum_i L_i dOmega_i`):
 //!
 //! 1. **Level.** `m` = the median of the texels' luminances (each texel counted once; the
 //!    element of rank `floor(W H / 2)` in increasing order, rounded to f32), or, when that is 0

@@ -6,6 +6,7 @@
 //! it on `builtin_registry()` and run the command line over it with `hdrflow::cli::main_with`
 //! (see `examples/custom_operator.rs`).
 
+pub mod dataset;
 pub mod ibl;
 pub mod image;
 pub mod io;
@@ -28,6 +29,7 @@ pub fn register_all(registry: &mut Registry) {
     lights::register(registry);
     plotting::register(registry);
     ibl::register(registry);
+    dataset::register(registry);
 }
 
 /// A registry with every built-in value type and operator.
@@ -36,4 +38,35 @@ pub fn builtin_registry() -> Registry {
     crate::types::register_all(&mut r);
     register_all(&mut r);
     r
+}
+
+include!(concat!(env!("OUT_DIR"), "/op_sources.rs"));
+
+/// The code hash of the built-in operator file at `file` (`file!()`, relative or absolute: the
+/// entry of `build.rs`'s table of operator files it ends with), zero for a file the table does
+/// not hold. An operator passes it to the engine with `OpSpec::code_hash`.
+pub fn builtin_code_hash(file: &str) -> [u8; 32] {
+    let file = file.replace('\\', "/");
+    OP_SOURCES.iter().find(|(path, _)| file.ends_with(path)).map(|(_, h)| *h).unwrap_or([0; 32])
+}
+
+/// The code hash of the built-in operator file this macro is written in (see `OpSpec::code`).
+#[doc(hidden)]
+#[macro_export]
+macro_rules! op_code_hash {
+    () => {
+        $crate::ops::builtin_code_hash(file!())
+    };
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn every_operator_file_has_a_code_hash() {
+        assert!(super::OP_SOURCES.len() > 20);
+        let h = super::builtin_code_hash("/abs/prefix/src/ops/image/exposure.rs");
+        assert_ne!(h, [0; 32]);
+        assert_eq!(h, super::builtin_code_hash("src/ops/image/exposure.rs"));
+        assert_ne!(h, super::builtin_code_hash("src/ops/image/luminance.rs"));
+    }
 }

@@ -344,7 +344,7 @@ mod tests {
         };
         assert!(plot_png(&c, 200, 100).is_ok());
         assert!(plot_svg(&c, 200, 100).is_ok());
-        assert!(plot_png(&c, 0, 100).is_err());
-        assert!(plot_svg(&c, 100, MAX_SIDE + 1).is_err());
+        assert_eq!(plot_png(&c, 0, 100).unwrap_err(), "plot size 0x100: each side must be in 1..=16384");
+        assert_eq!(plot_svg(&c, 100, MAX_SIDE + 1).unwrap_err(), "plot size 100x16385: each side must be in 1..=16384");
     }
 }

@@ -81,7 +81,8 @@ fn fit(w: u32, h: u32) -> (u32, u32) {
 }
 
 fn luminance(rgb: [f32; 3]) -> f32 {
-    0.2126 * rgb[0] + 0.7152 * rgb[1] + 0.0722 * rgb[2]
+    let [wr, wg, wb] = crate::maths::colour::REC709_F32;
+    wr * rgb[0] + wg * rgb[1] + wb * rgb[2]
 }
 
 fn encode_png(img: &image::DynamicImage) -> Option<Vec<u8>> {

@@ -140,7 +140,7 @@ pub fn encode_ktx2(levels: &[Cubemap], o: &SaveOptions) -> Result<Vec<u8>, Strin
         .zip(&rgba)
         .map(|(c, rgba)| crate::formats::ktx2::Level { width: c.size, height: c.size, rgba })
         .collect();
-    crate::formats::ktx2::encode(&levels, 6, o.ktx_format).map_err(|e| e.0)
+    crate::formats::ktx2::encode(&levels, 6, o.get_or_default()).map_err(|e| e.to_string())
 }
 
 /// Every level's strip, at `template` with `{level}` replaced by the level number.
@@ -167,13 +167,15 @@ mod tests {
         c.encode(&mut bytes);
         assert_eq!(decode(&bytes).unwrap().get::<Cubemap>(), Some(&c));
         for cut in [0, 8, bytes.len() - 1] {
-            assert!(decode(&bytes[..cut]).is_err());
+            let e = decode(&bytes[..cut]).unwrap_err();
+            assert!(e.starts_with("truncated: need"), "cut at {cut}: {e}");
         }
         let chain = MipChain { levels: vec![c.clone(), Cubemap::new(1)], roughness: vec![0.0, 1.0] };
         let mut bytes = Vec::new();
         chain.encode(&mut bytes);
         assert_eq!(decode_chain(&bytes).unwrap().get::<MipChain>(), Some(&chain));
-        assert!(decode_chain(&bytes[..bytes.len() - 1]).is_err());
+        let e = decode_chain(&bytes[..bytes.len() - 1]).unwrap_err();
+        assert!(e.starts_with("truncated: need"), "{e}");
         // The strip: face f at columns f*S..(f+1)*S, and back.
         let strip = c.to_strip();
         assert_eq!((strip.width, strip.height), (12, 2));

@@ -1,8 +1,7 @@
 //! `curves`: named series over a shared abscissa ([`Curves`]). Saved as `.json`, `.csv`, or a
 //! plot (`.png`, `.svg`).
 
-use std::fmt::Write as _;
-
+use super::csv_text;
 use super::json_num as num;
 use crate::data::Curves;
 use crate::engine::cache::codec::{Reader, Writer};
@@ -131,30 +130,21 @@ fn curves_json(c: &Curves) -> String {
 
 /// Curves as plain CSV, one header line then one row per x, which any CSV reader takes as it is
 /// (no comment lines). The named scalars (e.g. the Brewster and critical angles) are columns of
-/// their own after the series, their value on every row (empty where there is none).
+/// their own after the series, their value on every row (empty where there is none). Names are
+/// quoted where they hold a comma, a quote or a line break (RFC 4180).
 fn curves_csv(c: &Curves) -> String {
-    let mut out = String::new();
-    out.push_str(&c.x_name);
-    for (name, _) in &c.series {
-        out.push(',');
-        out.push_str(name);
-    }
-    for (name, _) in &c.scalars {
-        out.push(',');
-        out.push_str(name);
-    }
-    out.push('\n');
-    let scalars: String =
-        c.scalars.iter().map(|(_, v)| v.map(|v| format!(",{v}")).unwrap_or_else(|| ",".into())).collect();
-    for (i, x) in c.x.iter().enumerate() {
-        let _ = write!(out, "{x}");
-        for (_, ys) in &c.series {
-            let _ = write!(out, ",{}", ys[i]);
-        }
-        out.push_str(&scalars);
-        out.push('\n');
-    }
-    out
+    let header: Vec<String> = std::iter::once(c.x_name.clone())
+        .chain(c.series.iter().map(|(name, _)| name.clone()))
+        .chain(c.scalars.iter().map(|(name, _)| name.clone()))
+        .collect();
+    let scalars: Vec<String> = c.scalars.iter().map(|(_, v)| v.map(|v| v.to_string()).unwrap_or_default()).collect();
+    let rows = c.x.iter().enumerate().map(|(i, x)| {
+        std::iter::once(x.to_string())
+            .chain(c.series.iter().map(|(_, ys)| ys[i].to_string()))
+            .chain(scalars.iter().cloned())
+            .collect::<Vec<_>>()
+    });
+    csv_text(std::iter::once(header).chain(rows))
 }
 
 #[cfg(test)]
@@ -174,5 +164,20 @@ mod tests {
             markers: vec![],
         };
         assert_eq!(curves_csv(&c), "angle,R,brewster,critical\n0,0.5,56.3,\n1,0.25,56.3,\n");
+    }
+
+    #[test]
+    fn csv_quotes_names_that_hold_a_comma_or_a_quote() {
+        let c = Curves {
+            title: "t".into(),
+            x_name: "angle, degrees".into(),
+            x_label: String::new(),
+            y_label: String::new(),
+            x: vec![0.0],
+            series: vec![("R \"s\"".into(), vec![0.5])],
+            scalars: vec![],
+            markers: vec![],
+        };
+        assert_eq!(curves_csv(&c), "\"angle, degrees\",\"R \"\"s\"\"\"\n0,0.5\n");
     }
 }

@@ -80,7 +80,7 @@ fn save(value: &Value, o: &SaveOptions) -> Result<Vec<u8>, String> {
     if o.ext == "ktx2" {
         let rgba = formats::ktx2::image_rgba(img);
         let level = formats::ktx2::Level { width: img.width, height: img.height, rgba: &rgba };
-        return formats::ktx2::encode(&[level], 1, o.ktx_format).map_err(|e| e.0);
+        return formats::ktx2::encode(&[level], 1, o.get_or_default()).map_err(|e| e.to_string());
     }
     encode_image(img, o)
 }
@@ -89,8 +89,8 @@ fn save(value: &Value, o: &SaveOptions) -> Result<Vec<u8>, String> {
 pub fn encode_image(img: &Image, o: &SaveOptions) -> Result<Vec<u8>, String> {
     let ext = o.ext.as_str();
     match ext {
-        "png" => formats::png::encode(img, o.exposure).map_err(|e| e.0),
-        "exr" => formats::exr::encode_with(img, &o.exr).map_err(|e| e.0),
+        "png" => formats::png::encode(img, o.exposure).map_err(|e| e.to_string()),
+        "exr" => formats::exr::encode_with(img, &o.get_or_default()).map_err(|e| e.to_string()),
         "hdr" | "pfm" => {
             // RGBE and PFM hold RGB (PFM also grey): alpha and further channels are dropped
             // (`channels_not_kept` says which, and `Save` warns).
@@ -158,7 +158,8 @@ mod tests {
         assert_eq!(back.value_type(), ValueType(&IMAGE));
         assert_eq!(back.get::<Image>().unwrap(), &img);
         for cut in [0, 8, bytes.len() - 1] {
-            assert!(decode(&bytes[..cut]).is_err());
+            let e = decode(&bytes[..cut]).unwrap_err();
+            assert!(e.starts_with("truncated: need"), "cut at {cut}: {e}");
         }
         let y = Value::new(Image::new(2, 2, 1));
         assert_eq!(y.value_type(), ValueType(&SCALAR_FIELD));
@@ -179,13 +180,8 @@ mod tests {
             let data: Vec<f32> = (0..4).flat_map(|_| values[..c].iter().copied()).collect();
             let img = Image::with_names(2, 2, names.clone(), data);
             for ext in ["exr", "hdr", "pfm", "png", "ktx2"] {
-                let o = SaveOptions {
-                    ext: ext.into(),
-                    exposure: 0.0,
-                    plot_size: (1, 1),
-                    ktx_format: formats::ktx2::KtxFormat::Rgba32f,
-                    exr: Default::default(),
-                };
+                let mut o = SaveOptions::new(ext).with(formats::ktx2::KtxFormat::Rgba32f);
+                o.plot_size = (1, 1);
                 let stored: Vec<f32> = match ext {
                     "ktx2" => formats::ktx2::image_rgba(&img)[..4].to_vec(),
                     _ => match save(&Value::new(img.clone()), &o) {

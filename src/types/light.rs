@@ -98,7 +98,8 @@ mod tests {
         l.encode(&mut bytes);
         let back = decode(&bytes).unwrap();
         assert_eq!(back.get::<Light>(), Some(&l));
-        assert!(decode(&bytes[..bytes.len() - 1]).is_err());
+        let e = decode(&bytes[..bytes.len() - 1]).unwrap_err();
+        assert!(e.starts_with("truncated: need"), "{e}");
         let json: serde_json::Value = serde_json::from_str(&to_json(&l)).unwrap();
         assert_eq!(json["solid_angle"].as_f64(), Some(1e-3));
         assert_eq!(json["direction"][2].as_f64(), Some(-0.8));

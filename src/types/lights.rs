@@ -4,7 +4,7 @@
 //! the shortest decimal that reads back to the same f64; NaN and Inf, which `ExtractLights`
 //! never produces, become `null`).
 
-use super::light::{json_triple, read_light, to_json_value, write_light, LIGHT_BYTES};
+use super::light::{json_triple, read_light, to_json_value as light_json_value, write_light, LIGHT_BYTES};
 use crate::data::{Light, Lights};
 use crate::engine::cache::codec::{Reader, Writer};
 use crate::engine::value::{SaveOptions, TypeSpec, Value, ValueData, ValueType};
@@ -67,10 +67,15 @@ fn decode(bytes: &[u8]) -> Result<Value, String> {
 /// The JSON text of lights (keys `lights`, each with `direction`, `solid_angle`, `radiance`, and
 /// `ambient`).
 pub fn to_json(l: &Lights) -> String {
+    serde_json::to_string_pretty(&to_json_value(l)).expect("JSON of plain values") + "\n"
+}
+
+/// The JSON object of lights (as in [`to_json`] and a label's `lights`).
+pub fn to_json_value(l: &Lights) -> serde_json::Value {
     let mut map = serde_json::Map::new();
-    map.insert("lights".into(), serde_json::Value::Array(l.lights.iter().map(to_json_value).collect()));
+    map.insert("lights".into(), serde_json::Value::Array(l.lights.iter().map(light_json_value).collect()));
     map.insert("ambient".into(), json_triple(l.ambient));
-    serde_json::to_string_pretty(&serde_json::Value::Object(map)).expect("JSON of plain values") + "\n"
+    serde_json::Value::Object(map)
 }
 
 fn save(value: &Value, _: &SaveOptions) -> Result<Vec<u8>, String> {
@@ -94,11 +99,13 @@ mod tests {
         let mut bytes = Vec::new();
         l.encode(&mut bytes);
         assert_eq!(decode(&bytes).unwrap().get::<Lights>(), Some(&l));
-        assert!(decode(&bytes[..bytes.len() - 1]).is_err());
+        let e = decode(&bytes[..bytes.len() - 1]).unwrap_err();
+        assert!(e.starts_with("truncated: need"), "{e}");
         // A hostile count is refused before allocating.
         let mut huge = Vec::new();
         Writer(&mut huge).u64(u64::MAX / 2);
-        assert!(decode(&huge).is_err());
+        let e = decode(&huge).unwrap_err();
+        assert!(e.starts_with("truncated: need") && e.ends_with("0 left"), "{e}");
         let json: serde_json::Value = serde_json::from_str(&to_json(&l)).unwrap();
         assert_eq!(json.as_object().unwrap().len(), 2);
         assert_eq!(json["ambient"][2].as_f64(), Some(0.3));

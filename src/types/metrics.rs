@@ -49,11 +49,7 @@ fn decode(bytes: &[u8]) -> Result<Value, String> {
 fn save(value: &Value, o: &SaveOptions) -> Result<Vec<u8>, String> {
     let m = value.get::<Metrics>().ok_or("not metrics")?;
     Ok(match o.ext.as_str() {
-        "csv" => {
-            let names: Vec<&str> = m.fields.iter().map(|(n, _)| n.as_str()).collect();
-            let values: Vec<String> = m.fields.iter().map(|(_, v)| v.to_string()).collect();
-            format!("{}\n{}\n", names.join(","), values.join(","))
-        }
+        "csv" => csv(m),
         _ => {
             let mut map = serde_json::Map::new();
             for (name, v) in &m.fields {
@@ -63,4 +59,30 @@ fn save(value: &Value, o: &SaveOptions) -> Result<Vec<u8>, String> {
         }
     }
     .into_bytes())
+}
+
+/// One header line of the names, one line of the values (quoted where a name holds a comma, a
+/// quote or a line break). No field gives two empty lines, as before the `csv` crate (which
+/// would write `""`, a column of one empty name).
+fn csv(m: &Metrics) -> String {
+    if m.fields.is_empty() {
+        return "\n\n".into();
+    }
+    let names = m.fields.iter().map(|(n, _)| n.clone()).collect::<Vec<_>>();
+    let values = m.fields.iter().map(|(_, v)| v.to_string()).collect::<Vec<_>>();
+    super::csv_text([names, values])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn csv_is_a_header_of_names_and_one_row_of_values() {
+        let m = Metrics { fields: vec![("rmse".into(), 0.25), ("psnr".into(), f64::INFINITY)] };
+        assert_eq!(csv(&m), "rmse,psnr\n0.25,inf\n");
+        let m = Metrics { fields: vec![("a,b".into(), 1.0)] };
+        assert_eq!(csv(&m), "\"a,b\"\n1\n");
+        assert_eq!(csv(&Metrics { fields: vec![] }), "\n\n");
+    }
 }

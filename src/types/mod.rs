@@ -5,10 +5,13 @@
 //! encoders. The engine knows none of them; `register_all` adds them to a registry. A value
 //! type from outside the crate is declared the same way (see `examples/custom_operator.rs`).
 
+pub mod camera;
 pub mod cubemap;
 pub mod curves;
 pub mod distribution;
 pub mod image;
+pub(crate) mod json;
+pub mod label;
 pub mod light;
 pub mod lights;
 pub mod metrics;
@@ -20,9 +23,11 @@ use crate::engine::registry::Registry;
 use crate::engine::value::ValueType;
 
 pub use self::image::{IMAGE, SCALAR_FIELD};
+pub use camera::CAMERA;
 pub use cubemap::{CUBEMAP, MIP_CHAIN};
 pub use curves::CURVES;
 pub use distribution::DISTRIBUTION;
+pub use label::LABEL;
 pub use light::LIGHT;
 pub use lights::LIGHTS;
 pub use metrics::METRICS;
@@ -45,6 +50,8 @@ pub fn register_all(r: &mut Registry) {
         &SG,
         &CUBEMAP,
         &MIP_CHAIN,
+        &CAMERA,
+        &LABEL,
     ] {
         r.register_type(spec);
     }
@@ -67,8 +74,30 @@ pub mod ty {
     pub const SG_T: ValueType = ValueType(&SG);
     pub const CUBEMAP_T: ValueType = ValueType(&CUBEMAP);
     pub const MIP_CHAIN_T: ValueType = ValueType(&MIP_CHAIN);
+    pub const CAMERA_T: ValueType = ValueType(&CAMERA);
+    pub const LABEL_T: ValueType = ValueType(&LABEL);
     /// Either kind of image.
     pub const ANY_IMAGE: &[ValueType] = &[IMAGE_T, SCALAR_T];
+}
+
+/// CSV text of `records`, the header first, written by the `csv` crate: RFC 4180 quoting (a
+/// field is quoted only when it holds a comma, a double quote or a line break, and its quotes
+/// are doubled), `\n` after each record. Numbers are formatted by the caller, so that each file
+/// keeps its own precision. A record of no field becomes `""` (one empty field), as the crate
+/// writes it.
+pub(crate) fn csv_text<R, F>(records: impl IntoIterator<Item = R>) -> String
+where
+    R: IntoIterator<Item = F>,
+    F: AsRef<[u8]>,
+{
+    // Flexible: the records' lengths are the caller's (they agree in every file written here).
+    let mut w = csv::WriterBuilder::new().flexible(true).from_writer(Vec::new());
+    for record in records {
+        // Writing into a Vec has no I/O to fail, and a flexible writer no length to refuse.
+        w.write_record(record).expect("CSV into memory");
+    }
+    let bytes = w.into_inner().expect("CSV into memory");
+    String::from_utf8(bytes).expect("UTF-8 fields give UTF-8 CSV")
 }
 
 /// A JSON number, or `null` for NaN and infinities (JSON has neither).

@@ -1,8 +1,7 @@
 //! `sample set`: directions with their solid-angle pdfs ([`SampleSet`]). Saved as `.csv`
 //! (`index,x,y,theta,phi,dx,dy,dz,pdf`) or `.json`.
 
-use std::fmt::Write as _;
-
+use super::csv_text;
 use super::json_num as num;
 use crate::data::{Sample, SampleSet};
 use crate::engine::cache::codec::{Reader, Writer};
@@ -73,13 +72,14 @@ fn save(value: &Value, o: &SaveOptions) -> Result<Vec<u8>, String> {
 }
 
 fn samples_csv(s: &SampleSet) -> String {
-    let mut out = String::with_capacity(s.samples.len() * 96);
-    out.push_str("index,x,y,theta,phi,dx,dy,dz,pdf\n");
-    for (i, p) in s.samples.iter().enumerate() {
-        let _ =
-            writeln!(out, "{i},{},{},{},{},{},{},{},{}", p.x, p.y, p.theta, p.phi, p.dir[0], p.dir[1], p.dir[2], p.pdf);
-    }
-    out
+    let header = ["index", "x", "y", "theta", "phi", "dx", "dy", "dz", "pdf"].map(String::from);
+    let rows = s.samples.iter().enumerate().map(|(i, p)| {
+        [i.to_string(), p.x.to_string(), p.y.to_string()]
+            .into_iter()
+            .chain([p.theta, p.phi, p.dir[0], p.dir[1], p.dir[2], p.pdf].map(|v| v.to_string()))
+            .collect::<Vec<_>>()
+    });
+    csv_text(std::iter::once(header.to_vec()).chain(rows))
 }
 
 fn samples_json(s: &SampleSet) -> String {

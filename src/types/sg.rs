@@ -72,6 +72,11 @@ fn decode(bytes: &[u8]) -> Result<Value, String> {
 
 /// The JSON text of the lobes: `{"lobes": [{"axis", "sharpness", "amplitude"}, ...]}`.
 pub fn to_json(sg: &SphericalGaussians) -> String {
+    serde_json::to_string_pretty(&to_json_value(sg)).expect("JSON of plain values") + "\n"
+}
+
+/// The JSON object of the lobes (as in [`to_json`] and a label's `spherical_gaussians`).
+pub fn to_json_value(sg: &SphericalGaussians) -> serde_json::Value {
     let lobes = sg
         .lobes
         .iter()
@@ -85,7 +90,7 @@ pub fn to_json(sg: &SphericalGaussians) -> String {
         .collect();
     let mut map = serde_json::Map::new();
     map.insert("lobes".into(), serde_json::Value::Array(lobes));
-    serde_json::to_string_pretty(&serde_json::Value::Object(map)).expect("JSON of plain values") + "\n"
+    serde_json::Value::Object(map)
 }
 
 fn save(value: &Value, _: &SaveOptions) -> Result<Vec<u8>, String> {
@@ -109,11 +114,13 @@ mod tests {
         sg.encode(&mut bytes);
         assert_eq!(bytes.len(), 8 + 2 * LOBE_BYTES);
         assert_eq!(decode(&bytes).unwrap().get::<SphericalGaussians>(), Some(&sg));
-        assert!(decode(&bytes[..bytes.len() - 1]).is_err());
+        let e = decode(&bytes[..bytes.len() - 1]).unwrap_err();
+        assert!(e.starts_with("truncated: need"), "{e}");
         // A hostile count is refused before allocating.
         let mut huge = Vec::new();
         Writer(&mut huge).u64(u64::MAX / 2);
-        assert!(decode(&huge).is_err());
+        let e = decode(&huge).unwrap_err();
+        assert!(e.starts_with("truncated: need") && e.ends_with("0 left"), "{e}");
         let json: serde_json::Value = serde_json::from_str(&to_json(&sg)).unwrap();
         assert_eq!(json.as_object().unwrap().keys().collect::<Vec<_>>(), ["lobes"]);
         let lobes = json["lobes"].as_array().unwrap();

@@ -12,6 +12,7 @@
 
 use std::fmt::Write as _;
 
+use super::csv_text;
 use super::json_num as num;
 use crate::data::{ShCoefficients, ShFrame};
 use crate::engine::cache::codec::{Reader, Writer};
@@ -85,29 +86,29 @@ fn save(value: &Value, o: &SaveOptions) -> Result<Vec<u8>, String> {
     .into_bytes())
 }
 
-/// The JSON, one coefficient row per line (`serde_json`'s pretty printer would put every number
-/// on a line of its own).
+/// The JSON object: `frame`, `order`, `basis` (one line naming the convention and the axes) and
+/// `coefficients`, `(order + 1)^2` rows `[r, g, b]` in `(l, m)` order (as in a label's `sh`).
+pub fn to_json_value(c: &ShCoefficients) -> serde_json::Value {
+    let mut map = serde_json::Map::new();
+    map.insert("frame".into(), c.frame.name().into());
+    map.insert("order".into(), c.order.into());
+    map.insert("basis".into(), c.frame.basis().into());
+    let rows = c.rgb.iter().map(|v| serde_json::Value::Array(v.iter().map(|&x| num(x)).collect())).collect();
+    map.insert("coefficients".into(), serde_json::Value::Array(rows));
+    serde_json::Value::Object(map)
+}
+
+/// The JSON text, one coefficient row per line.
 fn json(c: &ShCoefficients) -> String {
-    let text = |s: &str| serde_json::Value::String(s.to_string()).to_string();
-    let mut out = String::from("{\n");
-    let _ = writeln!(out, "  \"frame\": {},", text(c.frame.name()));
-    let _ = writeln!(out, "  \"order\": {},", c.order);
-    let _ = writeln!(out, "  \"basis\": {},", text(c.frame.basis()));
-    out.push_str("  \"coefficients\": [");
-    for (i, v) in c.rgb.iter().enumerate() {
-        let sep = if i + 1 < c.rgb.len() { "," } else { "" };
-        let _ = write!(out, "\n    [{}, {}, {}]{sep}", num(v[0]), num(v[1]), num(v[2]));
-    }
-    out.push_str(if c.rgb.is_empty() { "]\n}\n" } else { "\n  ]\n}\n" });
-    out
+    super::json::text(&to_json_value(c))
 }
 
 fn csv(c: &ShCoefficients) -> String {
-    let mut out = String::from("l,m,r,g,b,frame\n");
-    for (l, m, v) in c.iter() {
-        let _ = writeln!(out, "{l},{m},{},{},{},{}", v[0], v[1], v[2], c.frame.name());
-    }
-    out
+    let header = ["l", "m", "r", "g", "b", "frame"].map(String::from);
+    let rows = c.iter().map(|(l, m, v)| {
+        [l.to_string(), m.to_string(), v[0].to_string(), v[1].to_string(), v[2].to_string(), c.frame.name().into()]
+    });
+    csv_text(std::iter::once(header).chain(rows))
 }
 
 /// A number for the table: fixed with 6 decimals in [1e-3, 1e7), else scientific.
@@ -149,7 +150,8 @@ mod tests {
             let back = decode(&bytes).unwrap();
             assert_eq!(back.get::<ShCoefficients>(), Some(&c));
             for cut in [0, 8, 20, bytes.len() - 1] {
-                assert!(decode(&bytes[..cut]).is_err(), "cut at {cut}");
+                let e = decode(&bytes[..cut]).unwrap_err();
+                assert!(e.starts_with("truncated: need"), "cut at {cut}: {e}");
             }
         }
         // A count that does not match the order, an unknown frame, a huge order.
@@ -166,7 +168,8 @@ mod tests {
         assert!(decode(&bytes).unwrap_err().contains("unknown SH frame"));
         let mut bytes = Vec::new();
         Writer(&mut bytes).u64(u64::MAX);
-        assert!(decode(&bytes).is_err());
+        let e = decode(&bytes).unwrap_err();
+        assert!(e.contains("SH order") && e.ends_with("is out of range"), "{e}");
     }
 
     #[test]

@@ -74,7 +74,8 @@ mod tests {
         assert_eq!(back[0].0, "a");
         assert_eq!(back[0].1.get::<FileBlob>().unwrap().bytes, vec![1, 2, 3]);
         for cut in [0, 1, 9, bytes.len() - 1] {
-            assert!(decode(&bytes[..cut], &registry).is_err(), "cut at {cut}");
+            let e = decode(&bytes[..cut], &registry).unwrap_err();
+            assert!(e.starts_with("truncated: need"), "cut at {cut}: {e}");
         }
     }
 
@@ -84,7 +85,8 @@ mod tests {
         for v in [u64::MAX / 2, 1 << 40] {
             bytes.extend_from_slice(&v.to_le_bytes());
         }
-        assert!(decode(&bytes, &Registry::empty()).is_err());
+        let e = decode(&bytes, &Registry::empty()).unwrap_err();
+        assert!(e.starts_with("truncated: need") && e.ends_with("8 left"), "{e}");
     }
 
     #[test]

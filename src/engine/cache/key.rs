@@ -35,18 +35,28 @@ fn put_str(h: &mut blake3::Hasher, s: &str) {
 /// The key of `node`, given the key and port name of every port wired into it (per input
 /// field, in order) and its content bytes (for loaders).
 pub fn node_key(node: &Node, inputs: &[Vec<(Key, &str)>], content: Option<&[u8]>) -> Key {
-    node_key_salted(&ENGINE_SALT, node, inputs, content)
+    node_key_with(&ENGINE_SALT, &node.spec.code_hash, node, inputs, content)
 }
 
-/// [`node_key`] under a given engine salt (the golden test pins keys under a fixed one).
-fn node_key_salted(salt: &[u8; 32], node: &Node, inputs: &[Vec<(Key, &str)>], content: Option<&[u8]>) -> Key {
+/// [`node_key`] under a given engine salt and operator code hash in place of [`ENGINE_SALT`]
+/// and `node.spec.code_hash`. Both are hashes of source text, so they change with every edit
+/// of the code they cover; the golden tests (here and `tests/cache_key_golden.rs`) pin keys
+/// under fixed ones, so that what they pin is the key layout and the operators' canonical
+/// parameters and wiring, not the source.
+pub fn node_key_with(
+    salt: &[u8; 32],
+    code_hash: &[u8; 32],
+    node: &Node,
+    inputs: &[Vec<(Key, &str)>],
+    content: Option<&[u8]>,
+) -> Key {
     let spec = &node.spec;
     let mut h = blake3::Hasher::new();
     h.update(DOMAIN);
     h.update(salt);
     put_str(&mut h, spec.name);
     h.update(&spec.version.to_le_bytes());
-    h.update(&spec.code_hash);
+    h.update(code_hash);
     let mut next_input = 0;
     for field in &spec.fields {
         if let FieldKind::Input { .. } = field.kind {
@@ -80,11 +90,16 @@ fn node_key_salted(salt: &[u8; 32], node: &Node, inputs: &[Vec<(Key, &str)>], co
 /// type name and its cache payload (for an image: width, height, channel names, then the f32
 /// samples), so the same content gets the same key whatever node or run supplies it.
 pub fn provided_key(value: &crate::engine::value::Value) -> Key {
+    provided_key_with(&ENGINE_SALT, value)
+}
+
+/// [`provided_key`] under a given engine salt (see [`node_key_with`]).
+pub fn provided_key_with(salt: &[u8; 32], value: &crate::engine::value::Value) -> Key {
     let mut payload = Vec::with_capacity(value.approx_bytes() + 64);
     value.encode(&mut payload);
     let mut h = blake3::Hasher::new();
     h.update(b"hdrflow.provided-value.v1\0");
-    h.update(&ENGINE_SALT);
+    h.update(salt);
     put_str(&mut h, value.value_type().name());
     h.update(&(payload.len() as u64).to_le_bytes());
     h.update(&payload);
@@ -201,7 +216,7 @@ mod tests {
         let salt = [7u8; 32];
         let key = |name: &str, inputs: &[Vec<(Key, &str)>]| {
             let node = p.nodes.iter().find(|n| n.name == name).unwrap();
-            node_key_salted(&salt, node, inputs, None)
+            node_key_with(&salt, &node.spec.code_hash, node, inputs, None)
         };
         let (a, b) = (key("a", &[vec![]]), key("b", &[vec![]]));
         let c = key("c", &[vec![(a, "image")]]);
@@ -211,7 +226,7 @@ mod tests {
         let one = Pipeline::parse(r#"(nodes: {"k": Keyed(x: 1.0)})"#, "t.ron", Path::new("."), &registry(), &[]);
         let one = one.unwrap();
         let int = Pipeline::parse(r#"(nodes: {"k": Keyed(x: 1)})"#, "t.ron", Path::new("."), &registry(), &[]).unwrap();
-        let k = |p: &Pipeline| node_key_salted(&salt, &p.nodes[0], &[vec![]], None);
+        let k = |p: &Pipeline| node_key_with(&salt, &p.nodes[0].spec.code_hash, &p.nodes[0], &[vec![]], None);
         assert_eq!(k(&one), k(&int));
         let neg = Pipeline::parse(r#"(nodes: {"k": Keyed(x: -0.0)})"#, "t.ron", Path::new("."), &registry(), &[]);
         let pos = Pipeline::parse(r#"(nodes: {"k": Keyed(x: 0.0)})"#, "t.ron", Path::new("."), &registry(), &[]);

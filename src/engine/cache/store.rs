@@ -532,7 +532,7 @@ mod tests {
         let (pinned, other) = ([3u8; 32], [4u8; 32]);
         s.put(&pinned, &blob(300)).unwrap();
         s.put(&other, &blob(300)).unwrap();
-        assert!(s.put(&[5u8; 32], &blob(300)).is_err(), "past the add limit");
+        assert!(matches!(s.put(&[5u8; 32], &blob(300)), Err(CacheError::LimitReached { .. })), "past the add limit");
         assert!(s.fork().put(&[5u8; 32], &blob(300)).is_ok(), "a fork has its own limit");
         for k in [pinned, other, [5u8; 32]] {
             let f = fs::File::options().write(true).open(s.path_for(&k)).unwrap();

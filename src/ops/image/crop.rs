@@ -92,7 +92,13 @@ mod tests {
         let img = Image::new(4, 3, 1);
         let e = crop(&img, 3, 0, 2, 1).unwrap_err().to_string();
         assert_eq!(e, "the rectangle x 3..5, y 0..1 does not fit inside the 4x3 image");
-        assert!(crop(&img, 0, 1, 1, 3).is_err());
-        assert!(crop(&img, usize::MAX, 0, 1, 1).is_err());
+        let e = crop(&img, 0, 1, 1, 3).unwrap_err();
+        assert!(
+            matches!(&e, OpError::Invalid(m) if m == "the rectangle x 0..1, y 1..4 does not fit inside the 4x3 image"),
+            "{e}"
+        );
+        // x + width overflows: refused, not wrapped around.
+        let e = crop(&img, usize::MAX, 0, 1, 1).unwrap_err();
+        assert!(matches!(&e, OpError::Invalid(m) if m.ends_with("does not fit inside the 4x3 image")), "{e}");
     }
 }

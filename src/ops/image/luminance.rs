@@ -39,7 +39,10 @@ pub fn spec() -> OpSpec {
 pub fn luminance(rgb: [f32; 3], weights: Weights) -> f32 {
     let [r, g, b] = rgb;
     match weights {
-        Weights::Rec709 => 0.2126 * r + 0.7152 * g + 0.0722 * b,
+        Weights::Rec709 => {
+            let [wr, wg, wb] = crate::maths::colour::REC709_F32;
+            wr * r + wg * g + wb * b
+        }
         Weights::Rec2020 => 0.2627 * r + 0.6780 * g + 0.0593 * b,
         Weights::Mean => (r + g + b) / 3.0,
         Weights::Max => r.max(g).max(b),

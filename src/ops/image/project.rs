@@ -12,14 +12,17 @@
 //! `Bilinear` (a lookup along the pixel's centre ray) or `Area` (the solid-angle mean over the
 //! pixel's footprint, `maths::camera_view`). A fov outside its model's range is a pipeline
 //! error at `fov` before anything runs.
+//!
+//! Port `camera` (version 2) is the view's camera (`data::Camera`: model, fov, size, angles and
+//! the world-to-camera matrix `R^T`), for `CropLabel`, so that a crop's label is built from the
+//! fields that cut the crop and cannot drift from them.
 
-use crate::data::Image;
+use crate::data::{Camera, Image};
 use crate::engine::fields::{Check, Input};
-use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec};
+use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec, OutputType, Outputs};
 use crate::engine::value::Value;
 use crate::maths::camera::{fov_problem, Lens, Model};
 use crate::maths::camera_view::{project, Filter};
-use crate::maths::rotation::Rotation;
 use crate::ops::latlong_input::warn_unless_latlong;
 use crate::types::ty::*;
 
@@ -53,8 +56,13 @@ crate::params! {
 }
 
 pub fn spec() -> OpSpec {
-    OpSpec::new("Project", "image", 1, "A perspective, fisheye or orthographic camera view of a lat-long map")
+    OpSpec::new("Project", "image", 2, "A perspective, fisheye or orthographic camera view of a lat-long map")
         .output_like("image", |p: ProjectParams<Check>| p.env, "the view, width x height, env's channels")
+        .output(
+            "camera",
+            OutputType::Fixed(CAMERA_T),
+            "the view's camera (model, fov, size, angles, world-to-camera matrix)",
+        )
         .size(|_, p: ProjectParams<Check>| Some((p.width as u64, p.height as u64)))
         .check(check)
         .code_hash(crate::op_code_hash!())
@@ -65,9 +73,18 @@ fn check(_: &CheckContext, p: ProjectParams<Check>) -> Result<(), CheckProblem> 
     fov_problem(p.model, p.fov).map_or(Ok(()), |e| Err(CheckProblem::at("fov", e)))
 }
 
-fn eval(ctx: &mut OpContext, p: ProjectParams) -> Result<Value, OpError> {
+fn eval(ctx: &mut OpContext, p: ProjectParams) -> Result<Outputs, OpError> {
     warn_unless_latlong(ctx, "env", p.env.width, p.env.height);
     let lens = Lens::new(p.model, p.fov, p.width, p.height).map_err(OpError::Invalid)?;
-    let rotation = Rotation::from_yaw_pitch_roll(p.yaw, p.pitch, p.roll);
-    Ok(Value::new(project(&p.env, &lens, rotation, p.filter)))
+    let camera = Camera {
+        model: p.model,
+        fov: p.fov,
+        width: p.width,
+        height: p.height,
+        yaw: p.yaw,
+        pitch: p.pitch,
+        roll: p.roll,
+    };
+    let view = project(&p.env, &lens, camera.rotation(), p.filter);
+    Ok(Outputs::new().with("image", Value::new(view)).with("camera", Value::new(camera)))
 }

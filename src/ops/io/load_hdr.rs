@@ -98,7 +98,7 @@ fn eval(ctx: &mut OpContext, p: LoadHdrParams) -> Result<Value, OpError> {
             }
         }
         formats::decode_by_extension_with(&bytes, &extension(&full), &p.options())
-            .map_err(|e| OpError::Format { path: full.clone(), message: e.0 })?
+            .map_err(|e| OpError::Format { path: full.clone(), message: e.to_string() })?
     };
     if image.channels == 1 {
         let data = image.data.iter().flat_map(|&v| [v, v, v]).collect();

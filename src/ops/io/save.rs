@@ -132,13 +132,11 @@ fn eval(ctx: &mut OpContext, p: SaveParams) -> Result<Value, OpError> {
             exposure += auto_exposure(&c.to_strip());
         }
     }
-    let options = SaveOptions {
-        ext,
-        exposure,
-        plot_size: (p.plot_size[0] as u32, p.plot_size[1] as u32),
-        ktx_format: p.ktx_format,
-        exr: crate::formats::exr::EncodeOptions { compression: p.compression, half: p.half },
-    };
+    let mut options = SaveOptions::new(ext)
+        .with(p.ktx_format)
+        .with(crate::formats::exr::EncodeOptions { compression: p.compression, half: p.half });
+    options.exposure = exposure;
+    options.plot_size = (p.plot_size[0] as u32, p.plot_size[1] as u32);
     if let Some(chain) = value.get::<crate::data::MipChain>().filter(|_| options.ext != "ktx2") {
         let mut files = crate::types::cubemap::save_levels(chain, &rel_path, &options).map_err(fail)?.into_iter();
         let (first_path, first) = files.next().ok_or_else(|| fail("an empty mip chain".into()))?;

@@ -156,8 +156,9 @@ mod tests {
         }
         let up = ball_map(0.0, 0.0, 0.0, Some([0.0, 2.0, 0.0])).unwrap();
         assert!(close(up.axis, DVec3::NEG_Y) && close(up.up, DVec3::Z) && close(up.right, DVec3::X));
-        assert!(ball_map(0.0, 0.0, 0.0, Some([0.0; 3])).is_err());
-        assert!(ball_map(10.0, 0.0, 0.0, Some([0.0, 0.0, -1.0])).is_err());
+        let refused = |r: Result<DiscMap, CheckProblem>, why: &str| matches!(r, Err(CheckProblem { field: Some("look"), message }) if message.contains(why));
+        assert!(refused(ball_map(0.0, 0.0, 0.0, Some([0.0; 3])), "non-zero, finite direction"));
+        assert!(refused(ball_map(10.0, 0.0, 0.0, Some([0.0, 0.0, -1.0])), "either yaw/pitch or look"));
     }
 
     #[test]
@@ -165,6 +166,10 @@ mod tests {
         assert_eq!(fill_values(&[], 3).unwrap(), vec![0.0; 3]);
         assert_eq!(fill_values(&[0.5], 4).unwrap(), vec![0.5; 4]);
         assert_eq!(fill_values(&[1.0, 2.0, 3.0], 3).unwrap(), vec![1.0, 2.0, 3.0]);
-        assert!(fill_values(&[1.0, 2.0], 3).is_err());
+        let e = fill_values(&[1.0, 2.0], 3).unwrap_err();
+        assert!(
+            matches!(&e, OpError::Invalid(m) if m.starts_with("fill has 2 values but the image has 3 channels")),
+            "{e}"
+        );
     }
 }

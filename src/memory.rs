@@ -1,0 +1,47 @@
+//! Memory advice to the operating system, below every other layer (like `crate::cpu`).
+
+/// Asks Linux to back `buf` with transparent huge pages (`madvise(MADV_HUGEPAGE)` on the whole
+/// 4 KiB pages inside it; this machine's THP setting is `madvise`). A large `vec![0.0; n]` is a
+/// fresh `mmap` that the kernel faults in and zeroes page by page on first write: at 8192x4096
+/// the 256 MiB conditional CDF took 65,544 faults and 55 ms to touch with 4 KiB pages, 647
+/// faults and 12.6 ms with 2 MiB pages (and 22 ms vs 1 ms to unmap). Advice only: contents are
+/// unchanged, a failure is ignored, and other systems do nothing.
+#[cfg(target_os = "linux")]
+pub fn advise_huge_pages<T>(buf: &mut [T]) {
+    const PAGE: usize = 4096;
+    let bytes = std::mem::size_of_val(buf);
+    if bytes < 4 << 20 {
+        return; // Small buffers come from the allocator's recycled heap, already faulted in.
+    }
+    let start = (buf.as_mut_ptr() as usize).next_multiple_of(PAGE);
+    let end = (buf.as_mut_ptr() as usize + bytes) / PAGE * PAGE;
+    if end > start {
+        // SAFETY: [start, end) lies inside `buf`, which this function borrows mutably, so no
+        // other reference observes it; MADV_HUGEPAGE only sets how the kernel backs the pages
+        // (it never discards or changes their contents, unlike MADV_DONTNEED/FREE), and the
+        // call does not touch memory outside the range. The result is deliberately ignored.
+        unsafe {
+            libc::madvise(start as *mut libc::c_void, end - start, libc::MADV_HUGEPAGE);
+        }
+    }
+}
+
+#[cfg(not(target_os = "linux"))]
+pub fn advise_huge_pages<T>(_buf: &mut [T]) {}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn huge_page_advice_keeps_the_contents() {
+        let mut fresh = vec![0.0f64; 3 << 20];
+        advise_huge_pages(&mut fresh);
+        assert!(fresh.iter().all(|&v| v == 0.0));
+        let mut used: Vec<f64> = (0..(3usize << 20) + 5).map(|i| i as f64).collect();
+        advise_huge_pages(&mut used);
+        assert!(used.iter().enumerate().all(|(i, &v)| v == i as f64));
+        advise_huge_pages(&mut used[3..1000]);
+        advise_huge_pages::<f64>(&mut []);
+    }
+}

@@ -1,0 +1,123 @@
+//! `camera`: the camera of a view ([`Camera`]), as `Project` gives it on its `camera` port.
+//! Saved as `.json`: `{"model": "Perspective", "fov": deg, "width": px, "height": px, "yaw": deg,
+//! "pitch": deg, "roll": deg, "world_to_camera": [[m00, m01, m02], [m10, m11, m12], [m20, m21,
+//! m22]]}` (the matrix row-major, `R^T` for the view's rotation `R`: it maps the view's centre
+//! ray to (0, 0, -1); numbers as the shortest decimal that reads back to the same f64).
+
+use super::json_num as num;
+use crate::data::Camera;
+use crate::engine::cache::codec::{Reader, Writer};
+use crate::engine::value::{SaveOptions, TypeSpec, Value, ValueData, ValueType};
+use crate::maths::camera::Model;
+
+pub static CAMERA: TypeSpec = TypeSpec {
+    name: "camera",
+    doc: "a view's camera: lens model, horizontal fov, size, yaw/pitch/roll and the world-to-camera matrix",
+    decode,
+    save_extensions: &["json"],
+    save: Some(save),
+};
+
+impl ValueData for Camera {
+    fn value_type(&self) -> ValueType {
+        ValueType(&CAMERA)
+    }
+    fn approx_bytes(&self) -> usize {
+        std::mem::size_of::<Camera>()
+    }
+    fn summary(&self) -> String {
+        format!(
+            "a {} x {} {} camera of fov {} at yaw {}, pitch {}, roll {}",
+            self.width, self.height, self.model, self.fov, self.yaw, self.pitch, self.roll
+        )
+    }
+    fn display(&self) -> Option<String> {
+        Some(super::json::text(&to_json_value(self)).trim_end().to_string())
+    }
+    fn encode(&self, out: &mut Vec<u8>) {
+        write_camera(&mut Writer(out), self);
+    }
+}
+
+/// Writes a camera's payload (its own, and the first part of a `label`'s).
+pub(crate) fn write_camera(w: &mut Writer, c: &Camera) {
+    w.str(c.model.name());
+    w.f64(c.fov);
+    w.u64(c.width as u64);
+    w.u64(c.height as u64);
+    for v in [c.yaw, c.pitch, c.roll] {
+        w.f64(v);
+    }
+}
+
+/// Reads what [`write_camera`] wrote.
+pub(crate) fn read_camera(r: &mut Reader) -> Result<Camera, String> {
+    let name = r.str()?;
+    let model = Model::from_name(&name).ok_or_else(|| format!("unknown camera model {name:?}"))?;
+    let fov = r.f64()?;
+    let (width, height) = (r.usize()?, r.usize()?);
+    let (yaw, pitch, roll) = (r.f64()?, r.f64()?, r.f64()?);
+    Ok(Camera { model, fov, width, height, yaw, pitch, roll })
+}
+
+fn decode(bytes: &[u8]) -> Result<Value, String> {
+    let mut r = Reader::new(bytes);
+    let camera = read_camera(&mut r)?;
+    r.finish()?;
+    Ok(Value::new(camera))
+}
+
+/// The JSON object of a camera (keys `model`, `fov`, `width`, `height`, `yaw`, `pitch`, `roll`,
+/// `world_to_camera`).
+pub fn to_json_value(c: &Camera) -> serde_json::Value {
+    let mut map = serde_json::Map::new();
+    map.insert("model".into(), c.model.name().into());
+    map.insert("fov".into(), num(c.fov));
+    map.insert("width".into(), c.width.into());
+    map.insert("height".into(), c.height.into());
+    map.insert("yaw".into(), num(c.yaw));
+    map.insert("pitch".into(), num(c.pitch));
+    map.insert("roll".into(), num(c.roll));
+    let rows = c.world_to_camera().map(|row| serde_json::Value::Array(row.iter().map(|&v| num(v)).collect()));
+    map.insert("world_to_camera".into(), serde_json::Value::Array(rows.to_vec()));
+    serde_json::Value::Object(map)
+}
+
+fn save(value: &Value, _: &SaveOptions) -> Result<Vec<u8>, String> {
+    let c = value.get::<Camera>().ok_or("not a camera")?;
+    Ok(super::json::text(&to_json_value(c)).into_bytes())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn round_trips_and_saves_json() {
+        let c =
+            Camera { model: Model::Fisheye, fov: 187.5, width: 640, height: 480, yaw: -30.0, pitch: 12.5, roll: 3.0 };
+        let mut bytes = Vec::new();
+        c.encode(&mut bytes);
+        assert_eq!(decode(&bytes).unwrap().get::<Camera>(), Some(&c));
+        for cut in [0, 5, bytes.len() - 1] {
+            let e = decode(&bytes[..cut]).unwrap_err();
+            assert!(e.starts_with("truncated: need"), "cut at {cut}: {e}");
+        }
+        let mut bad = Vec::new();
+        Writer(&mut bad).str("Pinhole");
+        assert!(decode(&bad).unwrap_err().contains("unknown camera model"));
+
+        let json: serde_json::Value = serde_json::from_str(&to_json_value(&c).to_string()).unwrap();
+        let keys: Vec<&String> = json.as_object().unwrap().keys().collect();
+        assert_eq!(keys, ["model", "fov", "width", "height", "yaw", "pitch", "roll", "world_to_camera"]);
+        assert_eq!(json["model"], "Fisheye");
+        assert_eq!(json["width"], 640);
+        assert_eq!(json["pitch"].as_f64(), Some(12.5));
+        let m = c.world_to_camera();
+        for (i, row) in json["world_to_camera"].as_array().unwrap().iter().enumerate() {
+            // serde_json's float parser may miss the last bit: compare to 1e-15.
+            let row: Vec<f64> = row.as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
+            assert!(row.iter().zip(m[i]).all(|(a, b)| (a - b).abs() < 1e-15), "{row:?} {:?}", m[i]);
+        }
+    }
+}
