@@ -29,7 +29,8 @@
 //! BENCHMARKS.md, "Peak memory".
 //!
 //! The queue is a heap by the order above; a pop skips (and keeps) the large nodes that may not
-//! start, so it costs O(k log n) for k of them waiting.
+//! start, and ranks again an entry whose prediction has changed since it was queued, so it costs
+//! O(k log n) for k of them.
 
 use std::cmp::Reverse;
 use std::collections::{BinaryHeap, HashMap};
@@ -54,8 +55,11 @@ enum Prediction {
 
 #[derive(Debug)]
 struct Inner {
-    /// (bytes it lowers `live` by, earliest in file order first).
-    heap: BinaryHeap<(i64, Reverse<usize>)>,
+    /// (bytes it lowers `live` by, earliest in file order first, bytes its start frees). The
+    /// first is as of when the entry was made: a prediction only grows (from nothing to what
+    /// its type takes, then to the most seen), so a stale entry ranks too high, and `pop`
+    /// ranks it again.
+    heap: BinaryHeap<(i64, Reverse<usize>, usize)>,
     /// Per node: its default output's type and pixel count, when known before running.
     shapes: Vec<Option<(ValueType, u64)>>,
     /// Per type: the most bytes a texel took in a value of it so far.
@@ -72,6 +76,15 @@ struct Inner {
 }
 
 impl Inner {
+    /// The bytes starting `node` lowers `live` by: what it frees minus what it is predicted to make.
+    fn gain(&self, node: usize, frees: usize) -> i64 {
+        let made = match self.predicted(node) {
+            Prediction::Bytes(b) => b,
+            Prediction::Unknown => 0,
+        };
+        frees as i64 - made as i64
+    }
+
     fn predicted(&self, node: usize) -> Prediction {
         match self.shapes[node] {
             Some((ty, pixels)) => match self.texel_bytes.get(&ty) {
@@ -112,12 +125,8 @@ impl Admission {
     /// Queues node `node`, whose start frees `frees` bytes (the inputs it is the last consumer of).
     pub fn push(&self, node: usize, frees: usize) {
         let mut m = self.lock();
-        let made = match m.predicted(node) {
-            Prediction::Bytes(b) => b,
-            Prediction::Unknown => 0,
-        };
-        let gain = frees as i64 - made as i64;
-        m.heap.push((gain, Reverse(node)));
+        let gain = m.gain(node, frees);
+        m.heap.push((gain, Reverse(node), frees));
     }
 
     /// The best queued node that may start now (see the module documentation), counted as
@@ -127,7 +136,13 @@ impl Admission {
         let mut waiting = Vec::new();
         let mut chosen = None;
         while let Some(entry) = m.heap.pop() {
-            let node = entry.1 .0;
+            let (gain, Reverse(node), frees) = entry;
+            let now = m.gain(node, frees);
+            if now != gain {
+                // Its type was seen since it was queued: ranked again, where it now belongs.
+                m.heap.push((now, Reverse(node), frees));
+                continue;
+            }
             let prediction = m.predicted(node);
             let starts = match prediction {
                 Prediction::Bytes(p) => p < SMALL || m.live + p <= m.high + SMALL || m.running == 0,
@@ -335,5 +350,20 @@ mod tests {
         assert_eq!(q.pop(), None, "767 + 267 MB is past the mark while node 0 runs");
         q.finished(0);
         assert_eq!(q.pop(), Some(2), "nothing else runs");
+    }
+
+    /// A node queued before its type was seen is ranked by what it makes once that is known: a
+    /// second distribution that frees a luminance does not go before a small node any more.
+    #[test]
+    fn a_node_is_ranked_again_once_its_type_is_seen() {
+        // 0: a glossy sphere (a small image); 1: a distribution of a map.
+        let q = Admission::new(vec![Some((IMAGE_T, MAP / 4096)), Some((DISTRIBUTION_T, MAP))]);
+        q.stored(400 * MB, Some((IMAGE_T, MAP)));
+        q.push(1, 100 * MB);
+        q.push(0, 0);
+        q.stored(267 * MB, Some((DISTRIBUTION_T, MAP)));
+        assert_eq!(q.pop(), Some(0), "the distribution now makes more than it frees");
+        q.finished(0);
+        assert_eq!(q.pop(), Some(1));
     }
 }

@@ -90,8 +90,8 @@ pub(super) fn pump<'s>(s: &'s State<'s>, scope: &rayon::Scope<'s>) {
 }
 
 /// Runs node `i`: takes its inputs, evaluates it (a panic is an error of that node), checks
-/// its outputs, stores them in the cache if worth it and in its slots, counts it as finished,
-/// then queues every consumer that was waiting only for it.
+/// its outputs, stores them in the cache if worth it and in its slots, queues every consumer
+/// that was waiting only for it, then counts it as finished.
 fn execute<'s>(s: &'s State<'s>, scope: &rayon::Scope<'s>, i: usize) {
     if s.abort.load(Ordering::SeqCst) {
         return s.ready.finished(i);
@@ -118,9 +118,8 @@ fn execute<'s>(s: &'s State<'s>, scope: &rayon::Scope<'s>, i: usize) {
     if s.is_target[i] {
         s.target_extras.lock().expect("extras lock").extend(extra.into_iter().map(|(n, v)| (i, n, v)));
     }
-    let stored_in_slots = s.store(i, values);
-    s.ready.finished(i);
-    if let Err(e) = stored_in_slots {
+    if let Err(e) = s.store(i, values) {
+        s.ready.finished(i);
         return s.fail(e);
     }
     let elapsed = t0.elapsed().as_secs_f64() * 1e3;
@@ -133,6 +132,9 @@ fn execute<'s>(s: &'s State<'s>, scope: &rayon::Scope<'s>, i: usize) {
             enqueue(s, scope, c);
         }
     }
+    // Counted as finished only now that its consumers are queued: were it before, another
+    // worker could find nothing running and start a large node ahead of them (see `admission`).
+    s.ready.finished(i);
 }
 
 /// Node `i`'s operator on its inputs, with its warnings reported and its outputs matched to
