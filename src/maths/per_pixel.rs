@@ -782,7 +782,7 @@ pub fn relight_per_pixel_with(
 }
 
 /// The per-map half of [`relight_per_pixel_with`]: the texel records and the environment
-/// technique's sampler, built once (2-6 ms on a 1024x512 map here) and then shared by any
+/// technique's sampler, built once and then shared by any
 /// number of renders of that map, as a renderer loads its scene once. The benchmark times
 /// [`Self::render`] alone, as Mitsuba's peer times `mi.render` after loading the scene.
 pub struct PerPixelRenderer<'a> {

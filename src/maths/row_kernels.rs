@@ -9,11 +9,9 @@
 //! bad texel), then `write_row_cdf` writes the normalised running sums directly, multiplying by
 //! `1 / sum`. Both run over blocks of 8 texels so that only one f64 add per block is on the
 //! dependency chain. The AVX-512 and AVX2 ones (`x86`, chosen at run time) write the running
-//! sums once with an 8-lane scan per block and normalise them while the row is in the L1 cache:
-//! 0.20 and 0.25 ns a texel against 0.51 for the portable one, which made `BuildCdf` at
-//! 2048x1024 twice as fast (0.60 -> 0.29-0.33 ms with AVX-512, 0.33-0.38 ms with AVX2, within
-//! 1.1-1.6x of converting the luminance to f64 and writing it into a fresh buffer: the memory
-//! traffic is now most of it). `data::distribution`'s tests compare every kernel the processor
+//! sums once with an 8-lane scan per block and normalise them while the row is in the L1 cache,
+//! so that memory traffic, not the scan, bounds `BuildCdf` (BENCHMARKS.md, "Point targets", BuildCdf: the
+//! kernels' cost per texel and the floor they are measured against). `data::distribution`'s tests compare every kernel the processor
 //! has with the portable one, row by row and whole builds (`row_kernels_give_the_same_bits`).
 //!
 //! A leaf: it uses nothing of the crate but [`crate::cpu`], so the distribution (in `data`) can

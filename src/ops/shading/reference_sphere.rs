@@ -5,8 +5,8 @@
 //! expectation of `RelightSphere` with `Unbiased` samples from `Sample` is exactly this image
 //! (up to f32 rounding).
 //!
-//! Cost: O(pixels x lit texels), a brute-force sum made fast by culling and SIMD (a 256 x 256
-//! sphere under a 1024 x 512 map takes ~1-2 s on 2 cores).
+//! Cost: O(pixels x lit texels), a brute-force sum made fast by culling and SIMD (timings in
+//! BENCHMARKS.md).
 
 use super::sphere_view;
 use crate::data::Image;
