@@ -1,5 +1,9 @@
 //! Radiance RGBE (`.hdr`, `.pic`): a hand-written reader and writer.
 //!
+//! Why one file of about 450 code lines: header, resolution line, the three scanline encodings
+//! and the writer are one format whose parts refer to each other (the writer emits what the
+//! reader's fast path expects); the long comment below is the format's description, not code.
+//!
 //! Hand-written (rather than `image::codecs::hdr`) for speed: it decodes straight from the byte
 //! slice into the final f32 buffer through a 256-entry exponent table, with no per-byte `Read`
 //! calls; it is benchmarked against the `image` crate's decoder and must match it bit for bit.
