@@ -4,8 +4,8 @@
 //!     cargo run --release --example custom_operator -- run examples/invert.ron --out out/invert
 //!
 //! Everything of the `hdrflow` binary works on it (`run`, `plan`, `dot`, `ops`, `--set`, the
-//! cache, `--target`, `--report`), because `hdrflow::cli::main_with` is that binary's `main`
-//! over a registry we hand it. The operator, `Invert(image, white: 1.0)`, replaces every value v
+//! cache, `--target`, `--report`), because `hdrflow::cli::main_with` is that binary's command
+//! line (without `bench`, the binary's own benchmark) over a registry we hand it. The operator, `Invert(image, white: 1.0)`, replaces every value v
 //! by white - v; its parameters are one typed struct, as for the built-in operators.
 
 use hdrflow::data::Image;

@@ -1,7 +1,8 @@
 //! hdrflow: a node-graph engine for HDR image processing.
 //!
 //! Layers, each using only those below it:
-//! - [`cli`]: the command line, over any registry (`cli::main_with`).
+//! - [`cli`]: the command line, over any registry (`cli::main_with`); the `hdrflow` binary adds
+//!   `bench`, the benchmark, which is its own module (src/bench), not the library's.
 //! - [`report`]: the HTML page of a run (graph, outputs, nodes, timeline).
 //! - [`ops`]: the built-in operators, one file each, grouped by domain; `ops::builtin_registry`.
 //! - [`types`]: the built-in value types (how each data type is named, cached and saved).
@@ -32,9 +33,7 @@
 // `!(x > 0.0)` is written on purpose throughout: it is true for NaN, which is the point.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
-// The benchmark harness behind `hdrflow bench`: used by the CLI, not a public API.
 pub mod batch;
-mod bench;
 pub mod choice;
 pub mod cli;
 pub mod cpu;

@@ -20,6 +20,7 @@
 //! Writes `results.csv`, one log-log chart per map (`time_error_<map>.png` / `.svg`, error bars
 //! = the 95% CI) and `summary.md` into the output folder.
 
+pub mod command;
 pub mod glossy;
 pub mod peak_memory;
 pub mod stats;
@@ -29,19 +30,20 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use crate::data::{Distribution2D, Image};
-use crate::engine::cache::store::write_atomic;
-use crate::geometry::latlong;
-use crate::maths::error_metrics::image_error;
-use crate::maths::glossy::Heuristic;
-use crate::maths::per_pixel::{PerPixelRenderer, PerPixelSequence, PerPixelStrategy, PerPixelWarp};
-use crate::maths::reference::reference_sphere;
-use crate::maths::relight::{Estimator, SphereView};
-use crate::maths::sequences::Sequence;
-use crate::maths::sh;
-use crate::ops::sampling::sample::draw;
-use crate::ops::shading::relight_sphere::relight_shared;
-use crate::plotting::time_error::{self, Line};
+use hdrflow::data::{Distribution2D, Image};
+use hdrflow::engine::cache::store::write_atomic;
+use hdrflow::geometry::latlong;
+use hdrflow::maths::colour::rec709_luminance_f32;
+use hdrflow::maths::error_metrics::image_error;
+use hdrflow::maths::glossy::Heuristic;
+use hdrflow::maths::per_pixel::{PerPixelRenderer, PerPixelSequence, PerPixelStrategy, PerPixelWarp};
+use hdrflow::maths::reference::reference_sphere;
+use hdrflow::maths::relight::{Estimator, SphereView};
+use hdrflow::maths::sequences::Sequence;
+use hdrflow::maths::sh;
+use hdrflow::maths::shared_relight::relight_sphere;
+use hdrflow::maths::texel_samples;
+use hdrflow::plotting::time_error::{self, Line};
 
 /// The largest per-pixel sample count swept with independent uniforms: past it a point takes
 /// seconds per seed and shows nothing new (its slope is set by then).
@@ -134,11 +136,11 @@ impl BenchRow {
 /// Loads a map as the benchmark and `LoadHdr` see it.
 pub fn load_map(spec: &MapSpec) -> Result<Image, String> {
     let mut img = if let Some(name) = spec.source.strip_prefix("builtin:") {
-        crate::formats::builtin::builtin(name).ok_or_else(|| format!("no built-in map {name:?}"))?
+        hdrflow::formats::builtin::builtin(name).ok_or_else(|| format!("no built-in map {name:?}"))?
     } else {
         let bytes = std::fs::read(&spec.source).map_err(|e| format!("{}: {e}", spec.source))?;
         let ext = Path::new(&spec.source).extension().map(|e| e.to_string_lossy().to_lowercase()).unwrap_or_default();
-        crate::formats::decode_by_extension(&bytes, &ext).map_err(|e| format!("{}: {}", spec.source, e))?
+        hdrflow::formats::decode_by_extension(&bytes, &ext).map_err(|e| format!("{}: {}", spec.source, e))?
     };
     if spec.flip_vertical {
         img = img.flipped_vertical();
@@ -146,13 +148,11 @@ pub fn load_map(spec: &MapSpec) -> Result<Image, String> {
     Ok(img)
 }
 
-/// Rec. 709 luminance of an RGB image (the `Luminance` operator's weights).
+/// Rec. 709 luminance of an RGB image, as `Luminance(weights: Rec709)` computes it.
 pub fn luminance(img: &Image) -> Image {
     let data = (0..img.height)
         .flat_map(|y| (0..img.width).map(move |x| (x, y)))
-        .map(|(x, y)| {
-            crate::ops::image::luminance::luminance(img.rgb(x, y), crate::ops::image::luminance::Weights::Rec709)
-        })
+        .map(|(x, y)| rec709_luminance_f32(img.rgb(x, y)))
         .collect();
     Image::from_vec(img.width, img.height, 1, data)
 }
@@ -184,7 +184,7 @@ pub fn inner_disc_mask(size: usize) -> Vec<bool> {
     mask
 }
 
-fn metric(m: &crate::data::Metrics, name: &str) -> f64 {
+fn metric(m: &hdrflow::data::Metrics, name: &str) -> f64 {
     m.get(name).unwrap_or(f64::NAN)
 }
 
@@ -317,8 +317,8 @@ pub fn run(config: &BenchConfig, log: &dyn Fn(&str)) -> Result<Vec<BenchRow>, St
                     &seeds,
                     config.repeats,
                     |seed| {
-                        let set = draw(&dist, seq, count, seed);
-                        relight_shared(&env, &set, config.size, albedo, view_dir, Estimator::Unbiased)
+                        let set = texel_samples::draw(&dist, seq, count, seed);
+                        relight_sphere(&env, &set, config.size, albedo, view_dir, Estimator::Unbiased)
                             .map_err(|e| e.to_string())
                     },
                     score,
@@ -329,8 +329,8 @@ pub fn run(config: &BenchConfig, log: &dyn Fn(&str)) -> Result<Vec<BenchRow>, St
                 &seeds,
                 config.repeats,
                 |seed| {
-                    let set = draw(&dist, Sequence::Random, count, seed);
-                    relight_shared(&env, &set, config.size, albedo, view_dir, Estimator::Seed)
+                    let set = texel_samples::draw(&dist, Sequence::Random, count, seed);
+                    relight_sphere(&env, &set, config.size, albedo, view_dir, Estimator::Seed)
                         .map_err(|e| e.to_string())
                 },
                 score,
@@ -429,7 +429,7 @@ fn run_peers(
     let work = config.out_dir.join("peers").join(&spec.name);
     std::fs::create_dir_all(&work).map_err(|e| format!("{}: {e}", work.display()))?;
     let env_path = work.join("env.pfm");
-    write_atomic(&env_path, &crate::formats::pfm::encode(env)).map_err(|e| e.to_string())?;
+    write_atomic(&env_path, &hdrflow::formats::pfm::encode(env)).map_err(|e| e.to_string())?;
     let counts: Vec<String> = config.counts.iter().map(|c| c.to_string()).collect();
     let seeds = seed_list(config).iter().map(|s| s.to_string()).collect::<Vec<_>>().join(",");
     for script in ["numpy_seed.py", "mitsuba_sphere.py"] {
@@ -476,7 +476,7 @@ fn run_peers(
             };
             let img = std::fs::read(out.join(image))
                 .map_err(|e| e.to_string())
-                .and_then(|b| crate::formats::pfm::decode(&b).map_err(|e| e.to_string()))
+                .and_then(|b| hdrflow::formats::pfm::decode(&b).map_err(|e| e.to_string()))
                 .map_err(|e| format!("peer {script} image {image}: {e}"))?;
             let m = image_error(&img, reference, Some(mask)).map_err(|e| format!("peer {script}: {e}"))?;
             let error = (metric(&m, "relative_rmse"), metric(&m, "psnr"));
@@ -604,7 +604,24 @@ fn csv_of(rows: &[BenchRow]) -> String {
             r.seeds.to_string(),
         ]
     });
-    crate::types::csv_text(std::iter::once(header.map(String::from).to_vec()).chain(records))
+    csv_text(std::iter::once(header.map(String::from).to_vec()).chain(records))
+}
+
+/// CSV text of `records`, the header first, as every CSV file hdrflow writes: RFC 4180 quoting
+/// by the `csv` crate (a field is quoted only when it holds a comma, a double quote or a line
+/// break), `\n` after each record; numbers are formatted by the caller.
+pub fn csv_text<R, F>(records: impl IntoIterator<Item = R>) -> String
+where
+    R: IntoIterator<Item = F>,
+    F: AsRef<[u8]>,
+{
+    let mut w = csv::WriterBuilder::new().flexible(true).from_writer(Vec::new());
+    for record in records {
+        // Writing into a Vec has no I/O to fail, and a flexible writer no length to refuse.
+        w.write_record(record).expect("CSV into memory");
+    }
+    let bytes = w.into_inner().expect("CSV into memory");
+    String::from_utf8(bytes).expect("UTF-8 fields give UTF-8 CSV")
 }
 
 fn write_csv(path: &Path, rows: &[BenchRow]) -> Result<(), String> {

@@ -18,16 +18,16 @@
 use std::path::Path;
 use std::time::Instant;
 
-use crate::data::{Distribution2D, Image};
-use crate::engine::cache::CacheStore;
-use crate::engine::scheduler::{self, RunOptions, Silent};
-use crate::geometry::latlong;
-use crate::maths::relight::Estimator;
-use crate::maths::sequences::Sequence;
-use crate::ops::image::resize::resize;
-use crate::ops::sampling::sample::draw;
-use crate::ops::shading::relight_sphere::relight_shared;
-use crate::Pipeline;
+use hdrflow::data::{Distribution2D, Image};
+use hdrflow::engine::cache::CacheStore;
+use hdrflow::engine::scheduler::{self, RunOptions, Silent};
+use hdrflow::geometry::latlong;
+use hdrflow::maths::area_resize::resize;
+use hdrflow::maths::relight::Estimator;
+use hdrflow::maths::sequences::Sequence;
+use hdrflow::maths::shared_relight::relight_sphere;
+use hdrflow::maths::texel_samples;
+use hdrflow::Pipeline;
 
 use super::{luminance, time_median};
 
@@ -52,14 +52,14 @@ pub fn measure(data: &Path, peers: Option<&Path>, repeats: usize, log: &dyn Fn(&
 
     // 1. RelightSphere 512x512, 1024 shared samples.
     let grace_path = data.join("grace_latlong.exr");
-    let mut maps = vec![("builtin:sky".to_string(), crate::formats::builtin::builtin("sky").expect("built-in"))];
+    let mut maps = vec![("builtin:sky".to_string(), hdrflow::formats::builtin::builtin("sky").expect("built-in"))];
     if grace_path.is_file() {
         maps.push(("grace_latlong.exr".into(), load(&grace_path)?.flipped_vertical()));
     }
     let view = latlong::direction_deg(90.0, 90.0);
     for (name, env) in &maps {
         let dist = Distribution2D::build(&luminance(env), true, true).map_err(|e| e.to_string())?;
-        let set = draw(&dist, Sequence::Random, 1024, 1);
+        let set = texel_samples::draw(&dist, Sequence::Random, 1024, 1);
         let distinct = {
             let mut t: Vec<(u32, u32)> = set.samples.iter().map(|s| (s.x, s.y)).collect();
             t.sort_unstable();
@@ -67,7 +67,7 @@ pub fn measure(data: &Path, peers: Option<&Path>, repeats: usize, log: &dyn Fn(&
             t.len()
         };
         let (ms, img) =
-            time_median(repeats * 4, || relight_shared(env, &set, 512, [0.8; 3], view, Estimator::Unbiased));
+            time_median(repeats * 4, || relight_sphere(env, &set, 512, [0.8; 3], view, Estimator::Unbiased));
         img.map_err(|e| e.to_string())?;
         log(&format!("RelightSphere 512x512, 1024 samples ({distinct} distinct texels), {name}: {ms:.2} ms"));
         out.push(Target {
@@ -101,7 +101,7 @@ pub fn measure(data: &Path, peers: Option<&Path>, repeats: usize, log: &dyn Fn(&
     let base = if grace_path.is_file() {
         load(&grace_path)?
     } else {
-        crate::formats::builtin::builtin("sky").expect("built-in")
+        hdrflow::formats::builtin::builtin("sky").expect("built-in")
     };
     for (w, h) in [(2048, 1024), (8192, 4096), (16384, 8192)] {
         let map = resize(&base, w, h);
@@ -152,9 +152,13 @@ pub fn measure(data: &Path, peers: Option<&Path>, repeats: usize, log: &dyn Fn(&
     let hdr_bytes = if hdr_path.is_file() {
         std::fs::read(&hdr_path).map_err(|e| e.to_string())?
     } else {
-        crate::formats::rgbe::encode(&resize(&crate::formats::builtin::builtin("sky").expect("built-in"), 1024, 512))
+        hdrflow::formats::rgbe::encode(&resize(
+            &hdrflow::formats::builtin::builtin("sky").expect("built-in"),
+            1024,
+            512,
+        ))
     };
-    let (ours_ms, ours) = time_median(repeats * 2, || crate::formats::rgbe::decode(&hdr_bytes));
+    let (ours_ms, ours) = time_median(repeats * 2, || hdrflow::formats::rgbe::decode(&hdr_bytes));
     ours.map_err(|e| e.to_string())?;
     let (theirs_ms, theirs) = time_median(repeats * 2, || {
         image::load_from_memory_with_format(&hdr_bytes, image::ImageFormat::Hdr).map(|i| i.to_rgb32f())
@@ -181,7 +185,7 @@ pub fn measure(data: &Path, peers: Option<&Path>, repeats: usize, log: &dyn Fn(&
     }
 
     // 4. The seed graph, cold and cached.
-    let registry = crate::ops::builtin_registry();
+    let registry = hdrflow::builtin_registry();
     let seed = Path::new(env!("CARGO_MANIFEST_DIR")).join("graphs/seed.ron");
     let p = Pipeline::load(&seed, &registry, &[]).map_err(|e| e.to_string())?;
     let tmp = std::env::temp_dir().join(format!("hdrflow-bench-seed-{}", std::process::id()));
@@ -272,10 +276,10 @@ fn reference_against_floor(maps: &[(String, Image)], log: &dyn Fn(&str)) -> Targ
         Some((n, m)) => (n.clone(), m.clone()),
         None => ("built-in sky resized".to_string(), resize(&maps[0].1, 1024, 512)),
     };
-    let view = crate::maths::relight::SphereView::new(512, latlong::direction_deg(90.0, 90.0));
-    let (ms, img) = time_median(1, || crate::maths::reference::reference_sphere(&env, &view, [0.8; 3]));
+    let view = hdrflow::maths::relight::SphereView::new(512, latlong::direction_deg(90.0, 90.0));
+    let (ms, img) = time_median(1, || hdrflow::maths::reference::reference_sphere(&env, &view, [0.8; 3]));
     std::hint::black_box(img);
-    let (evaluated, all) = crate::maths::reference::reference_work(&env, &view);
+    let (evaluated, all) = hdrflow::maths::reference::reference_work(&env, &view);
     let cores = rayon::current_num_threads() as f64;
     let target_name = format!("ReferenceSphere 512x512 on a 1024x512 map ({name})");
     match measure_clock_hz() {
@@ -315,7 +319,7 @@ const SKY_F32: &str = "sky_f32.exr";
 /// The EXR files of target 3b: OpenEXR's own PIZ test image, the shared ZIP map when present, and
 /// 2048x1024 renderings of the built-in sky written by our encoder in ZIP, PIZ and DWAA.
 fn exr_files(data: &Path, dir: &Path) -> Result<Vec<(String, std::path::PathBuf)>, String> {
-    use crate::formats::exr::{encode_with, EncodeOptions, ExrCompression};
+    use hdrflow::formats::exr::{encode_with, EncodeOptions, ExrCompression};
     let mut files = vec![(
         "Rec709.exr (OpenEXR test image, PIZ, 610x406)".to_string(),
         Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/openexr/Rec709.exr"),
@@ -325,7 +329,7 @@ fn exr_files(data: &Path, dir: &Path) -> Result<Vec<(String, std::path::PathBuf)
         files.push(("grace_latlong.exr (ZIP, 1024x512)".into(), grace));
     }
     std::fs::create_dir_all(dir).map_err(|e| e.to_string())?;
-    let sky = resize(&crate::formats::builtin::builtin("sky").expect("built-in"), 2048, 1024);
+    let sky = resize(&hdrflow::formats::builtin::builtin("sky").expect("built-in"), 2048, 1024);
     // Also kept as f32, the source of the files OpenImageIO writes (not timed itself).
     std::fs::write(dir.join(SKY_F32), encode_with(&sky, &EncodeOptions::default()).map_err(|e| e.to_string())?)
         .map_err(|e| e.to_string())?;
@@ -393,7 +397,7 @@ fn exr_against_oiio(
         let (ours, decoded) = time_median(repeats * 2, || {
             std::fs::read(path)
                 .map_err(|e| e.to_string())
-                .and_then(|b| crate::formats::exr::decode(&b).map_err(|e| e.to_string()))
+                .and_then(|b| hdrflow::formats::exr::decode(&b).map_err(|e| e.to_string()))
         });
         decoded?;
         log(&format!("EXR decode {name}: ours {ours:.2} ms, OpenImageIO {version} {theirs:.2} ms"));
@@ -438,7 +442,7 @@ fn numpy_relight_ms(peers: &Path, env: &Image, repeats: usize) -> Result<f64, St
     let dir = std::env::temp_dir().join(format!("hdrflow-bench-numpy-{}", std::process::id()));
     std::fs::create_dir_all(&dir).map_err(|e| e.to_string())?;
     let env_path = dir.join("env.pfm");
-    std::fs::write(&env_path, crate::formats::pfm::encode(env)).map_err(|e| e.to_string())?;
+    std::fs::write(&env_path, hdrflow::formats::pfm::encode(env)).map_err(|e| e.to_string())?;
     let status = std::process::Command::new("python3")
         .arg(&script)
         .arg("--env")

@@ -1,6 +1,8 @@
 //! The command line, as a library: [`main_with`] runs the whole `hdrflow` command line (`run`,
-//! `plan`, `dot`, `ops`, `bench`, every option) over any registry, so a crate that adds its own
-//! operators gets the complete tool with one call (see `examples/custom_operator.rs`).
+//! `plan`, `batch`, `watch`, `dot`, `ops`, `cache`, every option) over any registry, so a crate
+//! that adds its own operators gets the complete tool with one call (see
+//! `examples/custom_operator.rs`); [`main_with_extra`] adds a binary's own subcommands beside
+//! them ([`ExtraCommands`]: the `hdrflow` binary's `bench`).
 //! Arguments and reporting only; the work is in the library. Exit codes: 0 success, 1 a run
 //! error, 2 a usage or pipeline-file error.
 
@@ -26,7 +28,6 @@ macro_rules! out {
 }
 
 mod batch;
-mod bench;
 mod cache;
 mod ops;
 mod pipeline;
@@ -53,17 +54,57 @@ use clap::{Parser, Subcommand};
 
 use crate::engine::cache::PersistPolicy;
 use crate::engine::registry::Registry;
-use bench::BenchArgs;
 use cache::CacheAction;
 use pipeline::{load, GraphArgs};
 use pipeline::{load_or_message, write_html};
 use run::{cache_of, write_report, RunArgs};
 
+/// Subcommands a binary adds to the library's (`hdrflow bench`, which lives in the binary): a
+/// clap `Subcommand` (derived on an enum), listed in `--help`, completions and the manual page
+/// after `dot`, and run by [`ExtraCommands::run`].
+pub trait ExtraCommands: Subcommand {
+    /// Runs the parsed command; `registry` is the one the command line was started with.
+    fn run(self, registry: &Registry) -> ExitCode;
+}
+
+/// No extra subcommand: the library's command line alone ([`main`], [`main_with`], [`main_from`]).
+pub enum NoExtraCommands {}
+
+impl clap::FromArgMatches for NoExtraCommands {
+    fn from_arg_matches(_: &clap::ArgMatches) -> Result<Self, clap::Error> {
+        Err(clap::Error::new(clap::error::ErrorKind::InvalidSubcommand))
+    }
+
+    fn update_from_arg_matches(&mut self, _: &clap::ArgMatches) -> Result<(), clap::Error> {
+        match *self {}
+    }
+}
+
+impl Subcommand for NoExtraCommands {
+    fn augment_subcommands(cmd: clap::Command) -> clap::Command {
+        cmd
+    }
+
+    fn augment_subcommands_for_update(cmd: clap::Command) -> clap::Command {
+        cmd
+    }
+
+    fn has_subcommand(_: &str) -> bool {
+        false
+    }
+}
+
+impl ExtraCommands for NoExtraCommands {
+    fn run(self, _: &Registry) -> ExitCode {
+        match self {}
+    }
+}
+
 #[derive(Parser)]
 #[command(name = "hdrflow", version, about = "A node-graph engine for HDR image processing", long_about = None)]
-struct Cli {
+struct Cli<E: ExtraCommands> {
     #[command(subcommand)]
-    command: Command,
+    command: Command<E>,
     /// Register the Python operators (`@hdrflow.operator`) this file defines, then run the
     /// command with them (needs the hdrflow Python package; interpreter: $HDRFLOW_PYTHON, else python3)
     // Taken out of the arguments before they are parsed (`python::take_python_flag`): declared
@@ -73,7 +114,7 @@ struct Cli {
 }
 
 #[derive(Subcommand)]
-enum Command {
+enum Command<E: ExtraCommands> {
     /// Validate a pipeline file, then evaluate the nodes its targets need.
     Run(RunArgs),
     /// Show what a run would do per node: compute, cached, or not needed.
@@ -84,8 +125,9 @@ enum Command {
     Watch(watch::WatchArgs),
     /// Print the pipeline as a Graphviz DOT graph.
     Dot(GraphArgs),
-    /// Benchmark run time against error for every relighting strategy and the peers.
-    Bench(BenchArgs),
+    /// The binary's own subcommands (`bench`), listed here so that `--help` keeps its order.
+    #[command(flatten)]
+    Extra(E),
     /// List every operator with its ports, fields, types, defaults and docs, then the value types.
     Ops {
         /// Show only this operator.
@@ -105,7 +147,8 @@ enum Command {
     Man,
 }
 
-/// The `hdrflow` command line over the built-in operators.
+/// The library's `hdrflow` command line over the built-in operators (the `hdrflow` binary adds
+/// its `bench` with [`main_with_extra`]).
 pub fn main() -> ExitCode {
     main_with(crate::ops::builtin_registry())
 }
@@ -113,7 +156,7 @@ pub fn main() -> ExitCode {
 /// The complete `hdrflow` command line over `registry` (the built-ins plus a user's operators
 /// and value types), reading the process's arguments.
 pub fn main_with(registry: Registry) -> ExitCode {
-    main_from(registry, std::env::args_os())
+    main_with_extra::<NoExtraCommands>(registry)
 }
 
 /// [`main_with`] with explicit arguments (the first is the program name).
@@ -122,11 +165,26 @@ where
     I: IntoIterator<Item = T>,
     T: Into<std::ffi::OsString> + Clone,
 {
+    main_from_with_extra::<NoExtraCommands, _, _>(registry, args)
+}
+
+/// [`main_with`] plus the subcommands `E` (the `hdrflow` binary passes its `bench`).
+pub fn main_with_extra<E: ExtraCommands>(registry: Registry) -> ExitCode {
+    main_from_with_extra::<E, _, _>(registry, std::env::args_os())
+}
+
+/// [`main_with_extra`] with explicit arguments (the first is the program name).
+pub fn main_from_with_extra<E, I, T>(registry: Registry, args: I) -> ExitCode
+where
+    E: ExtraCommands,
+    I: IntoIterator<Item = T>,
+    T: Into<std::ffi::OsString> + Clone,
+{
     let args: Vec<std::ffi::OsString> = args.into_iter().map(Into::into).collect();
     if let (Some(file), rest) = python::take_python_flag(args.clone()) {
         return python::hand_over(file, rest);
     }
-    let cli = match Cli::try_parse_from(args) {
+    let cli = match Cli::<E>::try_parse_from(args) {
         Ok(c) => c,
         Err(e) => {
             let _ = e.print();
@@ -145,12 +203,12 @@ where
         Command::Plan(args) => plan::plan(&registry, &args),
         Command::Cache { action, cache_dir } => cache::cache_command(action, cache_dir),
         Command::Completions { shell } => {
-            let mut cmd = <Cli as clap::CommandFactory>::command();
+            let mut cmd = <Cli<E> as clap::CommandFactory>::command();
             clap_complete::generate(shell, &mut cmd, "hdrflow", &mut std::io::stdout());
             ExitCode::SUCCESS
         }
         Command::Man => {
-            let cmd = <Cli as clap::CommandFactory>::command();
+            let cmd = <Cli<E> as clap::CommandFactory>::command();
             let mut out = Vec::new();
             if let Err(e) = clap_mangen::Man::new(cmd).render(&mut out) {
                 eprintln!("error: rendering the manual: {e}");
@@ -159,7 +217,7 @@ where
             out!("{}", String::from_utf8_lossy(&out));
             ExitCode::SUCCESS
         }
-        Command::Bench(args) => bench::bench(&args),
+        Command::Extra(extra) => extra.run(&registry),
         Command::Run(args) => run::run(&registry, &args),
         Command::Batch(args) => batch::batch(&registry, &args),
         Command::Watch(args) => watch::watch(&registry, &args),
@@ -196,7 +254,9 @@ pub(crate) mod testing {
 
     /// The kind of error clap gives for `hdrflow ARGS...`, and its message.
     pub fn parse_error(args: &[&str]) -> (ErrorKind, String) {
-        match super::Cli::try_parse_from(std::iter::once("hdrflow").chain(args.iter().copied())) {
+        match super::Cli::<super::NoExtraCommands>::try_parse_from(
+            std::iter::once("hdrflow").chain(args.iter().copied()),
+        ) {
             Ok(_) => panic!("{args:?} parsed"),
             Err(e) => (e.kind(), e.to_string()),
         }

@@ -16,6 +16,14 @@ pub fn rec709_luminance(rgb: [f32; 3]) -> f64 {
     REC709[0] * rgb[0] as f64 + REC709[1] * rgb[1] as f64 + REC709[2] * rgb[2] as f64
 }
 
+/// `Y = 0.2126 R + 0.7152 G + 0.0722 B` in f32, as `Luminance(weights: Rec709)` computes each
+/// pixel (the luminance image a distribution is built from).
+#[inline]
+pub fn rec709_luminance_f32(rgb: [f32; 3]) -> f32 {
+    let ([r, g, b], [wr, wg, wb]) = (rgb, REC709_F32);
+    wr * r + wg * g + wb * b
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -675,22 +675,4 @@ mod tests {
         let empty = SphereView::new(0, [0.0, 0.0, 1.0]);
         assert!(glossy_sphere(&env, &dist, &empty, &BRDF, GlossyStrategy::Mis, Heuristic::Power, 4, 1).data.is_empty());
     }
-
-    /// Timing: `cargo test --release glossy_timing -- --ignored --nocapture`.
-    #[test]
-    #[ignore]
-    fn glossy_timing() {
-        let sky = crate::formats::builtin::builtin("sky").unwrap();
-        let dist = luminance_distribution(&sky);
-        let view = SphereView::new(128, latlong::direction_deg(90.0, 90.0));
-        let brdf = GlossyBrdf { exponent: 50.0, ..BRDF };
-        for strategy in GlossyStrategy::ALL {
-            let t = std::time::Instant::now();
-            std::hint::black_box(glossy_sphere(&sky, &dist, &view, &brdf, strategy, Heuristic::Power, 64, 1));
-            eprintln!("glossy {strategy:?} 128x128 x 64 spp on sky 512x256: {:.3} s", t.elapsed().as_secs_f64());
-        }
-        let t = std::time::Instant::now();
-        std::hint::black_box(reference_glossy_sphere(&sky, &view, &brdf));
-        eprintln!("reference glossy 128x128 on sky 512x256: {:.3} s", t.elapsed().as_secs_f64());
-    }
 }

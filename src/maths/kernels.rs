@@ -736,32 +736,3 @@ mod tests {
         }
     }
 }
-
-#[cfg(test)]
-mod timing {
-    use super::*;
-
-    /// Kernel throughput on one hot tile (16 wide blocks, 256 normals):
-    /// `cargo test --release --lib kernel_timing -- --ignored --nocapture`.
-    #[test]
-    #[ignore]
-    fn kernel_timing() {
-        let lights: Vec<([f32; 3], [f32; 3])> =
-            (0..256).map(|i| ([0.6, (i as f32 * 0.01).sin(), 0.8], [1.0, 0.5, 0.25])).collect();
-        let mut blocks = Vec::new();
-        pack_blocks::<WIDE>(lights, &mut blocks);
-        let normals: Vec<[f32; 3]> =
-            (0..256).map(|i| [0.0, (i as f32 * 0.003).cos(), (i as f32 * 0.003).sin()]).collect();
-        for kernel in [Kernel::Scalar, Kernel::Avx, Kernel::Avx512] {
-            let mut acc = vec![[[0.0f64; WIDE]; 3]; normals.len()];
-            let reps = 20_000;
-            let t = std::time::Instant::now();
-            for _ in 0..reps {
-                kernel.accumulate_wide(&blocks, &normals, &mut acc);
-            }
-            let terms = (reps * normals.len() * blocks.len() * WIDE) as f64;
-            let s = t.elapsed().as_secs_f64();
-            eprintln!("{kernel:?}: {:.2} terms/ns {}", terms / s * 1e-9, wide_total(&acc[0])[0]);
-        }
-    }
-}

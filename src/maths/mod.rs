@@ -2,6 +2,7 @@
 //! relighting and its SIMD kernels, and statistical tests. The lat-long convention they all use
 //! lives below them, in [`crate::geometry::latlong`].
 
+pub mod area_resize;
 pub mod bilinear;
 pub mod camera;
 pub mod camera_area;
@@ -29,9 +30,11 @@ pub mod rotation;
 pub(crate) mod row_kernels;
 pub mod sequences;
 pub mod sh;
+pub mod shared_relight;
 pub mod spherical_gaussians;
 pub mod statistics;
 pub mod sun;
+pub mod texel_samples;
 
 /// Asks the processor to bring `value`'s cache line towards L1 (`prefetcht0`): a hint with no
 /// effect on results. No-op off x86_64.

@@ -517,39 +517,4 @@ pub(crate) mod tests {
         let img = reference_sphere(&grey, &SphereView::new(0, [0.0, 0.0, 1.0]), [1.0; 3]);
         assert_eq!(img.data.len(), 0);
     }
-
-    /// Timing: `cargo test --release reference_timing -- --ignored --nocapture`.
-    /// Target: a 256 x 256 sphere against a 1024 x 512 map in a few seconds on 2 cores.
-    #[test]
-    #[ignore]
-    fn reference_timing() {
-        let env = random_map(1024, 512, 11);
-        let view = SphereView::new(256, latlong::direction_deg(90.0, 90.0));
-        let t = std::time::Instant::now();
-        let img = reference_sphere(&env, &view, [1.0; 3]);
-        eprintln!(
-            "reference_sphere 256x256 vs 1024x512 (random, 20% black): {:.2} s on {} threads",
-            t.elapsed().as_secs_f64(),
-            rayon::current_num_threads()
-        );
-        std::hint::black_box(img);
-        // How much culling saves: the fraction of tiles kept, over the sphere's chunks.
-        let packed = pack(&env);
-        let ns: Vec<[f64; 3]> = disc_pixels_tiled(&view).iter().map(|p| p.1).collect();
-        let kept: usize = ns
-            .chunks(NORMAL_CHUNK)
-            .map(|c| {
-                let cone = Cone::around(c.iter().map(|n| DVec3::from(*n)));
-                let hidden = |t: &Option<Cone>| matches!((&cone, t), (Some(c), Some(t)) if c.hides(t));
-                packed.cones.iter().filter(|t| !hidden(t)).count() * c.len()
-            })
-            .sum();
-        eprintln!("tiles kept after culling: {:.1}%", 100.0 * kept as f64 / (packed.cones.len() * ns.len()) as f64);
-        let sky = crate::formats::builtin::builtin("sky").unwrap();
-        let big = crate::ops::image::resize::resize(&sky, 1024, 512);
-        let t = std::time::Instant::now();
-        let img = reference_sphere(&big, &view, [1.0; 3]);
-        eprintln!("reference_sphere 256x256 vs sky resized to 1024x512: {:.2} s", t.elapsed().as_secs_f64());
-        std::hint::black_box(img);
-    }
 }

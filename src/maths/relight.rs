@@ -718,21 +718,4 @@ mod tests {
             }
         }
     }
-
-    /// Timing: `cargo test --release relight_timing -- --ignored --nocapture`.
-    /// Target: 512 x 512 with 1024 lights in ~20 ms on 2 cores.
-    #[test]
-    #[ignore]
-    fn relight_timing() {
-        let lights: Vec<LightSample> =
-            fibonacci(1024).iter().map(|&d| LightSample { dir: d, weight: [1.0, 0.9, 0.8] }).collect();
-        let view = SphereView::new(512, latlong::direction_deg(90.0, 90.0));
-        let _ = relight(&view, &lights, [1.0; 3]);
-        let runs = 10;
-        let t = std::time::Instant::now();
-        for _ in 0..runs {
-            std::hint::black_box(relight(&view, &lights, [1.0; 3]));
-        }
-        eprintln!("relight 512x512 x 1024 lights: {:.2} ms", t.elapsed().as_secs_f64() * 1e3 / runs as f64);
-    }
 }

@@ -39,10 +39,7 @@ pub fn spec() -> OpSpec {
 pub fn luminance(rgb: [f32; 3], weights: Weights) -> f32 {
     let [r, g, b] = rgb;
     match weights {
-        Weights::Rec709 => {
-            let [wr, wg, wb] = crate::maths::colour::REC709_F32;
-            wr * r + wg * g + wb * b
-        }
+        Weights::Rec709 => crate::maths::colour::rec709_luminance_f32(rgb),
         Weights::Rec2020 => 0.2627 * r + 0.6780 * g + 0.0593 * b,
         Weights::Mean => (r + g + b) / 3.0,
         Weights::Max => r.max(g).max(b),

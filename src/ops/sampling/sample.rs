@@ -1,18 +1,13 @@
 //! `Sample(cdf, count, seed, sequence: Random)`: directions drawn from an environment
 //! distribution, each the centre of its texel with the texel's solid-angle pdf
-//! `p(x, y) / ((2*pi/W) * (pi/H) * sin(theta))`. Texel centres (not points jittered inside the
-//! texel) make the estimators' expectation equal the exact sum over texels of the
-//! piecewise-constant map, which `ReferenceSphere` computes; and they let samples that land on
-//! one texel be merged.
+//! (`maths::texel_samples`, where the formula and why texel centres are). Texel centres make
+//! the estimators' expectation equal the exact sum over texels that `ReferenceSphere` computes.
 
-use rayon::prelude::*;
-
-use crate::data::{Distribution2D, Sample, SampleSet};
+use crate::data::Distribution2D;
 use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
 use crate::engine::value::Value;
-use crate::geometry::latlong;
-use crate::maths::sequences;
+use crate::maths::{sequences, texel_samples};
 use crate::types::ty::*;
 
 crate::params! {
@@ -39,28 +34,6 @@ pub fn spec() -> OpSpec {
 }
 
 fn eval(_: &mut OpContext, p: SampleParams) -> Result<Value, OpError> {
-    let set = draw(&p.cdf, p.sequence, p.count, p.seed);
+    let set = texel_samples::draw(&p.cdf, p.sequence, p.count, p.seed);
     Ok(Value::new(set))
-}
-
-/// The operator's work, callable from code: `count` texel-centre samples of `dist`.
-pub fn draw(dist: &Distribution2D, sequence: sequences::Sequence, count: usize, seed: u64) -> SampleSet {
-    let points = sequences::generate(sequence, count, seed);
-    let (w, h) = (dist.width, dist.height);
-    let samples: Vec<Sample> = points
-        .par_iter()
-        .map(|&[u1, u2]| {
-            let (x, y, pdf) = dist.sample(u1, u2);
-            let theta = latlong::theta_of_row(y, h);
-            let phi = latlong::phi_of_column(x, w);
-            let d = latlong::direction(theta, phi);
-            Sample::new(x, y, theta, phi, d, pdf)
-        })
-        .collect();
-    SampleSet {
-        width: w as u32,
-        height: h as u32,
-        samples,
-        luminance_integral: dist.carries_light.then_some(dist.luminance_integral),
-    }
 }

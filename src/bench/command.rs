@@ -1,68 +1,99 @@
 //! `hdrflow bench`: run time against error for every relighting strategy and the peers, the
-//! point targets, or `--glossy`.
+//! point targets, or `--glossy`. The binary's own subcommand, added to the library's command
+//! line through `hdrflow::cli::ExtraCommands`.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use clap::Args;
+use clap::{Args, Subcommand};
+use hdrflow::cli::ExtraCommands;
+use hdrflow::Registry;
+
+/// The subcommands the `hdrflow` binary adds to the library's.
+#[derive(Subcommand)]
+pub enum BinaryCommands {
+    /// Benchmark run time against error for every relighting strategy and the peers.
+    Bench(BenchArgs),
+}
+
+impl ExtraCommands for BinaryCommands {
+    fn run(self, _: &Registry) -> ExitCode {
+        match self {
+            BinaryCommands::Bench(args) => bench(&args),
+        }
+    }
+}
+
+/// Writes `text` to stdout. A reader that has gone away (`hdrflow bench | head`) ends the
+/// process quietly, as the library's commands do; any other write error is reported.
+fn print_stdout(text: &str) {
+    use std::io::Write as _;
+    if let Err(e) = std::io::stdout().lock().write_all(text.as_bytes()) {
+        if e.kind() == std::io::ErrorKind::BrokenPipe {
+            std::process::exit(0);
+        }
+        eprintln!("error: writing to stdout: {e}");
+        std::process::exit(1);
+    }
+}
 
 #[derive(Args)]
-pub(super) struct BenchArgs {
+pub struct BenchArgs {
     /// Output folder for results.csv, summary.md and the charts.
     #[arg(long, default_value = "bench/out")]
-    pub(super) out: PathBuf,
+    out: PathBuf,
     /// Folder of real environment maps (Grace Cathedral, the park, the two interiors); maps
     /// that are missing are skipped with a message.
     #[arg(long, default_value = "../shared/data/envmaps")]
-    pub(super) data: PathBuf,
+    data: PathBuf,
     /// Sample counts (per image for shared samples, per pixel for per-pixel strategies).
     #[arg(long, value_delimiter = ',', default_value = "16,64,256,1024,4096")]
-    pub(super) counts: Vec<usize>,
+    counts: Vec<usize>,
     /// Sphere image size in pixels.
     #[arg(long, default_value_t = 128)]
-    pub(super) size: usize,
+    size: usize,
     /// Timed repetitions per point (after one warm-up run, on the first seed); the median is
     /// reported.
     #[arg(long, default_value_t = 5)]
-    pub(super) repeats: usize,
+    repeats: usize,
     /// Independent seeds per stochastic point (1, 2, ..., N; scrambles for Sobol and Halton):
     /// each error is their mean, with a 95% confidence interval when N >= 2.
     #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u64).range(1..))]
-    pub(super) seeds: u64,
+    seeds: u64,
     /// Only these maps (names: sky, grace, park, fagans, studio).
     #[arg(long, value_delimiter = ',')]
-    pub(super) maps: Vec<String>,
+    maps: Vec<String>,
     /// Folder with the peers' scripts; they run when their Python dependencies are present.
     #[arg(long, default_value = "bench/peers")]
-    pub(super) peers: PathBuf,
+    peers: PathBuf,
     /// Do not run the peers.
     #[arg(long)]
-    pub(super) no_peers: bool,
+    no_peers: bool,
     /// A quick run: counts 16,64,256, 3 repeats, 64x64 sphere, no peers, no targets (still
     /// --seeds seeds, 8 by default: 35 s to a minute on 2 cores).
     #[arg(long)]
-    pub(super) quick: bool,
+    quick: bool,
     /// Measure only the point targets (relight speed, BuildCdf, decoding, the seed graph).
     #[arg(long)]
-    pub(super) targets_only: bool,
+    targets_only: bool,
     /// Redraw the charts from this results.csv (into --out) without measuring anything.
     #[arg(long, value_name = "RESULTS_CSV")]
-    pub(super) replot: Option<PathBuf>,
+    replot: Option<PathBuf>,
     /// Measure GlossySphere's strategies and SunExtract instead (glossy.csv, glossy.md).
     #[arg(long)]
-    pub(super) glossy: bool,
+    glossy: bool,
     /// --glossy: the sphere's size in pixels (its exact reference costs pixels x texels).
     #[arg(long, default_value_t = 64)]
-    pub(super) glossy_size: usize,
+    glossy_size: usize,
     /// --glossy: samples per pixel.
     #[arg(long, value_delimiter = ',', default_value = "4,16,64,256")]
-    pub(super) glossy_spp: Vec<usize>,
+    glossy_spp: Vec<usize>,
     /// --glossy: Phong exponents.
     #[arg(long, value_delimiter = ',', default_value = "10,200")]
-    pub(super) exponents: Vec<f64>,
+    exponents: Vec<f64>,
 }
 
-pub(super) fn bench(args: &BenchArgs) -> ExitCode {
+fn bench(args: &BenchArgs) -> ExitCode {
     use crate::bench::{BenchConfig, MapSpec};
     let candidates = [
         ("sky", "builtin:sky".to_string(), false),
@@ -99,7 +130,11 @@ pub(super) fn bench(args: &BenchArgs) -> ExitCode {
         eprintln!("hdrflow bench --glossy on {} threads", rayon::current_num_threads());
         return match crate::bench::glossy::run(&config, &|line| eprintln!("{line}")) {
             Ok(rows) => {
-                outln!("{} points; wrote {}/glossy.csv and glossy.md", rows.len(), args.out.display());
+                print_stdout(&format!(
+                    "{} points; wrote {}/glossy.csv and glossy.md\n",
+                    rows.len(),
+                    args.out.display()
+                ));
                 ExitCode::SUCCESS
             }
             Err(e) => {
@@ -123,7 +158,7 @@ pub(super) fn bench(args: &BenchArgs) -> ExitCode {
     if let Some(csv) = &args.replot {
         return match crate::bench::replot(&config, csv) {
             Ok(n) => {
-                outln!("redrew {n} charts into {}", args.out.display());
+                print_stdout(&format!("redrew {n} charts into {}\n", args.out.display()));
                 ExitCode::SUCCESS
             }
             Err(e) => {
@@ -146,10 +181,10 @@ pub(super) fn bench(args: &BenchArgs) -> ExitCode {
         match crate::bench::targets::measure(&args.data, peers, config.repeats, &|line| eprintln!("{line}")) {
             Ok(targets) => {
                 let md = crate::bench::targets::markdown(&targets);
-                out!("{md}");
+                print_stdout(&md);
                 let path = args.out.join("targets.md");
                 if let Err(e) = std::fs::create_dir_all(&args.out)
-                    .and_then(|_| crate::engine::cache::store::write_atomic(&path, md.as_bytes()))
+                    .and_then(|_| hdrflow::engine::cache::store::write_atomic(&path, md.as_bytes()))
                 {
                     eprintln!("error: writing {}: {e}", path.display());
                     return ExitCode::from(1);
@@ -166,11 +201,11 @@ pub(super) fn bench(args: &BenchArgs) -> ExitCode {
     }
     match crate::bench::run(&config, &|line| eprintln!("{line}")) {
         Ok(rows) => {
-            outln!(
-                "{} points; wrote {}/results.csv, summary.md and time_error_*.png/.svg",
+            print_stdout(&format!(
+                "{} points; wrote {}/results.csv, summary.md and time_error_*.png/.svg\n",
                 rows.len(),
                 args.out.display()
-            );
+            ));
             ExitCode::SUCCESS
         }
         Err(e) => {
@@ -183,8 +218,17 @@ pub(super) fn bench(args: &BenchArgs) -> ExitCode {
 #[cfg(test)]
 mod tests {
     use clap::error::ErrorKind;
+    use clap::Subcommand as _;
 
-    use crate::cli::testing::parse_error;
+    /// The kind of error clap gives for `hdrflow ARGS...` over the binary's subcommands, and its
+    /// message.
+    fn parse_error(args: &[&str]) -> (ErrorKind, String) {
+        let cli = super::BinaryCommands::augment_subcommands(clap::Command::new("hdrflow"));
+        match cli.try_get_matches_from(std::iter::once("hdrflow").chain(args.iter().copied())) {
+            Ok(_) => panic!("{args:?} parsed"),
+            Err(e) => (e.kind(), e.to_string()),
+        }
+    }
 
     #[test]
     fn argument_errors() {
