@@ -13,14 +13,14 @@
 
 use std::f64::consts::PI;
 
-use hdrflow::data::distribution::{Distribution2D, DistributionError};
-use hdrflow::data::Image;
 use hdrflow::engine::scheduler::{self, RunOptions, Silent};
 use hdrflow::geometry::latlong::{self, texel_solid_angle, theta_of_row};
 use hdrflow::maths::chi_square::chi_square_test;
 use hdrflow::maths::relight::{merge_duplicates, relight, Estimator, LightSample, SphereView};
 use hdrflow::maths::sequences::SplitMix64;
 use hdrflow::maths::{fresnel, phong};
+use hdrflow::values::distribution::{Distribution2D, DistributionError};
+use hdrflow::values::Image;
 use hdrflow::Pipeline;
 use proptest::prelude::*;
 
@@ -175,7 +175,7 @@ fn check_distribution(d: &Distribution2D, img: &Image, extra_us: &[f64]) -> Resu
             if d.carries_light {
                 // A lit texel has a positive pdf unless its weight vanished in the f64 running sum
                 // of its row (below ~2^-53 of the sum before it): then `sample` can never return
-                // it and its pdf is 0 too (module doc of `data::distribution`). A black texel, or
+                // it and its pdf is 0 too (module doc of `values::distribution`). A black texel, or
                 // any texel of a black row (whose conditional is uniform), has pdf 0.
                 let row = d.conditional_row(y);
                 let reachable = row[x + 1] > row[x] && d.row_sums[y] > 0.0;

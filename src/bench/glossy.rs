@@ -12,13 +12,13 @@
 use std::fmt::Write as _;
 
 use crate::bench::{inner_disc_mask, load_map, luminance, time_median, MapSpec};
-use crate::data::{Distribution2D, Image};
 use crate::engine::cache::store::write_atomic;
 use crate::geometry::latlong;
 use crate::maths::error_metrics::image_error;
 use crate::maths::glossy::{add_light, glossy_sphere, reference_glossy_sphere, GlossyBrdf, GlossyStrategy, Heuristic};
 use crate::maths::relight::SphereView;
 use crate::maths::sun::extract_sun;
+use crate::values::{Distribution2D, Image};
 
 /// What to run.
 #[derive(Clone, Debug)]
@@ -131,7 +131,7 @@ pub fn run(config: &GlossyBenchConfig, log: &dyn Fn(&str)) -> Result<Vec<GlossyR
             format!("{:.6}", r.relative_rmse),
         ]
     });
-    let csv = crate::types::csv_text(std::iter::once(header).chain(records));
+    let csv = crate::values::csv::text(std::iter::once(header).chain(records));
     write_atomic(&config.out_dir.join("glossy.csv"), csv.as_bytes()).map_err(|e| format!("glossy.csv: {e}"))?;
     write_atomic(&config.out_dir.join("glossy.md"), markdown(config, &rows).as_bytes())
         .map_err(|e| format!("glossy.md: {e}"))?;

@@ -29,7 +29,6 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use crate::data::{Distribution2D, Image};
 use crate::engine::cache::store::write_atomic;
 use crate::geometry::latlong;
 use crate::maths::error_metrics::image_error;
@@ -42,6 +41,7 @@ use crate::maths::sh;
 use crate::ops::sampling::sample::draw;
 use crate::ops::shading::relight_sphere::relight_shared;
 use crate::plotting::time_error::{self, Line};
+use crate::values::{Distribution2D, Image};
 
 /// The largest per-pixel sample count swept with independent uniforms: past it a point takes
 /// seconds per seed and shows nothing new (its slope is set by then).
@@ -184,7 +184,7 @@ pub fn inner_disc_mask(size: usize) -> Vec<bool> {
     mask
 }
 
-fn metric(m: &crate::data::Metrics, name: &str) -> f64 {
+fn metric(m: &crate::values::Metrics, name: &str) -> f64 {
     m.get(name).unwrap_or(f64::NAN)
 }
 
@@ -604,7 +604,7 @@ fn csv_of(rows: &[BenchRow]) -> String {
             r.seeds.to_string(),
         ]
     });
-    crate::types::csv_text(std::iter::once(header.map(String::from).to_vec()).chain(records))
+    crate::values::csv::text(std::iter::once(header.map(String::from).to_vec()).chain(records))
 }
 
 fn write_csv(path: &Path, rows: &[BenchRow]) -> Result<(), String> {

@@ -18,7 +18,6 @@
 use std::path::Path;
 use std::time::Instant;
 
-use crate::data::{Distribution2D, Image};
 use crate::engine::cache::CacheStore;
 use crate::engine::scheduler::{self, RunOptions, Silent};
 use crate::geometry::latlong;
@@ -27,6 +26,7 @@ use crate::maths::sequences::Sequence;
 use crate::ops::image::resize::resize;
 use crate::ops::sampling::sample::draw;
 use crate::ops::shading::relight_sphere::relight_shared;
+use crate::values::{Distribution2D, Image};
 use crate::Pipeline;
 
 use super::{luminance, time_median};

@@ -67,7 +67,7 @@ use ::exr::prelude::traits::*;
 use ::exr::prelude::{AnyChannel, AnyChannels, Encoding, FlatSamples, LayerAttributes, MetaData, SmallVec};
 
 use super::{ColorSpace, DecodeOptions, FormatError, Primaries, Window, MAX_PIXELS};
-use crate::data::Image;
+use crate::values::Image;
 
 /// Images smaller than this many pixels are read and written on the calling thread: the `exr`
 /// crate builds a thread pool per parallel call, which costs more than it saves on small images.

@@ -56,13 +56,13 @@ use std::f64::consts::PI;
 use glam::DVec3;
 use rayon::prelude::*;
 
-use crate::data::{Distribution2D, Image};
 use crate::geometry::latlong;
 pub use crate::maths::mis::Heuristic;
 use crate::maths::per_pixel::{assert_distribution_of, pixel_seed, sample_cosine};
 use crate::maths::phong;
 use crate::maths::relight::SphereView;
 use crate::maths::sequences::SplitMix64;
+use crate::values::{Distribution2D, Image};
 
 crate::choice! {
     /// How each pixel samples its directions (see the module documentation).
@@ -369,7 +369,7 @@ pub fn reference_glossy_sphere(env: &Image, view: &SphereView, brdf: &GlossyBrdf
 /// angular radius `a` under a lobe of exponent `s` errs by O(s a^2) relative). With the
 /// `residual` of `SunExtract`, `glossy_sphere(residual) + add_light(sun)` estimates the sphere
 /// under the original map (`hdrflow bench --glossy` measures both).
-pub fn add_light(image: &mut Image, view: &SphereView, brdf: &GlossyBrdf, light: &crate::data::Light) {
+pub fn add_light(image: &mut Image, view: &SphereView, brdf: &GlossyBrdf, light: &crate::values::Light) {
     let size = view.size;
     if size == 0 || image.width != size || image.height != size || image.channels != 3 || light.solid_angle <= 0.0 {
         return;

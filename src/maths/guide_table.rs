@@ -14,9 +14,9 @@
 
 use rayon::prelude::*;
 
-use crate::data::distribution::clamp_unit;
-use crate::data::Distribution2D;
 use crate::maths::prefetch;
+use crate::values::distribution::clamp_unit;
+use crate::values::Distribution2D;
 
 /// Guide tables over a distribution's marginal CDF (H bins) and each row's conditional CDF (W
 /// bins per row). 4 (W + 1) H bytes.
@@ -170,8 +170,8 @@ pub struct GuidedDraw {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::data::Image;
     use crate::maths::sequences::SplitMix64;
+    use crate::values::Image;
 
     /// On maps with zero rows, zero columns, a single hot texel and random values, the guided
     /// search returns exactly `Distribution2D::sample`'s texel, also at u = 0, 1 and bin edges.

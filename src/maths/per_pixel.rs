@@ -85,7 +85,6 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::cpu;
-use crate::data::{Distribution2D, Image};
 use crate::geometry::latlong_grid::{point_in_band, sincos_turns, LatLongGrid};
 use crate::maths::guide_table::{GuidedDistribution, GuidedDraw};
 use crate::maths::hierarchical_warp::{HierarchicalWarp, WarpDraw};
@@ -95,6 +94,7 @@ use crate::maths::relight::SphereView;
 use crate::maths::sequences::{
     bits_to_unit, mix64, nested_uniform_scramble, sobol_2d_bits, unit_f64, SplitMix64, GOLDEN_GAMMA,
 };
+use crate::values::{Distribution2D, Image};
 
 /// Which compilation of the batch lane loops runs (see [`avx512_batch!`]): both give the same bits.
 #[derive(Clone, Copy, Debug, PartialEq)]

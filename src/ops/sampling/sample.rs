@@ -7,13 +7,13 @@
 
 use rayon::prelude::*;
 
-use crate::data::{Distribution2D, Sample, SampleSet};
 use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
 use crate::engine::value::Value;
 use crate::geometry::latlong;
 use crate::maths::sequences;
-use crate::types::ty::*;
+use crate::values::ty::*;
+use crate::values::{Distribution2D, Sample, SampleSet};
 
 crate::params! {
     pub struct SampleParams {

@@ -17,15 +17,15 @@
 //! pure function of `seed` (per-pixel SplitMix64 streams), whatever `--jobs`. NaN or infinite
 //! texels are an error (they would make NaN pixels).
 
-use crate::data::Distribution2D;
-use crate::data::Image;
 use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
 use crate::engine::params::Rgb;
 use crate::engine::value::Value;
 use crate::maths::glossy::{glossy_sphere, GlossyBrdf, GlossyStrategy, Heuristic};
 use crate::ops::latlong_input::warn_unless_latlong;
-use crate::types::ty::*;
+use crate::values::ty::*;
+use crate::values::Distribution2D;
+use crate::values::Image;
 
 super::glossy_params! {
     GlossySphereParams {

@@ -22,8 +22,6 @@
 //! whatever `--jobs`.
 
 use super::sphere_view;
-use crate::data::Distribution2D;
-use crate::data::Image;
 use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Persist};
 use crate::engine::params::Rgb;
@@ -33,7 +31,9 @@ use crate::maths::per_pixel::{
     relight_per_pixel_with, PerPixelOptions, PerPixelSequence, PerPixelStrategy, PerPixelWarp,
 };
 use crate::ops::latlong_input::warn_unless_latlong;
-use crate::types::ty::*;
+use crate::values::ty::*;
+use crate::values::Distribution2D;
+use crate::values::Image;
 
 super::sphere_params! {
     PerPixelParams {

@@ -18,8 +18,6 @@
 //! pixel's surface add nothing (max(cos, 0)).
 
 use super::sphere_view;
-use crate::data::Image;
-use crate::data::SampleSet;
 use crate::engine::fields::{Check, Input};
 use crate::engine::op::{CheckContext, CheckProblem};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
@@ -29,7 +27,9 @@ use crate::geometry::latlong;
 use crate::maths::colour::rec709_luminance as rec709;
 use crate::maths::relight::{merge_duplicates, relight, Estimator, LightSample, SphereView};
 use crate::ops::latlong_input::warn_unless_latlong;
-use crate::types::ty::*;
+use crate::values::ty::*;
+use crate::values::Image;
+use crate::values::SampleSet;
 
 super::sphere_params! {
     RelightParams {

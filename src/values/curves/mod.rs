@@ -1,5 +1,15 @@
-//! `Curves`: named series over one shared abscissa, plus named scalars and marked abscissae
-//! (e.g. Fresnel reflectance against angle, with its Brewster and critical angles).
+//! `Curves` (`curves` in graphs): named series over one shared abscissa, plus named scalars and
+//! marked abscissae (e.g. Fresnel reflectance against angle, with its Brewster and critical
+//! angles). Saved as `.json`, `.csv`, or a plot (`.png`, `.svg`).
+//!
+//! A folder so that the type stays below the plots drawn of it: this file holds the type
+//! (`crate::plotting::curves_plot` builds on it), [`codec`] its `TypeSpec` and cache payload,
+//! [`save`] how `Save` writes it (the plots through `crate::plotting`).
+
+pub mod codec;
+pub mod save;
+
+pub use codec::CURVES;
 
 /// A set of curves over a shared x axis.
 #[derive(Clone, Debug, PartialEq)]
