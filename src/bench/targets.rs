@@ -125,7 +125,7 @@ pub fn measure(data: &Path, peers: Option<&Path>, repeats: usize, log: &dyn Fn(&
         // for them while the last 256 MiB or 1 GiB is still held, which on this shared machine
         // sometimes takes 2-3x as long, depending on how many huge pages it has free. It is
         // reported beside.
-        let (released_ms, total) = time_median(n, || Distribution2D::build(&big, true, false).map(|d| d.total));
+        let (released_ms, total) = time_median(n, || Distribution2D::build(&big, true, false).map(|d| d.total()));
         total.map_err(|e| e.to_string())?;
         let (alive_ms, dist) = time_median(n, || Distribution2D::build(&big, true, false));
         dist.map_err(|e| e.to_string())?;

@@ -136,7 +136,7 @@ impl GlossyBrdf {
 /// Returns the direction and its texel (the texel drawn, so no lookup is needed).
 #[inline]
 fn sample_env(dist: &Distribution2D, u: [f64; 4]) -> (DVec3, (usize, usize)) {
-    let (w, h) = (dist.width, dist.height);
+    let (w, h) = (dist.width(), dist.height());
     let (x, y, _) = dist.sample(u[0], u[1]);
     let phi = 2.0 * PI * (x as f64 + u[2]) / w as f64;
     let c0 = (PI * y as f64 / h as f64).cos();
@@ -151,7 +151,7 @@ fn sample_env(dist: &Distribution2D, u: [f64; 4]) -> (DVec3, (usize, usize)) {
 /// `P(texel) / dOmega_exact`, `dOmega_exact = (2 pi / W)(cos theta_top - cos theta_bottom)`.
 #[inline]
 fn env_pdf(dist: &Distribution2D, x: usize, y: usize) -> f64 {
-    let (w, h) = (dist.width, dist.height);
+    let (w, h) = (dist.width(), dist.height());
     let d_omega = (2.0 * PI / w as f64) * ((PI * y as f64 / h as f64).cos() - (PI * (y + 1) as f64 / h as f64).cos());
     let p = dist.texel_probability(x, y) / d_omega;
     if p.is_finite() && p > 0.0 {

@@ -143,7 +143,7 @@ fn rescale(numerator: f64, width: f64) -> f64 {
 impl HierarchicalWarp {
     /// Builds the pyramid from `dist`'s texel probabilities (level 0's rows in parallel).
     pub fn new(dist: &Distribution2D) -> HierarchicalWarp {
-        let (w, h) = (dist.width, dist.height);
+        let (w, h) = (dist.width(), dist.height());
         let (pw, ph) = (w.max(1).next_power_of_two(), h.max(1).next_power_of_two());
         let mut finest = Level::new(pw, ph);
         // `texel_probability` is 0 outside the map, i.e. in the padding up to powers of two.

@@ -345,10 +345,10 @@ crate::choice! {
 /// friendly error; the renderers index `env` with the texels `dist` draws).
 pub(crate) fn assert_distribution_of(dist: &Distribution2D, env: &Image) {
     assert!(
-        dist.width == env.width && dist.height == env.height,
+        dist.width() == env.width && dist.height() == env.height,
         "distribution over {}x{} for a {}x{} map",
-        dist.width,
-        dist.height,
+        dist.width(),
+        dist.height(),
         env.width,
         env.height
     );

@@ -19,6 +19,7 @@ use crate::maths::rotation::Rotation;
 /// (degrees), turned by `yaw`, `pitch`, `roll` (degrees, `Rotate`'s angles:
 /// `R = R_y(yaw) R_x(pitch) R_z(roll)`). Camera space looks down -Z with +Y up and +X right, and
 /// the view sees world direction `R c` for camera ray `c` (`maths::camera`).
+/// Plain data, its fields public: `Project` declares the camera it renders with, field by field.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Camera {
     pub model: Model,

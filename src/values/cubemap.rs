@@ -22,6 +22,8 @@ use crate::geometry::cubemap as cube;
 
 /// Six S x S RGB faces, face by face, row by row (row 0 at the top of each face), 3 floats per
 /// texel: `data.len() == 6 * size * size * 3`.
+/// The fields are public for the same reason as [`Image`]'s: operators fill and read the faces'
+/// samples in place.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Cubemap {
     pub size: usize,
@@ -141,6 +143,7 @@ impl Cubemap {
 
 /// A prefiltered chain: level k is a cube map of size max(1, size >> k), filtered for the
 /// perceptual roughness `roughness[k]` (alpha = roughness^2).
+/// Plain data, its fields public: the GGX prefilter (`maths::ggx`) builds it level by level.
 #[derive(Clone, Debug, PartialEq)]
 pub struct MipChain {
     pub levels: Vec<Cubemap>,

@@ -81,28 +81,29 @@ pub enum DistributionError {
 }
 
 /// A piecewise-constant 2D distribution over a lat-long map (see the module documentation).
-/// All fields are public for the cache codec; `build` establishes their invariants.
+/// The fields are private: `build` establishes their invariants and the cache codec below checks
+/// a decoded entry's sizes; other modules read them through the accessors.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Distribution2D {
-    pub width: usize,
-    pub height: usize,
+    width: usize,
+    height: usize,
     /// Whether the weights include sin(theta) (sampling proportional to luminance x solid angle).
-    pub sin_theta: bool,
+    sin_theta: bool,
     /// `height` rows of `width + 1` entries: row y's CDF over columns, 0.0 .. exactly 1.0,
     /// non-decreasing; uniform `k / W` for a row of zero weight.
-    pub conditional_cdf: Vec<f64>,
+    conditional_cdf: Vec<f64>,
     /// Sum of each row's weights (`height` entries): `sin(theta_y)` (or 1) times the f64 sum of
     /// the row's luminance.
-    pub row_sums: Vec<f64>,
+    row_sums: Vec<f64>,
     /// CDF over rows (`height + 1` entries, 0.0 .. exactly 1.0). Proportional to `row_sums`, or,
     /// when the map carries no light, to sin(theta_y) (uniform over solid angle).
-    pub marginal_cdf: Vec<f64>,
+    marginal_cdf: Vec<f64>,
     /// Sum of all weights (of `row_sums`).
-    pub total: f64,
+    total: f64,
     /// `sum Y(x, y) dOmega_y`: the integral of the (sanitised) luminance over the sphere.
-    pub luminance_integral: f64,
+    luminance_integral: f64,
     /// `total` is finite and positive; false means the uniform solid-angle fallback is in use.
-    pub carries_light: bool,
+    carries_light: bool,
 }
 
 /// Normalises non-decreasing running sums `cdf[0] = 0, ..., cdf[n] = sum` into a CDF in place
@@ -271,6 +272,57 @@ impl Distribution2D {
             luminance_integral,
             carries_light,
         })
+    }
+
+    /// Texels per row of the map the distribution was built from.
+    #[inline]
+    pub fn width(&self) -> usize {
+        self.width
+    }
+
+    /// Rows of the map.
+    #[inline]
+    pub fn height(&self) -> usize {
+        self.height
+    }
+
+    /// Whether the weights include sin(theta) (sampling proportional to luminance x solid angle).
+    pub fn sin_theta(&self) -> bool {
+        self.sin_theta
+    }
+
+    /// The CDF over rows (`height + 1` entries, 0.0 .. exactly 1.0), proportional to the row
+    /// sums, or to sin(theta_y) when the map carries no light.
+    #[inline]
+    pub fn marginal_cdf(&self) -> &[f64] {
+        &self.marginal_cdf
+    }
+
+    /// Every row's conditional CDF, row after row (`height` rows of `width + 1` entries; one row
+    /// is [`Distribution2D::conditional_row`]).
+    pub fn conditional_cdf(&self) -> &[f64] {
+        &self.conditional_cdf
+    }
+
+    /// The sum of each row's weights (`height` entries).
+    pub fn row_sums(&self) -> &[f64] {
+        &self.row_sums
+    }
+
+    /// The sum of all weights.
+    pub fn total(&self) -> f64 {
+        self.total
+    }
+
+    /// `sum Y(x, y) dOmega_y`: the integral of the (sanitised) luminance over the sphere.
+    pub fn luminance_integral(&self) -> f64 {
+        self.luminance_integral
+    }
+
+    /// Whether the total weight is finite and positive; false means the uniform solid-angle
+    /// fallback is in use.
+    pub fn carries_light(&self) -> bool {
+        self.carries_light
     }
 
     /// Row y's conditional CDF (`width + 1` entries).

@@ -21,6 +21,7 @@ use crate::engine::value::{SaveOptions, TypeSpec, Value, ValueData, ValueType};
 /// One crop's label. The lighting parts are in the frame of the map the crop was cut from
 /// (hdrflow's world axes); `camera.world_to_camera()` takes a direction into the crop's camera
 /// space.
+/// Plain data, its fields public: `CropLabel` puts the parts together as they are.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Label {
     pub camera: Camera,

@@ -11,6 +11,7 @@ use crate::engine::value::{SaveOptions, TypeSpec, Value, ValueData, ValueType};
 /// radiance `radiance` (RGB, the map's units). Its irradiance on a surface facing it is
 /// `radiance * solid_angle` (for a small solid angle); `radiance * solid_angle` is also exactly
 /// what `SunExtract` removed from the map's integral.
+/// Plain data, its fields public (direction, solid angle and radiance are the light).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Light {
     /// Unit direction towards the light (hdrflow's world axes: +Y up, see `geometry::latlong`).

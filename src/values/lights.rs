@@ -16,6 +16,7 @@ use crate::engine::value::{SaveOptions, TypeSpec, Value, ValueData, ValueType};
 /// `lights`, each adding its `radiance` over its `solid_angle` around its `direction`. Its
 /// integral is `sum_i radiance_i solid_angle_i + ambient 4 pi` per channel ([`Lights::power`]),
 /// which `ExtractLights` makes equal to the map's.
+/// Plain data, its fields public (the lights and the ambient colour are the model).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Lights {
     /// The lights, most energetic first.

@@ -5,6 +5,8 @@ use super::json::num;
 use crate::engine::cache::codec::{Reader, Writer};
 use crate::engine::value::{SaveOptions, TypeSpec, Value, ValueData, ValueType};
 
+/// A flat record of named numbers, in the order they were added. Plain data, its field public:
+/// each measuring operator pushes its own names.
 #[derive(Clone, Debug, PartialEq, Default)]
 pub struct Metrics {
     pub fields: Vec<(String, f64)>,

@@ -9,6 +9,7 @@ use crate::engine::cache::codec::{Reader, Writer};
 use crate::engine::value::{SaveOptions, TypeSpec, Value, ValueData, ValueType};
 
 /// One sampled direction.
+/// Plain data, its fields public: the samplers write them, the shading operators read them.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Sample {
     /// Texel column and row on the reference lat-long grid (`SampleSet::width` x `height`).
@@ -39,6 +40,7 @@ impl Sample {
 }
 
 /// An ordered set of samples with the lat-long grid their texel indices refer to.
+/// Plain data, its fields public, like [`Sample`]'s.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SampleSet {
     pub width: u32,

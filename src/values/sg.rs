@@ -20,6 +20,7 @@ use crate::engine::value::{SaveOptions, TypeSpec, Value, ValueData, ValueType};
 /// One lobe, `L(d) = amplitude exp(sharpness (axis . d - 1))`: its peak `amplitude` (RGB, the
 /// map's units) is at `axis`, and it falls to `1/e` at the angle `acos(1 - 1/sharpness)`
 /// (about `1 / sqrt(sharpness)` radians for a sharp lobe).
+/// Plain data, its fields public (axis, sharpness and amplitude are the lobe).
 #[derive(Clone, Debug, PartialEq)]
 pub struct SgLobe {
     /// Unit direction of the peak (hdrflow's world axes: +Y up, see `geometry::latlong`).
@@ -55,6 +56,7 @@ impl SgLobe {
 }
 
 /// A sum of lobes: `L(d) = sum_k L_k(d)`.
+/// Plain data, its field public: the fit writes the lobes, the renderers read them.
 #[derive(Clone, Debug, PartialEq, Default)]
 pub struct SphericalGaussians {
     /// The lobes, most energetic first when `SphericalGaussians` fitted them.

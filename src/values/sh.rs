@@ -74,6 +74,7 @@ impl ShFrame {
 
 /// Real SH coefficients `L_lm` up to band `order`, in `(l, m)` order (l = 0..=order,
 /// m = -l..=l: index `l (l + 1) + m`), one `[r, g, b]` per coefficient, `(order + 1)^2` of them.
+/// Plain data, its fields public: the projection writes them, the shading operators read them.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ShCoefficients {
     pub order: usize,

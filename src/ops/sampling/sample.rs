@@ -46,7 +46,7 @@ fn eval(_: &mut OpContext, p: SampleParams) -> Result<Value, OpError> {
 /// The operator's work, callable from code: `count` texel-centre samples of `dist`.
 pub fn draw(dist: &Distribution2D, sequence: sequences::Sequence, count: usize, seed: u64) -> SampleSet {
     let points = sequences::generate(sequence, count, seed);
-    let (w, h) = (dist.width, dist.height);
+    let (w, h) = (dist.width(), dist.height());
     let samples: Vec<Sample> = points
         .par_iter()
         .map(|&[u1, u2]| {
@@ -61,6 +61,6 @@ pub fn draw(dist: &Distribution2D, sequence: sequences::Sequence, count: usize, 
         width: w as u32,
         height: h as u32,
         samples,
-        luminance_integral: dist.carries_light.then_some(dist.luminance_integral),
+        luminance_integral: dist.carries_light().then_some(dist.luminance_integral()),
     }
 }

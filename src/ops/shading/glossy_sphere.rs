@@ -67,10 +67,13 @@ fn eval(ctx: &mut OpContext, p: GlossySphereParams) -> Result<Value, OpError> {
     let (env, dist) = (&*p.env, &*p.cdf);
     // A NaN or infinite texel would make NaN pixels wherever a sample lands on it.
     super::reference_sphere::check_finite(env)?;
-    if (dist.width, dist.height) != (env.width, env.height) {
+    if (dist.width(), dist.height()) != (env.width, env.height) {
         return Err(OpError::Invalid(format!(
             "the distribution is over a {}x{} map but env is {}x{}: build it from this env",
-            dist.width, dist.height, env.width, env.height
+            dist.width(),
+            dist.height(),
+            env.width,
+            env.height
         )));
     }
     let brdf = GlossyBrdf { diffuse: p.diffuse.0, specular: p.specular.0, exponent: p.exponent };

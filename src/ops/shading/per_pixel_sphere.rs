@@ -78,10 +78,13 @@ pub fn spec() -> OpSpec {
 fn eval(ctx: &mut OpContext, p: PerPixelParams) -> Result<Value, OpError> {
     warn_unless_latlong(ctx, "env", p.env.width, p.env.height);
     let (env, dist) = (&*p.env, &*p.cdf);
-    if (dist.width, dist.height) != (env.width, env.height) {
+    if (dist.width(), dist.height()) != (env.width, env.height) {
         return Err(OpError::Invalid(format!(
             "the distribution is over a {}x{} map but env is {}x{}: build it from this env",
-            dist.width, dist.height, env.width, env.height
+            dist.width(),
+            dist.height(),
+            env.width,
+            env.height
         )));
     }
     let view = sphere_view(p.size, p.view);

@@ -18,6 +18,9 @@ pub use codec::{IMAGE, SCALAR_FIELD};
 pub use save::{channels_not_kept, encode_image};
 
 /// A float raster. `data.len() == width * height * channels`, rows top to bottom.
+/// The fields are public: the samples are the type's API, which operators and file formats read
+/// and write in place (a copy of a map would double its memory); the constructors check the
+/// lengths, and the codec checks a decoded entry's.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Image {
     pub width: usize,
