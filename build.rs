@@ -1,5 +1,5 @@
 //! Computes the engine's code salt: BLAKE3 of every source file that operators build on (the
-//! engine, data types, maths, formats, plotting, value types and the operators' shared domain
+//! engine, value types, maths, formats, plotting and the operators' shared domain
 //! modules), each with comments and blank space removed. It goes into every cache key, so a
 //! shared cache never serves a result computed by different code. Each operator adds the hash
 //! of its own file (`OpSpec::code`).
@@ -24,7 +24,7 @@ fn collect(dir: &Path, out: &mut Vec<PathBuf>) {
 fn main() {
     println!("cargo:rerun-if-changed=src");
     let mut files = Vec::new();
-    for dir in ["src/engine", "src/data", "src/maths", "src/formats", "src/plotting", "src/types", "src/geometry"] {
+    for dir in ["src/engine", "src/values", "src/maths", "src/formats", "src/plotting", "src/geometry"] {
         collect(Path::new(dir), &mut files);
     }
     // The operators' shared domain modules (field helpers, common code), not the operators.

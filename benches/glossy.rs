@@ -7,11 +7,11 @@
 use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, Criterion, SamplingMode};
-use hdrflow::data::{Distribution2D, Image};
 use hdrflow::geometry::latlong;
 use hdrflow::maths::colour::rec709_luminance_f32;
 use hdrflow::maths::glossy::{glossy_sphere, reference_glossy_sphere, GlossyBrdf, GlossyStrategy, Heuristic};
 use hdrflow::maths::relight::SphereView;
+use hdrflow::values::{Distribution2D, Image};
 
 /// The sin(theta)-weighted distribution of the map's Rec. 709 luminance.
 fn luminance_distribution(env: &Image) -> Distribution2D {

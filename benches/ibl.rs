@@ -21,10 +21,10 @@
 use std::path::Path;
 use std::time::Instant;
 
-use hdrflow::data::{Cubemap, Image};
 use hdrflow::maths::ggx::{brdf_lut, prefilter, LobeSequence};
 use hdrflow::maths::irradiance_cube::{exact, from_sh, project_latlong, ShWindow, Texels};
 use hdrflow::maths::resample::{cube_integral, latlong_integral, to_cube, to_latlong, CubeSource, LatLongSource};
+use hdrflow::values::{Cubemap, Image};
 
 fn median<T>(mut f: impl FnMut() -> T) -> (f64, T) {
     let mut times = Vec::new();
@@ -180,7 +180,7 @@ fn sh_table(maps: &[(String, Image)]) {
 }
 
 /// The RMS over texels of levels 1.. of the relative error of `chain` against `reference`.
-fn chain_error(chain: &hdrflow::data::MipChain, reference: &hdrflow::data::MipChain) -> f64 {
+fn chain_error(chain: &hdrflow::values::MipChain, reference: &hdrflow::values::MipChain) -> f64 {
     let (mut sum, mut count) = (0.0f64, 0.0f64);
     for (a, b) in chain.levels.iter().zip(&reference.levels).skip(1) {
         for (x, y) in a.data.iter().zip(&b.data) {

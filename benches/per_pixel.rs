@@ -14,7 +14,6 @@ use std::hint::black_box;
 use std::path::PathBuf;
 
 use criterion::{criterion_group, criterion_main, Criterion, SamplingMode};
-use hdrflow::data::{Distribution2D, Image};
 use hdrflow::geometry::latlong;
 use hdrflow::maths::colour::rec709_luminance_f32;
 use hdrflow::maths::glossy::Heuristic;
@@ -22,6 +21,7 @@ use hdrflow::maths::per_pixel::{
     relight_per_pixel_with, PerPixelOptions, PerPixelSequence, PerPixelStrategy, PerPixelWarp,
 };
 use hdrflow::maths::relight::SphereView;
+use hdrflow::values::{Distribution2D, Image};
 
 /// The map: `HDRFLOW_PER_PIXEL_MAP`, else Grace Cathedral, else the built-in sky.
 fn map() -> (String, Image) {

@@ -13,11 +13,11 @@
 use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, Criterion, SamplingMode};
-use hdrflow::data::Image;
 use hdrflow::geometry::latlong;
 use hdrflow::maths::reference::{reference_sphere, reference_work};
 use hdrflow::maths::relight::SphereView;
 use hdrflow::maths::sequences::SplitMix64;
+use hdrflow::values::Image;
 
 /// A random map: one texel in five black, one in fifty at (500, 300, 100), the others random.
 fn random_map(w: usize, h: usize, seed: u64) -> Image {

@@ -8,10 +8,10 @@
 //! line (without `bench`, the binary's own benchmark) over a registry we hand it. The operator, `Invert(image, white: 1.0)`, replaces every value v
 //! by white - v; its parameters are one typed struct, as for the built-in operators.
 
-use hdrflow::data::Image;
 use hdrflow::engine::fields::{Check, Input};
 use hdrflow::engine::op::{OpContext, OpError, OpSpec};
-use hdrflow::types::ty::ANY_IMAGE;
+use hdrflow::values::ty::ANY_IMAGE;
+use hdrflow::values::Image;
 use hdrflow::Value;
 
 // 1. The fields, its input and its parameters: doc comments, accepted types, ranges and

@@ -13,8 +13,8 @@
 
 use std::path::Path;
 
-use hdrflow::data::Image;
 use hdrflow::formats::FormatError;
+use hdrflow::values::Image;
 use hdrflow::{Pipeline, Registry};
 
 /// A decoded image: both sides positive, `channels` one of `allowed`, `width * height *

@@ -5,10 +5,11 @@
 //!   `bench`, the benchmark, which is its own module (src/bench), not the library's.
 //! - [`report`]: the HTML page of a run (graph, outputs, nodes, timeline).
 //! - [`ops`]: the built-in operators, one file each, grouped by domain; `ops::builtin_registry`.
-//! - [`types`]: the built-in value types (how each data type is named, cached and saved).
+//! - [`values`], [`maths`], [`formats`], [`plotting`]: the built-in value types (each data type
+//!   with its name in graphs, its cache codec and its file encoders, declared to the engine),
+//!   mathematics, file formats, plots.
 //! - [`engine`]: pipeline files, validation, the parallel demand-driven scheduler, the cache;
-//!   it knows no operator and no data type.
-//! - [`data`], [`maths`], [`formats`], [`plotting`]: data types, mathematics, file formats, plots.
+//!   it knows no operator and no value type.
 //! - [`geometry`]: the lat-long and cube conventions, below all of them (it depends on nothing
 //!   but [`choice`]);
 //!   [`cpu`]: the processor features every SIMD path asks for; [`choice`]: the one way to
@@ -37,7 +38,6 @@ pub mod batch;
 pub mod choice;
 pub mod cli;
 pub mod cpu;
-pub mod data;
 pub mod engine;
 pub mod formats;
 pub mod geometry;
@@ -46,7 +46,7 @@ mod memory;
 pub mod ops;
 pub mod plotting;
 pub mod report;
-pub mod types;
+pub mod values;
 
 #[cfg(test)]
 mod test_skip;

@@ -8,8 +8,8 @@ mod common;
 
 use std::path::Path;
 
-use hdrflow::data::Image;
 use hdrflow::ops::layouts::angular_to_latlong::angular_to_latlong;
+use hdrflow::values::Image;
 
 fn load(name: &str) -> Option<Image> {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data/envmaps").join(name);

@@ -26,10 +26,10 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use hdrflow::data::Image;
 use hdrflow::engine::cache::{key_hex, node_key, node_key_with, provided_key, provided_key_with, Key};
 use hdrflow::engine::context::CheckContext;
 use hdrflow::engine::scheduler::compute_keys;
+use hdrflow::values::Image;
 use hdrflow::{Pipeline, Value};
 
 /// Stands for the engine salt.

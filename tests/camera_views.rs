@@ -9,11 +9,11 @@ use std::collections::BTreeMap;
 use std::f64::consts::PI;
 use std::path::Path;
 
-use hdrflow::data::Image;
 use hdrflow::engine::scheduler::{self, RunOptions, Silent};
 use hdrflow::engine::value::Value;
 use hdrflow::geometry::latlong;
 use hdrflow::maths::camera::{Lens, Model};
+use hdrflow::values::Image;
 
 fn run(text: &str, targets: &[&str]) -> Result<BTreeMap<String, Value>, String> {
     common::run_text(text, targets)

@@ -5,8 +5,8 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use hdrflow::data::{Image, Metrics};
 use hdrflow::engine::scheduler::{self, RunOptions, Silent};
+use hdrflow::values::{Image, Metrics};
 use hdrflow::{Pipeline, Value};
 
 const GRAPH: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/graphs/compositing.ron");

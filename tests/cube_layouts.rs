@@ -9,9 +9,9 @@ mod common;
 use std::path::Path;
 
 use glam::DVec3;
-use hdrflow::data::{Cubemap, Image};
 use hdrflow::engine::scheduler::{self, RunOptions, Silent};
 use hdrflow::engine::value::Value;
+use hdrflow::values::{Cubemap, Image};
 
 const LAYOUTS: [&str; 5] = ["HorizontalCross", "VerticalCross", "Dice", "Horizon", "Strip"];
 const FACES: [&str; 6] = ["PosX", "NegX", "PosY", "NegY", "PosZ", "NegZ"];

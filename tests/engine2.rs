@@ -15,7 +15,6 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Condvar, Mutex};
 use std::time::{Duration, Instant};
 
-use hdrflow::data::Image;
 use hdrflow::engine::cache::codec::{Reader, Writer};
 use hdrflow::engine::cache::CacheStore;
 use hdrflow::engine::error::{PipelineErrors, RunError};
@@ -23,7 +22,8 @@ use hdrflow::engine::fields::Input;
 use hdrflow::engine::op::{OpContext, OpError, OpSpec, OutputType, Outputs};
 use hdrflow::engine::scheduler::{self, NodeStatus, RunOptions, RunOutcome, Silent};
 use hdrflow::engine::value::{TypeSpec, Value, ValueData, ValueType};
-use hdrflow::types::ty::{ANY_IMAGE, IMAGE_T, SCALAR_T};
+use hdrflow::values::ty::{ANY_IMAGE, IMAGE_T, SCALAR_T};
+use hdrflow::values::Image;
 use hdrflow::{Pipeline, Registry};
 
 use common::{files_under, ron_path, Sandbox, RUN_TIMEOUT};
@@ -1150,7 +1150,7 @@ fn relighting_with_samples_from_a_coarser_distribution() {
     let (unb_c, seed_c) = (m("unb_c"), m("seed_c"));
     let lum = |c: [f64; 3]| 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2];
     let avg = |c: [f64; 3]| (c[0] + c[1] + c[2]) / 3.0;
-    let integral = |n: &str| v.values[n].get::<hdrflow::data::Distribution2D>().unwrap().luminance_integral;
+    let integral = |n: &str| v.values[n].get::<hdrflow::values::Distribution2D>().unwrap().luminance_integral();
     let report = format!(
         "disc means (R, G, B):\n  ReferenceSphere        {reference:?}\n  Unbiased, 64x32 cdf    {unb_s:?} (rel. err {:?})\n  \
          Unbiased, 256x128 cdf  {unb_f:?} (rel. err {:?})\n  Seed, 64x32 cdf        {seed_s:?}\n  Seed, 256x128 cdf      {seed_f:?} \

@@ -14,8 +14,8 @@ use common::{
     assert_statuses, files_under, hdrflow_command, read_file, ron_path, run_command, run_hdrflow, spawn, Output,
     Sandbox, RUN_TIMEOUT,
 };
-use hdrflow::data::Image;
 use hdrflow::formats::{pfm, rgbe};
+use hdrflow::values::Image;
 
 // ---------------------------------------------------------------------------------------------
 // Helpers

@@ -18,9 +18,9 @@
 //!   exactly, black outside.
 
 use exr::prelude::traits::*;
-use hdrflow::data::Image;
 use hdrflow::formats::exr::decode_with;
 use hdrflow::formats::{ColorSpace, DecodeOptions, Window};
+use hdrflow::values::Image;
 use serde_json::Value;
 
 const DIR: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/openexr");

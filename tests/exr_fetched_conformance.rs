@@ -18,9 +18,9 @@
 use std::io::Write;
 use std::path::PathBuf;
 
-use hdrflow::data::Image;
 use hdrflow::formats::exr::decode_with;
 use hdrflow::formats::{ColorSpace, DecodeOptions, Window};
+use hdrflow::values::Image;
 use serde_json::Value;
 
 const EXPECTED: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/openexr/expected-fetched.json");

@@ -33,9 +33,9 @@ use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::Path;
 use std::sync::OnceLock;
 
-use hdrflow::data::Image;
 use hdrflow::engine::graph::{Override, Pipeline};
 use hdrflow::formats::{exr, pfm, rgbe, FormatError};
+use hdrflow::values::Image;
 use hdrflow::Registry;
 use proptest::prelude::*;
 use proptest::test_runner::TestCaseError;

@@ -8,7 +8,7 @@ mod common;
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use hdrflow::data::{Image, Light, Metrics};
+use hdrflow::values::{Image, Light, Metrics};
 use hdrflow::Value;
 
 use common::{files_under, ron_path, Sandbox};

@@ -7,12 +7,12 @@ mod common;
 use std::f64::consts::PI;
 
 use glam::DVec3;
-use hdrflow::data::{Cubemap, Image};
 use hdrflow::formats::builtin::builtin;
 use hdrflow::geometry::cubemap as cube;
 use hdrflow::maths::ggx::{brdf_lut, prefilter, LobeSequence};
 use hdrflow::maths::irradiance_cube::{exact, from_sh, project_cube, project_latlong, ShWindow, Texels};
 use hdrflow::maths::resample::{cube_integral, latlong_integral, to_cube, to_latlong, CubeSource, LatLongSource};
+use hdrflow::values::{Cubemap, Image};
 
 fn max_dev_from_one(c: &Cubemap) -> f64 {
     c.data.iter().fold(0.0f64, |m, &v| m.max((v as f64 - 1.0).abs()))
@@ -227,7 +227,7 @@ fn operators_pass_the_white_furnace() {
         &["spec_ll", "spec_cube", "spec_ex", "irr_ex", "irr_sh", "back", "oct_back"],
     );
     for name in ["spec_ll", "spec_cube", "spec_ex"] {
-        let chain = values[name].get::<hdrflow::data::MipChain>().expect("a mip chain");
+        let chain = values[name].get::<hdrflow::values::MipChain>().expect("a mip chain");
         assert_eq!(chain.roughness.first(), Some(&0.0));
         assert_eq!(chain.roughness.last(), Some(&1.0));
         for level in &chain.levels {
@@ -237,7 +237,7 @@ fn operators_pass_the_white_furnace() {
     for name in ["irr_ex", "irr_sh"] {
         assert!(max_dev_from_one(values[name].get::<Cubemap>().expect("a cube map")) < 1e-3, "{name}");
     }
-    let m = values["irr_sh.metrics"].get::<hdrflow::data::Metrics>().expect("metrics");
+    let m = values["irr_sh.metrics"].get::<hdrflow::values::Metrics>().expect("metrics");
     assert_eq!(m.get("window_strength"), Some(0.0));
     assert!((m.get("min_irradiance").unwrap() - 1.0).abs() < 1e-3, "{m:?}");
     for name in ["back", "oct_back"] {

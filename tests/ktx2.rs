@@ -6,9 +6,9 @@
 mod common;
 
 use exr::prelude::f16;
-use hdrflow::data::{Cubemap, Image, MipChain};
 use hdrflow::engine::value::SaveOptions;
 use hdrflow::formats::ktx2::KtxFormat;
+use hdrflow::values::{Cubemap, Image, MipChain};
 use hdrflow::Value;
 use ktx2::{dfd, ColorModel, Format, Reader, TransferFunction};
 

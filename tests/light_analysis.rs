@@ -10,11 +10,11 @@ use std::f64::consts::PI;
 use std::path::Path;
 
 use glam::DVec3;
-use hdrflow::data::{Image, Lights, Metrics};
 use hdrflow::engine::value::Value;
 use hdrflow::formats::builtin::builtin;
 use hdrflow::geometry::latlong;
 use hdrflow::maths::lights::integral;
+use hdrflow::values::{Image, Lights, Metrics};
 
 fn run(text: &str, targets: &[&str]) -> Result<BTreeMap<String, Value>, String> {
     common::run_text(text, targets)
@@ -87,7 +87,7 @@ nodes: {
     }
     // The sky's brightest light is the sun SunExtract finds.
     let sky = v["l_sky"].get::<Lights>().unwrap();
-    let sun = v["sun"].get::<hdrflow::data::Light>().unwrap();
+    let sun = v["sun"].get::<hdrflow::values::Light>().unwrap();
     let angle = DVec3::from(sky.lights[0].direction).angle_between(DVec3::from(sun.direction)).to_degrees();
     assert!(angle < 0.05, "{angle} degrees");
     // The same region (summed in another order).
@@ -313,7 +313,7 @@ nodes: {
     // The sky: the sun carries ~97% of the energy, so the vector points near it and is long.
     let sky = metrics(&v, "m_sky");
     let mlv = DVec3::new(sky.get("x").unwrap(), sky.get("y").unwrap(), sky.get("z").unwrap());
-    let sun = v["sun"].get::<hdrflow::data::Light>().unwrap();
+    let sun = v["sun"].get::<hdrflow::values::Light>().unwrap();
     let angle = mlv.angle_between(DVec3::from(sun.direction)).to_degrees();
     eprintln!("builtin:sky mean light vector {mlv}, length {}, {angle:.2} degrees from the sun", mlv.length());
     assert!(angle < 5.0 && sky.get("length").unwrap() > 0.8, "{:?}, {angle}", sky.fields);

@@ -11,10 +11,10 @@ use std::collections::BTreeMap;
 use std::f64::consts::PI;
 
 use glam::DVec3;
-use hdrflow::data::Image;
 use hdrflow::engine::value::Value;
 use hdrflow::geometry::latlong;
 use hdrflow::maths::rotation::Rotation;
+use hdrflow::values::Image;
 
 fn run(text: &str, targets: &[&str]) -> Result<BTreeMap<String, Value>, String> {
     common::run_text(text, targets)

@@ -7,8 +7,8 @@ mod common;
 
 use std::collections::BTreeMap;
 
-use hdrflow::data::{Image, Metrics, ShCoefficients, ShFrame};
 use hdrflow::engine::value::Value;
+use hdrflow::values::{Image, Metrics, ShCoefficients, ShFrame};
 
 fn run(text: &str, targets: &[&str]) -> Result<BTreeMap<String, Value>, String> {
     common::run_text(text, targets)

@@ -13,14 +13,14 @@
 
 use std::f64::consts::PI;
 
-use hdrflow::data::distribution::{Distribution2D, DistributionError};
-use hdrflow::data::Image;
 use hdrflow::engine::scheduler::{self, RunOptions, Silent};
 use hdrflow::geometry::latlong::{self, texel_solid_angle, theta_of_row};
 use hdrflow::maths::chi_square::chi_square_test;
 use hdrflow::maths::relight::{merge_duplicates, relight, Estimator, LightSample, SphereView};
 use hdrflow::maths::sequences::SplitMix64;
 use hdrflow::maths::{fresnel, phong};
+use hdrflow::values::distribution::{Distribution2D, DistributionError};
+use hdrflow::values::Image;
 use hdrflow::Pipeline;
 use proptest::prelude::*;
 
@@ -143,24 +143,30 @@ fn make_map(w: usize, h: usize, kind: MapKind, seed: u64) -> Image {
 
 /// Checks every documented invariant of a built distribution against its source map.
 fn check_distribution(d: &Distribution2D, img: &Image, extra_us: &[f64]) -> Result<(), TestCaseError> {
-    let (w, h) = (d.width, d.height);
+    let (w, h) = (d.width(), d.height());
     prop_assert_eq!((w, h), (img.width, img.height));
     // CDFs: 0 .. exactly 1, non-decreasing, no NaN.
-    prop_assert_eq!(d.marginal_cdf[0], 0.0);
-    prop_assert_eq!(d.marginal_cdf[h], 1.0);
-    prop_assert!(d.marginal_cdf.windows(2).all(|p| p[0] <= p[1]), "marginal CDF not monotone");
+    prop_assert_eq!(d.marginal_cdf()[0], 0.0);
+    prop_assert_eq!(d.marginal_cdf()[h], 1.0);
+    prop_assert!(d.marginal_cdf().windows(2).all(|p| p[0] <= p[1]), "marginal CDF not monotone");
     for y in 0..h {
         let row = d.conditional_row(y);
         prop_assert_eq!(row[0], 0.0);
         prop_assert_eq!(row[w], 1.0);
         prop_assert!(row.windows(2).all(|p| p[0] <= p[1]), "row {} CDF not monotone", y);
     }
-    prop_assert!(d.weights().iter().chain(&d.row_sums).all(|v| v.is_finite() && *v >= 0.0));
-    prop_assert!(d.luminance_integral.is_finite() && d.luminance_integral >= 0.0);
+    prop_assert!(d.weights().iter().chain(d.row_sums()).all(|v| v.is_finite() && *v >= 0.0));
+    prop_assert!(d.luminance_integral().is_finite() && d.luminance_integral() >= 0.0);
 
     // The map carries light iff some texel is positive.
     let lit = img.data.iter().any(|&v| v > 0.0);
-    prop_assert_eq!(d.carries_light, lit, "carries_light {} for a map with a positive texel: {}", d.carries_light, lit);
+    prop_assert_eq!(
+        d.carries_light(),
+        lit,
+        "carries_light {} for a map with a positive texel: {}",
+        d.carries_light(),
+        lit
+    );
 
     // pdf finite and >= 0 everywhere; sum pdf * dOmega = 1 and sum P = 1 (also for the fallback).
     let mut integral = Sum::default();
@@ -172,13 +178,13 @@ fn check_distribution(d: &Distribution2D, img: &Image, extra_us: &[f64]) -> Resu
             prop_assert!(p.is_finite() && p >= 0.0, "pdf({}, {}) = {}", x, y, p);
             integral.add(p * sa);
             prob.add(d.texel_probability(x, y));
-            if d.carries_light {
+            if d.carries_light() {
                 // A lit texel has a positive pdf unless its weight vanished in the f64 running sum
                 // of its row (below ~2^-53 of the sum before it): then `sample` can never return
-                // it and its pdf is 0 too (module doc of `data::distribution`). A black texel, or
+                // it and its pdf is 0 too (module doc of `values::distribution`). A black texel, or
                 // any texel of a black row (whose conditional is uniform), has pdf 0.
                 let row = d.conditional_row(y);
-                let reachable = row[x + 1] > row[x] && d.row_sums[y] > 0.0;
+                let reachable = row[x + 1] > row[x] && d.row_sums()[y] > 0.0;
                 prop_assert_eq!(p > 0.0, reachable, "texel ({}, {}) = {}: pdf {}", x, y, img.data[y * w + x], p);
                 if reachable {
                     prop_assert!(img.data[y * w + x] > 0.0, "black texel ({}, {}) has pdf {}", x, y, p);
@@ -209,7 +215,7 @@ fn check_distribution(d: &Distribution2D, img: &Image, extra_us: &[f64]) -> Resu
             prop_assert!(x < w && y < h, "u ({}, {}) -> ({}, {}) outside {}x{}", u1, u2, x, y, w, h);
             prop_assert_eq!(pdf.to_bits(), d.pdf(x, y).to_bits());
             prop_assert!(pdf.is_finite() && pdf >= 0.0);
-            if d.carries_light {
+            if d.carries_light() {
                 prop_assert!(pdf > 0.0, "u ({}, {}) -> ({}, {}) with pdf 0", u1, u2, x, y);
                 prop_assert!(img.data[y * w + x] > 0.0, "u ({}, {}) -> black texel ({}, {})", u1, u2, x, y);
             } else {
@@ -306,7 +312,7 @@ proptest! {
         check_distribution(&d, &clean, &[])?;
         for (i, &v) in img.data.iter().enumerate() {
             if v.is_nan() || v < 0.0 {
-                prop_assert_eq!(d.texel_probability(i % w, i / w) == 0.0, d.carries_light);
+                prop_assert_eq!(d.texel_probability(i % w, i / w) == 0.0, d.carries_light());
             }
         }
     }
@@ -383,7 +389,7 @@ fn f64_distribution_versus_naive_f32_on_a_bright_sun() {
     }
     let img = Image::from_vec(w, h, 1, data);
     let d = Distribution2D::build(&img, true, false).unwrap();
-    assert!(d.carries_light);
+    assert!(d.carries_light());
 
     // f64: sum pdf dOmega = 1 within 1e-12; the marginal ends at exactly 1.
     let mut integral = Sum::default();
@@ -394,7 +400,7 @@ fn f64_distribution_versus_naive_f32_on_a_bright_sun() {
         }
     }
     assert!((integral.value() - 1.0).abs() < 1e-12, "f64 build: sum pdf dOmega = {:.17}", integral.value());
-    assert_eq!(d.marginal_cdf[h], 1.0);
+    assert_eq!(d.marginal_cdf()[h], 1.0);
 
     // The naive approach: f32 weights, f32 running sums, f32 normalisation.
     let sin32: Vec<f32> = (0..h).map(|y| theta_of_row(y, h).sin() as f32).collect();
@@ -415,7 +421,8 @@ fn f64_distribution_versus_naive_f32_on_a_bright_sun() {
     let total32 = marg32[h];
 
     // Marginal CDFs agree to ~1e-6 absolute: the f32 rounding of sums of ~1e8.
-    let max_marg = (0..=h).map(|i| (marg32[i] / total32) as f64 - d.marginal_cdf[i]).fold(0f64, |m, e| m.max(e.abs()));
+    let max_marg =
+        (0..=h).map(|i| (marg32[i] / total32) as f64 - d.marginal_cdf()[i]).fold(0f64, |m, e| m.max(e.abs()));
     eprintln!("max |marginal CDF f32 - f64| = {max_marg:.3e}");
     assert!(max_marg < 1e-4, "f32 marginal CDF off by {max_marg:e}");
 
@@ -439,7 +446,7 @@ fn f64_distribution_versus_naive_f32_on_a_bright_sun() {
         let row64 = d.conditional_row(y);
         let c32 = &cond32[y * (w + 1)..(y + 1) * (w + 1)];
         for x in sx + 5..w {
-            let truth = img.data[y * w + x] as f64 * theta_of_row(y, h).sin() / d.row_sums[y];
+            let truth = img.data[y * w + x] as f64 * theta_of_row(y, h).sin() / d.row_sums()[y];
             let implied64 = row64[x + 1] - row64[x];
             let implied32 = ((c32[x + 1] - c32[x]) / row32[y]) as f64;
             worst64 = worst64.max((implied64 - truth).abs() / truth);

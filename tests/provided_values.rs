@@ -4,10 +4,10 @@
 
 use std::path::Path;
 
-use hdrflow::data::Image;
 use hdrflow::engine::cache::CacheStore;
 use hdrflow::engine::scheduler::{self, NodeStatus, RunOptions, RunOutcome, Silent};
 use hdrflow::engine::value::Value;
+use hdrflow::values::Image;
 use hdrflow::Pipeline;
 
 const GRAPH: &str = r#"(nodes: {

@@ -41,8 +41,8 @@
 //!   off by one f32 ulp at some exponents (in `scale.hdr`, none of them sampled). Measured: the
 //!   same 8.0e-8 (from EXPOSURE), elsewhere only the float64 means differ (at most 2.4e-16).
 
-use hdrflow::data::Image;
 use hdrflow::formats::{decode_by_extension_with, rgbe, ColorSpace, DecodeOptions};
+use hdrflow::values::Image;
 use serde_json::Value;
 
 const DIR: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/radiance");

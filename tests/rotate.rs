@@ -4,8 +4,8 @@
 
 mod common;
 
-use hdrflow::data::{Cubemap, Image};
 use hdrflow::maths::resample::{cube_integral, latlong_integral};
+use hdrflow::values::{Cubemap, Image};
 
 #[test]
 fn a_quarter_turn_rolls_the_columns_and_any_turn_keeps_the_integral() {

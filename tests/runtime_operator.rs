@@ -5,13 +5,13 @@
 use std::path::Path;
 use std::sync::Arc;
 
-use hdrflow::data::Image;
 use hdrflow::engine::cache::CacheStore;
 use hdrflow::engine::op::{OpContext, OpSpec, OutputType, Outputs};
 use hdrflow::engine::params::{Arity, FieldKind, FieldSpec, ParamValue};
 use hdrflow::engine::scheduler::{self, NodeStatus, RunOptions, Silent};
 use hdrflow::engine::value::Value;
-use hdrflow::types::ty::IMAGE_T;
+use hdrflow::values::ty::IMAGE_T;
+use hdrflow::values::Image;
 use hdrflow::Pipeline;
 
 fn scale_spec(code: &str) -> OpSpec {

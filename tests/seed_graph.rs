@@ -6,8 +6,8 @@ use std::collections::BTreeMap;
 use std::path::Path;
 use std::process::Command;
 
-use hdrflow::data::{Image, SampleSet};
 use hdrflow::engine::scheduler::{self, RunOptions, Silent};
+use hdrflow::values::{Image, SampleSet};
 use hdrflow::{Pipeline, Value};
 
 const SEED_FILES: &[&str] = &[

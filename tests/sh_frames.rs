@@ -14,8 +14,8 @@ use std::collections::BTreeMap;
 use std::f64::consts::PI;
 use std::path::Path;
 
-use hdrflow::data::{Metrics, ShCoefficients, ShFrame};
 use hdrflow::engine::value::Value;
+use hdrflow::values::{Metrics, ShCoefficients, ShFrame};
 
 /// Ramamoorthi and Hanrahan 2001, Grace Cathedral: L_00, L_1-1, L_10, L_11, L_2-2, L_2-1,
 /// L_20, L_21, L_22, RGB.

@@ -12,12 +12,12 @@ use std::path::Path;
 use std::time::Instant;
 
 use glam::DVec3;
-use hdrflow::data::{Image, Metrics, SgLobe, SphericalGaussians};
 use hdrflow::engine::scheduler::{self, RunOptions, Silent};
 use hdrflow::engine::value::Value;
 use hdrflow::geometry::latlong;
 use hdrflow::maths::resample::latlong_integral;
 use hdrflow::maths::spherical_gaussians::render;
+use hdrflow::values::{Image, Metrics, SgLobe, SphericalGaussians};
 
 /// Runs `text` (its `Save` nodes writing into `out`), with `provided` values in place of nodes.
 fn run_with(

@@ -17,8 +17,6 @@ use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 
-use hdrflow::data::image::default_names;
-use hdrflow::data::{Curves, Distribution2D, Image, Metrics, SampleSet, ShCoefficients};
 use hdrflow::engine::cache::store::DEFAULT_LIMIT_BYTES;
 use hdrflow::engine::cache::{CacheStore, PersistPolicy};
 use hdrflow::engine::error::PipelineErrors;
@@ -26,6 +24,8 @@ use hdrflow::engine::op::{check_pixels, OpContext, OpError, OpSpec, OutputType, 
 use hdrflow::engine::params::{Arity, FieldKind, FieldSpec, ParamValue};
 use hdrflow::engine::scheduler::{self, RunOptions, Silent};
 use hdrflow::engine::value::{FileBlob, Value, ValueType};
+use hdrflow::values::image::default_names;
+use hdrflow::values::{Curves, Distribution2D, Image, Metrics, SampleSet, ShCoefficients};
 use hdrflow::{Override, Pipeline, Registry};
 use numpy::ndarray::{Array2, Array3};
 use numpy::{PyArray1, PyArray2, PyArray3, PyReadonlyArray3, PyUntypedArrayMethods};
@@ -151,7 +151,7 @@ fn value_to_py<'py>(py: Python<'py>, value: Value, out: Option<&Path>) -> PyResu
         d.set_item("width", s.width)?;
         d.set_item("height", s.height)?;
         d.set_item("luminance_integral", s.luminance_integral)?;
-        let col = |f: &dyn Fn(&hdrflow::data::Sample) -> f32| s.samples.iter().map(f).collect::<Vec<f32>>();
+        let col = |f: &dyn Fn(&hdrflow::values::Sample) -> f32| s.samples.iter().map(f).collect::<Vec<f32>>();
         d.set_item("x", PyArray1::from_vec(py, s.samples.iter().map(|p| p.x).collect::<Vec<u32>>()))?;
         d.set_item("y", PyArray1::from_vec(py, s.samples.iter().map(|p| p.y).collect::<Vec<u32>>()))?;
         d.set_item("theta", PyArray1::from_vec(py, col(&|p| p.theta)))?;
@@ -161,21 +161,21 @@ fn value_to_py<'py>(py: Python<'py>, value: Value, out: Option<&Path>) -> PyResu
         d.set_item("dir", PyArray2::from_owned_array(py, dirs))?;
         d.set_item("pdf", PyArray1::from_vec(py, col(&|p| p.pdf)))?;
     } else if let Some(dist) = value.get::<Distribution2D>() {
-        d.set_item("width", dist.width)?;
-        d.set_item("height", dist.height)?;
-        d.set_item("sin_theta", dist.sin_theta)?;
+        d.set_item("width", dist.width())?;
+        d.set_item("height", dist.height())?;
+        d.set_item("sin_theta", dist.sin_theta())?;
         // The weights are not stored (issue 14): derived from the conditional CDFs on demand.
-        let func = Array2::from_shape_vec((dist.height, dist.width), dist.weights())
+        let func = Array2::from_shape_vec((dist.height(), dist.width()), dist.weights())
             .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
         d.set_item("func", PyArray2::from_owned_array(py, func))?;
-        let cond = Array2::from_shape_vec((dist.height, dist.width + 1), dist.conditional_cdf.clone())
+        let cond = Array2::from_shape_vec((dist.height(), dist.width() + 1), dist.conditional_cdf().to_vec())
             .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
         d.set_item("conditional_cdf", PyArray2::from_owned_array(py, cond))?;
-        d.set_item("row_sums", f64_array(py, dist.row_sums.clone()))?;
-        d.set_item("marginal_cdf", f64_array(py, dist.marginal_cdf.clone()))?;
-        d.set_item("total", dist.total)?;
-        d.set_item("luminance_integral", dist.luminance_integral)?;
-        d.set_item("carries_light", dist.carries_light)?;
+        d.set_item("row_sums", f64_array(py, dist.row_sums().to_vec()))?;
+        d.set_item("marginal_cdf", f64_array(py, dist.marginal_cdf().to_vec()))?;
+        d.set_item("total", dist.total())?;
+        d.set_item("luminance_integral", dist.luminance_integral())?;
+        d.set_item("carries_light", dist.carries_light())?;
     } else if let Some(sh) = value.get::<ShCoefficients>() {
         d.set_item("order", sh.order)?;
         d.set_item("frame", format!("{:?}", sh.frame))?;

@@ -9,11 +9,11 @@ use std::time::Instant;
 
 use super::items::Item;
 use super::shared;
-use crate::data::Metrics;
 use crate::engine::cache::{CacheStore, Key};
 use crate::engine::graph::{Override, Pipeline};
 use crate::engine::registry::Registry;
 use crate::engine::scheduler::{self, NodeStatus, RunOptions, Silent};
+use crate::values::Metrics;
 
 /// How an item ended.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]

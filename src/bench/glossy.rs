@@ -12,7 +12,6 @@
 use std::fmt::Write as _;
 
 use crate::bench::{csv_text, inner_disc_mask, load_map, luminance, time_median, MapSpec};
-use hdrflow::data::{Distribution2D, Image};
 use hdrflow::engine::cache::store::write_atomic;
 use hdrflow::geometry::latlong;
 use hdrflow::maths::error_metrics::image_error;
@@ -21,6 +20,7 @@ use hdrflow::maths::glossy::{
 };
 use hdrflow::maths::relight::SphereView;
 use hdrflow::maths::sun::extract_sun;
+use hdrflow::values::{Distribution2D, Image};
 
 /// What to run.
 #[derive(Clone, Debug)]

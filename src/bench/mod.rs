@@ -34,8 +34,8 @@ mod sweep;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use hdrflow::data::Image;
 use hdrflow::maths::colour::rec709_luminance_f32;
+use hdrflow::values::Image;
 pub use results::{csv_text, replot};
 pub use sweep::run;
 
@@ -186,6 +186,8 @@ pub fn seed_list(config: &BenchConfig) -> Vec<u64> {
 
 #[cfg(test)]
 mod tests {
+    use super::results::{csv_of, read_csv};
+    use super::summary::{expected_slope, slopes, time_to_reach};
     use super::*;
 
     #[test]

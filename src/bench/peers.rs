@@ -1,9 +1,9 @@
 //! The peers a user would pick instead (NumPy, Mitsuba 3), run as Python processes on the same
 //! maps and counts when their dependencies are present.
 
-use hdrflow::data::Image;
 use hdrflow::engine::cache::store::write_atomic;
 use hdrflow::maths::error_metrics::image_error;
+use hdrflow::values::Image;
 use std::path::Path;
 
 use super::sweep::{metric, seeded_row};

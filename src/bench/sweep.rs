@@ -1,7 +1,6 @@
 //! The time-against-error sweep: every strategy at every sample count on every map, each
 //! stochastic point over `seeds` seeds (see the module docs of `bench`).
 
-use hdrflow::data::{Distribution2D, Image};
 use hdrflow::engine::cache::store::write_atomic;
 use hdrflow::geometry::latlong;
 use hdrflow::maths::error_metrics::image_error;
@@ -13,6 +12,7 @@ use hdrflow::maths::sequences::Sequence;
 use hdrflow::maths::sh;
 use hdrflow::maths::shared_relight::relight_sphere;
 use hdrflow::maths::texel_samples;
+use hdrflow::values::{Distribution2D, Image};
 use std::time::Instant;
 
 use super::stats;
@@ -25,7 +25,7 @@ use super::{
     PER_PIXEL_SOBOL_MAX_SPP,
 };
 
-pub(super) fn metric(m: &hdrflow::data::Metrics, name: &str) -> f64 {
+pub(super) fn metric(m: &hdrflow::values::Metrics, name: &str) -> f64 {
     m.get(name).unwrap_or(f64::NAN)
 }
 

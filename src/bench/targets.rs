@@ -18,7 +18,6 @@
 use std::path::Path;
 use std::time::Instant;
 
-use hdrflow::data::{Distribution2D, Image};
 use hdrflow::engine::cache::CacheStore;
 use hdrflow::engine::scheduler::{self, RunOptions, Silent};
 use hdrflow::geometry::latlong;
@@ -27,6 +26,7 @@ use hdrflow::maths::relight::Estimator;
 use hdrflow::maths::sequences::Sequence;
 use hdrflow::maths::shared_relight::relight_sphere;
 use hdrflow::maths::texel_samples;
+use hdrflow::values::{Distribution2D, Image};
 use hdrflow::Pipeline;
 
 use super::{luminance, time_median};
@@ -125,7 +125,7 @@ pub fn measure(data: &Path, peers: Option<&Path>, repeats: usize, log: &dyn Fn(&
         // for them while the last 256 MiB or 1 GiB is still held, which on this shared machine
         // sometimes takes 2-3x as long, depending on how many huge pages it has free. It is
         // reported beside.
-        let (released_ms, total) = time_median(n, || Distribution2D::build(&big, true, false).map(|d| d.total));
+        let (released_ms, total) = time_median(n, || Distribution2D::build(&big, true, false).map(|d| d.total()));
         total.map_err(|e| e.to_string())?;
         let (alive_ms, dist) = time_median(n, || Distribution2D::build(&big, true, false));
         dist.map_err(|e| e.to_string())?;

@@ -2,7 +2,7 @@
 //!
 //! A value is an immutable `Arc` of any Rust type that implements [`ValueData`]; its type is a
 //! [`ValueType`], a pointer to a static [`TypeSpec`] declared by whoever owns the data type (the
-//! built-in ones in `crate::types`, a user's in their own crate). The spec says how the type is
+//! built-in ones in `crate::values`, a user's in their own crate). The spec says how the type is
 //! named in `hdrflow ops` and messages, how the cache encodes and decodes it, and how `Save`
 //! writes it, so adding a value type touches no engine file: declare a `TypeSpec`, implement
 //! `ValueData`, and register the type with `Registry::register_type`.

@@ -23,8 +23,8 @@ use std::f64::consts::PI;
 use glam::DVec3;
 use rayon::prelude::*;
 
-use crate::data::Image;
 use crate::geometry::latlong;
+use crate::values::Image;
 
 /// (name, one-line description) of every built-in map, in a stable order.
 pub const BUILTINS: &[(&str, &str)] = &[

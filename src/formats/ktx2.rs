@@ -198,9 +198,9 @@ fn key_values(entries: &[(&str, &[u8])]) -> Vec<u8> {
     out
 }
 
-/// The RGBA values of an image's pixels: [`Image::rgb`](crate::data::Image::rgb) and the
+/// The RGBA values of an image's pixels: [`Image::rgb`](crate::values::Image::rgb) and the
 /// channel named `A` (alpha 1 without one).
-pub fn image_rgba(img: &crate::data::Image) -> Vec<f32> {
+pub fn image_rgba(img: &crate::values::Image) -> Vec<f32> {
     let alpha = img.alpha_index();
     let mut out = Vec::with_capacity(img.pixel_count() * 4);
     for y in 0..img.height {

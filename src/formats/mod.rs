@@ -9,7 +9,7 @@
 //! | [`png`]     | PNG (8-bit sRGB preview)         | no   | yes   | exposure + sRGB OETF, through the `image` crate |
 //! | [`builtin`] | procedural lat-long maps         | -    | -     | so that everything runs with no data files |
 //!
-//! Every reader returns a [`crate::data::Image`]: f32 samples, row 0 at the top, 1, 3 or 4 (EXR
+//! Every reader returns a [`crate::values::Image`]: f32 samples, row 0 at the top, 1, 3 or 4 (EXR
 //! alpha) channels. [`decode_by_extension_with`] takes [`DecodeOptions`]: the EXR part or layer,
 //! the window (display or data), and the colour space (converted to linear Rec. 709 from EXR
 //! `chromaticities` or Radiance `PRIMARIES`, or as stored).
@@ -32,7 +32,7 @@ pub mod rgbe;
 pub mod srgb8;
 pub mod yca;
 
-use crate::data::Image;
+use crate::values::Image;
 
 /// A decoding or encoding failure (the caller adds the file name).
 ///

@@ -26,7 +26,7 @@
 //! refused *before* the output is allocated. Trailing bytes after the payload are ignored.
 
 use super::{FormatError, MAX_PIXELS};
-use crate::data::Image;
+use crate::values::Image;
 
 fn err(msg: impl Into<String>) -> FormatError {
     FormatError::Invalid(msg.into())

@@ -17,7 +17,7 @@ use image::{ExtendedColorType, ImageEncoder};
 use rayon::prelude::*;
 
 use super::FormatError;
-use crate::data::Image;
+use crate::values::Image;
 
 /// Linear value -> 8-bit sRGB code (IEC 61966-2-1 OETF, clamped, NaN -> 0).
 #[inline]
@@ -171,7 +171,7 @@ mod tests {
                     width: 2,
                     height: 1,
                     channels: 3,
-                    names: crate::data::image::default_names(3),
+                    names: crate::values::image::default_names(3),
                     data: vec![0.0; 3]
                 },
                 0.0

@@ -77,7 +77,7 @@
 use rayon::prelude::*;
 
 use super::{FormatError, MAX_PIXELS};
-use crate::data::Image;
+use crate::values::Image;
 
 fn err(msg: impl Into<String>) -> FormatError {
     FormatError::Invalid(msg.into())

@@ -3,7 +3,7 @@
 //! azimuthal disc layouts ([`azimuthal`]: angular probe, sky angular, mirror ball), and the one
 //! vector helper that glam does not provide with the rounding hdrflow's results were computed
 //! with. A leaf module: it depends on nothing else in the crate but [`crate::choice`] (the
-//! `choice!` macro, itself below every layer), so [`crate::data`] and [`crate::formats`] can use
+//! `choice!` macro, itself below every layer), so [`crate::values`] and [`crate::formats`] can use
 //! it without depending on [`crate::maths`].
 
 pub mod azimuthal;

@@ -12,7 +12,7 @@
 
 use rayon::prelude::*;
 
-use crate::data::Image;
+use crate::values::Image;
 
 /// For each output index, the (input index, weight) pairs; weights sum to 1.
 fn box_weights(src: usize, dst: usize) -> Vec<Vec<(usize, f64)>> {

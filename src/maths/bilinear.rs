@@ -11,8 +11,8 @@
 
 use glam::DVec3;
 
-use crate::data::Image;
 use crate::geometry::latlong;
+use crate::values::Image;
 
 /// Writes into `out` (one value per channel of `img`) the bilinear interpolation at `(fx, fy)`
 /// over the taps that `at` maps to a pixel, renormalised by their weights; returns `false`

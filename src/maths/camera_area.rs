@@ -44,9 +44,9 @@ use std::f64::consts::PI;
 use glam::DMat3;
 use rayon::prelude::*;
 
-use crate::data::Image;
 use crate::geometry::latlong;
 use crate::maths::camera::{Lens, Model};
+use crate::values::Image;
 
 /// The largest span, in texels along u and along v, of a cell clipped as an octagon.
 pub const MAX_SPAN: f64 = 2.0;

@@ -16,11 +16,11 @@
 use glam::{DMat3, DVec3};
 use rayon::prelude::*;
 
-use crate::data::Image;
 use crate::maths::bilinear;
 use crate::maths::camera::Lens;
 use crate::maths::camera_area::project_area;
 use crate::maths::rotation::Rotation;
+use crate::values::Image;
 
 crate::choice! {
     /// How a pixel reads the map.

@@ -20,10 +20,10 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
-use crate::data::Image;
 use crate::geometry::azimuthal::{pixel_uv, uv_pixel, DiscMap};
 use crate::geometry::latlong;
 use crate::maths::resample::{average, per_channel_triples, Footprint, Limits, SphereSource};
+use crate::values::Image;
 
 /// A lat-long map looked up in a disc image, and where it was seen.
 pub struct Unwrapped {

@@ -21,7 +21,7 @@
 //! Non-finite pixel values make the sums non-finite (the metrics then say so; NaN is saved as
 //! JSON `null`).
 
-use crate::data::{Image, Metrics};
+use crate::values::{Image, Metrics};
 
 /// The bound on `psnr` (dB): the value for identical images.
 pub const PSNR_CAP: f64 = 999.0;

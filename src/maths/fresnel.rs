@@ -9,7 +9,7 @@
 //! Conventions: `eta_i` is the refractive index on the side the light comes from, `eta_t` the one it
 //! enters; `cos_i` is the cosine of the angle of incidence, measured from the normal, in [0, 1].
 
-use crate::data::curves::Curves;
+use crate::values::curves::Curves;
 
 /// Fresnel reflectances `(R_s, R_p)` of a smooth interface from index `eta_i` to index `eta_t`
 /// for incidence cosine `cos_i`.

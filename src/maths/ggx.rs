@@ -40,11 +40,11 @@ use std::f64::consts::PI;
 use glam::DVec3;
 use rayon::prelude::*;
 
-use crate::data::{Cubemap, Image, MipChain};
 use crate::geometry::cubemap as cube;
 use crate::maths::irradiance_cube::{normalised, Texels};
 use crate::maths::resample::downsample;
 use crate::maths::sequences::{radical_inverse, sobol_2d};
+use crate::values::{Cubemap, Image, MipChain};
 
 crate::choice! {
     /// The low-discrepancy points the lobe is sampled with.

@@ -56,13 +56,13 @@ use std::f64::consts::PI;
 use glam::DVec3;
 use rayon::prelude::*;
 
-use crate::data::{Distribution2D, Image};
 use crate::geometry::latlong;
 pub use crate::maths::mis::Heuristic;
 use crate::maths::per_pixel::{assert_distribution_of, pixel_seed, sample_cosine};
 use crate::maths::phong;
 use crate::maths::relight::SphereView;
 use crate::maths::sequences::SplitMix64;
+use crate::values::{Distribution2D, Image};
 
 crate::choice! {
     /// How each pixel samples its directions (see the module documentation).
@@ -136,7 +136,7 @@ impl GlossyBrdf {
 /// Returns the direction and its texel (the texel drawn, so no lookup is needed).
 #[inline]
 fn sample_env(dist: &Distribution2D, u: [f64; 4]) -> (DVec3, (usize, usize)) {
-    let (w, h) = (dist.width, dist.height);
+    let (w, h) = (dist.width(), dist.height());
     let (x, y, _) = dist.sample(u[0], u[1]);
     let phi = 2.0 * PI * (x as f64 + u[2]) / w as f64;
     let c0 = (PI * y as f64 / h as f64).cos();
@@ -151,7 +151,7 @@ fn sample_env(dist: &Distribution2D, u: [f64; 4]) -> (DVec3, (usize, usize)) {
 /// `P(texel) / dOmega_exact`, `dOmega_exact = (2 pi / W)(cos theta_top - cos theta_bottom)`.
 #[inline]
 fn env_pdf(dist: &Distribution2D, x: usize, y: usize) -> f64 {
-    let (w, h) = (dist.width, dist.height);
+    let (w, h) = (dist.width(), dist.height());
     let d_omega = (2.0 * PI / w as f64) * ((PI * y as f64 / h as f64).cos() - (PI * (y + 1) as f64 / h as f64).cos());
     let p = dist.texel_probability(x, y) / d_omega;
     if p.is_finite() && p > 0.0 {
@@ -369,7 +369,7 @@ pub fn reference_glossy_sphere(env: &Image, view: &SphereView, brdf: &GlossyBrdf
 /// angular radius `a` under a lobe of exponent `s` errs by O(s a^2) relative). With the
 /// `residual` of `SunExtract`, `glossy_sphere(residual) + add_light(sun)` estimates the sphere
 /// under the original map (`hdrflow bench --glossy` measures both).
-pub fn add_light(image: &mut Image, view: &SphereView, brdf: &GlossyBrdf, light: &crate::data::Light) {
+pub fn add_light(image: &mut Image, view: &SphereView, brdf: &GlossyBrdf, light: &crate::values::Light) {
     let size = view.size;
     if size == 0 || image.width != size || image.height != size || image.channels != 3 || light.solid_angle <= 0.0 {
         return;

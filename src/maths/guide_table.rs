@@ -14,9 +14,9 @@
 
 use rayon::prelude::*;
 
-use crate::data::distribution::clamp_unit;
-use crate::data::Distribution2D;
 use crate::maths::prefetch;
+use crate::values::distribution::clamp_unit;
+use crate::values::Distribution2D;
 
 /// Guide tables over a distribution's marginal CDF (H bins) and each row's conditional CDF (W
 /// bins per row). 4 (W + 1) H bytes.
@@ -77,10 +77,10 @@ impl<'a> GuidedDistribution<'a> {
     /// Builds the tables (rows in parallel). Maps wider or taller than 2^32 texels are not
     /// representable as `u32` guides and are refused by the caller's size checks long before.
     pub fn new(dist: &'a Distribution2D) -> GuidedDistribution<'a> {
-        let (w, h) = (dist.width, dist.height);
+        let (w, h) = (dist.width(), dist.height());
         let mut marginal_guide = vec![0u32; h.max(1)];
         if h > 0 {
-            build_guide(&dist.marginal_cdf, h, &mut marginal_guide);
+            build_guide(dist.marginal_cdf(), h, &mut marginal_guide);
         }
         let mut conditional_guide = vec![0u32; w * h];
         if w > 0 {
@@ -106,9 +106,9 @@ impl<'a> GuidedDistribution<'a> {
     /// finds the row (the small marginal tables) and prefetches the row's guide entry.
     #[inline(always)]
     pub fn start(&self, u1: f64, u2: f64) -> GuidedDraw {
-        let (w, h) = (self.dist.width, self.dist.height);
+        let (w, h) = (self.dist.width(), self.dist.height());
         let (u1, u2) = (clamp_unit(u1), clamp_unit(u2));
-        let y = guided_search(&self.dist.marginal_cdf, &self.marginal_guide, u1).min(h - 1);
+        let y = guided_search(self.dist.marginal_cdf(), &self.marginal_guide, u1).min(h - 1);
         let slot = y * w + bin(u2, w);
         prefetch(&self.conditional_guide[slot]);
         GuidedDraw { y, slot, u1, u2 }
@@ -128,7 +128,7 @@ impl<'a> GuidedDistribution<'a> {
     /// Stage 3: finishes the column search; the same texel as [`Self::sample`].
     #[inline(always)]
     pub fn finish(&self, draw: &GuidedDraw) -> (usize, usize) {
-        let w = self.dist.width;
+        let w = self.dist.width();
         (search_from(self.dist.conditional_row(draw.y), draw.slot, draw.u2).min(w - 1), draw.y)
     }
 
@@ -152,7 +152,7 @@ impl<'a> GuidedDistribution<'a> {
             }
         };
         let row = self.dist.conditional_row(y);
-        let marginal = &self.dist.marginal_cdf;
+        let marginal = self.dist.marginal_cdf();
         (x, y, remainder(draw.u2, row[x], row[x + 1]), remainder(draw.u1, marginal[y], marginal[y + 1]))
     }
 }
@@ -170,8 +170,8 @@ pub struct GuidedDraw {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::data::Image;
     use crate::maths::sequences::SplitMix64;
+    use crate::values::Image;
 
     /// On maps with zero rows, zero columns, a single hot texel and random values, the guided
     /// search returns exactly `Distribution2D::sample`'s texel, also at u = 0, 1 and bin edges.
@@ -210,7 +210,7 @@ mod tests {
                 assert_eq!((cx, cy), (x, y));
                 assert!((0.0..1.0).contains(&rx) && (0.0..1.0).contains(&ry), "remainders {rx} {ry}");
                 // The remainders place (u1, u2) back inside the chosen intervals.
-                let (m, row) = (&dist.marginal_cdf, dist.conditional_row(y));
+                let (m, row) = (dist.marginal_cdf(), dist.conditional_row(y));
                 if m[y + 1] > m[y] && u1.is_finite() {
                     let back = m[y] + ry * (m[y + 1] - m[y]);
                     assert!((back - u1.clamp(0.0, 1.0)).abs() <= 1e-12 + 4.0 * f64::EPSILON, "{back} vs {u1}");

@@ -38,9 +38,9 @@
 use rayon::prelude::*;
 
 use crate::cpu::has_avx512;
-use crate::data::distribution::clamp_unit;
-use crate::data::Distribution2D;
 use crate::maths::prefetch;
+use crate::values::distribution::clamp_unit;
+use crate::values::Distribution2D;
 
 /// One level: `width x height` values (powers of two), stored block by block, each block
 /// `block_w x block_h` (2x2, or 2x1 / 1x2 once a side is 1) in row-major order inside.
@@ -143,7 +143,7 @@ fn rescale(numerator: f64, width: f64) -> f64 {
 impl HierarchicalWarp {
     /// Builds the pyramid from `dist`'s texel probabilities (level 0's rows in parallel).
     pub fn new(dist: &Distribution2D) -> HierarchicalWarp {
-        let (w, h) = (dist.width, dist.height);
+        let (w, h) = (dist.width(), dist.height());
         let (pw, ph) = (w.max(1).next_power_of_two(), h.max(1).next_power_of_two());
         let mut finest = Level::new(pw, ph);
         // `texel_probability` is 0 outside the map, i.e. in the padding up to powers of two.
@@ -296,8 +296,8 @@ mod x86 {
     use std::arch::x86_64::*;
 
     use super::{HierarchicalWarp, Level, WarpDraw};
-    use crate::data::distribution::ONE_MINUS_EPSILON;
     use crate::maths::prefetch;
+    use crate::values::distribution::ONE_MINUS_EPSILON;
 
     /// `clamp_unit` per lane: `max(x, 0)` returns its second operand, 0, for NaN.
     #[inline(always)]
@@ -418,8 +418,8 @@ mod x86 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::data::Image;
     use crate::maths::sequences::SplitMix64;
+    use crate::values::Image;
 
     fn maps() -> Vec<Image> {
         let mut rng = SplitMix64::new(3);

@@ -26,9 +26,9 @@ use std::f64::consts::PI;
 use glam::DVec3;
 use rayon::prelude::*;
 
-use crate::data::{Cubemap, Image, ShFrame};
 use crate::geometry::{cubemap as cube, latlong};
 use crate::maths::sh::{eval_sh_into, lambert_coefficient, project, sh_count, sh_index};
+use crate::values::{Cubemap, Image, ShFrame};
 
 crate::choice! {
     /// How the irradiance is computed.

@@ -54,9 +54,9 @@ use std::f64::consts::PI;
 use glam::DVec3;
 use rayon::prelude::*;
 
-use crate::data::{Image, Light, Lights};
 use crate::geometry::{latlong, unit};
 use crate::maths::sun::{colour_channels, level, luminances, neighbours};
+use crate::values::{Image, Light, Lights};
 
 /// What [`extract_lights`] found, with the quantities of the module documentation.
 #[derive(Clone, Debug)]

@@ -54,7 +54,7 @@ pub fn prefetch<T>(value: &T) {
 /// Maps and distributions the unit tests of several modules build alike.
 #[cfg(test)]
 pub(crate) mod test_maps {
-    use crate::data::{Distribution2D, Image};
+    use crate::values::{Distribution2D, Image};
 
     /// The sin(theta)-weighted distribution of a map's Rec. 709 luminance.
     pub fn luminance_distribution(env: &Image) -> Distribution2D {

@@ -85,7 +85,6 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::cpu;
-use crate::data::{Distribution2D, Image};
 use crate::geometry::latlong_grid::{point_in_band, sincos_turns, LatLongGrid};
 use crate::maths::guide_table::{GuidedDistribution, GuidedDraw};
 use crate::maths::hierarchical_warp::{HierarchicalWarp, WarpDraw};
@@ -95,6 +94,7 @@ use crate::maths::relight::SphereView;
 use crate::maths::sequences::{
     bits_to_unit, mix64, nested_uniform_scramble, sobol_2d_bits, unit_f64, SplitMix64, GOLDEN_GAMMA,
 };
+use crate::values::{Distribution2D, Image};
 
 /// Which compilation of the batch lane loops runs (see [`avx512_batch!`]): both give the same bits.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -345,10 +345,10 @@ crate::choice! {
 /// friendly error; the renderers index `env` with the texels `dist` draws).
 pub(crate) fn assert_distribution_of(dist: &Distribution2D, env: &Image) {
     assert!(
-        dist.width == env.width && dist.height == env.height,
+        dist.width() == env.width && dist.height() == env.height,
         "distribution over {}x{} for a {}x{} map",
-        dist.width,
-        dist.height,
+        dist.width(),
+        dist.height(),
         env.width,
         env.height
     );

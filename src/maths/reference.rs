@@ -74,11 +74,11 @@ use std::f64::consts::PI;
 use glam::DVec3;
 use rayon::prelude::*;
 
-use crate::data::Image;
 use crate::geometry::latlong_grid::LatLongGrid;
 use crate::geometry::unit;
 use crate::maths::kernels::{pack_blocks, wide_total, Cone, Kernel, WideBlock, WideSums, WIDE};
 use crate::maths::relight::SphereView;
+use crate::values::Image;
 
 /// Side of the map tiles that texels are packed from, and of the pixel tiles of
 /// [`disc_pixels_tiled`].

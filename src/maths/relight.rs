@@ -22,9 +22,9 @@ use std::collections::HashMap;
 use glam::DVec3;
 use rayon::prelude::*;
 
-use crate::data::image::Image;
 use crate::geometry::unit;
 use crate::maths::kernels::{pack_blocks, Block, Cone, Kernel, LANES};
+use crate::values::image::Image;
 
 /// An orthographic camera looking at the unit sphere, whose silhouette is the disc inscribed in a
 /// `size` x `size` image.

@@ -40,8 +40,8 @@ use std::f64::consts::PI;
 use glam::DVec3;
 use rayon::prelude::*;
 
-use crate::data::{Cubemap, Image};
 use crate::geometry::{cubemap as cube, latlong, octahedral};
+use crate::values::{Cubemap, Image};
 
 /// A spherical map read as piecewise constant.
 pub trait SphereSource: Sync {

@@ -14,8 +14,8 @@
 
 use glam::{DMat3, DVec3};
 
-use crate::data::Image;
 use crate::maths::resample::{per_channel_triples, to_latlong_precise, SphereSource};
+use crate::values::Image;
 
 /// A rotation of the sphere, kept as its matrix (world to world, orthonormal, det +1).
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -1,4 +1,4 @@
-//! The row kernels of [`crate::data::Distribution2D`]: each writes one row's conditional CDF,
+//! The row kernels of [`crate::values::Distribution2D`]: each writes one row's conditional CDF,
 //! the normalised running sums of its texels (`S_x / sum`, exactly 0 first and exactly 1 from the
 //! last non-zero texel on), and reports the row's sum and smallest texel so that the caller can
 //! tell a row with a bad texel (NaN, an infinity, a negative) and redo it from a sanitised copy.
@@ -11,11 +11,11 @@
 //! dependency chain. The AVX-512 and AVX2 ones (`x86`, chosen at run time) write the running
 //! sums once with an 8-lane scan per block and normalise them while the row is in the L1 cache,
 //! so that memory traffic, not the scan, bounds `BuildCdf` (BENCHMARKS.md, "Point targets", BuildCdf: the
-//! kernels' cost per texel and the floor they are measured against). `data::distribution`'s tests compare every kernel the processor
+//! kernels' cost per texel and the floor they are measured against). `values::distribution`'s tests compare every kernel the processor
 //! has with the portable one, row by row and whole builds (`row_kernels_give_the_same_bits`).
 //!
-//! A leaf: it uses nothing of the crate but [`crate::cpu`], so the distribution (in `data`) can
-//! build on it while `maths` builds on `data`.
+//! A leaf: it uses nothing of the crate but [`crate::cpu`], so the distribution (in `values`) can
+//! build on it while `maths` builds on `values`.
 
 use std::mem::MaybeUninit;
 

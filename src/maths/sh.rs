@@ -126,9 +126,9 @@ use std::f64::consts::{PI, SQRT_2};
 
 use rayon::prelude::*;
 
-use crate::data::{Image, ShFrame};
 use crate::geometry::latlong;
 use crate::maths::relight::SphereView;
+use crate::values::{Image, ShFrame};
 
 /// Number of coefficients of order `order` (bands 0..=order): `(order + 1)^2`.
 #[inline]

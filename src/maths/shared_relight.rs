@@ -16,11 +16,11 @@
 //! pixel sees the same direction), pixels off the disc cost nothing, and samples behind a
 //! pixel's surface add nothing (max(cos, 0)).
 
-use crate::data::Image;
-use crate::data::SampleSet;
 use crate::geometry::latlong;
 use crate::maths::colour::rec709_luminance as rec709;
 use crate::maths::relight::{merge_duplicates, relight, Estimator, LightSample, SphereView};
+use crate::values::Image;
+use crate::values::SampleSet;
 
 /// Why a relit sphere cannot be computed: each names the value that is out of range.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]

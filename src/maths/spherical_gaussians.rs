@@ -51,12 +51,12 @@ use std::ops::Range;
 use glam::DVec3;
 use rayon::prelude::*;
 
-use crate::data::sg::value_of;
-use crate::data::{Image, SgLobe, SphericalGaussians};
 use crate::geometry::latlong;
 use crate::maths::colour::rec709_luminance;
 use crate::maths::least_squares::nnls;
 use crate::maths::resample::{to_latlong, LatLongSource};
+use crate::values::sg::value_of;
+use crate::values::{Image, SgLobe, SphericalGaussians};
 
 mod init;
 mod levenberg_marquardt;

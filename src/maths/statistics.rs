@@ -27,8 +27,8 @@
 
 use rayon::prelude::*;
 
-use crate::data::Image;
 use crate::geometry::latlong;
+use crate::values::Image;
 
 /// Relative slack in "the cumulative weight reaches p%" (see the module documentation).
 pub const PERCENTILE_SLACK: f64 = 1e-9;

@@ -41,9 +41,9 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
-use crate::data::{Image, Light};
 use crate::geometry::{latlong, unit};
 pub(crate) use crate::maths::colour::rec709_luminance as luminance;
+use crate::values::{Image, Light};
 
 /// What [`extract_sun`] found, with the quantities of the module documentation.
 #[derive(Clone, Debug)]

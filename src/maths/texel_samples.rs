@@ -7,9 +7,9 @@
 
 use rayon::prelude::*;
 
-use crate::data::{Distribution2D, Sample, SampleSet};
 use crate::geometry::latlong;
 use crate::maths::sequences;
+use crate::values::{Distribution2D, Sample, SampleSet};
 
 /// `count` texel-centre samples of `dist`, from `count` points of `sequence` with `seed` (the
 /// same seed gives the same samples, whatever the thread count). The set carries the
@@ -17,7 +17,7 @@ use crate::maths::sequences;
 /// by it).
 pub fn draw(dist: &Distribution2D, sequence: sequences::Sequence, count: usize, seed: u64) -> SampleSet {
     let points = sequences::generate(sequence, count, seed);
-    let (w, h) = (dist.width, dist.height);
+    let (w, h) = (dist.width(), dist.height());
     let samples: Vec<Sample> = points
         .par_iter()
         .map(|&[u1, u2]| {
@@ -32,6 +32,6 @@ pub fn draw(dist: &Distribution2D, sequence: sequences::Sequence, count: usize, 
         width: w as u32,
         height: h as u32,
         samples,
-        luminance_integral: dist.carries_light.then_some(dist.luminance_integral),
+        luminance_integral: dist.carries_light().then_some(dist.luminance_integral()),
     }
 }

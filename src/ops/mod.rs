@@ -35,7 +35,7 @@ pub fn register_all(registry: &mut Registry) {
 /// A registry with every built-in value type and operator.
 pub fn builtin_registry() -> Registry {
     let mut r = Registry::empty();
-    crate::types::register_all(&mut r);
+    crate::values::register_all(&mut r);
     register_all(&mut r);
     r
 }

@@ -16,7 +16,7 @@ use plotters::drawing::DrawingAreaErrorKind;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
-use crate::data::curves::Curves;
+use crate::values::curves::Curves;
 
 /// The single font family used for all text.
 pub(crate) const FONT: &str = "sans-serif";

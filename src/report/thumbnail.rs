@@ -8,8 +8,8 @@
 
 use std::path::Path;
 
-use crate::data::Image;
 use crate::formats;
+use crate::values::Image;
 
 /// Longest side of a thumbnail, in pixels.
 pub const MAX_SIDE: u32 = 320;

@@ -160,13 +160,13 @@ mod tests {
     use std::path::Path;
 
     use super::*;
-    use crate::data::Image;
     use crate::engine::fields::Input;
     use crate::engine::graph::Pipeline;
     use crate::engine::op::{OpSpec, OutputType};
     use crate::engine::registry::Registry;
     use crate::engine::value::Value;
-    use crate::types::ty::IMAGE_T;
+    use crate::values::ty::IMAGE_T;
+    use crate::values::Image;
 
     crate::choice! { enum Mode { Fast, Exact } }
 
@@ -190,7 +190,7 @@ mod tests {
 
     fn registry() -> Registry {
         let mut r = Registry::empty();
-        crate::types::register_all(&mut r);
+        crate::values::register_all(&mut r);
         r.register(
             OpSpec::new("Keyed", "test", 7, "pins keys")
                 .output("image", OutputType::Fixed(IMAGE_T), "an image")

@@ -224,7 +224,7 @@ impl Admission {
 #[cfg(test)]
 mod tests {
     use super::{Admission, Prediction, PROBE_TEXELS};
-    use crate::types::ty::{DISTRIBUTION_T, IMAGE_T, SAMPLES_T};
+    use crate::values::ty::{DISTRIBUTION_T, IMAGE_T, SAMPLES_T};
 
     const MB: usize = 1 << 20;
     /// Pixels of a 400 MB RGB f32 map (12 bytes a texel).

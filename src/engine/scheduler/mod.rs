@@ -279,11 +279,11 @@ mod tests {
     use std::sync::{Arc, Mutex, Weak};
 
     use super::*;
-    use crate::data::Image;
     use crate::engine::fields::Input;
     use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
     use crate::engine::registry::Registry;
-    use crate::types::ty::IMAGE_T;
+    use crate::values::ty::IMAGE_T;
+    use crate::values::Image;
 
     crate::params! {
         struct SrcParams {
@@ -337,7 +337,7 @@ mod tests {
 
     fn pipeline(text: &str) -> Pipeline {
         let mut r = Registry::empty();
-        crate::types::register_all(&mut r);
+        crate::values::register_all(&mut r);
         r.register(
             OpSpec::new("Src", "test", 1, "an image").output("image", OutputType::Fixed(IMAGE_T), "it").eval(src),
         );

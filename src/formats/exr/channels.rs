@@ -5,8 +5,8 @@ use std::io::Cursor;
 
 use ::exr::meta::attribute::{IntegerBounds, SampleType};
 
-use crate::data::Image;
 use crate::formats::FormatError;
+use crate::values::Image;
 
 /// One channel of the chosen part as decoded: f32 samples in the channel's own sample grid
 /// (`width / sampling.0` x `height / sampling.1`).

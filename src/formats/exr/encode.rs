@@ -6,8 +6,8 @@ use ::exr::prelude::traits::*;
 use ::exr::prelude::{AnyChannel, AnyChannels, Encoding, FlatSamples, LayerAttributes, SmallVec};
 
 use super::{caught, PARALLEL_MIN_PIXELS};
-use crate::data::Image;
 use crate::formats::FormatError;
+use crate::values::Image;
 
 crate::choice! {
     /// The compression of a written EXR file (what the `exr` crate writes).

@@ -62,7 +62,7 @@
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
 use super::{ColorSpace, DecodeOptions, FormatError, Window, MAX_PIXELS};
-use crate::data::Image;
+use crate::values::Image;
 
 mod channels;
 mod checks;

@@ -22,10 +22,10 @@
 use glam::DVec3;
 
 use super::{Target, MIN_SHARPNESS};
-use crate::data::SgLobe;
 use crate::geometry::fibonacci_sphere;
 use crate::maths::colour::rec709_luminance;
 use crate::maths::sequences::SplitMix64;
+use crate::values::SgLobe;
 
 /// The largest angle (rad) around a placed lobe where the pursuit places no other.
 const MAX_EXCLUSION: f64 = 0.5;

@@ -12,8 +12,8 @@
 use glam::DVec3;
 
 use super::{kernels, Target, ACTIVE, MIN_SHARPNESS};
-use crate::data::SgLobe;
 use crate::maths::least_squares::{cholesky, cholesky_solve};
+use crate::values::SgLobe;
 
 impl Target {
     /// The Gauss-Newton system `(J^T W J, J^T W r)` in the lobes' `(u, v, s)`: see the module

@@ -1,5 +1,5 @@
 //! `CropLabel(camera, sh, sgs, lights)`: one crop's label for a lighting-estimation dataset,
-//! a `label` value saved as one JSON file per crop (`types::label`):
+//! a `label` value saved as one JSON file per crop (`values::label`):
 //!
 //! - `camera` (required): a `Project` node's `camera` port (`"crop.camera"`), so the label
 //!   holds the fields that cut the crop (model, fov, width, height, yaw, pitch, roll) and the
@@ -14,11 +14,11 @@
 //! the rotated map. A light's or lobe's direction `d` is `world_to_camera d` in camera space
 //! (+X right, +Y up, looking down -Z).
 
-use crate::data::{Camera, Label, Lights, ShCoefficients, SphericalGaussians};
 use crate::engine::fields::Input;
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
 use crate::engine::value::Value;
-use crate::types::ty::*;
+use crate::values::ty::*;
+use crate::values::{Camera, Label, Lights, ShCoefficients, SphericalGaussians};
 
 crate::params! {
     pub struct CropLabelParams {
@@ -62,10 +62,10 @@ fn eval(_: &mut OpContext, p: CropLabelParams) -> Result<Value, OpError> {
 mod tests {
     use glam::DVec3;
 
-    use crate::data::{Camera, Image};
     use crate::geometry::latlong::{texel_direction, texel_of_direction};
     use crate::maths::camera::{Lens, Model};
     use crate::maths::camera_view::{project, Filter};
+    use crate::values::{Camera, Image};
 
     /// The crop Project cuts shows a texel where the label's matrix says the camera sees it.
     #[test]

@@ -16,7 +16,7 @@ use crate::engine::fields::Check;
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
 use crate::engine::value::Value;
 use crate::maths::ggx::{brdf_lut, LobeSequence};
-use crate::types::ty::*;
+use crate::values::ty::*;
 
 crate::params! {
     pub struct BrdfLutParams {

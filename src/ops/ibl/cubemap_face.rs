@@ -4,12 +4,12 @@
 //! world axes: +X -Z, -Y; -X +Z, -Y; +Y +X, +Z; -Y +X, -Z; +Z +X, -Y; -Z -X, -Y).
 //! `FacesToCubemap` of the six is the cube map again, bit for bit (tests).
 
-use crate::data::Cubemap;
 use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Persist};
 use crate::engine::value::Value;
 use crate::geometry::cube_layout::CubeFace;
-use crate::types::ty::*;
+use crate::values::ty::*;
+use crate::values::Cubemap;
 
 crate::params! {
     pub struct CubemapFaceParams {

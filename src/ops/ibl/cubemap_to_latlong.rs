@@ -3,12 +3,12 @@
 //! piecewise constant) over its footprint `dphi (cos theta0 - cos theta1)` (`maths::resample`):
 //! energy-preserving, exact for a constant map, 1e-3 relative on the built-in sky (tests).
 
-use crate::data::Cubemap;
 use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
 use crate::engine::value::Value;
 use crate::maths::resample::{to_latlong, CubeSource};
-use crate::types::ty::*;
+use crate::values::ty::*;
+use crate::values::Cubemap;
 
 super::latlong_size_params!(CubemapToLatLongParams {
     /// the cube map

@@ -6,12 +6,12 @@
 //! A copy: every texel lands unchanged in its cell, cells without a face are 0, so
 //! `LayoutToCubemap` of the result gives the cube map back bit for bit (tests, every layout).
 
-use crate::data::Cubemap;
 use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Persist};
 use crate::engine::value::Value;
 use crate::geometry::cube_layout::CubeLayout;
-use crate::types::ty::*;
+use crate::values::ty::*;
+use crate::values::Cubemap;
 
 crate::params! {
     pub struct CubemapToLayoutParams {

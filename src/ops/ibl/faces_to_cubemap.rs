@@ -9,11 +9,11 @@
 //! sizes are known before running, the node's error when it runs otherwise. RGB is the first
 //! three channels, one channel is grey, alpha is ignored; non-finite texels are an error.
 
-use crate::data::{Cubemap, Image};
 use crate::engine::fields::{Check, Input, Shape};
 use crate::engine::op::{check_same_size, CheckContext, CheckProblem, OpContext, OpError, OpSpec, OutputType, Persist};
 use crate::engine::value::Value;
-use crate::types::ty::*;
+use crate::values::ty::*;
+use crate::values::{Cubemap, Image};
 
 crate::params! {
     pub struct FacesToCubemapParams {

@@ -15,14 +15,14 @@
 //! output's minimum). White furnace to 1e-3 both ways (tests). `env` is a lat-long image (its own
 //! texels are summed or projected) or a cube map.
 
-use crate::data::{Cubemap, Metrics};
 use crate::engine::fields::{AnyValue, Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Outputs};
 use crate::engine::value::Value;
 use crate::maths::irradiance_cube::{
     exact, from_sh, project_cube, project_latlong, IrradianceMethod, ShWindow, Texels,
 };
-use crate::types::ty::*;
+use crate::values::ty::*;
+use crate::values::{Cubemap, Metrics};
 
 crate::params! {
     pub struct IrradianceCubemapParams {

@@ -7,13 +7,13 @@
 //! sphere integral is kept to 1e-3 relative on the built-in sky (2-degree sun), and texels on
 //! both sides of a face edge agree as neighbours inside a face do (tests).
 
-use crate::data::Image;
 use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
 use crate::engine::value::Value;
 use crate::maths::resample::{to_cube, LatLongSource};
 use crate::ops::latlong_input::warn_unless_latlong;
-use crate::types::ty::*;
+use crate::values::ty::*;
+use crate::values::Image;
 
 crate::params! {
     pub struct LatLongToCubemapParams {

@@ -5,13 +5,13 @@
 //! Each pixel is the solid-angle-weighted average of the lat-long map over its footprint
 //! (`maths::resample`): energy-preserving, 1e-3 relative on the built-in sky (tests).
 
-use crate::data::Image;
 use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
 use crate::engine::value::Value;
 use crate::maths::resample::{to_octahedral, LatLongSource};
 use crate::ops::latlong_input::warn_unless_latlong;
-use crate::types::ty::*;
+use crate::values::ty::*;
+use crate::values::Image;
 
 crate::params! {
     pub struct LatLongToOctahedralParams {

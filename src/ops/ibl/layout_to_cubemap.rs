@@ -8,12 +8,12 @@
 //! three channels, a one-channel image is grey, alpha is ignored; cells without a face are not
 //! read. Non-finite texels in a face are an error naming the face and texel.
 
-use crate::data::{Cubemap, Image};
 use crate::engine::fields::{Check, Input};
 use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec, OutputType, Persist};
 use crate::engine::value::Value;
 use crate::geometry::cube_layout::CubeLayout;
-use crate::types::ty::*;
+use crate::values::ty::*;
+use crate::values::{Cubemap, Image};
 
 crate::params! {
     pub struct LayoutToCubemapParams {

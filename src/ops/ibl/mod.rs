@@ -17,12 +17,12 @@ pub mod layout_to_cubemap;
 pub mod octahedral_to_latlong;
 pub mod prefilter_specular;
 
-use crate::data::{Cubemap, Image};
 use crate::engine::fields::{AnyValue, Input};
 use crate::engine::op::{OpContext, OpError};
 use crate::engine::registry::Registry;
 use crate::maths::resample::{to_cube, CubeSource, LatLongSource};
 use crate::ops::latlong_input::warn_unless_latlong;
+use crate::values::{Cubemap, Image};
 
 /// Declares the parameters of an operator that makes a lat-long map (`CubemapToLatLong`,
 /// `OctahedralToLatLong`): the operator's input fields (given in the braces, first, so that

@@ -2,12 +2,12 @@
 //! layout, `geometry::octahedral`) as a W x H lat-long RGB map, each texel the solid-angle-weighted
 //! average of the octahedral map over its footprint (`maths::resample`).
 
-use crate::data::Image;
 use crate::engine::fields::{Check, Input};
 use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec, OutputType};
 use crate::engine::value::Value;
 use crate::maths::resample::{to_latlong, OctahedralSource};
-use crate::types::ty::*;
+use crate::values::ty::*;
+use crate::values::Image;
 
 super::latlong_size_params!(OctahedralToLatLongParams {
     /// the square octahedral map (RGB; one channel is read as grey)

@@ -20,7 +20,7 @@ use crate::engine::fields::{AnyValue, Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
 use crate::engine::value::Value;
 use crate::maths::ggx::{prefilter, LobeSequence};
-use crate::types::ty::*;
+use crate::values::ty::*;
 
 crate::choice! {
     /// The specular lobe.

@@ -1,12 +1,12 @@
 //! `Constant(width, height, color)`: an image of one colour (a canvas for `Overlay`, or a
 //! constant environment whose relit sphere is exactly albedo * color).
 
-use crate::data::Image;
 use crate::engine::fields::Check;
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Persist};
 use crate::engine::params::Rgb;
 use crate::engine::value::Value;
-use crate::types::ty::*;
+use crate::values::ty::*;
+use crate::values::Image;
 
 crate::params! {
     pub struct ConstantParams {

@@ -7,11 +7,11 @@
 //! size is known only when the node runs: a rectangle that does not fit inside the image is then
 //! an error that names the image's size (nothing is padded or clamped).
 
-use crate::data::Image;
 use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec, Persist};
 use crate::engine::value::Value;
-use crate::types::ty::*;
+use crate::values::ty::*;
+use crate::values::Image;
 
 crate::params! {
     pub struct CropParams {

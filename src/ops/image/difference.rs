@@ -32,13 +32,13 @@
 
 use rayon::prelude::*;
 
-use crate::data::{Image, Metrics};
 use crate::engine::fields::{Check, Input};
 use crate::engine::op::{
     check_same_shape, CheckContext, CheckProblem, OpContext, OpError, OpSpec, OutputType, Outputs, Persist,
 };
 use crate::engine::value::Value;
-use crate::types::ty::*;
+use crate::values::ty::*;
+use crate::values::{Image, Metrics};
 
 crate::choice! {
     /// Absolute or relative error.

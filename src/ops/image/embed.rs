@@ -10,7 +10,6 @@
 //! channels. Port `mask`: one channel `Y`, 1 where the view was pasted, 0 elsewhere.
 //! `view` must have `env`'s channel count and kind (both scalar fields or both images).
 
-use crate::data::Image;
 use crate::engine::fields::{Check, Input};
 use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec, OutputType, Outputs};
 use crate::engine::value::Value;
@@ -18,7 +17,8 @@ use crate::maths::camera::{fov_problem, Lens, Model};
 use crate::maths::camera_view::embed;
 use crate::maths::rotation::Rotation;
 use crate::ops::latlong_input::warn_unless_latlong;
-use crate::types::ty::*;
+use crate::values::ty::*;
+use crate::values::Image;
 
 crate::params! {
     pub struct EmbedParams {

@@ -16,12 +16,12 @@
 
 use rayon::prelude::*;
 
-use crate::data::Image;
 use crate::engine::fields::{Check, Input};
 use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec, Persist};
 use crate::engine::value::Value;
 use crate::maths::statistics::latlong_percentile;
-use crate::types::ty::*;
+use crate::values::ty::*;
+use crate::values::Image;
 
 crate::params! {
     pub struct ExposureParams {

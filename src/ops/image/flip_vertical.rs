@@ -2,11 +2,11 @@
 //!
 //! out(x, y) = image(x, H - 1 - y), every channel (alpha included) and its name kept.
 
-use crate::data::Image;
 use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec, Persist};
 use crate::engine::value::Value;
-use crate::types::ty::*;
+use crate::values::ty::*;
+use crate::values::Image;
 
 crate::params! {
     pub struct FlipVerticalParams {

@@ -8,11 +8,11 @@
 //! exactly the pixels `SphereView::normal_at` shades (images must be square); `All` keeps every
 //! pixel.
 
-use crate::data::Image;
 use crate::engine::fields::{Check, Input};
 use crate::engine::op::{check_same_shape, CheckContext, CheckProblem, OpContext, OpError, OpSpec, OutputType};
 use crate::engine::value::Value;
-use crate::types::ty::*;
+use crate::values::ty::*;
+use crate::values::Image;
 
 use crate::maths::error_metrics::image_error;
 use crate::maths::relight::SphereView;

@@ -18,14 +18,14 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
-use crate::data::{Image, Metrics};
 use crate::engine::fields::Input;
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
 use crate::engine::value::Value;
 use crate::geometry::latlong;
 use crate::ops::latlong_input::warn_unless_latlong;
 use crate::ops::shading::reference_sphere::check_finite;
-use crate::types::ty::*;
+use crate::values::ty::*;
+use crate::values::{Image, Metrics};
 
 crate::params! {
     pub struct MeanLightVectorParams {

@@ -25,11 +25,11 @@ use std::collections::BTreeSet;
 
 use rayon::prelude::*;
 
-use crate::data::Image;
 use crate::engine::fields::{Check, Input, Shape};
 use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec, Persist};
 use crate::engine::value::{Value, ValueType};
-use crate::types::ty::*;
+use crate::values::ty::*;
+use crate::values::Image;
 
 /// The most inputs a merge takes.
 pub const MAX_INPUTS: usize = 64;

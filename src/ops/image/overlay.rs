@@ -4,13 +4,13 @@
 //! centred on each sample's texel. The texel is found from the sample's direction, so samples
 //! drawn for one resolution can be drawn on a canvas of any other.
 
-use crate::data::{Image, SampleSet};
 use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Persist};
 use crate::engine::params::Rgb;
 use crate::engine::value::Value;
 use crate::geometry::latlong;
-use crate::types::ty::*;
+use crate::values::ty::*;
+use crate::values::{Image, SampleSet};
 
 crate::params! {
     pub struct OverlayParams {

@@ -13,18 +13,18 @@
 //! pixel's footprint, `maths::camera_view`). A fov outside its model's range is a pipeline
 //! error at `fov` before anything runs.
 //!
-//! Port `camera` (version 2) is the view's camera (`data::Camera`: model, fov, size, angles and
+//! Port `camera` (version 2) is the view's camera (`values::Camera`: model, fov, size, angles and
 //! the world-to-camera matrix `R^T`), for `CropLabel`, so that a crop's label is built from the
 //! fields that cut the crop and cannot drift from them.
 
-use crate::data::{Camera, Image};
 use crate::engine::fields::{Check, Input};
 use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec, OutputType, Outputs};
 use crate::engine::value::Value;
 use crate::maths::camera::{fov_problem, Lens, Model};
 use crate::maths::camera_view::{project, Filter};
 use crate::ops::latlong_input::warn_unless_latlong;
-use crate::types::ty::*;
+use crate::values::ty::*;
+use crate::values::{Camera, Image};
 
 crate::params! {
     pub struct ProjectParams {

@@ -3,12 +3,12 @@
 //! unchanged, for shrinking and enlarging alike). Every channel is averaged alike, alpha
 //! included, and the channel names are kept.
 
-use crate::data::Image;
 use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec};
 use crate::engine::value::Value;
 use crate::maths::area_resize;
-use crate::types::ty::*;
+use crate::values::ty::*;
+use crate::values::Image;
 
 crate::params! {
     pub struct ResizeParams {

@@ -6,14 +6,14 @@
 //! `maths::rotation`). A whole-column yaw of a lat-long map is an exact column roll; any other
 //! rotation averages the rotated map over each output texel's footprint.
 
-use crate::data::{Cubemap, Image};
 use crate::engine::fields::{AnyValue, Check, Input};
 use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec};
 use crate::engine::value::Value;
 use crate::maths::resample::{to_cube, CubeSource};
 use crate::maths::rotation::{rotate_latlong, Rotated, Rotation};
 use crate::ops::latlong_input::warn_unless_latlong;
-use crate::types::ty::*;
+use crate::values::ty::*;
+use crate::values::{Cubemap, Image};
 
 crate::params! {
     pub struct RotateParams {

@@ -12,12 +12,12 @@
 
 use rayon::prelude::*;
 
-use crate::data::Image;
 use crate::engine::fields::Check;
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Persist};
 use crate::engine::value::Value;
 use crate::geometry::latlong;
-use crate::types::ty::*;
+use crate::values::ty::*;
+use crate::values::Image;
 
 crate::params! {
     pub struct SolidAngleParams {

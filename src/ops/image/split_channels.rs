@@ -12,11 +12,11 @@
 //! A channel whose name contains a dot (an EXR layer such as `diffuse.R`) cannot be named in a
 //! pipeline, because `"node.port"` splits at the last dot.
 
-use crate::data::Image;
 use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec, Outputs, Persist};
 use crate::engine::value::Value;
-use crate::types::ty::*;
+use crate::values::ty::*;
+use crate::values::Image;
 
 crate::params! {
     pub struct SplitChannelsParams {

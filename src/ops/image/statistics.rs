@@ -20,12 +20,12 @@
 //! (weighted median exactly at the boundary: 0, any p above 50 gives 1) and a row ramp against
 //! the closed form `(1 - cos theta) / 2` (within one row).
 
-use crate::data::{Image, Metrics};
 use crate::engine::fields::Input;
 use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec, OutputType};
 use crate::engine::value::Value;
 use crate::maths::statistics::LuminanceSamples;
-use crate::types::ty::*;
+use crate::values::ty::*;
+use crate::values::{Image, Metrics};
 
 crate::params! {
     pub struct StatisticsParams {

@@ -12,7 +12,7 @@ use crate::engine::op::{resolve_path, OpContext, OpError, OpSpec, OutputType};
 use crate::engine::params::InputPath;
 use crate::engine::value::Value;
 use crate::formats;
-use crate::types::ty::*;
+use crate::values::ty::*;
 
 crate::params! {
     pub struct LoadHdrParams {
@@ -102,7 +102,7 @@ fn eval(ctx: &mut OpContext, p: LoadHdrParams) -> Result<Value, OpError> {
     };
     if image.channels == 1 {
         let data = image.data.iter().flat_map(|&v| [v, v, v]).collect();
-        image = crate::data::Image::from_vec(image.width, image.height, 3, data);
+        image = crate::values::Image::from_vec(image.width, image.height, 3, data);
     }
     if p.flip_vertical {
         image.flip_vertical_in_place();

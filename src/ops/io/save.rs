@@ -16,20 +16,20 @@
 //! The operator only encodes: the engine writes the bytes atomically into `--out`, and refuses
 //! paths that are absolute or leave that folder. Encoding is cached like any result.
 
-use crate::data::Image;
 use crate::engine::fields::{AnyValue, Check, Input};
 use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec, OutputType};
 use crate::engine::params::OutputPath;
 use crate::engine::value::{FileBlob, SaveOptions, Value, ValueType, FILE};
 use crate::formats::ktx2::KtxFormat;
-use crate::types::image::channels_not_kept;
+use crate::values::image::channels_not_kept;
+use crate::values::Image;
 
 crate::params! {
     pub struct SaveParams {
         /// the value to write (any type that can be saved: see the type list in `hdrflow ops`)
         pub input: Input<AnyValue>,
         /// (.png) take the automatic exposure from this image instead, so several PNGs share one exposure
-        #[input(crate::types::ty::ANY_IMAGE)]
+        #[input(crate::values::ty::ANY_IMAGE)]
         pub exposure_from: Option<Input<Image>>,
         /// file name relative to the output folder (--out); no `..`, not absolute
         pub path: OutputPath,
@@ -70,7 +70,7 @@ fn check(_: &CheckContext, p: SaveParams<Check>) -> Result<(), CheckProblem> {
         return Err(CheckProblem::at("ktx_format", "ktx_format applies to .ktx2 files only"));
     }
     let t = p.input.ty;
-    if t == crate::types::ty::MIP_CHAIN_T && ext != "ktx2" && !p.path.0.contains("{level}") {
+    if t == crate::values::ty::MIP_CHAIN_T && ext != "ktx2" && !p.path.0.contains("{level}") {
         return Err(CheckProblem::at(
             "path",
             "a mip chain is saved one file per level: put {level} in the path (e.g. \"spec_{level}.exr\"), or save it as one .ktx2",
@@ -124,11 +124,11 @@ fn eval(ctx: &mut OpContext, p: SaveParams) -> Result<Value, OpError> {
     } else if p.auto_exposure {
         if let Some(img) = value.get::<Image>() {
             exposure += auto_exposure(img);
-        } else if let Some(d) = value.get::<crate::data::Distribution2D>() {
-            exposure += auto_exposure(&crate::types::distribution::pdf_image(d));
-        } else if let Some(c) = value.get::<crate::data::Cubemap>() {
+        } else if let Some(d) = value.get::<crate::values::Distribution2D>() {
+            exposure += auto_exposure(&crate::values::distribution::pdf_image(d));
+        } else if let Some(c) = value.get::<crate::values::Cubemap>() {
             exposure += auto_exposure(&c.to_strip());
-        } else if let Some(c) = value.get::<crate::data::MipChain>().and_then(|c| c.levels.first()) {
+        } else if let Some(c) = value.get::<crate::values::MipChain>().and_then(|c| c.levels.first()) {
             exposure += auto_exposure(&c.to_strip());
         }
     }
@@ -137,13 +137,13 @@ fn eval(ctx: &mut OpContext, p: SaveParams) -> Result<Value, OpError> {
         .with(crate::formats::exr::EncodeOptions { compression: p.compression, half: p.half });
     options.exposure = exposure;
     options.plot_size = (p.plot_size[0] as u32, p.plot_size[1] as u32);
-    if let Some(chain) = value.get::<crate::data::MipChain>().filter(|_| options.ext != "ktx2") {
-        let mut files = crate::types::cubemap::save_levels(chain, &rel_path, &options).map_err(fail)?.into_iter();
+    if let Some(chain) = value.get::<crate::values::MipChain>().filter(|_| options.ext != "ktx2") {
+        let mut files = crate::values::cubemap::save_levels(chain, &rel_path, &options).map_err(fail)?.into_iter();
         let (first_path, first) = files.next().ok_or_else(|| fail("an empty mip chain".into()))?;
         return Ok(Value::new(FileBlob { rel_path: first_path, bytes: first, more: files.collect() }));
     }
     if let (Some(img), "png") = (value.get::<Image>(), options.ext.as_str()) {
-        // An image as PNG (the bytes of `types::image`'s encoder): the 8-bit copy first, then the
+        // An image as PNG (the bytes of `values::image`'s encoder): the 8-bit copy first, then the
         // float image is handed back before the deflate, which takes most of the time, so that a
         // run drawing several large overlays need not hold two at once (`scheduler::admission`).
         let srgb = crate::formats::png::to_srgb8(img, options.exposure).map_err(|e| fail(e.to_string()))?;
@@ -161,9 +161,9 @@ fn beyond_half(value: &Value) -> (usize, f32) {
     // (data, channels) of every texel array the value holds.
     let arrays: Vec<(&[f32], usize)> = if let Some(img) = value.get::<Image>() {
         vec![(&img.data, img.channels)]
-    } else if let Some(c) = value.get::<crate::data::Cubemap>() {
+    } else if let Some(c) = value.get::<crate::values::Cubemap>() {
         vec![(&c.data, 3)]
-    } else if let Some(chain) = value.get::<crate::data::MipChain>() {
+    } else if let Some(chain) = value.get::<crate::values::MipChain>() {
         chain.levels.iter().map(|c| (c.data.as_slice(), 3)).collect()
     } else {
         Vec::new()

@@ -10,13 +10,13 @@
 //! bilinear lookup at its centre direction, taps outside the disc having weight 0
 //! (`maths::disc_image::disc_to_latlong`). `LatLongToAngular` is the inverse.
 
-use crate::data::Image;
 use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec};
 use crate::engine::value::Value;
 use crate::geometry::azimuthal::DiscMap;
 use crate::maths::disc_image::disc_to_latlong;
-use crate::types::ty::*;
+use crate::values::ty::*;
+use crate::values::Image;
 
 crate::params! {
     pub struct AngularParams {

@@ -7,14 +7,14 @@
 //! `dOmega/dA = pi sin(pi r) / r`); outside the disc 0. The tests check the round trip
 //! lat-long -> angular -> lat-long and that the integral is kept (1e-3 on the sky).
 
-use crate::data::Image;
 use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec};
 use crate::engine::value::Value;
 use crate::geometry::azimuthal::DiscMap;
 use crate::maths::disc_image::latlong_to_disc;
 use crate::ops::latlong_input::warn_unless_latlong;
-use crate::types::ty::*;
+use crate::values::ty::*;
+use crate::values::Image;
 
 crate::params! {
     pub struct LatLongToAngularParams {

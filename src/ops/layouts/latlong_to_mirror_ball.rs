@@ -10,13 +10,13 @@
 //! (`maths::disc_image::latlong_to_disc`): a rim pixel, which reflects a band tens of degrees
 //! wide around the back direction, averages all of it instead of point-sampling it.
 
-use crate::data::Image;
 use crate::engine::fields::{Check, Input};
 use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec};
 use crate::engine::value::Value;
 use crate::maths::disc_image::latlong_to_disc;
 use crate::ops::latlong_input::warn_unless_latlong;
-use crate::types::ty::*;
+use crate::values::ty::*;
+use crate::values::Image;
 
 use super::{ball_map, ball_params};
 

@@ -9,14 +9,14 @@
 //! `dOmega/dA = (pi / 2) sin(pi r / 2) / r`); outside the disc 0. `SkyAngularToLatLong` is the
 //! inverse on the upper hemisphere.
 
-use crate::data::Image;
 use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec};
 use crate::engine::value::Value;
 use crate::geometry::azimuthal::DiscMap;
 use crate::maths::disc_image::latlong_to_disc;
 use crate::ops::latlong_input::warn_unless_latlong;
-use crate::types::ty::*;
+use crate::values::ty::*;
+use crate::values::Image;
 
 crate::params! {
     pub struct LatLongToSkyAngularParams {

@@ -5,12 +5,12 @@
 //! faces -Z). An odd H has no row boundary at the horizon and is refused (before the run when
 //! the size is known). `SkyLatLongToLatLong` is the inverse.
 
-use crate::data::Image;
 use crate::engine::fields::{Check, Input};
 use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec};
 use crate::engine::value::Value;
 use crate::ops::latlong_input::warn_unless_latlong;
-use crate::types::ty::*;
+use crate::values::ty::*;
+use crate::values::Image;
 
 use super::check_even_height;
 

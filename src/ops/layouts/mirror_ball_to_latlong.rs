@@ -16,12 +16,12 @@
 //! usable pixel was found, else 0 (the image is 0 there). A non-square image is an error (before
 //! the run when its size is known).
 
-use crate::data::Image;
 use crate::engine::fields::{Check, Input};
 use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec, OutputType, Outputs};
 use crate::engine::value::Value;
 use crate::maths::disc_image::disc_to_latlong;
-use crate::types::ty::*;
+use crate::values::ty::*;
+use crate::values::Image;
 
 use super::{ball_map, ball_params, check_square, require_square};
 

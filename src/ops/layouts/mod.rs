@@ -14,13 +14,13 @@ pub mod sky_latlong_to_latlong;
 
 use glam::DVec3;
 
-use crate::data::Image;
 use crate::engine::fields::Shape;
 use crate::engine::op::{CheckProblem, OpError};
 use crate::engine::registry::Registry;
 use crate::geometry::azimuthal::DiscMap;
 use crate::geometry::unit;
 use crate::maths::rotation::Rotation;
+use crate::values::Image;
 
 pub fn register(r: &mut Registry) {
     r.register(angular_to_latlong::spec());

@@ -9,13 +9,13 @@
 //! hemisphere), 0 where it was filled. A non-square image is an error (before the run when its
 //! size is known).
 
-use crate::data::Image;
 use crate::engine::fields::{Check, Input};
 use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec, OutputType, Outputs};
 use crate::engine::value::Value;
 use crate::geometry::azimuthal::DiscMap;
 use crate::maths::disc_image::disc_to_latlong;
-use crate::types::ty::*;
+use crate::values::ty::*;
+use crate::values::Image;
 
 use super::{check_square, fill_unseen, fill_values, require_square};
 

@@ -3,11 +3,11 @@
 //! input, bit for bit; the lower hemisphere is the constant `fill` per channel (none given: 0;
 //! one number: every channel; else one per channel). Port `mask`: 1 on the sky rows, 0 below.
 
-use crate::data::Image;
 use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Outputs};
 use crate::engine::value::Value;
-use crate::types::ty::*;
+use crate::values::ty::*;
+use crate::values::Image;
 
 use super::fill_values;
 

@@ -20,14 +20,14 @@
 //! synthetic maps with 0, 1, 3 and 5 blobs (one across the seam, one around the north pole).
 //! NaN or infinite texels are an error.
 
-use crate::data::Image;
 use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Outputs};
 use crate::engine::value::Value;
 use crate::maths::lights::extract_lights;
 use crate::ops::latlong_input::warn_unless_latlong;
 use crate::ops::shading::reference_sphere::check_finite;
-use crate::types::ty::*;
+use crate::values::ty::*;
+use crate::values::Image;
 
 crate::params! {
     pub struct ExtractLightsParams {

@@ -9,12 +9,12 @@
 //! `pi^2 / (24 H^2)` relative (tested from lambda = 0.05 to 5000; measured in
 //! `docs/toolkit/spherical_gaussians.md`).
 
-use crate::data::SphericalGaussians;
 use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
 use crate::engine::value::Value;
 use crate::maths::spherical_gaussians::render;
-use crate::types::ty::*;
+use crate::values::ty::*;
+use crate::values::SphericalGaussians;
 
 crate::params! {
     pub struct SgToLatLongParams {

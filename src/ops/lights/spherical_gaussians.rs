@@ -15,14 +15,14 @@
 //! map and the three fields (bit-identical across runs and thread counts). NaN or infinite
 //! texels are an error; `lobes` outside [1, 256] is refused before anything runs.
 
-use crate::data::{Image, Metrics};
 use crate::engine::fields::Input;
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Outputs};
 use crate::engine::value::Value;
 use crate::maths::spherical_gaussians::fit;
 use crate::ops::latlong_input::warn_unless_latlong;
 use crate::ops::shading::reference_sphere::check_finite;
-use crate::types::ty::*;
+use crate::values::ty::*;
+use crate::values::{Image, Metrics};
 
 crate::params! {
     pub struct SphericalGaussiansParams {

@@ -18,14 +18,14 @@
 //! synthetic ones; it holds to ~1e-12). No texel above the threshold (a uniform or black map):
 //! zero radiance and solid angle, `residual = env`. NaN or infinite texels are an error.
 
-use crate::data::Image;
 use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Outputs};
 use crate::engine::value::Value;
 use crate::maths::sun::extract_sun;
 use crate::ops::latlong_input::warn_unless_latlong;
 use crate::ops::shading::reference_sphere::check_finite;
-use crate::types::ty::*;
+use crate::values::ty::*;
+use crate::values::Image;
 
 crate::params! {
     pub struct SunExtractParams {

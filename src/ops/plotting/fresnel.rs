@@ -5,7 +5,7 @@
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
 use crate::engine::value::Value;
 use crate::maths::fresnel::fresnel_curves;
-use crate::types::ty::*;
+use crate::values::ty::*;
 
 crate::params! {
     pub struct FresnelParams {

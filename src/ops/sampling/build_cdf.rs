@@ -1,14 +1,14 @@
 //! `BuildCdf(luminance, sin_theta: true, sanitize: false)`: the 2D piecewise-constant
-//! distribution of a lat-long luminance map (see `data::distribution` for the maths and for what
+//! distribution of a lat-long luminance map (see `values::distribution` for the maths and for what
 //! zero rows, black maps, NaN/Inf/negative texels and 1xN maps do).
 
-use crate::data::Distribution2D;
-use crate::data::Image;
 use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
 use crate::engine::value::Value;
 use crate::ops::latlong_input::warn_unless_latlong;
-use crate::types::ty::*;
+use crate::values::ty::*;
+use crate::values::Distribution2D;
+use crate::values::Image;
 
 crate::params! {
     pub struct BuildCdfParams {

@@ -8,12 +8,12 @@
 
 use rayon::prelude::*;
 
-use crate::data::{Sample, SampleSet};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
 use crate::engine::value::Value;
 use crate::geometry::latlong;
 use crate::maths::{phong, sequences};
-use crate::types::ty::*;
+use crate::values::ty::*;
+use crate::values::{Sample, SampleSet};
 
 crate::params! {
     pub struct PhongSampleParams {

@@ -3,12 +3,12 @@
 //! (`maths::texel_samples`, where the formula and why texel centres are). Texel centres make
 //! the estimators' expectation equal the exact sum over texels that `ReferenceSphere` computes.
 
-use crate::data::Distribution2D;
 use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
 use crate::engine::value::Value;
 use crate::maths::{sequences, texel_samples};
-use crate::types::ty::*;
+use crate::values::ty::*;
+use crate::values::Distribution2D;
 
 crate::params! {
     pub struct SampleParams {

@@ -17,15 +17,15 @@
 //! pure function of `seed` (per-pixel SplitMix64 streams), whatever `--jobs`. NaN or infinite
 //! texels are an error (they would make NaN pixels).
 
-use crate::data::Distribution2D;
-use crate::data::Image;
 use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
 use crate::engine::params::Rgb;
 use crate::engine::value::Value;
 use crate::maths::glossy::{glossy_sphere, GlossyBrdf, GlossyStrategy, Heuristic};
 use crate::ops::latlong_input::warn_unless_latlong;
-use crate::types::ty::*;
+use crate::values::ty::*;
+use crate::values::Distribution2D;
+use crate::values::Image;
 
 super::glossy_params! {
     GlossySphereParams {
@@ -67,10 +67,13 @@ fn eval(ctx: &mut OpContext, p: GlossySphereParams) -> Result<Value, OpError> {
     let (env, dist) = (&*p.env, &*p.cdf);
     // A NaN or infinite texel would make NaN pixels wherever a sample lands on it.
     super::reference_sphere::check_finite(env)?;
-    if (dist.width, dist.height) != (env.width, env.height) {
+    if (dist.width(), dist.height()) != (env.width, env.height) {
         return Err(OpError::Invalid(format!(
             "the distribution is over a {}x{} map but env is {}x{}: build it from this env",
-            dist.width, dist.height, env.width, env.height
+            dist.width(),
+            dist.height(),
+            env.width,
+            env.height
         )));
     }
     let brdf = GlossyBrdf { diffuse: p.diffuse.0, specular: p.specular.0, exponent: p.exponent };

@@ -22,8 +22,6 @@
 //! whatever `--jobs`.
 
 use super::sphere_view;
-use crate::data::Distribution2D;
-use crate::data::Image;
 use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Persist};
 use crate::engine::params::Rgb;
@@ -33,7 +31,9 @@ use crate::maths::per_pixel::{
     relight_per_pixel_with, PerPixelOptions, PerPixelSequence, PerPixelStrategy, PerPixelWarp,
 };
 use crate::ops::latlong_input::warn_unless_latlong;
-use crate::types::ty::*;
+use crate::values::ty::*;
+use crate::values::Distribution2D;
+use crate::values::Image;
 
 super::sphere_params! {
     PerPixelParams {
@@ -78,10 +78,13 @@ pub fn spec() -> OpSpec {
 fn eval(ctx: &mut OpContext, p: PerPixelParams) -> Result<Value, OpError> {
     warn_unless_latlong(ctx, "env", p.env.width, p.env.height);
     let (env, dist) = (&*p.env, &*p.cdf);
-    if (dist.width, dist.height) != (env.width, env.height) {
+    if (dist.width(), dist.height()) != (env.width, env.height) {
         return Err(OpError::Invalid(format!(
             "the distribution is over a {}x{} map but env is {}x{}: build it from this env",
-            dist.width, dist.height, env.width, env.height
+            dist.width(),
+            dist.height(),
+            env.width,
+            env.height
         )));
     }
     let view = sphere_view(p.size, p.view);

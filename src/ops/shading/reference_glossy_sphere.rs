@@ -9,7 +9,6 @@
 //! Cost: O(pixels x non-zero texels), no culling (a 128 x 128 sphere under a 512 x 256 map is
 //! ~1.7e9 terms: seconds on 2 cores).
 
-use crate::data::Image;
 use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
 use crate::engine::params::Rgb;
@@ -17,7 +16,8 @@ use crate::engine::value::Value;
 use crate::maths::glossy::{reference_glossy_sphere, GlossyBrdf};
 use crate::ops::latlong_input::warn_unless_latlong;
 use crate::ops::shading::reference_sphere::check_finite;
-use crate::types::ty::*;
+use crate::values::ty::*;
+use crate::values::Image;
 
 super::glossy_params! {
     ReferenceGlossyParams {

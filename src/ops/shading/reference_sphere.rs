@@ -9,14 +9,14 @@
 //! BENCHMARKS.md).
 
 use super::sphere_view;
-use crate::data::Image;
 use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Persist};
 use crate::engine::params::Rgb;
 use crate::engine::value::Value;
 use crate::maths::reference::{first_non_finite, reference_sphere};
 use crate::ops::latlong_input::warn_unless_latlong;
-use crate::types::ty::*;
+use crate::values::ty::*;
+use crate::values::Image;
 
 super::sphere_params! {
     ReferenceParams {
@@ -42,7 +42,7 @@ pub fn spec() -> OpSpec {
 
 /// An error naming the first NaN or infinite texel of `env`, if any (shared by the shading
 /// operators that sum over the whole map).
-pub(crate) fn check_finite(env: &crate::data::Image) -> Result<(), OpError> {
+pub(crate) fn check_finite(env: &crate::values::Image) -> Result<(), OpError> {
     match first_non_finite(env) {
         Some((x, y, v)) => Err(OpError::Invalid(format!(
             "texel ({x}, {y}) of the environment is {v}: an exact sum needs finite radiance"

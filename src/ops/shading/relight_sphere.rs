@@ -12,8 +12,6 @@
 //! coarser grid are in `maths::shared_relight`.
 
 use super::sphere_view;
-use crate::data::Image;
-use crate::data::SampleSet;
 use crate::engine::fields::{Check, Input};
 use crate::engine::op::{CheckContext, CheckProblem};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
@@ -22,7 +20,9 @@ use crate::engine::value::Value;
 use crate::maths::relight::Estimator;
 use crate::maths::shared_relight;
 use crate::ops::latlong_input::warn_unless_latlong;
-use crate::types::ty::*;
+use crate::values::ty::*;
+use crate::values::Image;
+use crate::values::SampleSet;
 
 super::sphere_params! {
     RelightParams {

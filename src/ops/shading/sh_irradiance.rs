@@ -20,13 +20,13 @@
 //! the default port, and the `metrics` port.
 
 use super::reference_sphere::check_finite;
-use crate::data::{Image, Metrics, ShCoefficients, ShFrame};
 use crate::engine::fields::Input;
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Outputs};
 use crate::engine::value::Value;
 use crate::maths::sh::{coefficient_name, project, sh_lm};
 use crate::ops::latlong_input::warn_unless_latlong;
-use crate::types::ty::*;
+use crate::values::ty::*;
+use crate::values::{Image, Metrics, ShCoefficients, ShFrame};
 
 crate::params! {
     pub struct ShIrradianceParams {

@@ -8,14 +8,14 @@
 
 use super::reference_sphere::check_finite;
 use super::sphere_view;
-use crate::data::Image;
 use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
 use crate::engine::params::Rgb;
 use crate::engine::value::Value;
 use crate::maths::sh::sh_sphere;
 use crate::ops::latlong_input::warn_unless_latlong;
-use crate::types::ty::*;
+use crate::values::ty::*;
+use crate::values::Image;
 
 super::sphere_params! {
     ShSphereParams {

@@ -1,13 +1,43 @@
-//! `lights`: parametric lights plus an ambient colour ([`Lights`]), as `ExtractLights` gives
-//! them. Saved as `.json`: `{"lights": [{"direction": [x, y, z], "solid_angle": sr, "radiance":
-//! [r, g, b]}, ...], "ambient": [r, g, b]}` (each light with the keys of a `light`; numbers as
-//! the shortest decimal that reads back to the same f64; NaN and Inf, which `ExtractLights`
-//! never produces, become `null`).
+//! `Lights` (`lights` in graphs): a few parametric lights and an ambient colour, as
+//! `ExtractLights` takes them out of an environment map (the parametric model of
+//! lighting-estimation papers). Saved as `.json`: `{"lights": [{"direction": [x, y, z],
+//! "solid_angle": sr, "radiance": [r, g, b]}, ...], "ambient": [r, g, b]}` (each light with the
+//! keys of a `light`; numbers as the shortest decimal that reads back to the same f64; NaN and
+//! Inf, which `ExtractLights` never produces, become `null`).
+
+use std::f64::consts::PI;
 
 use super::light::{json_triple, read_light, to_json_value as light_json_value, write_light, LIGHT_BYTES};
-use crate::data::{Light, Lights};
+use super::Light;
 use crate::engine::cache::codec::{Reader, Writer};
 use crate::engine::value::{SaveOptions, TypeSpec, Value, ValueData, ValueType};
+
+/// An environment approximated as a constant `ambient` radiance over the whole sphere plus
+/// `lights`, each adding its `radiance` over its `solid_angle` around its `direction`. Its
+/// integral is `sum_i radiance_i solid_angle_i + ambient 4 pi` per channel ([`Lights::power`]),
+/// which `ExtractLights` makes equal to the map's.
+/// Plain data, its fields public (the lights and the ambient colour are the model).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Lights {
+    /// The lights, most energetic first.
+    pub lights: Vec<Light>,
+    /// The ambient radiance (RGB), over the whole sphere (4 pi sr).
+    pub ambient: [f64; 3],
+}
+
+impl Lights {
+    /// `sum_i radiance_i solid_angle_i + ambient 4 pi`, per channel: the model's integral over
+    /// the sphere.
+    pub fn power(&self) -> [f64; 3] {
+        let mut p = self.ambient.map(|a| a * 4.0 * PI);
+        for l in &self.lights {
+            for (pc, lc) in p.iter_mut().zip(l.power()) {
+                *pc += lc;
+            }
+        }
+        p
+    }
+}
 
 pub static LIGHTS: TypeSpec = TypeSpec {
     name: "lights",

@@ -1,5 +1,6 @@
-//! `sh coefficients`: real spherical-harmonic coefficients per RGB channel, with their order and
-//! frame ([`ShCoefficients`]). Saved as:
+//! `ShCoefficients` (`sh coefficients` in graphs): real spherical-harmonic coefficients of an
+//! environment, per RGB channel, with their order and the frame their basis was evaluated in. The
+//! basis, the frames and the projection are documented in `maths::sh`. Saved as:
 //!
 //! - `.json`: `{"frame": "World", "order": 2, "basis": "<the convention and axes, one line>",
 //!   "coefficients": [[r, g, b], ...]}`, `(order + 1)^2` rows in `(l, m)` order (l = 0..=order,
@@ -12,11 +13,92 @@
 
 use std::fmt::Write as _;
 
-use super::csv_text;
-use super::json_num as num;
-use crate::data::{ShCoefficients, ShFrame};
+use super::json::num;
 use crate::engine::cache::codec::{Reader, Writer};
 use crate::engine::value::{SaveOptions, TypeSpec, Value, ValueData, ValueType};
+
+crate::choice! {
+    /// The axes `(x, y, z)` the real SH basis is evaluated in, as functions of a unit direction
+    /// `d = (d_x, d_y, d_z)` in hdrflow's world (+Y up, -Z forward, +X right: right-handed).
+    /// The same map gives different coefficients in each frame: a shader must evaluate the basis
+    /// in the frame the coefficients were computed in.
+    pub enum ShFrame {
+        /// `(x, y, z) = (d_x, d_y, d_z)`: hdrflow's own axes, as Y-up engines evaluate the basis
+        /// (three.js `SphericalHarmonics3`, Filament's 3-band irradiance SH): `L_1,-1` goes with
+        /// the up axis.
+        World,
+        /// `(x, y, z) = (d_x, d_y, -d_z)`: Ramamoorthi and Hanrahan's frame for a Debevec light
+        /// probe (z towards the probe's centre, that is forward), in which their published Grace
+        /// Cathedral coefficients are expressed. A mirror image of `World`:
+        /// `L_lm(Paper) = (-1)^(l+m) L_lm(World)`.
+        Paper,
+        /// `(x, y, z) = (d_z, -d_x, d_y)`: z along the lat-long map's pole (+Y), azimuth = the map's
+        /// `phi`. The frame of `ShIrradiance` version 1; hdrflow projects in it (one Fourier sum per
+        /// row) and `ShSphere` uses it internally.
+        LatLong,
+    }
+}
+
+impl ShFrame {
+    /// The frame's `(x, y, z)` for a unit direction `d` of hdrflow's world.
+    #[inline]
+    pub fn axes(self, d: [f64; 3]) -> [f64; 3] {
+        match self {
+            ShFrame::World => d,
+            ShFrame::Paper => [d[0], d[1], -d[2]],
+            ShFrame::LatLong => [d[2], -d[0], d[1]],
+        }
+    }
+
+    /// One line naming the basis convention and the axes (written into saved files).
+    pub fn basis(self) -> &'static str {
+        match self {
+            ShFrame::World => {
+                "real SH, orthonormal, no Condon-Shortley phase, index l(l+1)+m; (x, y, z) = hdrflow world \
+                 (X right, Y up, Z back: forward is -Z); Y_1-1 = 0.488603 y, Y_10 = 0.488603 z, \
+                 Y_11 = 0.488603 x, as three.js SphericalHarmonics3"
+            }
+            ShFrame::Paper => {
+                "real SH, orthonormal, no Condon-Shortley phase, index l(l+1)+m; (x, y, z) = (X, Y, -Z) of \
+                 hdrflow world (x right, y up, z forward): Ramamoorthi-Hanrahan 2001 for a Debevec probe; \
+                 Y_1-1 = 0.488603 y, Y_10 = 0.488603 z, Y_11 = 0.488603 x"
+            }
+            ShFrame::LatLong => {
+                "real SH, orthonormal, no Condon-Shortley phase, index l(l+1)+m; (x, y, z) = (Z, -X, Y) of \
+                 hdrflow world (z up, azimuth = lat-long phi); Y_1-1 = 0.488603 y, Y_10 = 0.488603 z, \
+                 Y_11 = 0.488603 x"
+            }
+        }
+    }
+}
+
+/// Real SH coefficients `L_lm` up to band `order`, in `(l, m)` order (l = 0..=order,
+/// m = -l..=l: index `l (l + 1) + m`), one `[r, g, b]` per coefficient, `(order + 1)^2` of them.
+/// Plain data, its fields public: the projection writes them, the shading operators read them.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ShCoefficients {
+    pub order: usize,
+    pub frame: ShFrame,
+    pub rgb: Vec<[f64; 3]>,
+}
+
+impl ShCoefficients {
+    /// The coefficient `L_lm`, or `None` when `l > order` or `|m| > l`.
+    pub fn get(&self, l: usize, m: isize) -> Option<[f64; 3]> {
+        if l > self.order || m.unsigned_abs() > l {
+            return None;
+        }
+        self.rgb.get(((l * (l + 1)) as isize + m) as usize).copied()
+    }
+
+    /// `(l, m, [r, g, b])` in storage order.
+    pub fn iter(&self) -> impl Iterator<Item = (usize, isize, [f64; 3])> + '_ {
+        (0..=self.order)
+            .flat_map(|l| (-(l as isize)..=l as isize).map(move |m| (l, m)))
+            .zip(&self.rgb)
+            .map(|((l, m), c)| (l, m, *c))
+    }
+}
 
 pub static SH_COEFFICIENTS: TypeSpec = TypeSpec {
     name: "sh coefficients",
@@ -108,7 +190,7 @@ fn csv(c: &ShCoefficients) -> String {
     let rows = c.iter().map(|(l, m, v)| {
         [l.to_string(), m.to_string(), v[0].to_string(), v[1].to_string(), v[2].to_string(), c.frame.name().into()]
     });
-    csv_text(std::iter::once(header).chain(rows))
+    super::csv::text(std::iter::once(header).chain(rows))
 }
 
 /// A number for the table: fixed with 6 decimals in [1e-3, 1e7), else scientific.

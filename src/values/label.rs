@@ -1,4 +1,6 @@
-//! `label`: one camera crop's label ([`Label`]), as `CropLabel` gathers it. Saved as `.json`:
+//! `Label` (`label` in graphs): what a dataset stores about one camera crop of an environment
+//! map, as `CropLabel` gathers it: the crop's camera and, when given, the map's SH coefficients,
+//! spherical Gaussian lobes and parametric lights. Saved as `.json`:
 //!
 //! ```text
 //! {"camera": {"model", "fov", "width", "height", "yaw", "pitch", "roll", "world_to_camera"},
@@ -12,9 +14,21 @@
 //! numbers stay on one line; numbers are the shortest decimal that reads back to the same f64.
 
 use super::{camera, lights, sg, sh};
-use crate::data::{Label, Lights, ShCoefficients, SphericalGaussians};
+use super::{Camera, Lights, ShCoefficients, SphericalGaussians};
 use crate::engine::cache::codec::{Reader, Writer};
 use crate::engine::value::{SaveOptions, TypeSpec, Value, ValueData, ValueType};
+
+/// One crop's label. The lighting parts are in the frame of the map the crop was cut from
+/// (hdrflow's world axes); `camera.world_to_camera()` takes a direction into the crop's camera
+/// space.
+/// Plain data, its fields public: `CropLabel` puts the parts together as they are.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Label {
+    pub camera: Camera,
+    pub sh: Option<ShCoefficients>,
+    pub sgs: Option<SphericalGaussians>,
+    pub lights: Option<Lights>,
+}
 
 pub static LABEL: TypeSpec = TypeSpec {
     name: "label",
@@ -118,8 +132,8 @@ fn save(value: &Value, _: &SaveOptions) -> Result<Vec<u8>, String> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::data::{Camera, Light, SgLobe, ShFrame};
     use crate::maths::camera::Model;
+    use crate::values::{Light, SgLobe, ShFrame};
 
     fn full() -> Label {
         Label {

@@ -15,6 +15,11 @@ pub(crate) fn text(v: &Value) -> String {
     out
 }
 
+/// A JSON number, or `null` for NaN and infinities (JSON has neither).
+pub(crate) fn num(v: f64) -> Value {
+    serde_json::Number::from_f64(v).map(Value::Number).unwrap_or(Value::Null)
+}
+
 fn is_scalar(v: &Value) -> bool {
     !matches!(v, Value::Array(_) | Value::Object(_))
 }

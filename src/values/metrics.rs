@@ -1,9 +1,22 @@
-//! `metrics`: a flat record of named numbers ([`Metrics`]). Saved as `.json` or `.csv`.
+//! `Metrics` (`metrics` in graphs): a flat record of named numbers (error metrics, statistics),
+//! saved as `.json` or `.csv`.
 
-use super::json_num as num;
-use crate::data::Metrics;
+use super::json::num;
 use crate::engine::cache::codec::{Reader, Writer};
 use crate::engine::value::{SaveOptions, TypeSpec, Value, ValueData, ValueType};
+
+/// A flat record of named numbers, in the order they were added. Plain data, its field public:
+/// each measuring operator pushes its own names.
+#[derive(Clone, Debug, PartialEq, Default)]
+pub struct Metrics {
+    pub fields: Vec<(String, f64)>,
+}
+
+impl Metrics {
+    pub fn get(&self, name: &str) -> Option<f64> {
+        self.fields.iter().find(|(n, _)| n == name).map(|(_, v)| *v)
+    }
+}
 
 pub static METRICS: TypeSpec = TypeSpec {
     name: "metrics",
@@ -70,7 +83,7 @@ fn csv(m: &Metrics) -> String {
     }
     let names = m.fields.iter().map(|(n, _)| n.clone()).collect::<Vec<_>>();
     let values = m.fields.iter().map(|(_, v)| v.to_string()).collect::<Vec<_>>();
-    super::csv_text([names, values])
+    super::csv::text([names, values])
 }
 
 #[cfg(test)]

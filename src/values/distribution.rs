@@ -52,10 +52,20 @@
 //! on Linux (`crate::memory::advise_huge_pages`): a fresh buffer of hundreds of MB is otherwise
 //! faulted in and zeroed by the kernel 4 KiB at a time, which at 8192x4096 cost more than
 //! everything else. Measured numbers are in BENCHMARKS.md ("BuildCdf at scale").
+//!
+//! In graphs a `distribution`; saved as an image of its solid-angle pdf per texel. Cache payload:
+//! width, height (u64), sin_theta, carries_light (u8), total, luminance_integral (f64), then the
+//! f64 arrays conditional_cdf, row_sums, marginal_cdf. The weights (`func`) are not stored since
+//! issue 14 (they are derived from the CDFs). An entry written with the older layout, which had
+//! `func` before `conditional_cdf`, is never looked up (this file is part of the engine salt in
+//! every cache key), and if one were decoded anyway its first array has `width * height`
+//! entries, not `height * (width + 1)`, so the size check rejects it.
 
 use rayon::prelude::*;
 
-use crate::data::image::Image;
+use super::image::Image;
+use crate::engine::cache::codec::{Reader, Writer};
+use crate::engine::value::{SaveOptions, TypeSpec, Value, ValueData, ValueType};
 use crate::geometry::latlong::{texel_of_direction, texel_solid_angle, theta_of_row};
 use crate::maths::row_kernels::RowKernel;
 
@@ -71,28 +81,29 @@ pub enum DistributionError {
 }
 
 /// A piecewise-constant 2D distribution over a lat-long map (see the module documentation).
-/// All fields are public for the cache codec; `build` establishes their invariants.
+/// The fields are private: `build` establishes their invariants and the cache codec below checks
+/// a decoded entry's sizes; other modules read them through the accessors.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Distribution2D {
-    pub width: usize,
-    pub height: usize,
+    width: usize,
+    height: usize,
     /// Whether the weights include sin(theta) (sampling proportional to luminance x solid angle).
-    pub sin_theta: bool,
+    sin_theta: bool,
     /// `height` rows of `width + 1` entries: row y's CDF over columns, 0.0 .. exactly 1.0,
     /// non-decreasing; uniform `k / W` for a row of zero weight.
-    pub conditional_cdf: Vec<f64>,
+    conditional_cdf: Vec<f64>,
     /// Sum of each row's weights (`height` entries): `sin(theta_y)` (or 1) times the f64 sum of
     /// the row's luminance.
-    pub row_sums: Vec<f64>,
+    row_sums: Vec<f64>,
     /// CDF over rows (`height + 1` entries, 0.0 .. exactly 1.0). Proportional to `row_sums`, or,
     /// when the map carries no light, to sin(theta_y) (uniform over solid angle).
-    pub marginal_cdf: Vec<f64>,
+    marginal_cdf: Vec<f64>,
     /// Sum of all weights (of `row_sums`).
-    pub total: f64,
+    total: f64,
     /// `sum Y(x, y) dOmega_y`: the integral of the (sanitised) luminance over the sphere.
-    pub luminance_integral: f64,
+    luminance_integral: f64,
     /// `total` is finite and positive; false means the uniform solid-angle fallback is in use.
-    pub carries_light: bool,
+    carries_light: bool,
 }
 
 /// Normalises non-decreasing running sums `cdf[0] = 0, ..., cdf[n] = sum` into a CDF in place
@@ -263,6 +274,57 @@ impl Distribution2D {
         })
     }
 
+    /// Texels per row of the map the distribution was built from.
+    #[inline]
+    pub fn width(&self) -> usize {
+        self.width
+    }
+
+    /// Rows of the map.
+    #[inline]
+    pub fn height(&self) -> usize {
+        self.height
+    }
+
+    /// Whether the weights include sin(theta) (sampling proportional to luminance x solid angle).
+    pub fn sin_theta(&self) -> bool {
+        self.sin_theta
+    }
+
+    /// The CDF over rows (`height + 1` entries, 0.0 .. exactly 1.0), proportional to the row
+    /// sums, or to sin(theta_y) when the map carries no light.
+    #[inline]
+    pub fn marginal_cdf(&self) -> &[f64] {
+        &self.marginal_cdf
+    }
+
+    /// Every row's conditional CDF, row after row (`height` rows of `width + 1` entries; one row
+    /// is [`Distribution2D::conditional_row`]).
+    pub fn conditional_cdf(&self) -> &[f64] {
+        &self.conditional_cdf
+    }
+
+    /// The sum of each row's weights (`height` entries).
+    pub fn row_sums(&self) -> &[f64] {
+        &self.row_sums
+    }
+
+    /// The sum of all weights.
+    pub fn total(&self) -> f64 {
+        self.total
+    }
+
+    /// `sum Y(x, y) dOmega_y`: the integral of the (sanitised) luminance over the sphere.
+    pub fn luminance_integral(&self) -> f64 {
+        self.luminance_integral
+    }
+
+    /// Whether the total weight is finite and positive; false means the uniform solid-angle
+    /// fallback is in use.
+    pub fn carries_light(&self) -> bool {
+        self.carries_light
+    }
+
     /// Row y's conditional CDF (`width + 1` entries).
     #[inline]
     pub fn conditional_row(&self, y: usize) -> &[f64] {
@@ -348,9 +410,123 @@ impl Distribution2D {
     }
 }
 
+pub static DISTRIBUTION: TypeSpec = TypeSpec {
+    name: "distribution",
+    doc: "a piecewise-constant 2D sampling distribution over a lat-long map (f64)",
+    decode,
+    save_extensions: &["png", "exr", "hdr", "pfm"],
+    save: Some(save),
+};
+
+impl ValueData for Distribution2D {
+    fn value_type(&self) -> ValueType {
+        ValueType(&DISTRIBUTION)
+    }
+    fn approx_bytes(&self) -> usize {
+        Distribution2D::approx_bytes(self)
+    }
+    /// What `--print cdf` shows: the size, the light it carries, and its brightest texel (where
+    /// it is and what share of the samples it draws: `P(x, y) = P(row y) P(x | y)`).
+    fn summary(&self) -> String {
+        let (w, h) = (self.width, self.height);
+        let weighting = if self.sin_theta { "luminance x sin(theta)" } else { "luminance" };
+        if !self.carries_light {
+            return format!("a {w} x {h} distribution carrying no light: uniform over solid angle");
+        }
+        let (mut best, mut at) = (0.0f64, (0, 0));
+        for y in 0..h {
+            let row = self.marginal_cdf[y + 1] - self.marginal_cdf[y];
+            let cdf = &self.conditional_cdf[y * (w + 1)..(y + 1) * (w + 1)];
+            for x in 0..w {
+                let p = row * (cdf[x + 1] - cdf[x]);
+                if p > best {
+                    (best, at) = (p, (x, y));
+                }
+            }
+        }
+        let (x, y) = at;
+        let d = crate::geometry::latlong::texel_direction(x, y, w, h);
+        format!(
+            "a {w} x {h} distribution over {weighting}; luminance integral {:.6e} (over the sphere, in sr); \
+             brightest texel ({x}, {y}), direction ({:.4}, {:.4}, {:.4}) (theta {:.2} deg, phi {:.2} deg), \
+             draws {:.3}% of the samples ({:.1}x a uniform texel's)",
+            self.luminance_integral,
+            d[0],
+            d[1],
+            d[2],
+            crate::geometry::latlong::theta_of_row(y, h).to_degrees(),
+            crate::geometry::latlong::phi_of_column(x, w).to_degrees(),
+            100.0 * best,
+            best * (w * h) as f64,
+        )
+    }
+    fn encode(&self, out: &mut Vec<u8>) {
+        let mut w = Writer(out);
+        w.u64(self.width as u64);
+        w.u64(self.height as u64);
+        w.u8(u8::from(self.sin_theta));
+        w.u8(u8::from(self.carries_light));
+        w.f64(self.total);
+        w.f64(self.luminance_integral);
+        w.f64s(&self.conditional_cdf);
+        w.f64s(&self.row_sums);
+        w.f64s(&self.marginal_cdf);
+    }
+}
+
+fn decode(bytes: &[u8]) -> Result<Value, String> {
+    let mut r = Reader::new(bytes);
+    let width = r.usize()?;
+    let height = r.usize()?;
+    let sin_theta = r.u8()? != 0;
+    let carries_light = r.u8()? != 0;
+    let total = r.f64()?;
+    let luminance_integral = r.f64()?;
+    let conditional_cdf = r.f64s()?;
+    let row_sums = r.f64s()?;
+    let marginal_cdf = r.f64s()?;
+    r.finish()?;
+    let n = width.checked_mul(height).ok_or("distribution size overflows")?;
+    if n == 0
+        || Some(conditional_cdf.len()) != height.checked_mul(width + 1)
+        || row_sums.len() != height
+        || marginal_cdf.len() != height + 1
+    {
+        return Err("distribution arrays do not match its size".into());
+    }
+    Ok(Value::new(Distribution2D {
+        width,
+        height,
+        sin_theta,
+        conditional_cdf,
+        row_sums,
+        marginal_cdf,
+        total,
+        luminance_integral,
+        carries_light,
+    }))
+}
+
+fn save(value: &Value, o: &SaveOptions) -> Result<Vec<u8>, String> {
+    let d = value.get::<Distribution2D>().ok_or("not a distribution")?;
+    super::image::encode_image(&pdf_image(d), o)
+}
+
+/// The distribution's solid-angle pdf per texel, as a scalar field.
+pub fn pdf_image(d: &Distribution2D) -> Image {
+    let mut img = Image::new(d.width, d.height, 1);
+    for y in 0..d.height {
+        for x in 0..d.width {
+            img.data[y * d.width + x] = d.pdf(x, y) as f32;
+        }
+    }
+    img
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
     // Test-only: the generator and the chi-square test are maths'; `data` itself depends on
     // `maths` only for the row kernels, a leaf (the lat-long geometry it needs is
     // `geometry::latlong`).

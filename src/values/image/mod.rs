@@ -1,11 +1,26 @@
-//! `Image`: a float raster, row-major, row 0 at the top, with any number of named channels.
+//! `Image`: a float raster, row-major, row 0 at the top, with any number of named channels; in
+//! graphs an `image` (2+ channels) or a `scalar field` (1 channel): the type follows the channel
+//! count, so an operator can demand a one-channel input at validation.
 //!
 //! Values are linear radiance as stored in the source file (no transfer curve); f32 in memory,
 //! f64 wherever we sum many of them (see `../shared/NOTES.md`: a sun can exceed half-float range).
 //! Channels are interleaved per pixel in the order of `names`. Colour images keep `R, G, B`
 //! first (then `A` or anything else), so that `rgb()` reads the first three channels.
+//!
+//! A folder so that the type stays below the file formats that read and write it: this file
+//! holds the type and its methods (`crate::formats` builds on it), [`codec`] its `TypeSpec`s and
+//! cache payload, [`save`] how `Save` writes it (through `crate::formats`).
+
+pub mod codec;
+pub mod save;
+
+pub use codec::{IMAGE, SCALAR_FIELD};
+pub use save::{channels_not_kept, encode_image};
 
 /// A float raster. `data.len() == width * height * channels`, rows top to bottom.
+/// The fields are public: the samples are the type's API, which operators and file formats read
+/// and write in place (a copy of a map would double its memory); the constructors check the
+/// lengths, and the codec checks a decoded entry's.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Image {
     pub width: usize,

@@ -1,81 +1,13 @@
-//! `image` (2+ channels) and `scalar field` (1 channel): both are [`Image`]s; the type follows
-//! the channel count, so an operator can demand a one-channel input at validation.
-//!
-//! Cache payload: width, height, channel names, then the f32 samples. Saved as `.png` (exposure
-//! then sRGB, 8-bit; RGBA keeps alpha), `.exr` (f32, every channel under its name), `.hdr` (RGB)
-//! or `.pfm` (RGB or grey), `.ktx2` (a 2D texture of one level, RGBA16F or RGBA32F: RGB gets
-//! alpha 1, grey is replicated to RGB; `formats::ktx2`).
+//! How `Save` writes an [`Image`]: `.png` (exposure then sRGB, 8-bit; RGBA keeps alpha), `.exr`
+//! (f32, every channel under its name), `.hdr` (RGB) or `.pfm` (RGB or grey), `.ktx2` (a 2D
+//! texture of one level, RGBA16F or RGBA32F: RGB gets alpha 1, grey is replicated to RGB;
+//! `formats::ktx2`).
 
-use crate::data::Image;
-use crate::engine::cache::codec::{Reader, Writer};
-use crate::engine::value::{SaveOptions, TypeSpec, Value, ValueData, ValueType};
+use super::Image;
+use crate::engine::value::{SaveOptions, Value};
 use crate::formats;
 
-pub static IMAGE: TypeSpec = TypeSpec {
-    name: "image",
-    doc: "a float raster of 2 or more named channels (RGB, RGBA, ...), linear radiance",
-    decode,
-    save_extensions: &["png", "exr", "hdr", "pfm", "ktx2"],
-    save: Some(save),
-};
-
-pub static SCALAR_FIELD: TypeSpec = TypeSpec {
-    name: "scalar field",
-    doc: "a one-channel float raster (luminance, weights, masks, one channel of an image)",
-    decode,
-    save_extensions: &["png", "exr", "hdr", "pfm", "ktx2"],
-    save: Some(save),
-};
-
-impl ValueData for Image {
-    fn value_type(&self) -> ValueType {
-        if self.channels == 1 {
-            ValueType(&SCALAR_FIELD)
-        } else {
-            ValueType(&IMAGE)
-        }
-    }
-    fn approx_bytes(&self) -> usize {
-        self.data.len() * 4
-    }
-    fn summary(&self) -> String {
-        let n = self.pixel_count().max(1) as f64;
-        let means: Vec<String> = (0..self.channels)
-            .map(|c| {
-                let sum: f64 = self.data.iter().skip(c).step_by(self.channels).map(|&v| v as f64).sum();
-                format!("{} {:.6}", self.names[c], sum / n)
-            })
-            .collect();
-        format!("{}x{} image, channel means: {}", self.width, self.height, means.join(", "))
-    }
-    fn encode(&self, out: &mut Vec<u8>) {
-        let mut w = Writer(out);
-        w.u64(self.width as u64);
-        w.u64(self.height as u64);
-        w.u64(self.names.len() as u64);
-        for n in &self.names {
-            w.str(n);
-        }
-        w.f32s(&self.data);
-    }
-}
-
-fn decode(bytes: &[u8]) -> Result<Value, String> {
-    let mut r = Reader::new(bytes);
-    let width = r.usize()?;
-    let height = r.usize()?;
-    let channels = r.usize()?;
-    r.need(channels.saturating_mul(8))?;
-    let names = (0..channels).map(|_| r.str()).collect::<Result<Vec<_>, _>>()?;
-    let data = r.f32s()?;
-    r.finish()?;
-    if channels == 0 || width.checked_mul(height).and_then(|p| p.checked_mul(channels)) != Some(data.len()) {
-        return Err("image dimensions do not match its data".into());
-    }
-    Ok(Value::new(Image::with_names(width, height, names, data)))
-}
-
-fn save(value: &Value, o: &SaveOptions) -> Result<Vec<u8>, String> {
+pub(super) fn save(value: &Value, o: &SaveOptions) -> Result<Vec<u8>, String> {
     let img = value.get::<Image>().ok_or("not an image")?;
     if o.ext == "ktx2" {
         let rgba = formats::ktx2::image_rgba(img);
@@ -95,7 +27,7 @@ pub fn encode_image(img: &Image, o: &SaveOptions) -> Result<Vec<u8>, String> {
             // RGBE and PFM hold RGB (PFM also grey): alpha and further channels are dropped
             // (`channels_not_kept` says which, and `Save` warns).
             let rgb = if img.channels > 3 || img.channels == 2 {
-                crate::data::Image::from_fn_rgb(img.width, img.height, |x, y| img.rgb(x, y))
+                Image::from_fn_rgb(img.width, img.height, |x, y| img.rgb(x, y))
             } else {
                 img.clone()
             };
@@ -143,34 +75,13 @@ pub fn channels_not_kept(img: &Image, ext: &str) -> Option<String> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn round_trip_keeps_names_and_truncation_is_an_error() {
-        let img = Image::with_names(
-            2,
-            1,
-            vec!["R".into(), "G".into(), "B".into(), "A".into()],
-            (0..8).map(|v| v as f32).collect(),
-        );
-        let mut bytes = Vec::new();
-        img.encode(&mut bytes);
-        let back = decode(&bytes).unwrap();
-        assert_eq!(back.value_type(), ValueType(&IMAGE));
-        assert_eq!(back.get::<Image>().unwrap(), &img);
-        for cut in [0, 8, bytes.len() - 1] {
-            let e = decode(&bytes[..cut]).unwrap_err();
-            assert!(e.starts_with("truncated: need"), "cut at {cut}: {e}");
-        }
-        let y = Value::new(Image::new(2, 2, 1));
-        assert_eq!(y.value_type(), ValueType(&SCALAR_FIELD));
-    }
+    use crate::values::image::default_names;
 
     /// Every format against every channel count: a channel the file does not hold is always
     /// announced by `channels_not_kept` (or the encoder refuses the image), so `Save` never
     /// loses one silently.
     #[test]
     fn no_format_loses_a_channel_silently() {
-        use crate::data::image::default_names;
         let values = [0.25f32, 0.5, 0.75, 0.125, 0.375];
         let mut cases: Vec<Vec<String>> = (1..=5).map(default_names).collect();
         cases.push(vec!["R".into(), "G".into()]);
