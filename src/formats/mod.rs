@@ -25,7 +25,9 @@
 
 pub mod builtin;
 pub mod exr;
+pub mod ktx1;
 pub mod ktx2;
+pub mod packed_float;
 pub mod pfm;
 pub mod png;
 pub mod rgbe;
