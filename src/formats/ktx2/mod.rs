@@ -173,8 +173,9 @@ impl Default for KtxSupercompression {
     }
 }
 
-/// The Zstandard level `Save` uses unless told otherwise (`BENCHMARKS.md` has the sizes and times).
-pub const DEFAULT_ZSTD_LEVEL: i32 = 19;
+/// The Zstandard level `Save` uses unless told otherwise: zstd's own default (`BENCHMARKS.md` has
+/// the sizes and times of levels 3, 9 and 19).
+pub const DEFAULT_ZSTD_LEVEL: i32 = 3;
 
 /// How the levels are stored: the supercompression and, for Zstandard, its level (1 to 22).
 #[derive(Clone, Copy, Debug, PartialEq)]

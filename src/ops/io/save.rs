@@ -1,5 +1,5 @@
 //! `Save(input, path, exposure: 0.0, auto_exposure: false, exposure_from: NODE, plot_size: (800,
-//! 500), ktx_format: Rgba16f, ktx_supercompression: None, zstd_level: 19, ktx1_format: Rg11b10f,
+//! 500), ktx_format: Rgba16f, ktx_supercompression: None, zstd_level: 3, ktx1_format: Rg11b10f,
 //! sh: NODE, png_format: Srgb8)`: encode a value as a file in the output folder. `exposure_from`
 //! (optional) takes the automatic exposure from another image, so that several PNGs (spheres side
 //! by side) share one. The format follows the extension and the value's type:
@@ -51,9 +51,9 @@ crate::params! {
         pub ktx_format: KtxFormat = KtxFormat::Rgba16f,
         /// (.ktx2) None, or Zstd: Zstandard supercompression (supercompressionScheme 2), each level compressed on its own
         pub ktx_supercompression: KtxSupercompression = KtxSupercompression::None,
-        /// (.ktx2 with ktx_supercompression: Zstd) the Zstandard level, 1 (fastest) to 22 (smallest)
+        /// (.ktx2 with ktx_supercompression: Zstd) the Zstandard level, 1 (fastest) to 22 (smallest); 3 is zstd's default, 19 about 10% smaller and 10x slower
         #[range(1, 22)]
-        pub zstd_level: usize = 19,
+        pub zstd_level: usize = 3,
         /// (.ktx) texel format: Rg11b10f (GL_R11F_G11F_B10F, cmgen's default: [0, 65024], relative 2^-7, B 2^-6) or Rgba16f (GL_RGBA16F, clamped to +-65504)
         pub ktx1_format: Ktx1Format = Ktx1Format::Rg11b10f,
         /// (.ktx) 3-band SH coefficients written under the key "sh" as Filament's cmgen writes them (9 lines "r g b"), as given: Filament expects its pre-scaled irradiance SH
@@ -90,7 +90,9 @@ fn check(_: &CheckContext, p: SaveParams<Check>) -> Result<(), CheckProblem> {
     if p.ktx_supercompression != KtxSupercompression::None && ext != "ktx2" {
         return Err(CheckProblem::at("ktx_supercompression", "ktx_supercompression applies to .ktx2 files only"));
     }
-    if p.zstd_level != 19 && p.ktx_supercompression != KtxSupercompression::Zstd {
+    if p.zstd_level != crate::formats::ktx2::DEFAULT_ZSTD_LEVEL as usize
+        && p.ktx_supercompression != KtxSupercompression::Zstd
+    {
         return Err(CheckProblem::at("zstd_level", "zstd_level applies to ktx_supercompression: Zstd only"));
     }
     if p.ktx1_format != Ktx1Format::Rg11b10f && ext != "ktx" {
