@@ -40,18 +40,14 @@ use crate::formats::FormatError;
 
 crate::choice! {
     /// The texel format of a `.ktx` file: the two that Filament's cmgen writes.
+    #[derive(Default)]
     pub enum Ktx1Format {
         /// `GL_R11F_G11F_B10F`: RGB as 11-, 11- and 10-bit unsigned floats, 4 bytes (cmgen's
         /// default); [0, 65024] ([0, 64512] for B), relative error 2^-7 (R, G) and 2^-6 (B).
+        #[default]
         Rg11b10f,
         /// `GL_RGBA16F`: half floats, clamped to +-65504.
         Rgba16f,
-    }
-}
-
-impl Default for Ktx1Format {
-    fn default() -> Self {
-        Ktx1Format::Rg11b10f
     }
 }
 
@@ -173,7 +169,7 @@ mod tests {
             (1.0, "1"),
             (0.5, "0.5"),
             (-0.25, "-0.25"),
-            (3.14159265, "3.14159"),
+            (1.234_567_9, "1.23457"),
             (123456.0, "123456"),
             (1234567.0, "1.23457e+06"),
             (0.0001, "0.0001"),

@@ -29,17 +29,13 @@ use crate::data::Image;
 
 crate::choice! {
     /// How `Save` writes an image as `.png`.
+    #[derive(Default)]
     pub enum PngFormat {
         /// 8-bit sRGB preview: exposure, the sRGB transfer, clamped (to look at)
+        #[default]
         Srgb8,
         /// 16-bit linear values clamped to [0, 1], no transfer (data such as a BRDF LUT; two channels as R, G, B = 0)
         Linear16,
-    }
-}
-
-impl Default for PngFormat {
-    fn default() -> Self {
-        PngFormat::Srgb8
     }
 }
 

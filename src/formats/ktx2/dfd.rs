@@ -112,7 +112,7 @@ mod tests {
         for c in 0..3u32 {
             let mantissa = &words[7 + 8 * c as usize..11 + 8 * c as usize];
             let exponent = &words[11 + 8 * c as usize..15 + 8 * c as usize];
-            assert_eq!(mantissa, &[9 * c | (8 << 16) | (c << 24), 0, 0, 8448]);
+            assert_eq!(mantissa, &[(9 * c) | (8 << 16) | (c << 24), 0, 0, 8448]);
             assert_eq!(exponent, &[27 | (4 << 16) | ((c | 0x20) << 24), 0, 15, 31]);
         }
     }

@@ -159,17 +159,13 @@ impl KtxFormat {
 
 crate::choice! {
     /// The supercompression of a `.ktx2` file's levels.
+    #[derive(Default)]
     pub enum KtxSupercompression {
         /// none (supercompressionScheme 0): the texels as they are
+        #[default]
         None,
         /// Zstandard (supercompressionScheme 2), each level compressed on its own, at `zstd_level`
         Zstd,
-    }
-}
-
-impl Default for KtxSupercompression {
-    fn default() -> Self {
-        KtxSupercompression::None
     }
 }
 
@@ -408,10 +404,10 @@ mod tests {
             let u32_at = |i: usize| u32::from_le_bytes(b[i..i + 4].try_into().unwrap());
             let u64_at = |i: usize| u64::from_le_bytes(b[i..i + 8].try_into().unwrap());
             assert_eq!((u32_at(12), u32_at(16)), (format.vk_format(), format.type_size() as u32));
-            for k in 0..2 {
+            for (k, level) in levels.iter().enumerate() {
                 let (offset, length) = (u64_at(80 + 24 * k), u64_at(88 + 24 * k));
                 assert_eq!(offset % 4, 0);
-                assert_eq!(length, (levels[k].rgba.len() / 4 * 4) as u64);
+                assert_eq!(length, (level.rgba.len() / 4 * 4) as u64);
                 assert_eq!(u64_at(96 + 24 * k), length);
             }
             let last = u32::from_le_bytes(b[b.len() - 4..].try_into().unwrap());
