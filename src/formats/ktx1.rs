@@ -208,6 +208,11 @@ mod tests {
         assert_eq!(e, "a KTX key must be non-empty text without NUL, not \"\"");
         let e = encode(&level, 3, Ktx1Format::Rg11b10f, &KeyValues::default()).unwrap_err().to_string();
         assert_eq!(e, "a KTX texture has 1 or 6 faces, not 3");
+        let empty = [Level { width: 0, height: 0, rgba: &[] }];
+        let e = encode(&empty, 1, Ktx1Format::Rg11b10f, &KeyValues::default()).unwrap_err().to_string();
+        assert_eq!(e, "a 0x0 image cannot be written as KTX");
+        let e = encode(&[], 1, Ktx1Format::Rg11b10f, &KeyValues::default()).unwrap_err().to_string();
+        assert_eq!(e, "no levels to write");
         let rgba2 = [1.0f32; 4 * 6 * 4];
         let levels = [Level { width: 2, height: 2, rgba: &rgba2 }, Level { width: 2, height: 2, rgba: &rgba2 }];
         let e = encode(&levels, 6, Ktx1Format::Rgba16f, &KeyValues::default()).unwrap_err().to_string();

@@ -280,5 +280,9 @@ mod tests {
         assert_eq!(e, "cannot write a 5-channel image as PNG (1, 2, 3 or 4)");
         let e = encode_linear16(&Image::from_vec(0, 0, 3, vec![]), 0.0).unwrap_err().to_string();
         assert_eq!(e, "cannot write an empty 0x0 image as PNG");
+        let short =
+            Image { width: 2, height: 1, channels: 3, names: crate::data::image::default_names(3), data: vec![0.0; 3] };
+        let e = encode_linear16(&short, 0.0).unwrap_err().to_string();
+        assert_eq!(e, "image buffer has 3 samples, expected 2x1x3");
     }
 }
