@@ -33,6 +33,7 @@ const EXPECTED_FILES: &[&str] = &[
     "save_absolute.ron",
     "save_bad_extension.ron",
     "save_chain_without_level.ron",
+    "save_format_option_misplaced.ron",
     "save_ktx_format_not_ktx2.ron",
     "save_parent_dir.ron",
     "size_mismatch.ron",

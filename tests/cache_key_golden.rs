@@ -143,7 +143,7 @@ const GOLDEN: [(&str, &str); 11] = [
     ("math", "78d5e7718df7c50ea6c3e3bfa19d1ac4a74b54c858b0bb9e975aaf01780d0559"),
     ("probe", "22960315eff717afc29d6ea33930ba0d436c14fd5c23f35eb727c79b1bb97bfe"),
     ("probe_lum", "8ce8870e9fd23f4fd2628933b29190fec4cf7361e04afba75e287f0c4b1524e5"),
-    ("save", "08fa5c78f740c7e14b4410b325f0da927340a6d370313d6bba6f88ca0b7b5e15"),
+    ("save", "832f22363fe5463f691aaa915d0e13175deaa62a26810d089802c48320deff89"),
     ("split", "89c5e41a27509d2e1b1678a4ea5533ec67f62af4cf8d6242c35aa1015eaa0f40"),
     ("stats", "89f109480b4fd091a35d44cc9b9ebff58b601109b37f126554086e6cf99f8dfc"),
 ];

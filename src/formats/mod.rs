@@ -5,8 +5,10 @@
 //! | [`rgbe`]    | Radiance `.hdr` / `.pic` (RGBE)  | yes  | yes   | hand-written, new-style RLE + flat + old `1 1 1 n` |
 //! | [`pfm`]     | Portable Float Map `.pfm`        | yes  | yes   | hand-written (the `image` crate has no PFM) |
 //! | [`exr`]     | OpenEXR `.exr`                   | yes  | yes   | through the `exr` crate: see its docs for parts, windows, colour, what is refused |
-//! | [`ktx2`]    | Khronos KTX 2.0 `.ktx2`          | no   | yes   | RGBA16F/RGBA32F, 2D or cube, mip levels in one file |
-//! | [`png`]     | PNG (8-bit sRGB preview)         | no   | yes   | exposure + sRGB OETF, through the `image` crate |
+//! | [`ktx2`]    | Khronos KTX 2.0 `.ktx2`          | no   | yes   | RGBA16F/RGBA32F/RGB9E5/B10G11R11/RG16F, 2D or cube, mip levels in one file, optional Zstandard |
+//! | [`ktx1`]    | Khronos KTX 1.1 `.ktx`           | no   | yes   | Filament's: R11F_G11F_B10F/RGBA16F cube with mips, the `sh` key |
+//! | [`packed_float`] | rgb9e5, 11/10-bit floats    | -    | -     | the packed texel encodings and their error bounds |
+//! | [`png`]     | PNG (8-bit sRGB preview, 16-bit linear) | no   | yes   | exposure + sRGB OETF, or linear 16-bit, through the `image` crate |
 //! | [`builtin`] | procedural lat-long maps         | -    | -     | so that everything runs with no data files |
 //!
 //! Every reader returns a [`crate::values::Image`]: f32 samples, row 0 at the top, 1, 3 or 4 (EXR
@@ -25,7 +27,9 @@
 
 pub mod builtin;
 pub mod exr;
+pub mod ktx1;
 pub mod ktx2;
+pub mod packed_float;
 pub mod pfm;
 pub mod png;
 pub mod rgbe;

@@ -8,9 +8,10 @@
 //! `.png` (exposure, sRGB, 8-bit: to look at):
 //! a cube map as ONE horizontal strip of its six faces in storage order (6S x S, +X at the left);
 //! a chain as one such strip per level, `Save(path: "spec_{level}.exr")` writing `spec_0.exr`,
-//! `spec_1.exr`, ... (the path must contain `{level}`). As `.ktx2` (RGBA16F or RGBA32F, alpha 1): a
+//! `spec_1.exr`, ... (the path must contain `{level}`). As `.ktx2` (any `KtxFormat`, alpha 1): a
 //! cube map is one cube texture (faceCount 6) of one level, and a chain ONE cube texture whose
-//! levelCount is the chain's length (`{level}` not needed); `formats::ktx2`.
+//! levelCount is the chain's length (`{level}` not needed); `formats::ktx2`. As `.ktx` (KTX 1.1 for
+//! Filament, `formats::ktx1`): the same cube texture.
 
 use glam::DVec3;
 
@@ -154,7 +155,7 @@ pub static CUBEMAP: TypeSpec = TypeSpec {
     name: "cube map",
     doc: "six square RGB faces +X, -X, +Y, -Y, +Z, -Z (OpenGL/KTX order, hdrflow's axes); saved as a 6S x S strip or a .ktx2 cube",
     decode,
-    save_extensions: &["exr", "pfm", "hdr", "png", "ktx2"],
+    save_extensions: &["exr", "pfm", "hdr", "png", "ktx2", "ktx"],
     save: Some(save),
 };
 
@@ -162,7 +163,7 @@ pub static MIP_CHAIN: TypeSpec = TypeSpec {
     name: "mip chain",
     doc: "cube maps, level k of face size max(1, size >> k), each with its roughness; saved one strip per level (`{level}` in the path), or as one .ktx2",
     decode: decode_chain,
-    save_extensions: &["exr", "pfm", "hdr", "png", "ktx2"],
+    save_extensions: &["exr", "pfm", "hdr", "png", "ktx2", "ktx"],
     save: Some(save_chain_level0),
 };
 
@@ -214,8 +215,8 @@ fn decode(bytes: &[u8]) -> Result<Value, String> {
 
 fn save(value: &Value, o: &SaveOptions) -> Result<Vec<u8>, String> {
     let c = value.get::<Cubemap>().ok_or("not a cube map")?;
-    if o.ext == "ktx2" {
-        return encode_ktx2(std::slice::from_ref(c), o);
+    if o.ext == "ktx2" || o.ext == "ktx" {
+        return encode_ktx(std::slice::from_ref(c), o);
     }
     encode_image(&c.to_strip(), o)
 }
@@ -259,23 +260,28 @@ fn decode_chain(bytes: &[u8]) -> Result<Value, String> {
 /// (see [`save_levels`]).
 fn save_chain_level0(value: &Value, o: &SaveOptions) -> Result<Vec<u8>, String> {
     let c = value.get::<MipChain>().ok_or("not a mip chain")?;
-    if o.ext == "ktx2" {
-        return encode_ktx2(&c.levels, o);
+    if o.ext == "ktx2" || o.ext == "ktx" {
+        return encode_ktx(&c.levels, o);
     }
     let first = c.levels.first().ok_or("an empty mip chain")?;
     encode_image(&first.to_strip(), o)
 }
 
-/// Cube maps as the levels of one `.ktx2` cube texture (faceCount 6, +X -X +Y -Y +Z -Z, alpha 1);
-/// level k must be of size max(1, size >> k), else an error.
-pub fn encode_ktx2(levels: &[Cubemap], o: &SaveOptions) -> Result<Vec<u8>, String> {
+/// Cube maps as the levels of one `.ktx2` (or, for `o.ext == "ktx"`, KTX 1.1 `.ktx`) cube texture
+/// (faceCount 6, +X -X +Y -Y +Z -Z, alpha 1); level k must be of size max(1, size >> k), else an
+/// error.
+pub fn encode_ktx(levels: &[Cubemap], o: &SaveOptions) -> Result<Vec<u8>, String> {
     let rgba: Vec<Vec<f32>> = levels.iter().map(|c| crate::formats::ktx2::rgb_to_rgba(&c.data)).collect();
     let levels: Vec<_> = levels
         .iter()
         .zip(&rgba)
         .map(|(c, rgba)| crate::formats::ktx2::Level { width: c.size, height: c.size, rgba })
         .collect();
-    crate::formats::ktx2::encode(&levels, 6, o.get_or_default()).map_err(|e| e.to_string())
+    if o.ext == "ktx" {
+        return crate::formats::ktx1::encode(&levels, 6, o.get_or_default(), &o.get_or_default())
+            .map_err(|e| e.to_string());
+    }
+    crate::formats::ktx2::encode_with(&levels, 6, o.get_or_default(), o.get_or_default()).map_err(|e| e.to_string())
 }
 
 /// Every level's strip, at `template` with `{level}` replaced by the level number.

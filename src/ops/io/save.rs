@@ -1,17 +1,20 @@
 //! `Save(input, path, exposure: 0.0, auto_exposure: false, exposure_from: NODE, plot_size: (800,
-//! 500), ktx_format: Rgba16f)`: encode a value as a file in the output folder. `exposure_from` (optional) takes the
-//! automatic exposure from another image, so that several PNGs (spheres side by side) share one. The format follows the extension and the value's type:
+//! 500), ktx_format: Rgba16f, ktx_supercompression: None, zstd_level: 3, ktx1_format: Rg11b10f,
+//! sh: NODE, png_format: Srgb8)`: encode a value as a file in the output folder. `exposure_from`
+//! (optional) takes the automatic exposure from another image, so that several PNGs (spheres side
+//! by side) share one. The format follows the extension and the value's type:
 //!
 //! | value                 | extensions                         |
 //! |-----------------------|------------------------------------|
-//! | image, scalar field   | `.png` (exposure, sRGB, clamped), `.exr`, `.hdr`, `.pfm` |
+//! | image, scalar field   | `.png` (exposure, sRGB, clamped; or 16-bit linear, `png_format`), `.exr`, `.hdr`, `.pfm` |
 //! | distribution          | the same, of its solid-angle pdf per texel |
 //! | sample set            | `.csv` (`index,x,y,theta,phi,dx,dy,dz,pdf`), `.json` |
 //! | curves                | `.json`, `.csv`, `.png`, `.svg` (a plot) |
 //! | metrics               | `.json`, `.csv` |
 //! | cube map              | `.exr`, `.pfm`, `.hdr`, `.png`: one 6S x S strip, faces +X -X +Y -Y +Z -Z |
 //! | mip chain             | the same, one strip per level: the path must contain `{level}` (`spec_{level}.exr`) |
-//! | image, cube map, mip chain | `.ktx2`: a 2D texture, a cube texture, a cube texture with every level (`ktx_format`) |
+//! | image, cube map, mip chain | `.ktx2`: a 2D texture, a cube texture, a cube texture with every level (`ktx_format`, `ktx_supercompression`) |
+//! | image, cube map, mip chain | `.ktx` (KTX 1.1, for Filament): the same (`ktx1_format`; `sh`: SH coefficients under the key `sh`, as cmgen writes them) |
 //!
 //! The operator only encodes: the engine writes the bytes atomically into `--out`, and refuses
 //! paths that are absolute or leave that folder. Encoding is cached like any result.
@@ -20,9 +23,12 @@ use crate::engine::fields::{AnyValue, Check, Input};
 use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec, OutputType};
 use crate::engine::params::OutputPath;
 use crate::engine::value::{FileBlob, SaveOptions, Value, ValueType, FILE};
-use crate::formats::ktx2::KtxFormat;
-use crate::values::image::channels_not_kept;
+use crate::formats::ktx1::{self, Ktx1Format};
+use crate::formats::ktx2::{Compression, KtxFormat, KtxSupercompression};
+use crate::formats::png::PngFormat;
+use crate::values::image::{channels_not_kept, channels_not_kept_in};
 use crate::values::Image;
+use crate::values::ShCoefficients;
 
 crate::params! {
     pub struct SaveParams {
@@ -41,8 +47,20 @@ crate::params! {
         /// width and height in pixels of a curve plot (.png, .svg)
         #[range(64.0, 8192.0)]
         pub plot_size: [f64; 2] = [800.0, 500.0],
-        /// (.ktx2) texel format: Rgba16f (VK_FORMAT_R16G16B16A16_SFLOAT, values clamped to +-65504) or Rgba32f (VK_FORMAT_R32G32B32A32_SFLOAT)
+        /// (.ktx2) texel format: Rgba16f (VK_FORMAT_R16G16B16A16_SFLOAT, values clamped to +-65504), Rgba32f (VK_FORMAT_R32G32B32A32_SFLOAT), Rgb9e5 (E5B9G9R9_UFLOAT_PACK32: [0, 65408], within 2^-9 of the largest channel), Rg11b10f (B10G11R11_UFLOAT_PACK32: [0, 65024], relative 2^-7, B 2^-6) or Rg16f (R16G16_SFLOAT: R and G, for a BRDF LUT); values a format cannot hold are clamped, with one warning
         pub ktx_format: KtxFormat = KtxFormat::Rgba16f,
+        /// (.ktx2) None, or Zstd: Zstandard supercompression (supercompressionScheme 2), each level compressed on its own
+        pub ktx_supercompression: KtxSupercompression = KtxSupercompression::None,
+        /// (.ktx2 with ktx_supercompression: Zstd) the Zstandard level, 1 (fastest) to 22 (smallest); 3 is zstd's default, 19 about 10% smaller and 10x slower
+        #[range(1, 22)]
+        pub zstd_level: usize = 3,
+        /// (.ktx) texel format: Rg11b10f (GL_R11F_G11F_B10F, cmgen's default: [0, 65024], relative 2^-7, B 2^-6) or Rgba16f (GL_RGBA16F, clamped to +-65504)
+        pub ktx1_format: Ktx1Format = Ktx1Format::Rg11b10f,
+        /// (.ktx) 3-band SH coefficients written under the key "sh" as Filament's cmgen writes them (9 lines "r g b"), as given: Filament expects its pre-scaled irradiance SH
+        #[input(&[crate::values::ty::SH_COEFFICIENTS_T])]
+        pub sh: Option<Input<ShCoefficients>>,
+        /// (.png of an image or cube map) Srgb8 (an 8-bit sRGB preview) or Linear16 (16-bit linear values clamped to [0, 1], for data such as a BRDF LUT: two channels as R, G with B = 0)
+        pub png_format: PngFormat = PngFormat::Srgb8,
         /// (.exr) Zip (lossless, 16-line blocks), Piz (lossless wavelet), Dwaa (lossy DCT, 32-line blocks) or None
         pub compression: crate::formats::exr::ExrCompression = crate::formats::exr::ExrCompression::Zip,
         /// (.exr) store half floats (16-bit; values beyond 65504 become infinite) instead of f32
@@ -69,8 +87,25 @@ fn check(_: &CheckContext, p: SaveParams<Check>) -> Result<(), CheckProblem> {
     if p.ktx_format != KtxFormat::Rgba16f && ext != "ktx2" {
         return Err(CheckProblem::at("ktx_format", "ktx_format applies to .ktx2 files only"));
     }
+    if p.ktx_supercompression != KtxSupercompression::None && ext != "ktx2" {
+        return Err(CheckProblem::at("ktx_supercompression", "ktx_supercompression applies to .ktx2 files only"));
+    }
+    if p.zstd_level != crate::formats::ktx2::DEFAULT_ZSTD_LEVEL as usize
+        && p.ktx_supercompression != KtxSupercompression::Zstd
+    {
+        return Err(CheckProblem::at("zstd_level", "zstd_level applies to ktx_supercompression: Zstd only"));
+    }
+    if p.ktx1_format != Ktx1Format::Rg11b10f && ext != "ktx" {
+        return Err(CheckProblem::at("ktx1_format", "ktx1_format applies to .ktx files only"));
+    }
+    if p.sh.is_some() && ext != "ktx" {
+        return Err(CheckProblem::at("sh", "sh applies to .ktx files only (Filament's key \"sh\")"));
+    }
     let t = p.input.ty;
-    if t == crate::values::ty::MIP_CHAIN_T && ext != "ktx2" && !p.path.0.contains("{level}") {
+    if p.png_format != PngFormat::Srgb8 && (ext != "png" || t == crate::values::ty::CURVES_T) {
+        return Err(CheckProblem::at("png_format", "png_format applies to .png files of images and cube maps only"));
+    }
+    if t == crate::values::ty::MIP_CHAIN_T && ext != "ktx2" && ext != "ktx" && !p.path.0.contains("{level}") {
         return Err(CheckProblem::at(
             "path",
             "a mip chain is saved one file per level: put {level} in the path (e.g. \"spec_{level}.exr\"), or save it as one .ktx2",
@@ -97,11 +132,29 @@ fn eval(ctx: &mut OpContext, p: SaveParams) -> Result<Value, OpError> {
     let rel_path = p.path.0.clone();
     let value = p.input.value();
     let ext = p.path.extension();
-    if let Some(note) = value.get::<Image>().and_then(|img| channels_not_kept(img, &ext)) {
+    // The texel format of a KTX file (either version), for the warnings.
+    let ktx = match ext.as_str() {
+        "ktx2" => Some(p.ktx_format),
+        "ktx" => Some(p.ktx1_format.texels()),
+        _ => None,
+    };
+    let note = match (value.get::<Image>(), ktx) {
+        (Some(img), Some(format)) => channels_not_kept_in(img, &ext, format.channels()),
+        (Some(img), None) => channels_not_kept(img, &ext),
+        // Cube maps and chains are RGB: only an RG format drops a channel.
+        (None, Some(KtxFormat::Rg16f)) => Some(format!(
+            ".ktx2 holds RG with ktx_format {}: channel B of the {} is dropped",
+            p.ktx_format,
+            value.value_type()
+        )),
+        (None, _) => None,
+    };
+    if let Some(note) = note {
         ctx.warn(format!("{rel_path}: {note}"));
     }
     let half = match ext.as_str() {
         "ktx2" if p.ktx_format == KtxFormat::Rgba16f => Some("are clamped to +-65504 (ktx_format: Rgba32f keeps them)"),
+        "ktx" if p.ktx1_format == Ktx1Format::Rgba16f => Some("are clamped to +-65504"),
         "exr" if p.half => Some("become infinite (half: false keeps them)"),
         _ => None,
     };
@@ -112,6 +165,18 @@ fn eval(ctx: &mut OpContext, p: SaveParams) -> Result<Value, OpError> {
                 "{rel_path}: {count} texel{} exceed{} the half-float maximum 65504 (the largest: {brightest}) and {fate}",
                 if count == 1 { "" } else { "s" },
                 if count == 1 { "s" } else { "" },
+            ));
+        }
+    }
+    if let Some(format) = ktx.filter(|f| !matches!(f, KtxFormat::Rgba16f | KtxFormat::Rgba32f)) {
+        let count = clamped_texels(value, format);
+        if count > 0 {
+            ctx.warn(format!(
+                "{rel_path}: {count} texel{} {} values that {} {format} cannot hold: values {}",
+                if count == 1 { "" } else { "s" },
+                if count == 1 { "has" } else { "have" },
+                if ext == "ktx" { "ktx1_format" } else { "ktx_format" },
+                format.clamp_note(),
             ));
         }
     }
@@ -132,17 +197,28 @@ fn eval(ctx: &mut OpContext, p: SaveParams) -> Result<Value, OpError> {
             exposure += auto_exposure(&c.to_strip());
         }
     }
+    let mut key_values = ktx1::KeyValues::default();
+    if let Some(sh) = p.sh.as_deref() {
+        let text = ktx1::sh_text(&sh.rgb).map_err(|e| fail(format!("the sh input: {e}")))?;
+        key_values.0.push(("sh".into(), text.into_bytes()));
+    }
     let mut options = SaveOptions::new(ext)
         .with(p.ktx_format)
+        .with(Compression { scheme: p.ktx_supercompression, zstd_level: p.zstd_level as i32 })
+        .with(p.ktx1_format)
+        .with(key_values)
+        .with(p.png_format)
         .with(crate::formats::exr::EncodeOptions { compression: p.compression, half: p.half });
     options.exposure = exposure;
     options.plot_size = (p.plot_size[0] as u32, p.plot_size[1] as u32);
-    if let Some(chain) = value.get::<crate::values::MipChain>().filter(|_| options.ext != "ktx2") {
+    if let Some(chain) =
+        value.get::<crate::values::MipChain>().filter(|_| options.ext != "ktx2" && options.ext != "ktx")
+    {
         let mut files = crate::values::cubemap::save_levels(chain, &rel_path, &options).map_err(fail)?.into_iter();
         let (first_path, first) = files.next().ok_or_else(|| fail("an empty mip chain".into()))?;
         return Ok(Value::new(FileBlob { rel_path: first_path, bytes: first, more: files.collect() }));
     }
-    if let (Some(img), "png") = (value.get::<Image>(), options.ext.as_str()) {
+    if let (Some(img), "png", PngFormat::Srgb8) = (value.get::<Image>(), options.ext.as_str(), p.png_format) {
         // An image as PNG (the bytes of `values::image`'s encoder): the 8-bit copy first, then the
         // float image is handed back before the deflate, which takes most of the time, so that a
         // run drawing several large overlays need not hold two at once (`scheduler::admission`).
@@ -178,6 +254,30 @@ fn beyond_half(value: &Value) -> (usize, f32) {
         }
     }
     found
+}
+
+/// How many texels of an image, cube map or mip chain `format` changes beyond rounding
+/// ([`KtxFormat::clamps`]), each read as the KTX encoder reads it (RGB and alpha, alpha 1).
+fn clamped_texels(value: &Value, format: KtxFormat) -> usize {
+    if let Some(img) = value.get::<Image>() {
+        let alpha = img.alpha_index();
+        (0..img.height)
+            .flat_map(|y| (0..img.width).map(move |x| (x, y)))
+            .filter(|&(x, y)| {
+                let [r, g, b] = img.rgb(x, y);
+                format.clamps([r, g, b, alpha.map_or(1.0, |a| img.pixel(x, y)[a])])
+            })
+            .count()
+    } else {
+        let cubes: Vec<&crate::values::Cubemap> = if let Some(c) = value.get::<crate::values::Cubemap>() {
+            vec![c]
+        } else if let Some(chain) = value.get::<crate::values::MipChain>() {
+            chain.levels.iter().collect()
+        } else {
+            Vec::new()
+        };
+        cubes.iter().flat_map(|c| c.data.chunks_exact(3)).filter(|t| format.clamps([t[0], t[1], t[2], 1.0])).count()
+    }
 }
 
 /// The stops that bring the 99.5th percentile of the non-black pixels' max channel to 1.0.

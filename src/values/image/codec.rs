@@ -10,7 +10,7 @@ pub static IMAGE: TypeSpec = TypeSpec {
     name: "image",
     doc: "a float raster of 2 or more named channels (RGB, RGBA, ...), linear radiance",
     decode,
-    save_extensions: &["png", "exr", "hdr", "pfm", "ktx2"],
+    save_extensions: &["png", "exr", "hdr", "pfm", "ktx2", "ktx"],
     save: Some(save),
 };
 
@@ -18,7 +18,7 @@ pub static SCALAR_FIELD: TypeSpec = TypeSpec {
     name: "scalar field",
     doc: "a one-channel float raster (luminance, weights, masks, one channel of an image)",
     decode,
-    save_extensions: &["png", "exr", "hdr", "pfm", "ktx2"],
+    save_extensions: &["png", "exr", "hdr", "pfm", "ktx2", "ktx"],
     save: Some(save),
 };
 

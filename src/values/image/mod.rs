@@ -15,7 +15,7 @@ pub mod codec;
 pub mod save;
 
 pub use codec::{IMAGE, SCALAR_FIELD};
-pub use save::{channels_not_kept, encode_image};
+pub use save::{channels_not_kept, channels_not_kept_in, encode_image};
 
 /// A float raster. `data.len() == width * height * channels`, rows top to bottom.
 /// The fields are public: the samples are the type's API, which operators and file formats read

@@ -1,7 +1,8 @@
 //! How `Save` writes an [`Image`]: `.png` (exposure then sRGB, 8-bit; RGBA keeps alpha), `.exr`
 //! (f32, every channel under its name), `.hdr` (RGB) or `.pfm` (RGB or grey), `.ktx2` (a 2D
-//! texture of one level, RGBA16F or RGBA32F: RGB gets alpha 1, grey is replicated to RGB;
-//! `formats::ktx2`).
+//! texture of one level in any `KtxFormat`: RGB gets alpha 1, grey is replicated to RGB;
+//! `formats::ktx2`), `.ktx` (the same as KTX 1.1, `formats::ktx1`); PNG may be 16-bit linear
+//! (`PngFormat::Linear16`).
 
 use super::Image;
 use crate::engine::value::{SaveOptions, Value};
@@ -9,10 +10,15 @@ use crate::formats;
 
 pub(super) fn save(value: &Value, o: &SaveOptions) -> Result<Vec<u8>, String> {
     let img = value.get::<Image>().ok_or("not an image")?;
-    if o.ext == "ktx2" {
+    if o.ext == "ktx2" || o.ext == "ktx" {
         let rgba = formats::ktx2::image_rgba(img);
         let level = formats::ktx2::Level { width: img.width, height: img.height, rgba: &rgba };
-        return formats::ktx2::encode(&[level], 1, o.get_or_default()).map_err(|e| e.to_string());
+        let bytes = if o.ext == "ktx2" {
+            formats::ktx2::encode_with(&[level], 1, o.get_or_default(), o.get_or_default())
+        } else {
+            formats::ktx1::encode(&[level], 1, o.get_or_default(), &o.get_or_default())
+        };
+        return bytes.map_err(|e| e.to_string());
     }
     encode_image(img, o)
 }
@@ -21,7 +27,11 @@ pub(super) fn save(value: &Value, o: &SaveOptions) -> Result<Vec<u8>, String> {
 pub fn encode_image(img: &Image, o: &SaveOptions) -> Result<Vec<u8>, String> {
     let ext = o.ext.as_str();
     match ext {
-        "png" => formats::png::encode(img, o.exposure).map_err(|e| e.to_string()),
+        "png" => match o.get_or_default() {
+            formats::png::PngFormat::Srgb8 => formats::png::encode(img, o.exposure),
+            formats::png::PngFormat::Linear16 => formats::png::encode_linear16(img, o.exposure),
+        }
+        .map_err(|e| e.to_string()),
         "exr" => formats::exr::encode_with(img, &o.get_or_default()).map_err(|e| e.to_string()),
         "hdr" | "pfm" => {
             // RGBE and PFM hold RGB (PFM also grey): alpha and further channels are dropped
@@ -42,31 +52,38 @@ pub fn encode_image(img: &Image, o: &SaveOptions) -> Result<Vec<u8>, String> {
 /// channel is kept as it is. PNG refuses 2 and 5+ channels (an error, so nothing to say here);
 /// EXR keeps every channel under its name.
 pub fn channels_not_kept(img: &Image, ext: &str) -> Option<String> {
-    // RGB formats, and KTX2 (RGBA); PNG and EXR keep what they accept.
-    let kept_alpha = match ext {
-        "hdr" | "pfm" => false,
-        "ktx2" => true,
+    // RGB formats, and KTX2 (RGBA in its default format); PNG and EXR keep what they accept.
+    let holds = match ext {
+        "hdr" | "pfm" => "RGB",
+        "ktx2" => "RGBA",
         _ => return None,
     };
+    channels_not_kept_in(img, ext, holds)
+}
+
+/// [`channels_not_kept`] for a file of extension `ext` whose texels hold `holds`: `RGBA`, `RGB`
+/// or `RG` (a KTX texel format's channels: `KtxFormat::channels`).
+pub fn channels_not_kept_in(img: &Image, ext: &str, holds: &str) -> Option<String> {
+    let kept_alpha = holds == "RGBA";
+    let colours = if holds == "RG" { 2 } else { 3 };
     let alpha = img.alpha_index().filter(|_| kept_alpha);
     let dropped: Vec<&str> = (0..img.channels)
-        .filter(|&c| c >= 3 && Some(c) != alpha)
+        .filter(|&c| c >= colours && Some(c) != alpha)
         .chain((img.channels == 2 && img.names[1] == "A" && !kept_alpha).then_some(1))
         .map(|c| img.names[c].as_str())
         .collect();
-    let keeps = if kept_alpha { "RGBA" } else { "RGB" };
     if !dropped.is_empty() {
         return Some(format!(
-            ".{ext} holds {keeps}: channel{} {} of the {}-channel image {} dropped (.exr keeps every channel)",
+            ".{ext} holds {holds}: channel{} {} of the {}-channel image {} dropped (.exr keeps every channel)",
             if dropped.len() == 1 { "" } else { "s" },
             dropped.join(", "),
             img.channels,
             if dropped.len() == 1 { "is" } else { "are" },
         ));
     }
-    (img.channels == 2 && img.names[1] != "A").then(|| {
+    (img.channels == 2 && img.names[1] != "A" && colours == 3).then(|| {
         format!(
-            ".{ext} holds {keeps}: the two channels {} and {} are written as R and G, with B = 0 (.exr keeps the two channels as they are)",
+            ".{ext} holds {holds}: the two channels {} and {} are written as R and G, with B = 0 (.exr keeps the two channels as they are)",
             img.names[0], img.names[1]
         )
     })
