@@ -10,7 +10,7 @@
 use bevy::prelude::*;
 use bevy::render::gpu_readback::ReadbackComplete;
 
-use crate::scene::{centre_x, SPHERES, VIEW_WIDTH};
+use crate::scene::{SPHERES, VIEW_WIDTH, centre_x};
 
 /// Identical consecutive readbacks needed.
 pub const STABLE_FRAMES: usize = 3;

@@ -31,9 +31,9 @@ use bevy::core_pipeline::tonemapping::{DebandDither, Tonemapping};
 use bevy::image::{CompressedImageFormats, ImageSampler, ImageType};
 use bevy::light::{AmbientLight, EnvironmentMapLight, GlobalAmbientLight};
 use bevy::prelude::*;
+use bevy::render::RenderPlugin;
 use bevy::render::gpu_readback::Readback;
 use bevy::render::render_resource::{TextureFormat, TextureUsages};
-use bevy::render::RenderPlugin;
 use bevy::window::ExitCondition;
 
 use capture::{FrameSize, Frames};
@@ -71,7 +71,9 @@ fn parse_args(mut it: impl Iterator<Item = String>) -> Result<Args, String> {
             "--geometry" => geometry = Some(PathBuf::from(&value)),
             "--intensity" => intensity = Some(number("--intensity")? as f32),
             "--width" => width = value.parse().map_err(|_| format!("--width must be a whole number, not {value:?}"))?,
-            "--height" => height = value.parse().map_err(|_| format!("--height must be a whole number, not {value:?}"))?,
+            "--height" => {
+                height = value.parse().map_err(|_| format!("--height must be a whole number, not {value:?}"))?
+            }
             "--timeout" => timeout = number("--timeout")?,
             _ => return Err(format!("unknown option {flag}\n{USAGE}")),
         }
@@ -117,8 +119,11 @@ fn load_ktx2(path: &std::path::Path) -> Result<Image, String> {
     )
     .map_err(|e| format!("Bevy cannot load {}: {e}", path.display()))?;
     if image.texture_descriptor.size.depth_or_array_layers != 6 {
-        return Err(format!("{} is not a cube map (Bevy sees {} layers)", path.display(),
-            image.texture_descriptor.size.depth_or_array_layers));
+        return Err(format!(
+            "{} is not a cube map (Bevy sees {} layers)",
+            path.display(),
+            image.texture_descriptor.size.depth_or_array_layers
+        ));
     }
     Ok(image)
 }
@@ -204,7 +209,11 @@ fn setup(
             reflectance: s.reflectance,
             ..default()
         });
-        commands.spawn((Mesh3d(mesh.clone()), MeshMaterial3d(material), Transform::from_xyz(scene::centre_x(k), 0.0, 0.0)));
+        commands.spawn((
+            Mesh3d(mesh.clone()),
+            MeshMaterial3d(material),
+            Transform::from_xyz(scene::centre_x(k), 0.0, 0.0),
+        ));
     }
 
     let view_height = scene::VIEW_WIDTH * args.height as f32 / args.width as f32;
@@ -236,11 +245,22 @@ fn setup(
 }
 
 /// Writes the settled frame and exits, or gives up after `--timeout`.
-fn finish(args: Res<Args>, frames: Res<Frames>, size: Res<FrameSize>, started: Res<Started>, mut exit: MessageWriter<AppExit>) {
+fn finish(
+    args: Res<Args>,
+    frames: Res<Frames>,
+    size: Res<FrameSize>,
+    started: Res<Started>,
+    mut exit: MessageWriter<AppExit>,
+) {
     if let Some(pixels) = capture::settled(&frames, *size) {
         match capture::write_exr(&args.out, pixels, *size) {
             Ok(()) => {
-                info!("wrote {} after {} readbacks in {:.1} s", args.out.display(), frames.count, started.0.elapsed().as_secs_f64());
+                info!(
+                    "wrote {} after {} readbacks in {:.1} s",
+                    args.out.display(),
+                    frames.count,
+                    started.0.elapsed().as_secs_f64()
+                );
                 exit.write(AppExit::Success);
             }
             Err(e) => {
