@@ -164,9 +164,10 @@ fn main() -> ExitCode {
         DefaultPlugins
             .set(WindowPlugin { primary_window: None, exit_condition: ExitCondition::DontExit, ..default() })
             // Pipelines compile before the frame that needs them: fewer frames without the spheres.
-            .set(RenderPlugin { synchronous_pipeline_compilation: true, ..default() })
-            .set(ScheduleRunnerPlugin::run_loop(Duration::ZERO)),
+            .set(RenderPlugin { synchronous_pipeline_compilation: true, ..default() }),
     )
+    // With a window plugin in the build, the default plugins hold no runner: frames as fast as they come.
+    .add_plugins(ScheduleRunnerPlugin::run_loop(Duration::ZERO))
     .insert_resource(GlobalAmbientLight::NONE)
     .insert_resource(FrameSize { width: args.width, height: args.height })
     .insert_resource(Frames::default())
