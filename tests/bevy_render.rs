@@ -36,8 +36,16 @@ const REQUIRE: &str = "HDRFLOW_REQUIRE_BEVY";
 const WIDTH: usize = 768;
 const HEIGHT: usize = 256;
 /// The bake's face size and levels (tests/data/bevy_bake.ron): 64 down to 1.
-const SPEC_SIZE: usize = 64;
-const SPEC_LEVELS: usize = 7;
+const SPEC_SIZE: usize = 256;
+const SPEC_LEVELS: usize = 9;
+/// Relative RMSE bounds per sphere (mirror, metals 0.25, 0.5, 0.75, 1, diffuse) on the test map:
+/// about twice what the correct bake measures (BENCHMARKS.md, "Bevy, rendered for real"). The
+/// roughness-1 sphere reads the chain's 1 x 1 level (lod = r (N - 1) = N - 1: six values for the
+/// whole sphere), hence its larger bound.
+const TEST_MAP_BOUNDS: [f64; 6] = [0.03, 0.02, 0.02, 0.04, 0.15, 0.005];
+/// The same on the park map, whose sun (69120, 0.35 degree texels) the 1024-sample prefilter and
+/// the 1 x 1 level render far less accurately.
+const PARK_BOUNDS: [f64; 6] = [0.05, 0.25, 0.2, 0.17, 0.7, 0.01];
 /// Lavapipe is a CPU driver on a shared machine: minutes are possible, hours are a hang.
 const RENDER_TIMEOUT: Duration = Duration::from_secs(900);
 
@@ -114,8 +122,13 @@ fn errors(label: &str, frame: &Image, geometry: &Geometry, refs: &[SphereReferen
     for (s, r) in geometry.spheres.iter().zip(refs) {
         let e = relative_rmse(frame, scale, &r.pixels, &r.engine);
         let x = relative_rmse(frame, scale, &r.pixels, &r.exact);
-        let ss = relative_rmse(frame, scale, &r.pixels, &r.single);
-        eprintln!("  {:<11} {:>8.4} | {:>8.4} | {:>8.4}   ({} pixels)", s.name, e, x, ss, r.pixels.len());
+        // The Lambertian sphere has no specular term: no single-scattering comparison.
+        let ss = if s.metallic == 0.0 {
+            "-".to_string()
+        } else {
+            format!("{:.4}", relative_rmse(frame, scale, &r.pixels, &r.single))
+        };
+        eprintln!("  {:<11} {:>8.4} | {:>8.4} | {:>8}   ({} pixels)", s.name, e, x, ss, r.pixels.len());
         out.push(e);
     }
     out
@@ -166,20 +179,20 @@ fn bevy_shows_the_test_map_and_each_mistake_fails() {
     let (frame, geometry) = render(&client, &sandbox, &good, "good");
     let refs = references(&Map::new(map.clone()), &geometry);
     let good_errors = errors("test map", &frame, &geometry, &refs);
-    let bounds = [0.05, 0.05, 0.05, 0.05, 0.05, 0.05];
-    assert_eq!(failing(&geometry, &good_errors, &bounds), Vec::<String>::new(), "the correct bake must match");
+    let good_failing = failing(&geometry, &good_errors, &TEST_MAP_BOUNDS);
 
-    let check_mistake = |name: &str, bake: Bake, must_fail: &[&str]| {
+    let mut missed = Vec::new();
+    let mut check_mistake = |name: &str, bake: Bake, must_fail: &[&str]| {
         let (frame, geometry) = render(&client, &sandbox, &bake, name);
         let errs = errors(name, &frame, &geometry, &refs);
-        let failed = failing(&geometry, &errs, &bounds);
-        for s in must_fail {
-            assert!(failed.iter().any(|f| f == s), "{name}: {s} should fail the comparison, failing: {failed:?}");
+        let failed = failing(&geometry, &errs, &TEST_MAP_BOUNDS);
+        for s in must_fail.iter().filter(|s| !failed.iter().any(|f| f == *s)) {
+            missed.push(format!("{name}: {s} passed the comparison (failing: {failed:?})"));
         }
     };
 
     // 1. The map not mirrored in z: everything Bevy shows is mirrored front to back.
-    check_mistake("mirrored map", bake(&sandbox, &plain, "plain"), &["mirror", "metal_0.25", "diffuse"]);
+    check_mistake("mirrored map", bake(&sandbox, &plain, "plain"), &["mirror", "metal_0.25", "metal_0.5", "diffuse"]);
 
     // 2. Faces +Z and -Z exchanged in both files.
     let edit = |name: &str, diffuse: Vec<u8>, specular: Vec<u8>| Bake {
@@ -190,21 +203,24 @@ fn bevy_shows_the_test_map_and_each_mistake_fails() {
     check_mistake(
         "swapped faces",
         edit("swapped", mistakes::swap_faces(&d, 4, 5), mistakes::swap_faces(&s, 4, 5)),
-        &["mirror", "diffuse"],
+        &["mirror", "metal_0.25", "diffuse"],
     );
 
     // 3. A chain whose level k has Filament's roughness (lod = r (2 - r) (N - 1)), not k / (N - 1).
     let filament = mistakes::specular_chain(&mistakes::mirror_z(&map), SPEC_SIZE, SPEC_LEVELS, |k| {
         mistakes::filament_roughness(k, SPEC_LEVELS)
     });
-    check_mistake("filament roughness", edit("filament", d.clone(), filament), &["metal_0.5"]);
+    check_mistake("filament roughness", edit("filament", d.clone(), filament), &["metal_0.25", "metal_0.5"]);
 
     // 4. Irradiance E written where Bevy expects E / pi.
     check_mistake(
         "irradiance x pi",
         edit("times_pi", mistakes::scale_rgb(&d, std::f32::consts::PI), s.clone()),
-        &["diffuse"],
+        &["diffuse", "metal_1"],
     );
+
+    assert_eq!(good_failing, Vec::<String>::new(), "the correct bake must match");
+    assert!(missed.is_empty(), "mistakes the comparison did not catch:\n{}", missed.join("\n"));
 }
 
 #[test]
@@ -217,6 +233,5 @@ fn bevy_shows_the_park_map() {
     let (frame, geometry) = render(&client, &sandbox, &good, "park");
     let refs = references(&Map::new(map), &geometry);
     let errs = errors("park map", &frame, &geometry, &refs);
-    let bounds = [0.2, 0.1, 0.05, 0.05, 0.05, 0.05];
-    assert_eq!(failing(&geometry, &errs, &bounds), Vec::<String>::new(), "the park map's bake must match");
+    assert_eq!(failing(&geometry, &errs, &PARK_BOUNDS), Vec::<String>::new(), "the park map's bake must match");
 }
