@@ -117,7 +117,7 @@ fn references(map: &Map, geometry: &Geometry) -> Vec<SphereReference> {
 /// Relative RMSE per sphere against the `engine` references (printed with the exact ones).
 fn errors(label: &str, frame: &Image, geometry: &Geometry, refs: &[SphereReference]) -> Vec<f64> {
     let scale = geometry.intensity * geometry.exposure;
-    eprintln!("{label}: relative RMSE per sphere (vs Bevy's formula on exact lookups | vs exact GGX + Bevy's multiscatter | vs single-scatter GGX)");
+    eprintln!("{label}: relative RMSE per sphere (vs Bevy's formula on exact lookups | vs exact GGX + (1 - E_ss) E/pi | vs single-scatter GGX)");
     let mut out = Vec::new();
     for (s, r) in geometry.spheres.iter().zip(refs) {
         let e = relative_rmse(frame, scale, &r.pixels, &r.engine);

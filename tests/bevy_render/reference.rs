@@ -8,9 +8,11 @@
 //!   A correct bake differs from it only by the bake's own error, Bevy's texture filtering and the
 //!   frame's f16 rounding: this is what the test asserts.
 //! - `exact`: the GGX microfacet integral itself (single scattering, F0 = 1 so Fresnel is 1, Smith
-//!   height-correlated visibility, the exact mirror direction), plus Bevy's multiscattering term
-//!   as Bevy computes it: the difference to `engine` is the split-sum approximation (reported,
-//!   not asserted). `single` is the single-scattering integral alone.
+//!   height-correlated visibility, the exact mirror direction), plus the energy single scattering
+//!   loses, `(1 - E_ss(n.v)) E / pi`, the multiscattering model Bevy uses (Fdez-Aguera 2019, F0 = 1)
+//!   with the exact directional albedo `E_ss` (`ggx::dfg`, 1024 Sobol points) where Bevy has Karis'
+//!   polynomial: the difference to `engine` is the split-sum approximation (reported, not
+//!   asserted). `single` is the single-scattering integral alone.
 //!
 //! Directions are Bevy's world directions, which the Bevy bake makes hdrflow's own (+Y up, -Z
 //! forward: the map's centre).
@@ -20,6 +22,7 @@ use std::f64::consts::PI;
 use glam::DVec3;
 use hdrflow::data::Image;
 use hdrflow::maths::bilinear;
+use hdrflow::maths::ggx::{dfg, points, LobeSequence};
 use hdrflow::maths::ggx_reference::{prefiltered, specular};
 use hdrflow::maths::irradiance_cube::Texels;
 use hdrflow::maths::reference::irradiance_exact;
@@ -90,14 +93,20 @@ pub fn sphere_reference(map: &Map, s: &Sphere, pixels: &[(usize, DVec3)]) -> Sph
         exact: Vec::new(),
         single: Vec::new(),
     };
+    let pts = points(LobeSequence::Sobol, 1024);
     for (i, n) in normals.iter().enumerate() {
-        let (ws, wd) = lookup_weights(s, n.dot(v));
-        let dif = diffuse[i].map(|c| c * wd);
-        out.engine.push([0, 1, 2].map(|k| ws * spec_engine[i][k] + dif[k]));
-        // A Lambertian sphere's shading is exact as it is (its specular weight is 0).
-        let sss = if s.metallic == 0.0 { [0.0; 3] } else { single[i] };
-        out.exact.push([0, 1, 2].map(|k| sss[k] + dif[k]));
-        out.single.push(sss);
+        let nov = n.dot(v);
+        let (ws, wd) = lookup_weights(s, nov);
+        out.engine.push([0, 1, 2].map(|k| ws * spec_engine[i][k] + wd * diffuse[i][k]));
+        if s.metallic == 0.0 {
+            // A Lambertian sphere's shading is exact as it is (its specular weight is 0).
+            out.exact.push(diffuse[i].map(|c| c * wd));
+            out.single.push([0.0; 3]);
+        } else {
+            let ess = if s.roughness == 0.0 { 1.0 } else { dfg(nov, s.roughness, &pts, false).iter().sum::<f64>() };
+            out.exact.push([0, 1, 2].map(|k| single[i][k] + (1.0 - ess) * diffuse[i][k]));
+            out.single.push(single[i]);
+        }
     }
     out
 }
