@@ -121,7 +121,8 @@ mod tests {
                     let got = specular(&t, &[n], &[v], roughness * roughness, [f0; 3])[0][0];
                     let want = f0 * scale + bias;
                     worst = worst.max((got / want - 1.0).abs());
-                    assert!((got / want - 1.0).abs() < 6e-3, "r {roughness} n.v {nov} f0 {f0}: {got} vs {want}");
+                    // The midpoint rule on a 0.7-degree grid, against a 4096-point estimate.
+                    assert!((got / want - 1.0).abs() < 2e-3, "r {roughness} n.v {nov} f0 {f0}: {got} vs {want}");
                 }
             }
         }
