@@ -13,6 +13,7 @@ pub mod disc_image;
 pub mod error_metrics;
 pub mod fresnel;
 pub mod ggx;
+pub mod ggx_reference;
 pub mod glossy;
 pub mod guide_table;
 pub mod hierarchical_warp;

@@ -1,0 +1,280 @@
+//! `hdrflow-bevy-render --diffuse D.ktx2 --specular S.ktx2 --intensity X --out frame.exr
+//! [--width 768 --height 256] [--geometry scene.json] [--timeout SECONDS]`
+//!
+//! Renders six spheres (`scene`) lit only by an `EnvironmentMapLight` made of the two KTX2 cube
+//! maps, in Bevy 0.19.1, windowless (on Mesa's lavapipe in CI: `WGPU_BACKEND=vulkan`), reads the
+//! frame back as RGBA32F and writes it as EXR. No other light: no directional or point light,
+//! ambient brightness 0, no skybox (the background stays black, alpha 0), no bloom (Bevy's
+//! post-processing is not even compiled in), no tonemapping, no deband dithering, no MSAA
+//! (`Msaa::Off`, so edge pixels are not blends), an HDR camera (its Rgba16Float main texture is
+//! the one lossy step: 11-bit mantissas, 5e-4 relative), and exposure `ev100 = -log2(1.2)`,
+//! which makes Bevy's factor `2^-ev100 / 1.2` equal to 1 (to f32 rounding; the factor Bevy
+//! computes is written to the geometry file), so that a pixel is `intensity x` what the shader
+//! reads from the maps.
+//!
+//! The KTX2 files are decoded by Bevy's own loader (`Image::from_buffer`, the code its asset
+//! server runs for `.ktx2`), Zstandard supercompression and rgb9e5 included.
+//!
+//! Exit status: 0 when the frame is written, 1 on a render or I/O failure, 2 on bad arguments.
+
+mod capture;
+mod scene;
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::time::{Duration, Instant};
+
+use bevy::app::{AppExit, ScheduleRunnerPlugin};
+use bevy::asset::RenderAssetUsages;
+use bevy::camera::{Exposure, Hdr, RenderTarget, ScalingMode};
+use bevy::core_pipeline::tonemapping::{DebandDither, Tonemapping};
+use bevy::image::{CompressedImageFormats, ImageSampler, ImageType};
+use bevy::light::{AmbientLight, EnvironmentMapLight, GlobalAmbientLight};
+use bevy::prelude::*;
+use bevy::render::RenderPlugin;
+use bevy::render::gpu_readback::Readback;
+use bevy::render::render_resource::{TextureFormat, TextureUsages};
+use bevy::window::ExitCondition;
+
+use capture::{FrameSize, Frames};
+use scene::{RADIUS, SPHERES};
+
+/// The command line.
+#[derive(Resource, Clone)]
+struct Args {
+    diffuse: PathBuf,
+    specular: PathBuf,
+    intensity: f32,
+    out: PathBuf,
+    geometry: Option<PathBuf>,
+    width: u32,
+    height: u32,
+    timeout: Duration,
+}
+
+const USAGE: &str = "usage: hdrflow-bevy-render --diffuse D.ktx2 --specular S.ktx2 --intensity X --out frame.exr \
+                     [--width 768 --height 256] [--geometry scene.json] [--timeout 600]";
+
+fn parse_args(mut it: impl Iterator<Item = String>) -> Result<Args, String> {
+    let (mut diffuse, mut specular, mut intensity, mut out, mut geometry) = (None, None, None, None, None);
+    let (mut width, mut height, mut timeout) = (768u32, 256u32, 600.0f64);
+    while let Some(flag) = it.next() {
+        if flag == "--help" || flag == "-h" {
+            return Err(USAGE.to_string());
+        }
+        let value = it.next().ok_or_else(|| format!("{flag} needs a value\n{USAGE}"))?;
+        let number = |what: &str| value.parse::<f64>().map_err(|_| format!("{what} must be a number, not {value:?}"));
+        match flag.as_str() {
+            "--diffuse" => diffuse = Some(PathBuf::from(&value)),
+            "--specular" => specular = Some(PathBuf::from(&value)),
+            "--out" => out = Some(PathBuf::from(&value)),
+            "--geometry" => geometry = Some(PathBuf::from(&value)),
+            "--intensity" => intensity = Some(number("--intensity")? as f32),
+            "--width" => width = value.parse().map_err(|_| format!("--width must be a whole number, not {value:?}"))?,
+            "--height" => {
+                height = value.parse().map_err(|_| format!("--height must be a whole number, not {value:?}"))?
+            }
+            "--timeout" => timeout = number("--timeout")?,
+            _ => return Err(format!("unknown option {flag}\n{USAGE}")),
+        }
+    }
+    let need = |v: Option<PathBuf>, what: &str| v.ok_or_else(|| format!("{what} is required\n{USAGE}"));
+    let intensity = intensity.ok_or_else(|| format!("--intensity is required\n{USAGE}"))?;
+    if !(intensity.is_finite() && intensity >= 0.0) {
+        return Err(format!("--intensity must be finite and non-negative, not {intensity}"));
+    }
+    if !(1..=8192).contains(&width) || !(1..=8192).contains(&height) {
+        return Err(format!("--width and --height must be in 1..=8192, not {width}x{height}"));
+    }
+    if !(timeout.is_finite() && timeout > 0.0) {
+        return Err(format!("--timeout must be a positive number of seconds, not {timeout}"));
+    }
+    Ok(Args {
+        diffuse: need(diffuse, "--diffuse")?,
+        specular: need(specular, "--specular")?,
+        intensity,
+        out: need(out, "--out")?,
+        geometry,
+        width,
+        height,
+        timeout: Duration::from_secs_f64(timeout),
+    })
+}
+
+/// Bevy's `ev100` for which `2^-ev100 / 1.2 = 1` (`Exposure::exposure`).
+fn unit_ev100() -> f32 {
+    -(1.2f32).log2()
+}
+
+/// A cube map decoded by Bevy's KTX2 loader.
+fn load_ktx2(path: &std::path::Path) -> Result<Image, String> {
+    let bytes = std::fs::read(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    let image = Image::from_buffer(
+        &bytes,
+        ImageType::Extension("ktx2"),
+        CompressedImageFormats::NONE,
+        false,
+        ImageSampler::Default,
+        RenderAssetUsages::RENDER_WORLD,
+    )
+    .map_err(|e| format!("Bevy cannot load {}: {e}", path.display()))?;
+    if image.texture_descriptor.size.depth_or_array_layers != 6 {
+        return Err(format!(
+            "{} is not a cube map (Bevy sees {} layers)",
+            path.display(),
+            image.texture_descriptor.size.depth_or_array_layers
+        ));
+    }
+    Ok(image)
+}
+
+/// When the run started, for `--timeout`.
+#[derive(Resource)]
+struct Started(Instant);
+
+fn main() -> ExitCode {
+    let args = match parse_args(std::env::args().skip(1)) {
+        Ok(a) => a,
+        Err(e) => {
+            eprintln!("{e}");
+            return ExitCode::from(2);
+        }
+    };
+    // Decoded before Bevy starts, so a bad file is reported without a renderer.
+    let maps = load_ktx2(&args.diffuse).and_then(|d| Ok((d, load_ktx2(&args.specular)?)));
+    let (diffuse, specular) = match maps {
+        Ok(m) => m,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(1);
+        }
+    };
+    let ev100 = unit_ev100();
+    let exposure = Exposure { ev100 }.exposure();
+    let geometry = scene::geometry_json(args.width, args.height, args.intensity, ev100, exposure);
+    if let Some(path) = &args.geometry {
+        if let Err(e) = std::fs::write(path, &geometry) {
+            eprintln!("error: cannot write {}: {e}", path.display());
+            return ExitCode::from(1);
+        }
+    }
+
+    let mut app = App::new();
+    app.add_plugins(
+        DefaultPlugins
+            .set(WindowPlugin { primary_window: None, exit_condition: ExitCondition::DontExit, ..default() })
+            // Pipelines compile before the frame that needs them: fewer frames without the spheres.
+            .set(RenderPlugin { synchronous_pipeline_compilation: true, ..default() }),
+    )
+    // With a window plugin in the build, the default plugins hold no runner: frames as fast as they come.
+    .add_plugins(ScheduleRunnerPlugin::run_loop(Duration::ZERO))
+    .insert_resource(GlobalAmbientLight::NONE)
+    .insert_resource(FrameSize { width: args.width, height: args.height })
+    .insert_resource(Frames::default())
+    .insert_resource(Started(Instant::now()))
+    .insert_resource(MapsToLoad(Some((diffuse, specular))))
+    .insert_resource(args)
+    .add_systems(Startup, setup)
+    .add_systems(Update, finish);
+    match app.run() {
+        AppExit::Success => ExitCode::SUCCESS,
+        AppExit::Error(code) => ExitCode::from(code.get()),
+    }
+}
+
+/// The decoded cube maps, taken by `setup`.
+#[derive(Resource)]
+struct MapsToLoad(Option<(Image, Image)>);
+
+fn setup(
+    mut commands: Commands,
+    args: Res<Args>,
+    mut maps: ResMut<MapsToLoad>,
+    mut images: ResMut<Assets<Image>>,
+    mut meshes: ResMut<Assets<Mesh>>,
+    mut materials: ResMut<Assets<StandardMaterial>>,
+) {
+    let Some((diffuse, specular)) = maps.0.take() else { return };
+    let mut target = Image::new_target_texture(args.width, args.height, TextureFormat::Rgba32Float, None);
+    target.texture_descriptor.usage |= TextureUsages::COPY_SRC;
+    let target = images.add(target);
+
+    // A fine UV sphere: 256 x 128 quads, vertex normals 1.4 degrees apart (interpolated normals
+    // are then within ~0.01 degree of the true sphere's).
+    let mesh = meshes.add(Sphere::new(RADIUS).mesh().uv(256, 128));
+    for (k, s) in SPHERES.iter().enumerate() {
+        let material = materials.add(StandardMaterial {
+            base_color: Color::WHITE,
+            metallic: s.metallic,
+            perceptual_roughness: s.perceptual_roughness,
+            reflectance: s.reflectance,
+            ..default()
+        });
+        commands.spawn((
+            Mesh3d(mesh.clone()),
+            MeshMaterial3d(material),
+            Transform::from_xyz(scene::centre_x(k), 0.0, 0.0),
+        ));
+    }
+
+    let view_height = scene::VIEW_WIDTH * args.height as f32 / args.width as f32;
+    commands.spawn((
+        Camera3d::default(),
+        Camera { clear_color: ClearColorConfig::Custom(Color::NONE), ..default() },
+        RenderTarget::Image(target.clone().into()),
+        Projection::Orthographic(OrthographicProjection {
+            scaling_mode: ScalingMode::Fixed { width: scene::VIEW_WIDTH, height: view_height },
+            near: 0.0,
+            far: 2.0 * scene::CAMERA_Z,
+            ..OrthographicProjection::default_3d()
+        }),
+        Transform::from_xyz(0.0, 0.0, scene::CAMERA_Z).looking_at(Vec3::ZERO, Vec3::Y),
+        Hdr,
+        Tonemapping::None,
+        DebandDither::Disabled,
+        Msaa::Off,
+        Exposure { ev100: unit_ev100() },
+        AmbientLight { brightness: 0.0, ..default() },
+        EnvironmentMapLight {
+            diffuse_map: images.add(diffuse),
+            specular_map: images.add(specular),
+            intensity: args.intensity,
+            ..default()
+        },
+    ));
+    commands.spawn(Readback::texture(target)).observe(capture::on_readback);
+}
+
+/// Writes the settled frame and exits, or gives up after `--timeout`.
+fn finish(
+    args: Res<Args>,
+    frames: Res<Frames>,
+    size: Res<FrameSize>,
+    started: Res<Started>,
+    mut exit: MessageWriter<AppExit>,
+) {
+    if let Some(pixels) = capture::settled(&frames, *size) {
+        match capture::write_exr(&args.out, pixels, *size) {
+            Ok(()) => {
+                info!(
+                    "wrote {} after {} readbacks in {:.1} s",
+                    args.out.display(),
+                    frames.count,
+                    started.0.elapsed().as_secs_f64()
+                );
+                exit.write(AppExit::Success);
+            }
+            Err(e) => {
+                error!("{e}");
+                exit.write(AppExit::from_code(1));
+            }
+        }
+    } else if started.0.elapsed() > args.timeout {
+        error!(
+            "no settled frame after {:.0} s ({} readbacks): the renderer is too slow or the spheres never appeared",
+            args.timeout.as_secs_f64(),
+            frames.count
+        );
+        exit.write(AppExit::from_code(1));
+    }
+}

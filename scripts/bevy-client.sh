@@ -1,0 +1,20 @@
+#!/usr/bin/env bash
+# Builds clients/bevy (the Bevy 0.19.1 program that renders hdrflow's Bevy bake headless, for
+# tests/bevy_render.rs) once, and prints the path of its binary. Bevy is its own crate with its own
+# lock file, outside hdrflow's workspace, so a normal hdrflow build never compiles it.
+#   BEVY_TARGET_DIR  target folder (default: clients/bevy/target); a build from scratch takes about
+#                    20 minutes on 2 cores and some 4 GB of disk (BENCHMARKS.md, "Bevy client").
+# The renderer runs on Mesa's lavapipe (a CPU Vulkan driver): Debian `mesa-vulkan-drivers`.
+# Run the test with: HDRFLOW_BEVY_RENDER=$(scripts/bevy-client.sh) cargo test --release --test bevy_render
+set -euo pipefail
+root=$(cd "$(dirname "$0")/.." && pwd)
+target=${BEVY_TARGET_DIR:-$root/clients/bevy/target}
+export XDG_RUNTIME_DIR=${XDG_RUNTIME_DIR:-/tmp/xdg-runtime-$(id -u)}
+mkdir -p "$XDG_RUNTIME_DIR" && chmod 700 "$XDG_RUNTIME_DIR"
+export WGPU_BACKEND=vulkan
+if [ ! -e /usr/share/vulkan/icd.d/lvp_icd.x86_64.json ]; then
+    echo "warning: no lavapipe ICD (apt-get install -y mesa-vulkan-drivers); the binary builds but cannot render" >&2
+fi
+# --locked: the committed clients/bevy/Cargo.lock, never a newer Bevy dependency.
+cargo build --locked --quiet --manifest-path "$root/clients/bevy/Cargo.toml" --target-dir "$target" >&2
+echo "$target/debug/hdrflow-bevy-render"
