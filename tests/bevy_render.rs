@@ -28,7 +28,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Duration;
 
-use hdrflow::data::Image;
+use hdrflow::values::Image;
 use reference::{relative_rmse, sphere_reference, Map, SphereReference};
 use scene::Geometry;
 

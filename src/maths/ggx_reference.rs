@@ -84,8 +84,8 @@ pub fn specular(texels: &Texels, normals: &[DVec3], views: &[DVec3], alpha: f64,
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::data::Image;
     use crate::maths::ggx::{dfg, points, LobeSequence};
+    use crate::values::Image;
 
     fn constant(w: usize, h: usize) -> Image {
         Image::from_fn_rgb(w, h, |_, _| [1.0, 1.0, 1.0])

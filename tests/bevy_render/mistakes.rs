@@ -1,10 +1,10 @@
 //! The z mirror the Bevy bake needs, and the deliberate mistakes the test must catch, made on the
 //! files a correct bake wrote (or, for the roughness map, baked wrongly with hdrflow's library).
 
-use hdrflow::data::Image;
 use hdrflow::formats::ktx2::{encode, rgb_to_rgba, KtxFormat, Level};
 use hdrflow::maths::ggx::{points, prefilter_level_fis, pyramid, LobeSequence};
 use hdrflow::maths::resample::{to_cube, LatLongSource};
+use hdrflow::values::Image;
 
 /// The lat-long map mirrored in z, `L'(x, y, z) = L(x, y, -z)`: phi -> pi - phi, which maps
 /// column x to column `(W / 2 - 1 - x) mod W` exactly (W even). Bevy reads its cube maps at

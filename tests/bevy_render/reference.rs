@@ -20,12 +20,12 @@
 use std::f64::consts::PI;
 
 use glam::DVec3;
-use hdrflow::data::Image;
 use hdrflow::maths::bilinear;
 use hdrflow::maths::ggx::{dfg, points, LobeSequence};
 use hdrflow::maths::ggx_reference::{prefiltered, specular};
 use hdrflow::maths::irradiance_cube::Texels;
 use hdrflow::maths::reference::irradiance_exact;
+use hdrflow::values::Image;
 
 use super::scene::{lookup_weights, shader_alpha, specular_direction, Sphere};
 
@@ -48,7 +48,7 @@ pub struct Map {
 impl Map {
     pub fn new(full: Image) -> Map {
         let for_ggx =
-            if full.width > 512 { hdrflow::ops::image::resize::resize(&full, 512, 256) } else { full.clone() };
+            if full.width > 512 { hdrflow::maths::area_resize::resize(&full, 512, 256) } else { full.clone() };
         Map { full, for_ggx }
     }
 }
