@@ -11,7 +11,7 @@
 
 use std::fmt::Write as _;
 
-use crate::bench::{csv_text, inner_disc_mask, load_map, luminance, time_median, MapSpec};
+use crate::bench::{inner_disc_mask, load_map, luminance, time_median, MapSpec};
 use hdrflow::engine::cache::store::write_atomic;
 use hdrflow::geometry::latlong;
 use hdrflow::maths::error_metrics::image_error;
@@ -133,7 +133,7 @@ pub fn run(config: &GlossyBenchConfig, log: &dyn Fn(&str)) -> Result<Vec<GlossyR
             format!("{:.6}", r.relative_rmse),
         ]
     });
-    let csv = csv_text(std::iter::once(header).chain(records));
+    let csv = hdrflow::values::csv::text(std::iter::once(header).chain(records));
     write_atomic(&config.out_dir.join("glossy.csv"), csv.as_bytes()).map_err(|e| format!("glossy.csv: {e}"))?;
     write_atomic(&config.out_dir.join("glossy.md"), markdown(config, &rows).as_bytes())
         .map_err(|e| format!("glossy.md: {e}"))?;

@@ -36,7 +36,7 @@ use std::time::Instant;
 
 use hdrflow::maths::colour::rec709_luminance_f32;
 use hdrflow::values::Image;
-pub use results::{csv_text, replot};
+pub use results::replot;
 pub use sweep::run;
 
 /// The largest per-pixel sample count swept with independent uniforms: past it a point takes

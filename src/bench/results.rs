@@ -107,24 +107,7 @@ pub(super) fn csv_of(rows: &[BenchRow]) -> String {
             r.seeds.to_string(),
         ]
     });
-    csv_text(std::iter::once(header.map(String::from).to_vec()).chain(records))
-}
-
-/// CSV text of `records`, the header first, as every CSV file hdrflow writes: RFC 4180 quoting
-/// by the `csv` crate (a field is quoted only when it holds a comma, a double quote or a line
-/// break), `\n` after each record; numbers are formatted by the caller.
-pub fn csv_text<R, F>(records: impl IntoIterator<Item = R>) -> String
-where
-    R: IntoIterator<Item = F>,
-    F: AsRef<[u8]>,
-{
-    let mut w = csv::WriterBuilder::new().flexible(true).from_writer(Vec::new());
-    for record in records {
-        // Writing into a Vec has no I/O to fail, and a flexible writer no length to refuse.
-        w.write_record(record).expect("CSV into memory");
-    }
-    let bytes = w.into_inner().expect("CSV into memory");
-    String::from_utf8(bytes).expect("UTF-8 fields give UTF-8 CSV")
+    hdrflow::values::csv::text(std::iter::once(header.map(String::from).to_vec()).chain(records))
 }
 
 pub(super) fn write_csv(path: &Path, rows: &[BenchRow]) -> Result<(), String> {

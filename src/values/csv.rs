@@ -6,7 +6,7 @@
 /// are doubled), `\n` after each record. Numbers are formatted by the caller, so that each file
 /// keeps its own precision. A record of no field becomes `""` (one empty field), as the crate
 /// writes it.
-pub(crate) fn text<R, F>(records: impl IntoIterator<Item = R>) -> String
+pub fn text<R, F>(records: impl IntoIterator<Item = R>) -> String
 where
     R: IntoIterator<Item = F>,
     F: AsRef<[u8]>,

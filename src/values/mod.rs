@@ -17,7 +17,7 @@
 //! [`TypeSpec`]: crate::engine::value::TypeSpec
 
 pub mod camera;
-pub(crate) mod csv;
+pub mod csv;
 pub mod cubemap;
 pub mod curves;
 pub mod distribution;
