@@ -29,6 +29,7 @@ pub mod rotation;
 pub(crate) mod row_kernels;
 pub mod sequences;
 pub mod sh;
+pub mod sh_filament;
 pub mod specular_lobe;
 pub mod spherical_gaussians;
 pub mod statistics;

@@ -9,6 +9,7 @@ pub mod camera;
 pub mod cubemap;
 pub mod curves;
 pub mod distribution;
+pub mod filament_sh;
 pub mod image;
 pub(crate) mod json;
 pub mod label;
@@ -27,6 +28,7 @@ pub use camera::CAMERA;
 pub use cubemap::{CUBEMAP, MIP_CHAIN};
 pub use curves::CURVES;
 pub use distribution::DISTRIBUTION;
+pub use filament_sh::FILAMENT_SH;
 pub use label::LABEL;
 pub use light::LIGHT;
 pub use lights::LIGHTS;
@@ -45,6 +47,7 @@ pub fn register_all(r: &mut Registry) {
         &CURVES,
         &METRICS,
         &SH_COEFFICIENTS,
+        &FILAMENT_SH,
         &LIGHT,
         &LIGHTS,
         &SG,
@@ -69,6 +72,7 @@ pub mod ty {
     pub const CURVES_T: ValueType = ValueType(&CURVES);
     pub const METRICS_T: ValueType = ValueType(&METRICS);
     pub const SH_COEFFICIENTS_T: ValueType = ValueType(&SH_COEFFICIENTS);
+    pub const FILAMENT_SH_T: ValueType = ValueType(&FILAMENT_SH);
     pub const LIGHT_T: ValueType = ValueType(&LIGHT);
     pub const LIGHTS_T: ValueType = ValueType(&LIGHTS);
     pub const SG_T: ValueType = ValueType(&SG);
