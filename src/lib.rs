@@ -3,6 +3,8 @@
 //! Layers, each using only those below it:
 //! - [`cli`]: the command line, over any registry (`cli::main_with`).
 //! - [`report`]: the HTML page of a run (graph, outputs, nodes, timeline).
+//! - [`ibl_presets`]: each engine's image-based-lighting conventions and its bake pipeline
+//!   (`hdrflow bake`).
 //! - [`ops`]: the built-in operators, one file each, grouped by domain; `ops::builtin_registry`.
 //! - [`types`]: the built-in value types (how each data type is named, cached and saved).
 //! - [`engine`]: pipeline files, validation, the parallel demand-driven scheduler, the cache;
@@ -42,6 +44,7 @@ pub mod data;
 pub mod engine;
 pub mod formats;
 pub mod geometry;
+pub mod ibl_presets;
 pub mod maths;
 mod memory;
 pub mod ops;
