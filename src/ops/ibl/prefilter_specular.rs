@@ -42,7 +42,7 @@ crate::params! {
         /// number of levels; level k has the roughness roughness_map gives it
         #[range(1, 16)]
         pub levels: usize = 5,
-        /// GGX samples per texel (exact: false)
+        /// lobe samples per texel (exact: false)
         #[range(1, 1048576)]
         pub samples: usize = 1024,
         /// the lobe: Ggx, or Charlie (glTF-IBL-Sampler's sheen chain)
@@ -53,7 +53,8 @@ crate::params! {
         pub exact: bool = false,
         /// roughness of level k of N: Linear k/(N-1) (Bevy, Khronos: lod = r (N-1)), Filament 1 - sqrt(1 - k/(N-1)) (cmgen: lod = (N-1) r (2-r)), List
         pub roughness_map: RoughnessMap = RoughnessMap::Linear,
-        /// (roughness_map: List) the perceptual roughness of each level, in [0, 1], one per level
+        /// (roughness_map: List) the perceptual roughness of each level, one per level
+        #[range(0.0, 1.0)]
         pub roughness_list: Option<Vec<f64>>,
     }
 }
@@ -63,7 +64,7 @@ pub fn spec() -> OpSpec {
         "PrefilterSpecular",
         "ibl",
         1,
-        "GGX prefiltered cube-map chain (level k: roughness k/(levels-1)) by filtered importance sampling, or exactly",
+        "GGX (or Charlie) prefiltered cube-map chain, level k at the roughness roughness_map gives it, by filtered importance sampling, or exactly",
     )
     .output("chain", OutputType::Fixed(MIP_CHAIN_T), "the chain; Save it with {level} in the path")
     .size(|_, p: PrefilterSpecularParams<Check>| Some((6 * p.size as u64, p.size as u64)))
@@ -77,21 +78,11 @@ fn check(_: &CheckContext, p: PrefilterSpecularParams<Check>) -> Result<(), Chec
         (RoughnessMap::List, None) => {
             Err(CheckProblem::at("roughness_list", "roughness_map: List needs roughness_list, one roughness per level"))
         }
-        (RoughnessMap::List, Some(list)) => {
-            if list.len() != p.levels {
-                return Err(CheckProblem::at(
-                    "roughness_list",
-                    format!("roughness_list has {} values for {} levels: give one per level", list.len(), p.levels),
-                ));
-            }
-            match list.iter().position(|r| !(0.0..=1.0).contains(r)) {
-                Some(i) => Err(CheckProblem::at(
-                    "roughness_list",
-                    format!("roughness_list[{i}] = {} is outside [0, 1]", list[i]),
-                )),
-                None => Ok(()),
-            }
-        }
+        (RoughnessMap::List, Some(list)) if list.len() != p.levels => Err(CheckProblem::at(
+            "roughness_list",
+            format!("roughness_list has {} values for {} levels: give one per level", list.len(), p.levels),
+        )),
+        (RoughnessMap::List, Some(_)) => Ok(()),
         (map, Some(_)) => Err(CheckProblem::at(
             "roughness_list",
             format!("roughness_list is read only with roughness_map: List (this node has {map})"),
