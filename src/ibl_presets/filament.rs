@@ -4,8 +4,9 @@
 //! - Levels: `numLevels = log2(size) + 1 - log2(16)` (256 down to 16: 5), level l filtered for
 //!   `r = lodToPerceptualRoughness(l / (N - 1))`, the inverse of the shader's
 //!   `lod = iblRoughnessOneLevel r (2 - r)` (shaders/src/surface_light_indirect.fs):
-//!   `RoughnessMap::Filament`. 1024 samples (doubled from level 2 on: hdrflow's filtered
-//!   importance sampling is more accurate at 1024 than plain sampling at 8192).
+//!   `RoughnessMap::Filament`. 1024 samples (cmgen doubles them from level 2 on, for plain
+//!   importance sampling; hdrflow's filtered importance sampling keeps 1024: BENCHMARKS.md,
+//!   image-based lighting, sections 4-5).
 //! - The cube is sampled with the world direction (`textureLod(sampler0_iblSpecular, r, lod)`),
 //!   OpenGL faces: `CubeFrame::Standard`. cmgen's lat-long mapping puts the map's centre at +Z
 //!   (`atan2(x, z)`), mirrored, then mirrors the cube by default (`mirrorCubemap`: x negated),
