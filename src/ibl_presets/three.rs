@@ -52,3 +52,31 @@ sun.position.set({sun:to_light}).multiplyScalar(100);
 scene.add(sun);
 "#,
 };
+
+#[cfg(test)]
+mod tests {
+    use super::PRESET;
+    use crate::data::Image;
+    use crate::geometry::latlong;
+    use crate::maths::rotation::{rotate_latlong, Rotation};
+
+    /// three.js reads world direction d at `u = atan2(d.z, d.x) / (2 pi) + 0.5`, `v = asin(d.y) /
+    /// pi + 0.5` from the bottom (`equirectUv`): after the preset's turn, a texel of hdrflow's
+    /// map lands at the (u, v) three reads its direction at, forward (-Z) included.
+    #[test]
+    fn the_turned_map_puts_each_direction_where_three_reads_it() {
+        let (w, h) = (64, 32);
+        for (x, y) in [(32, 16), (10, 5), (50, 20), (0, 31)] {
+            let mut img = Image::new(w, h, 3);
+            img.pixel_mut(x, y)[0] = 1.0;
+            let turned = rotate_latlong(&img, Rotation::from_yaw_pitch_roll(PRESET.centre_yaw, 0.0, 0.0));
+            let lit = turned.data.chunks(3).position(|p| p[0] == 1.0).expect("a whole-column roll keeps the texel");
+            let (tx, ty) = (lit % w, lit / w);
+            let [dx, dy, dz] = latlong::texel_direction(x, y, w, h);
+            let u = dz.atan2(dx) / (2.0 * std::f64::consts::PI) + 0.5;
+            let v_top = 1.0 - (dy.clamp(-1.0, 1.0).asin() / std::f64::consts::PI + 0.5);
+            let want = ((u * w as f64).floor() as usize % w, (v_top * h as f64).floor() as usize);
+            assert_eq!((tx, ty), want, "texel ({x}, {y})");
+        }
+    }
+}
