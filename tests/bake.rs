@@ -117,4 +117,10 @@ fn print_pipeline_shows_the_pipeline_and_its_overrides() {
         .assert_stdout_contains("//   --set spec.levels=6")
         .assert_stdout_contains("\"save_spec\": Save(input: \"spec\", path: \"sky_ibl.ktx2\"");
     assert!(!sb.out().exists());
+    // A chain size given with --set: the levels and the source cube follow it, the user's value wins.
+    bake(&sb, &["--for", "bevy", "--print-pipeline", "--set", "spec.size=64"])
+        .assert_success()
+        .assert_stdout_contains("//   --set spec.levels=7\n")
+        .assert_stdout_contains("//   --set cube.size=64\n")
+        .assert_stdout_contains("//   --set spec.size=64\n");
 }
