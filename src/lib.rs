@@ -4,6 +4,8 @@
 //! - [`cli`]: the command line, over any registry (`cli::main_with`); the `hdrflow` binary adds
 //!   `bench`, the benchmark, which is its own module (src/bench), not the library's.
 //! - [`report`]: the HTML page of a run (graph, outputs, nodes, timeline).
+//! - [`ibl_presets`]: each engine's image-based-lighting conventions and its bake pipeline
+//!   (`hdrflow bake`).
 //! - [`ops`]: the built-in operators, one file each, grouped by domain; `ops::builtin_registry`.
 //! - [`values`], [`maths`], [`formats`], [`plotting`]: the built-in value types (each data type
 //!   with its name in graphs, its cache codec and its file encoders, declared to the engine),
@@ -41,6 +43,7 @@ pub mod cpu;
 pub mod engine;
 pub mod formats;
 pub mod geometry;
+pub mod ibl_presets;
 pub mod maths;
 mod memory;
 pub mod ops;

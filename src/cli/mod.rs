@@ -27,6 +27,7 @@ macro_rules! out {
     }};
 }
 
+mod bake;
 mod batch;
 mod cache;
 mod ops;
@@ -119,6 +120,9 @@ enum Command<E: ExtraCommands> {
     Run(RunArgs),
     /// Show what a run would do per node: compute, cached, or not needed.
     Plan(RunArgs),
+    /// Bake image-based lighting for an engine (bevy, filament, khronos, three): exactly the
+    /// files it loads, and a README.txt with the code that loads them.
+    Bake(bake::BakeArgs),
     /// Run a pipeline over a library of maps and parameter sweeps, one output folder per item.
     Batch(batch::BatchArgs),
     /// Run a pipeline, then rerun it whenever its file or a file it reads changes.
@@ -219,6 +223,7 @@ where
         }
         Command::Extra(extra) => extra.run(&registry),
         Command::Run(args) => run::run(&registry, &args),
+        Command::Bake(args) => bake::bake(&registry, &args),
         Command::Batch(args) => batch::batch(&registry, &args),
         Command::Watch(args) => watch::watch(&registry, &args),
     }

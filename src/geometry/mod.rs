@@ -7,6 +7,7 @@
 //! it without depending on [`crate::maths`].
 
 pub mod azimuthal;
+pub mod cube_frame;
 pub mod cube_layout;
 pub mod cubemap;
 pub mod latlong;

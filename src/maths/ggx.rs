@@ -44,6 +44,7 @@ use crate::geometry::cubemap as cube;
 use crate::maths::irradiance_cube::{normalised, Texels};
 use crate::maths::resample::downsample;
 use crate::maths::sequences::{radical_inverse, sobol_2d};
+use crate::maths::specular_lobe::SpecularBrdf;
 use crate::values::{Cubemap, Image, MipChain};
 
 crate::choice! {
@@ -217,8 +218,15 @@ pub fn level_roughness(k: usize, levels: usize) -> f64 {
     }
 }
 
-/// One level filtered with filtered importance sampling.
-pub fn prefilter_level_fis(pyr: &[Cubemap], size: usize, roughness: f64, pts: &[[f64; 2]]) -> Cubemap {
+/// One level filtered with filtered importance sampling, for the lobe `brdf`
+/// (`maths::specular_lobe`).
+pub fn prefilter_level_fis(
+    pyr: &[Cubemap],
+    size: usize,
+    roughness: f64,
+    pts: &[[f64; 2]],
+    brdf: SpecularBrdf,
+) -> Cubemap {
     let alpha = roughness * roughness;
     let s0 = pyr[0].size as f64;
     // The solid angle of a texel at a face's centre (texels elsewhere: see `trilinear`).
@@ -228,15 +236,16 @@ pub fn prefilter_level_fis(pyr: &[Cubemap], size: usize, roughness: f64, pts: &[
     let lobe: Vec<(DVec3, f64, f64)> = pts
         .iter()
         .filter_map(|&u| {
-            let h = sample_h(u, alpha);
+            let h = brdf.sample_h(u, alpha);
             let l = 2.0 * h.z * h - DVec3::Z;
             if l.z <= 0.0 {
                 return None;
             }
-            let pdf = d_ggx(h.z, alpha) / 4.0;
+            let pdf = brdf.d(h.z, alpha) / 4.0;
             let omega_s = 1.0 / (n * pdf);
             let lod = 0.5 * (omega_s / omega_p).log2() + 1.0;
-            Some((l, l.z, if lod.is_finite() { lod } else { 0.0 }))
+            // A zero pdf (Charlie's lobe at h = n) reads the coarsest level; -inf the finest.
+            Some((l, l.z, if lod.is_nan() { 0.0 } else { lod }))
         })
         .collect();
     Cubemap::from_fn(size, |f, x, y| {
@@ -257,7 +266,7 @@ pub fn prefilter_level_fis(pyr: &[Cubemap], size: usize, roughness: f64, pts: &[
 }
 
 /// One level filtered exactly: the same weighted lobe summed over every source texel.
-pub fn prefilter_level_exact(src: &Cubemap, size: usize, roughness: f64) -> Cubemap {
+pub fn prefilter_level_exact(src: &Cubemap, size: usize, roughness: f64, brdf: SpecularBrdf) -> Cubemap {
     let alpha = roughness * roughness;
     let texels = Texels::from_cube(src);
     Cubemap::from_fn(size, |f, x, y| {
@@ -265,7 +274,7 @@ pub fn prefilter_level_exact(src: &Cubemap, size: usize, roughness: f64) -> Cube
         texels.weighted_mean(|l| {
             let nol = nrm.dot(l);
             if nol > 0.0 {
-                d_ggx(nrm.dot((nrm + l).normalize()), alpha) * nol
+                brdf.d(nrm.dot((nrm + l).normalize()), alpha) * nol
             } else {
                 0.0
             }
@@ -274,20 +283,41 @@ pub fn prefilter_level_exact(src: &Cubemap, size: usize, roughness: f64) -> Cube
 }
 
 /// The prefiltered chain of `src` (level 0 is `src` itself): `levels` levels, level k of size
-/// max(1, S >> k) and roughness k / (levels - 1).
+/// max(1, S >> k) and roughness k / (levels - 1), GGX.
 pub fn prefilter(src: &Cubemap, levels: usize, samples: usize, seq: LobeSequence, exact: bool) -> MipChain {
+    let roughness: Vec<f64> = (0..levels).map(|k| level_roughness(k, levels)).collect();
+    prefilter_chain(src, &roughness, samples, seq, exact, SpecularBrdf::Ggx)
+}
+
+/// The chain of `src` filtered with `brdf`, one level per entry of `roughness` (perceptual),
+/// level k of size max(1, S >> k). A GGX level of roughness 0 is the source itself at that size
+/// (`src` at level 0, its solid-angle-weighted pyramid below); Charlie levels are always
+/// filtered (its lobe at roughness 0 is a grazing one, not a mirror).
+pub fn prefilter_chain(
+    src: &Cubemap,
+    roughness: &[f64],
+    samples: usize,
+    seq: LobeSequence,
+    exact: bool,
+    brdf: SpecularBrdf,
+) -> MipChain {
     let pts = points(seq, samples);
-    let pyr = if exact { Vec::new() } else { pyramid(src) };
+    let mirror_below_top = brdf == SpecularBrdf::Ggx && roughness.iter().skip(1).any(|&r| r == 0.0);
+    let pyr = if exact && !mirror_below_top { Vec::new() } else { pyramid(src) };
+    let levels = roughness.len();
     let mut out = MipChain { levels: Vec::with_capacity(levels), roughness: Vec::with_capacity(levels) };
-    for k in 0..levels {
-        let rough = level_roughness(k, levels);
+    for (k, &rough) in roughness.iter().enumerate() {
         let size = (src.size >> k).max(1);
-        let level = if k == 0 {
-            src.clone()
+        let level = if brdf == SpecularBrdf::Ggx && rough == 0.0 {
+            if k == 0 {
+                src.clone()
+            } else {
+                pyr[k.min(pyr.len() - 1)].clone()
+            }
         } else if exact {
-            prefilter_level_exact(src, size, rough)
+            prefilter_level_exact(src, size, rough, brdf)
         } else {
-            prefilter_level_fis(&pyr, size, rough, &pts)
+            prefilter_level_fis(&pyr, size, rough, &pts, brdf)
         };
         out.levels.push(level);
         out.roughness.push(rough);

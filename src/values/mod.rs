@@ -21,6 +21,7 @@ pub mod csv;
 pub mod cubemap;
 pub mod curves;
 pub mod distribution;
+pub mod filament_sh;
 pub mod image;
 pub(crate) mod json;
 pub mod label;
@@ -39,6 +40,7 @@ pub use camera::{Camera, CAMERA};
 pub use cubemap::{Cubemap, MipChain, CUBEMAP, MIP_CHAIN};
 pub use curves::{Curves, CURVES};
 pub use distribution::{Distribution2D, DISTRIBUTION};
+pub use filament_sh::{FilamentSh, FILAMENT_SH};
 pub use label::{Label, LABEL};
 pub use light::{Light, LIGHT};
 pub use lights::{Lights, LIGHTS};
@@ -57,6 +59,7 @@ pub fn register_all(r: &mut Registry) {
         &CURVES,
         &METRICS,
         &SH_COEFFICIENTS,
+        &FILAMENT_SH,
         &LIGHT,
         &LIGHTS,
         &SG,
@@ -81,6 +84,7 @@ pub mod ty {
     pub const CURVES_T: ValueType = ValueType(&CURVES);
     pub const METRICS_T: ValueType = ValueType(&METRICS);
     pub const SH_COEFFICIENTS_T: ValueType = ValueType(&SH_COEFFICIENTS);
+    pub const FILAMENT_SH_T: ValueType = ValueType(&FILAMENT_SH);
     pub const LIGHT_T: ValueType = ValueType(&LIGHT);
     pub const LIGHTS_T: ValueType = ValueType(&LIGHTS);
     pub const SG_T: ValueType = ValueType(&SG);

@@ -1,7 +1,15 @@
-//! `PrefilterSpecular(env, size, levels, samples, brdf: Ggx, sequence: Sobol, exact: false)`: the
-//! specular prefiltered chain of split-sum image-based lighting (Karis 2013), a `mip chain` of cube
-//! maps: level k has face size max(1, size >> k) and perceptual roughness k / (levels - 1),
-//! alpha = roughness^2; level 0 (roughness 0) is the environment resampled to `size`.
+//! `PrefilterSpecular(env, size, levels, samples, brdf: Ggx, sequence: Sobol, exact: false,
+//! roughness_map: Linear, roughness_list: None)`: the specular prefiltered chain of split-sum
+//! image-based lighting (Karis 2013), a `mip chain` of cube maps: level k has face size
+//! max(1, size >> k) and the perceptual roughness `roughness_map` gives it (alpha =
+//! roughness^2): `Linear` k / (levels - 1), read back by Bevy and the glTF viewers with
+//! `lod = r (N - 1)`; `Filament` cmgen's `1 - sqrt(1 - k / (levels - 1))`, the inverse of
+//! Filament's `lod = (N - 1) r (2 - r)`; `List` the `roughness_list` (one value in [0, 1] per
+//! level). A GGX level of roughness 0 (level 0 by default) is the environment resampled to its size.
+//!
+//! `brdf: Charlie` filters with glTF-IBL-Sampler's sheen lobe instead of GGX (its `charlie`
+//! chain; `maths::specular_lobe`), every level included: at low roughness its lobe reflects
+//! almost nothing above the horizon and the level tends to black, as the sampler's level 0 is.
 //!
 //! Each texel of level k > 0, with `n = v = r` its direction, is
 //! `int L(l) D(h) (n.l)+ dl / int D(h) (n.l)+ dl` (GGX D, weighted by n.l as Filament and Karis
@@ -17,18 +25,11 @@
 //! (used as is when its face size is `size`, else resampled).
 
 use crate::engine::fields::{AnyValue, Check, Input};
-use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
+use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec, OutputType};
 use crate::engine::value::Value;
-use crate::maths::ggx::{prefilter, LobeSequence};
+use crate::maths::ggx::{prefilter_chain, LobeSequence};
+pub use crate::maths::specular_lobe::{RoughnessMap, SpecularBrdf};
 use crate::values::ty::*;
-
-crate::choice! {
-    /// The specular lobe.
-    pub enum SpecularBrdf {
-        /// GGX (Trowbridge-Reitz) with n = v = r
-        Ggx,
-    }
-}
 
 crate::params! {
     pub struct PrefilterSpecularParams {
@@ -38,18 +39,23 @@ crate::params! {
         /// face size of level 0
         #[range(1, 4096)]
         pub size: usize = 128,
-        /// number of levels; level k has roughness k / (levels - 1)
+        /// number of levels; level k has the roughness roughness_map gives it
         #[range(1, 16)]
         pub levels: usize = 5,
-        /// GGX samples per texel (exact: false)
+        /// lobe samples per texel (exact: false)
         #[range(1, 1048576)]
         pub samples: usize = 1024,
-        /// the lobe
+        /// the lobe: Ggx, or Charlie (glTF-IBL-Sampler's sheen chain)
         pub brdf: SpecularBrdf = SpecularBrdf::Ggx,
         /// the sample points: Sobol or Hammersley
         pub sequence: LobeSequence = LobeSequence::Sobol,
         /// true: sum over every source texel (the reference) instead of sampling
         pub exact: bool = false,
+        /// roughness of level k of N: Linear k/(N-1) (Bevy, Khronos: lod = r (N-1)), Filament 1 - sqrt(1 - k/(N-1)) (cmgen: lod = (N-1) r (2-r)), List
+        pub roughness_map: RoughnessMap = RoughnessMap::Linear,
+        /// (roughness_map: List) the perceptual roughness of each level, one per level
+        #[range(0.0, 1.0)]
+        pub roughness_list: Option<Vec<f64>>,
     }
 }
 
@@ -58,16 +64,92 @@ pub fn spec() -> OpSpec {
         "PrefilterSpecular",
         "ibl",
         1,
-        "GGX prefiltered cube-map chain (level k: roughness k/(levels-1)) by filtered importance sampling, or exactly",
+        "GGX (or Charlie) prefiltered cube-map chain, level k at the roughness roughness_map gives it, by filtered importance sampling, or exactly",
     )
     .output("chain", OutputType::Fixed(MIP_CHAIN_T), "the chain; Save it with {level} in the path")
     .size(|_, p: PrefilterSpecularParams<Check>| Some((6 * p.size as u64, p.size as u64)))
+    .check(check)
     .code_hash(crate::op_code_hash!())
     .eval(eval)
 }
 
+fn check(_: &CheckContext, p: PrefilterSpecularParams<Check>) -> Result<(), CheckProblem> {
+    match (p.roughness_map, &p.roughness_list) {
+        (RoughnessMap::List, None) => {
+            Err(CheckProblem::at("roughness_list", "roughness_map: List needs roughness_list, one roughness per level"))
+        }
+        (RoughnessMap::List, Some(list)) if list.len() != p.levels => Err(CheckProblem::at(
+            "roughness_list",
+            format!("roughness_list has {} values for {} levels: give one per level", list.len(), p.levels),
+        )),
+        (RoughnessMap::List, Some(_)) => Ok(()),
+        (map, Some(_)) => Err(CheckProblem::at(
+            "roughness_list",
+            format!("roughness_list is read only with roughness_map: List (this node has {map})"),
+        )),
+        (_, None) => Ok(()),
+    }
+}
+
+/// The perceptual roughness of every level (validation checked the list).
+fn level_roughness(p: &PrefilterSpecularParams) -> Vec<f64> {
+    let list = p.roughness_list.as_deref().unwrap_or(&[]);
+    (0..p.levels).map(|k| p.roughness_map.roughness(k, p.levels, list)).collect()
+}
+
 fn eval(ctx: &mut OpContext, p: PrefilterSpecularParams) -> Result<Value, OpError> {
-    let SpecularBrdf::Ggx = p.brdf;
     let src = super::env_cube(ctx, &p.env, p.size)?;
-    Ok(Value::new(prefilter(&src, p.levels, p.samples, p.sequence, p.exact)))
+    let roughness = level_roughness(&p);
+    Ok(Value::new(prefilter_chain(&src, &roughness, p.samples, p.sequence, p.exact, p.brdf)))
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::formats::builtin::builtin;
+    use crate::maths::ggx::{prefilter_chain, LobeSequence};
+    use crate::maths::resample::{to_cube, LatLongSource};
+    use crate::maths::specular_lobe::{RoughnessMap, SpecularBrdf};
+
+    /// A constant map gives the constant at every level and texel, for every roughness map and
+    /// both lobes (Charlie from roughness 0.5 on: below it almost no sample is above the
+    /// horizon), sampled and exact.
+    #[test]
+    fn constant_map_gives_the_constant_at_every_level() {
+        let env = builtin("constant").unwrap();
+        let c = to_cube(&LatLongSource::new(&env), 8);
+        for map in [RoughnessMap::Linear, RoughnessMap::Filament] {
+            let r: Vec<f64> = (0..4).map(|k| map.roughness(k, 4, &[])).collect();
+            for exact in [false, true] {
+                let chain = prefilter_chain(&c, &r, 64, LobeSequence::Sobol, exact, SpecularBrdf::Ggx);
+                assert_eq!(chain.roughness, r);
+                for l in &chain.levels {
+                    assert!(l.data.iter().all(|&v| (v - 1.0).abs() < 1e-3), "{map} exact {exact}");
+                }
+            }
+        }
+        for exact in [false, true] {
+            let chain = prefilter_chain(&c, &[0.5, 0.75, 1.0], 1024, LobeSequence::Sobol, exact, SpecularBrdf::Charlie);
+            for (k, l) in chain.levels.iter().enumerate() {
+                assert!(l.data.iter().all(|&v| (v - 1.0).abs() < 1e-3), "Charlie level {k} exact {exact}");
+            }
+        }
+        // An explicit list with a mirror level below the top: the source's pyramid at that size.
+        let chain = prefilter_chain(&c, &[0.0, 0.0, 0.6], 64, LobeSequence::Sobol, false, SpecularBrdf::Ggx);
+        assert_eq!(chain.levels[1].size, 4);
+        assert!(chain.levels[1].data.iter().all(|&v| (v - 1.0).abs() < 1e-6));
+    }
+
+    /// The sampled Charlie chain approaches the exact one on a smooth map.
+    #[test]
+    fn charlie_sampled_matches_exact_on_a_smooth_map() {
+        let env = builtin("linear").unwrap();
+        let c = to_cube(&LatLongSource::new(&env), 16);
+        let r = [0.6, 1.0];
+        let fis = prefilter_chain(&c, &r, 4096, LobeSequence::Sobol, false, SpecularBrdf::Charlie);
+        let ex = prefilter_chain(&c, &r, 1, LobeSequence::Sobol, true, SpecularBrdf::Charlie);
+        for (k, (a, b)) in fis.levels.iter().zip(&ex.levels).enumerate() {
+            let worst = a.data.iter().zip(&b.data).fold(0.0f64, |m, (x, y)| m.max((x - y).abs() as f64 / *y as f64));
+            assert!(worst < 3e-2, "level {k}: {worst}");
+        }
+    }
 }

@@ -16,6 +16,7 @@ pub mod overlay;
 pub mod project;
 pub mod resize;
 pub mod rotate;
+pub mod sanitize;
 pub mod solid_angle;
 pub mod split_channels;
 pub mod statistics;
@@ -44,4 +45,5 @@ pub fn register(r: &mut Registry) {
     r.register(mean_light_vector::spec());
     r.register(project::spec());
     r.register(embed::spec());
+    r.register(sanitize::spec());
 }

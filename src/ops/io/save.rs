@@ -28,7 +28,7 @@ use crate::formats::ktx2::{Compression, KtxFormat, KtxSupercompression};
 use crate::formats::png::PngFormat;
 use crate::values::image::{channels_not_kept, channels_not_kept_in};
 use crate::values::Image;
-use crate::values::ShCoefficients;
+use crate::values::{FilamentSh, ShCoefficients};
 
 crate::params! {
     pub struct SaveParams {
@@ -56,9 +56,9 @@ crate::params! {
         pub zstd_level: usize = 3,
         /// (.ktx) texel format: Rg11b10f (GL_R11F_G11F_B10F, cmgen's default: [0, 65024], relative 2^-7, B 2^-6) or Rgba16f (GL_RGBA16F, clamped to +-65504)
         pub ktx1_format: Ktx1Format = Ktx1Format::Rg11b10f,
-        /// (.ktx) 3-band SH coefficients written under the key "sh" as Filament's cmgen writes them (9 lines "r g b"), as given: Filament expects its pre-scaled irradiance SH
-        #[input(&[crate::values::ty::SH_COEFFICIENTS_T])]
-        pub sh: Option<Input<ShCoefficients>>,
+        /// (.ktx) 3-band SH written under the key "sh" as Filament's cmgen writes them (9 lines "r g b"), as given: Filament expects its pre-scaled irradiance SH, ShIrradiance's filament port
+        #[input(&[crate::values::ty::FILAMENT_SH_T, crate::values::ty::SH_COEFFICIENTS_T])]
+        pub sh: Option<Input<AnyValue>>,
         /// (.png of an image or cube map) Srgb8 (an 8-bit sRGB preview) or Linear16 (16-bit linear values clamped to [0, 1], for data such as a BRDF LUT: two channels as R, G with B = 0)
         pub png_format: PngFormat = PngFormat::Srgb8,
         /// (.exr) Zip (lossless, 16-line blocks), Piz (lossless wavelet), Dwaa (lossy DCT, 32-line blocks) or None
@@ -198,8 +198,12 @@ fn eval(ctx: &mut OpContext, p: SaveParams) -> Result<Value, OpError> {
         }
     }
     let mut key_values = ktx1::KeyValues::default();
-    if let Some(sh) = p.sh.as_deref() {
-        let text = ktx1::sh_text(&sh.rgb).map_err(|e| fail(format!("the sh input: {e}")))?;
+    if let Some(sh) = &p.sh {
+        let rgb = match sh.value().get::<FilamentSh>() {
+            Some(filament) => filament.rgb.to_vec(),
+            None => sh.value().get::<ShCoefficients>().map(|c| c.rgb.clone()).unwrap_or_default(),
+        };
+        let text = ktx1::sh_text(&rgb).map_err(|e| fail(format!("the sh input: {e}")))?;
         key_values.0.push(("sh".into(), text.into_bytes()));
     }
     let mut options = SaveOptions::new(ext)

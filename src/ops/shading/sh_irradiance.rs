@@ -11,10 +11,13 @@
 //! - `LatLong`: `(x, y, z) = (Z, -X, Y)`, z up and azimuth = the map's phi: version 1's output,
 //!   bit for bit.
 //!
-//! Two output ports: `coefficients` (default), an `sh coefficients` value that carries its order
-//! and frame (saved as `.json` or `.csv`, printed as a table), and `metrics`, the same numbers as
+//! Three output ports: `coefficients` (default), an `sh coefficients` value that carries its order
+//! and frame (saved as `.json` or `.csv`, printed as a table), `metrics`, the same numbers as
 //! the flat record of version 1 (`L_{l}_{m}_{r|g|b}`, e.g. `L_0_0_r`, `L_1_-1_g`, in the order
-//! l, m, channel), in the chosen frame.
+//! l, m, channel), in the chosen frame, and `filament`, Filament's 9 pre-scaled irradiance
+//! coefficients in the chosen frame (`E / pi = sh0 + sh1 y + sh2 z + sh3 x + ...`, cmgen's
+//! `--sh-shader` form; bands past `order` are 0; `maths::sh_filament`), saved as cmgen's `sh.txt`
+//! (`.txt`) or `.json`. Use `frame: World` for Filament's world.
 //!
 //! Version 2: the `frame` field (version 1 always used `LatLong`), the `sh coefficients` type on
 //! the default port, and the `metrics` port.
@@ -24,8 +27,10 @@ use crate::engine::fields::Input;
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Outputs};
 use crate::engine::value::Value;
 use crate::maths::sh::{coefficient_name, project, sh_lm};
+use crate::maths::sh_filament::prescaled;
 use crate::ops::latlong_input::warn_unless_latlong;
 use crate::values::ty::*;
+use crate::values::FilamentSh;
 use crate::values::{Image, Metrics, ShCoefficients, ShFrame};
 
 crate::params! {
@@ -54,6 +59,11 @@ pub fn spec() -> OpSpec {
         OutputType::Fixed(METRICS_T),
         "the same numbers as flat fields L_l_m_channel (version 1's output)",
     )
+    .output(
+        "filament",
+        OutputType::Fixed(FILAMENT_SH_T),
+        "Filament's 9 pre-scaled irradiance coefficients (cmgen's sh.txt; Save as .txt)",
+    )
     .code_hash(crate::op_code_hash!())
     .eval(eval)
 }
@@ -70,7 +80,9 @@ fn eval(ctx: &mut OpContext, p: ShIrradianceParams) -> Result<Outputs, OpError> 
             fields.push((coefficient_name(l, m, ch), v));
         }
     }
+    let filament = FilamentSh { rgb: prescaled(&rgb) };
     Ok(Outputs::new()
         .with("coefficients", Value::new(ShCoefficients { order: p.order, frame: p.frame, rgb }))
-        .with("metrics", Value::new(Metrics { fields })))
+        .with("metrics", Value::new(Metrics { fields }))
+        .with("filament", Value::new(filament)))
 }

@@ -1,0 +1,64 @@
+//! Bevy (`bevyengine/bevy`, `EnvironmentMapLight`), read from its sources (0.16-0.19):
+//!
+//! - `crates/bevy_pbr/src/light_probe/environment_map.wgsl`: the specular level is
+//!   `perceptual_roughness * smallest_specular_mip_level` (= r (N - 1), `textureNumLevels - 1`),
+//!   and both cube maps are sampled with `sample_dir.z = -sample_dir.z` ("cube maps are
+//!   left-handed"): a cube written in hdrflow's frame must be z-mirrored (`CubeFrame::MirrorZ`).
+//! - The diffuse map is multiplied by the diffuse colour (`diffuse_color * irradiance`): it holds
+//!   `E / pi`, `IrradianceCubemap`'s convention; `intensity` scales both maps to cd/m^2.
+//! - Bevy's world: right-handed, +Y up, cameras look down -Z: hdrflow's.
+//! - Its sample assets (`assets/environment_maps/*_{diffuse,specular}_rgb9e5_zstd.ktx2`) were made
+//!   with glTF-IBL-Sampler and `bevy_mod_environment_map_tools`; its runtime
+//!   `GeneratedEnvironmentMapLight` filters a 32-texel diffuse map. Defaults: a 256 specular chain
+//!   down to 1 x 1 (9 levels), 1024 samples (glTF-IBL-Sampler's), a 32 diffuse map.
+
+use super::{Chain, Engine, Preset, Quality, SpecSize, ToolPlacement};
+use crate::geometry::cube_frame::CubeFrame;
+use crate::maths::specular_lobe::RoughnessMap;
+
+pub const PRESET: Preset = Preset {
+    engine: Engine::Bevy,
+    name: "bevy",
+    loads: "EnvironmentMapLight { diffuse_map, specular_map, intensity }: two KTX2 cube maps, the specular one with its full mip chain",
+    world: "right-handed, +Y up, -Z forward (hdrflow's axes)",
+    cube_frame: Some(CubeFrame::MirrorZ),
+    roughness_map: Some(RoughnessMap::Linear),
+    lod: "lod = r (N - 1)",
+    irradiance: "a cube map of E / pi, times the diffuse colour",
+    files: "{name}_specular_rgb9e5_zstd.ktx2, {name}_diffuse_rgb9e5_zstd.ktx2, {name}_sun.json",
+    texel_formats: "KTX2 E5B9G9R9_UFLOAT_PACK32 (rgb9e5) with Zstandard, as Bevy's own assets",
+    centre_yaw: 0.0,
+    tools: &[ToolPlacement {
+        tool: "glTF-IBL-Sampler + bevy_mod_environment_map_tools (Bevy's sample assets)",
+        centre: "+X",
+        mirrored: true,
+        yaw: -90.0,
+    }],
+    quality: Some([
+        Quality { spec_size: SpecSize::Fixed(128), samples: 256, irradiance_size: Some(16) },
+        Quality { spec_size: SpecSize::Fixed(256), samples: 1024, irradiance_size: Some(32) },
+        Quality { spec_size: SpecSize::Fixed(512), samples: 4096, irradiance_size: Some(64) },
+    ]),
+    chain: Chain::ToOneTexel,
+    size_rule: None,
+    pipeline: include_str!("../../graphs/bake/bevy.ron"),
+    loading_code: r#"// Bevy (0.16-0.19), with its `ktx2` and `zstd_rust` (or `zstd_c`) features; copy these files into assets/environment_maps/.
+commands.spawn((
+    Camera3d::default(),
+    EnvironmentMapLight {
+        diffuse_map: asset_server.load("environment_maps/{file:save_irr}"),
+        specular_map: asset_server.load("environment_maps/{file:save_spec}"),
+        // the maps' values times this are cd/m^2
+        intensity: 1.0,
+        ..default()
+    },
+));
+"#,
+    sun_code: r#"// The sun taken out of the map ({file:save_sun}); multiply by the same intensity as above.
+commands.spawn((
+    DirectionalLight { illuminance: {sun:illuminance} * 1.0, color: Color::linear_rgb({sun:color}), shadows_enabled: true, ..default() },
+    // a directional light shines along its forward (-Z): towards -(direction to the sun)
+    Transform::default().looking_to(Vec3::new({sun:from_light}), Vec3::Y),
+));
+"#,
+};

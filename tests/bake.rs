@@ -1,0 +1,131 @@
+//! `hdrflow bake MAP --for ENGINE` end to end: what it writes on a tiny map (the files, named as
+//! the engine names them, a white furnace in the KTX2 read back by the `ktx2` crate, the
+//! README.txt), `--print-pipeline`, `--sun keep`, and the bad inputs it refuses with a message
+//! that says what to do: an unknown engine, a map that is not 2:1, a size the engine refuses,
+//! NaN and infinite texels (and `--sanitize`).
+
+mod common;
+
+use std::path::Path;
+
+use common::{run_hdrflow, Sandbox};
+use hdrflow::formats::packed_float::decode_rgb9e5;
+use hdrflow::values::Image;
+
+/// Writes `img` as a PFM file at `path`.
+fn write_pfm(path: &Path, img: &Image) -> String {
+    common::write_file(path, hdrflow::formats::pfm::encode(img));
+    path.to_str().unwrap().to_string()
+}
+
+fn bake(sb: &Sandbox, args: &[&str]) -> common::Output {
+    let (out, cache) = (sb.out(), sb.cache());
+    let mut all: Vec<&str> = vec!["bake"];
+    all.extend_from_slice(args);
+    all.extend_from_slice(&["--out", out.to_str().unwrap(), "--cache-dir", cache.to_str().unwrap()]);
+    run_hdrflow(all)
+}
+
+#[test]
+fn an_unknown_engine_is_refused_with_the_list_of_engines() {
+    let sb = Sandbox::new();
+    bake(&sb, &["builtin:sky", "--for", "unity"]).assert_code(2).assert_stderr_contains(
+        "--for \"unity\": no such engine; hdrflow bake writes for bevy, filament, khronos, three",
+    );
+}
+
+#[test]
+fn a_map_that_is_not_two_to_one_names_the_shape_and_the_conversion() {
+    let sb = Sandbox::new();
+    let square = write_pfm(&sb.join("probe.pfm"), &Image::new(32, 32, 3));
+    let o = bake(&sb, &[&square, "--for", "bevy"]);
+    o.assert_code(2)
+        .assert_stderr_contains("is 32x32, not a 2:1 lat-long (equirectangular) map")
+        .assert_stderr_contains("an angular probe with AngularToLatLong, a mirror ball with MirrorBallToLatLong");
+    assert!(!sb.out().exists(), "nothing ran\n{}", o.describe());
+}
+
+#[test]
+fn a_size_filament_cannot_use_is_refused_with_cmgens_rule() {
+    let sb = Sandbox::new();
+    bake(&sb, &["builtin:constant", "--for", "filament", "--set", "spec.size=48"])
+        .assert_code(2)
+        .assert_stderr_contains("--for filament: a cube size of 48 is refused")
+        .assert_stderr_contains("\"output size must be a power of two\"); use 32 or 64");
+}
+
+#[test]
+fn nan_and_infinite_texels_are_counted_and_sanitize_replaces_them() {
+    let sb = Sandbox::new();
+    let mut img = Image::from_fn_rgb(32, 16, |_, _| [1.0, 1.0, 1.0]);
+    img.pixel_mut(3, 4)[0] = f32::NAN;
+    img.pixel_mut(5, 4)[1] = f32::NAN;
+    img.pixel_mut(7, 9)[2] = f32::INFINITY;
+    img.pixel_mut(8, 9)[0] = f32::NEG_INFINITY;
+    let map = write_pfm(&sb.join("holes.pfm"), &img);
+    bake(&sb, &[&map, "--for", "three"])
+        .assert_code(1)
+        .assert_stderr_contains("4 texels are NaN or infinite (the first at (3, 4): NaN): pass --sanitize");
+    bake(&sb, &[&map, "--for", "three", "--sanitize"])
+        .assert_success()
+        .assert_stderr_contains("replaced 4 NaN or infinite texels (the first at (3, 4): NaN)");
+}
+
+/// A constant map baked for Bevy at draft quality: the two KTX2 files and the sun's JSON, named
+/// as Bevy's assets are (the map's stem first), the specular chain down to 1x1 (128: 8 levels)
+/// with every texel 1 (a white furnace, read back by the independent `ktx2` crate), and the
+/// README's loading code naming them. `--sun keep` leaves the sun's file out.
+#[test]
+fn a_bevy_bake_writes_what_bevy_loads() {
+    let sb = Sandbox::new();
+    let o = bake(&sb, &["builtin:constant", "--for", "bevy", "--quality", "draft"]);
+    o.assert_success().assert_stdout_contains("bevy: ");
+    let out = sb.out();
+    let names: Vec<String> = common::files_under(&out).iter().map(|f| f.display().to_string()).collect();
+    assert_eq!(
+        names,
+        ["README.txt", "constant_diffuse_rgb9e5_zstd.ktx2", "constant_specular_rgb9e5_zstd.ktx2", "constant_sun.json"]
+    );
+    let bytes = std::fs::read(out.join("constant_specular_rgb9e5_zstd.ktx2")).unwrap();
+    let reader = ktx2::Reader::new(&bytes[..]).expect("the ktx2 crate reads it");
+    let header = reader.header();
+    assert_eq!((header.pixel_width, header.face_count, header.level_count), (128, 6, 8));
+    assert_eq!(header.format, Some(ktx2::Format::E5B9G9R9_UFLOAT_PACK32));
+    assert_eq!(header.supercompression_scheme, Some(ktx2::SupercompressionScheme::Zstandard));
+    for (k, level) in reader.levels().enumerate() {
+        let raw = zstd::stream::decode_all(level.data).expect("each level is one zstd frame");
+        assert_eq!(raw.len(), 6 * 4 * (128usize >> k).pow(2), "level {k}: 6 faces of 4-byte texels");
+        let texels = raw.chunks_exact(4).map(|b| decode_rgb9e5(u32::from_le_bytes([b[0], b[1], b[2], b[3]])));
+        // rgb9e5 holds 1 exactly; the bake's own error is below 2e-3.
+        assert!(texels.flatten().all(|v| (v - 1.0).abs() < 2e-3), "level {k} is not white");
+    }
+    let readme = std::fs::read_to_string(out.join("README.txt")).unwrap();
+    assert!(readme.contains("asset_server.load(\"environment_maps/constant_specular_rgb9e5_zstd.ktx2\")"), "{readme}");
+    assert!(readme.contains("No sun was found"), "a constant map has no sun:\n{readme}");
+
+    let sb = Sandbox::new();
+    bake(&sb, &["builtin:constant", "--for", "bevy", "--quality", "draft", "--sun", "keep"]).assert_success();
+    assert!(!sb.out().join("constant_sun.json").exists());
+    assert!(sb.out().join("constant_specular_rgb9e5_zstd.ktx2").exists());
+}
+
+/// `--print-pipeline` prints the engine's pipeline and the overrides the bake applies, without
+/// a map too (then builtin:sky), and runs nothing.
+#[test]
+fn print_pipeline_shows_the_pipeline_and_its_overrides() {
+    let sb = Sandbox::new();
+    let o = bake(&sb, &["--for", "filament", "--print-pipeline", "--yaw", "-90", "--quality", "high"]);
+    o.assert_success()
+        .assert_stdout_contains("// hdrflow bake builtin:sky --for filament: this pipeline, run with")
+        .assert_stdout_contains("//   --set turned.yaw=-90.0")
+        .assert_stdout_contains("//   --set spec.size=512")
+        .assert_stdout_contains("//   --set spec.levels=6")
+        .assert_stdout_contains("\"save_spec\": Save(input: \"spec\", path: \"sky_ibl.ktx\"");
+    assert!(!sb.out().exists());
+    // A chain size given with --set: the levels and the source cube follow it, the user's value wins.
+    bake(&sb, &["--for", "bevy", "--print-pipeline", "--set", "spec.size=64"])
+        .assert_success()
+        .assert_stdout_contains("//   --set spec.levels=7\n")
+        .assert_stdout_contains("//   --set cube.size=64\n")
+        .assert_stdout_contains("//   --set spec.size=64\n");
+}
