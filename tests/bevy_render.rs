@@ -181,9 +181,9 @@ fn write_pictures(label: &str, map: &Map, frame: &Image, geometry: &Geometry) {
     for k in 0..geometry.spheres.len() {
         let r = sphere_reference(map, &geometry.spheres[k], &geometry.pixels(k, 0.9, 1));
         for (&p, x) in r.pixels.iter().zip(&r.exact) {
-            for c in 0..3 {
+            for (c, &v) in x.iter().enumerate() {
                 bevy.data[p * 3 + c] = (frame.data[p * frame.channels + c] as f64 / scale) as f32;
-                exact.data[p * 3 + c] = x[c] as f32;
+                exact.data[p * 3 + c] = v as f32;
             }
         }
     }
