@@ -1,28 +1,16 @@
-//! The z mirror the Bevy bake needs, and the deliberate mistakes the test must catch, made on the
-//! files a correct bake wrote (or, for the roughness map, baked wrongly with hdrflow's library).
+//! The deliberate mistakes that `hdrflow bake --set` cannot make, made on the files a correct bake
+//! wrote (`{name}_{specular,diffuse}_rgb9e5_zstd.ktx2`): two faces swapped, the irradiance not
+//! divided by pi. (The map not mirrored in z and Filament's roughness map are bakes with
+//! `--set cube.frame=Standard` and `--set spec.roughness_map=Filament`: `bevy_render.rs`.)
+//!
+//! The files are read as the bake writes them (KTX 2.0 specification, sections 3.1-3.9: the
+//! header, the level index; `supercompressionScheme` 2, each level one Zstandard frame of
+//! `E5B9G9R9_UFLOAT_PACK32` words, face by face), edited, and written again with hdrflow's own
+//! encoder in the same format. Decoding an rgb9e5 word and encoding the value again gives the
+//! same word, so an edit changes only what it means to.
 
-use hdrflow::formats::ktx2::{encode, rgb_to_rgba, KtxFormat, Level};
-use hdrflow::maths::ggx::{points, prefilter_level_fis, pyramid, LobeSequence};
-use hdrflow::maths::resample::{to_cube, LatLongSource};
-use hdrflow::maths::specular_lobe::SpecularBrdf;
-use hdrflow::values::Image;
-
-/// The lat-long map mirrored in z, `L'(x, y, z) = L(x, y, -z)`: phi -> pi - phi, which maps
-/// column x to column `(W / 2 - 1 - x) mod W` exactly (W even). Bevy reads its cube maps at
-/// `(x, y, -z)`, so a cube made from this map shows Bevy the map itself.
-pub fn mirror_z(env: &Image) -> Image {
-    let (w, h, c) = (env.width, env.height, env.channels);
-    assert!(w % 2 == 0, "an exact z mirror needs an even width, not {w}");
-    let mut out = env.clone();
-    for y in 0..h {
-        for x in 0..w {
-            let src = (w / 2 + w - 1 - x) % w;
-            out.data[(y * w + x) * c..(y * w + x + 1) * c]
-                .copy_from_slice(&env.data[(y * w + src) * c..(y * w + src + 1) * c]);
-        }
-    }
-    out
-}
+use hdrflow::formats::ktx2::{encode_with, Compression, KtxFormat, KtxSupercompression, Level, IDENTIFIER};
+use hdrflow::formats::packed_float::decode_rgb9e5;
 
 fn u32_at(b: &[u8], at: usize) -> u32 {
     u32::from_le_bytes(b[at..at + 4].try_into().expect("4 bytes"))
@@ -32,67 +20,81 @@ fn u64_at(b: &[u8], at: usize) -> usize {
     u64::from_le_bytes(b[at..at + 8].try_into().expect("8 bytes")) as usize
 }
 
-/// (byte offset, byte length) of every level of an uncompressed KTX2 cube map (header and level
-/// index: KTX 2.0 specification, sections 3.1-3.9).
-fn levels(ktx: &[u8]) -> Vec<(usize, usize)> {
-    assert_eq!(&ktx[..12], &hdrflow::formats::ktx2::IDENTIFIER, "not a KTX2 file");
+/// One level of a cube map: its face size and RGBA texels (alpha 1), face by face.
+struct CubeLevel {
+    size: usize,
+    rgba: Vec<f32>,
+}
+
+/// The levels of an rgb9e5 + Zstandard KTX2 cube map, level 0 first.
+fn read(ktx: &[u8]) -> Vec<CubeLevel> {
+    assert_eq!(&ktx[..12], &IDENTIFIER, "not a KTX2 file");
+    assert_eq!(u32_at(ktx, 12), KtxFormat::Rgb9e5.vk_format(), "not VK_FORMAT_E5B9G9R9_UFLOAT_PACK32");
     assert_eq!(u32_at(ktx, 36), 6, "not a cube map");
-    assert_eq!(u32_at(ktx, 44), 0, "supercompressed: the test edits uncompressed files only");
-    (0..u32_at(ktx, 40) as usize).map(|k| (u64_at(ktx, 80 + 24 * k), u64_at(ktx, 88 + 24 * k))).collect()
+    assert_eq!(u32_at(ktx, 44), 2, "not Zstandard-supercompressed");
+    let base = u32_at(ktx, 20) as usize;
+    (0..u32_at(ktx, 40) as usize)
+        .map(|k| {
+            let (offset, len, raw) = (u64_at(ktx, 80 + 24 * k), u64_at(ktx, 88 + 24 * k), u64_at(ktx, 96 + 24 * k));
+            let words = zstd::bulk::decompress(&ktx[offset..offset + len], raw).expect("a Zstandard level");
+            let size = (base >> k).max(1);
+            assert_eq!(words.len(), 6 * size * size * 4, "level {k}");
+            let rgba = words
+                .chunks_exact(4)
+                .flat_map(|w| {
+                    let [r, g, b] = decode_rgb9e5(u32::from_le_bytes([w[0], w[1], w[2], w[3]]));
+                    [r, g, b, 1.0]
+                })
+                .collect();
+            CubeLevel { size, rgba }
+        })
+        .collect()
 }
 
-/// Faces `a` and `b` exchanged in every level (a writer that got the face order wrong).
+/// `levels` as the bake writes them: rgb9e5, Zstandard.
+fn write(levels: &[CubeLevel]) -> Vec<u8> {
+    let lv: Vec<Level> = levels.iter().map(|l| Level { width: l.size, height: l.size, rgba: &l.rgba }).collect();
+    let zstd = Compression { scheme: KtxSupercompression::Zstd, ..Compression::default() };
+    encode_with(&lv, 6, KtxFormat::Rgb9e5, zstd).expect("a valid cube map")
+}
+
+/// Faces `a` and `b` (0..6: +X, -X, +Y, -Y, +Z, -Z) exchanged in every level: a writer that got
+/// the face order wrong.
 pub fn swap_faces(ktx: &[u8], a: usize, b: usize) -> Vec<u8> {
-    let mut out = ktx.to_vec();
-    for (offset, len) in levels(ktx) {
-        let face = len / 6;
-        let (pa, pb) = (offset + a * face, offset + b * face);
-        out[pa..pa + face].copy_from_slice(&ktx[pb..pb + face]);
-        out[pb..pb + face].copy_from_slice(&ktx[pa..pa + face]);
+    let mut levels = read(ktx);
+    for l in &mut levels {
+        let face = l.size * l.size * 4;
+        let (lo, hi) = (a.min(b), a.max(b));
+        let (first, second) = l.rgba.split_at_mut(hi * face);
+        first[lo * face..(lo + 1) * face].swap_with_slice(&mut second[..face]);
     }
-    out
+    write(&levels)
 }
 
-/// RGB of every texel of an RGBA16F file times `factor` (alpha kept): e.g. irradiance E written
-/// where Bevy expects E / pi.
+/// Every texel times `factor`: e.g. irradiance E written where Bevy expects E / pi.
 pub fn scale_rgb(ktx: &[u8], factor: f32) -> Vec<u8> {
-    assert_eq!(u32_at(ktx, 12), 97, "not VK_FORMAT_R16G16B16A16_SFLOAT");
-    let mut out = ktx.to_vec();
-    for (offset, len) in levels(ktx) {
-        for texel in out[offset..offset + len].chunks_exact_mut(8) {
-            for ch in texel[..6].chunks_exact_mut(2) {
-                let v = half::f16::from_le_bytes([ch[0], ch[1]]).to_f32() * factor;
-                ch.copy_from_slice(&half::f16::from_f32(v).to_le_bytes());
-            }
+    let mut levels = read(ktx);
+    for l in &mut levels {
+        for t in l.rgba.chunks_exact_mut(4) {
+            t[..3].iter_mut().for_each(|c| *c *= factor);
         }
     }
-    out
+    write(&levels)
 }
 
-/// The specular chain of `env` (face `size`, `levels` levels, 1024 Sobol samples as the pipeline)
-/// with level k filtered at roughness `roughness(k)`, as RGBA16F KTX2.
-pub fn specular_chain(env: &Image, size: usize, levels: usize, roughness: impl Fn(usize) -> f64) -> Vec<u8> {
-    let src = to_cube(&LatLongSource::new(env), size);
-    let pyr = pyramid(&src);
-    let pts = points(LobeSequence::Sobol, 1024);
-    let rgba: Vec<Vec<f32>> = (0..levels)
-        .map(|k| {
-            let s = (size >> k).max(1);
-            let level =
-                if k == 0 { src.clone() } else { prefilter_level_fis(&pyr, s, roughness(k), &pts, SpecularBrdf::Ggx) };
-            rgb_to_rgba(&level.data)
-        })
-        .collect();
-    let lv: Vec<Level> = rgba
-        .iter()
-        .enumerate()
-        .map(|(k, d)| Level { width: (size >> k).max(1), height: (size >> k).max(1), rgba: d })
-        .collect();
-    encode(&lv, 6, KtxFormat::Rgba16f).expect("a valid chain")
-}
-
-/// Filament's roughness-to-level map, lod = r (2 - r) (N - 1) (cmgen), solved for level k's r: what
-/// a chain made for Filament holds, read by Bevy, which expects r = k / (N - 1).
-pub fn filament_roughness(k: usize, levels: usize) -> f64 {
-    1.0 - (1.0 - k as f64 / (levels - 1) as f64).sqrt()
+#[test]
+fn reading_and_writing_again_keeps_every_byte() {
+    let rgba: Vec<f32> =
+        (0..6 * 4 * 4).flat_map(|i| [i as f32 * 0.37, 1.0 / (1.0 + i as f32), 200.0 + i as f32, 1.0]).collect();
+    let small: Vec<f32> = (0..6 * 4).flat_map(|i| [i as f32, 0.5, 0.25, 1.0]).collect();
+    let tiny = vec![3.0f32; 6 * 4];
+    let levels = [CubeLevel { size: 4, rgba }, CubeLevel { size: 2, rgba: small }, CubeLevel { size: 1, rgba: tiny }];
+    let file = write(&levels);
+    assert_eq!(write(&read(&file)), file);
+    // Swapping twice is no swap; the swap moves whole faces.
+    assert_eq!(swap_faces(&swap_faces(&file, 4, 5), 5, 4), file);
+    let swapped = read(&swap_faces(&file, 1, 4));
+    let back = read(&file);
+    assert_eq!(swapped[0].rgba[16 * 4..32 * 4], back[0].rgba[64 * 4..80 * 4]);
+    assert_eq!(swapped[2].rgba[4 * 4..5 * 4], back[2].rgba[4..8]);
 }

@@ -91,6 +91,34 @@ impl Geometry {
     }
 }
 
+/// The skybox view (`--skybox X,Y,Z`): a perspective camera at the origin looking along
+/// `forward` with +Y up, the specular map drawn as Bevy's `Skybox`.
+#[derive(Debug, Clone)]
+pub struct SkyView {
+    pub width: usize,
+    pub height: usize,
+    pub forward: DVec3,
+    pub fov_y_degrees: f64,
+}
+
+impl SkyView {
+    pub fn read(path: &Path) -> SkyView {
+        let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("reading {}: {e}", path.display()));
+        let j: Json = serde_json::from_str(&text).unwrap_or_else(|e| panic!("{}: {e}\n{text}", path.display()));
+        assert_eq!(j["projection"], "perspective", "{text}");
+        assert_eq!(vec3(&j, "up"), DVec3::Y, "{text}");
+        assert_eq!(vec3(&j, "camera_position"), DVec3::ZERO, "{text}");
+        // Pixels are Bevy's exposure factor times the map: 1 here, as for the spheres.
+        assert!((num(&j, "exposure") * num(&j, "intensity") - 1.0).abs() < 1e-6, "{text}");
+        SkyView {
+            width: num(&j, "width") as usize,
+            height: num(&j, "height") as usize,
+            forward: vec3(&j, "forward"),
+            fov_y_degrees: num(&j, "fov_y_degrees"),
+        }
+    }
+}
+
 /// `F_AB` without the DFG texture (Bevy's `dfg_lut` feature is off by default): Karis' polynomial
 /// fit of the split-sum DFG term ("Physically Based Shading on Mobile", 2014), kept positive.
 pub fn f_ab(perceptual_roughness: f64, nov: f64) -> [f64; 2] {

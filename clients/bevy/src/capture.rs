@@ -4,7 +4,7 @@
 //! pipeline is not ready is skipped, so early frames can be empty or lack the environment light.
 //! The frame is taken when it has been identical (bit for bit) for [`STABLE_FRAMES`] readbacks
 //! in a row, at least [`MIN_FRAMES`] frames in, with every sphere's centre pixel covered (alpha
-//! > 0; the background is cleared to alpha 0). Lavapipe renders deterministically, so a settled
+//! > 0; the background is cleared to alpha 0), or for a skybox the centre and the four corners. Lavapipe renders deterministically, so a settled
 //! frame repeats exactly.
 
 use bevy::prelude::*;
@@ -67,10 +67,22 @@ pub fn spheres_covered(pixels: &[f32], size: FrameSize) -> bool {
     })
 }
 
-/// The settled frame, if there is one yet.
-pub fn settled(frames: &Frames, size: FrameSize) -> Option<&[f32]> {
+/// Whether the skybox covers the frame's centre and corners (alpha > 0).
+pub fn sky_covered(pixels: &[f32], size: FrameSize) -> bool {
+    let (w, h) = (size.width as usize, size.height as usize);
+    [(w / 2, h / 2), (0, 0), (w - 1, 0), (0, h - 1), (w - 1, h - 1)]
+        .iter()
+        .all(|&(i, j)| pixels.get((j * w + i) * 4 + 3).is_some_and(|&a| a > 0.0))
+}
+
+/// The settled frame, if there is one yet (`skybox`: the frame is a skybox, not the spheres).
+pub fn settled(frames: &Frames, size: FrameSize, skybox: bool) -> Option<&[f32]> {
     match &frames.last {
-        Some((pixels, n)) if *n >= STABLE_FRAMES && frames.count >= MIN_FRAMES && spheres_covered(pixels, size) => {
+        Some((pixels, n))
+            if *n >= STABLE_FRAMES
+                && frames.count >= MIN_FRAMES
+                && if skybox { sky_covered(pixels, size) } else { spheres_covered(pixels, size) } =>
+        {
             Some(pixels)
         }
         _ => None,

@@ -1,5 +1,12 @@
 //! `hdrflow-bevy-render --diffuse D.ktx2 --specular S.ktx2 --intensity X --out frame.exr
-//! [--width 768 --height 256] [--geometry scene.json] [--timeout SECONDS]`
+//! [--width 768 --height 256] [--geometry scene.json] [--timeout SECONDS] [--skybox X,Y,Z]`
+//!
+//! With `--skybox X,Y,Z`, no spheres: the specular map is Bevy's `Skybox` (brightness
+//! `intensity`), seen from the origin by a perspective camera looking along (X, Y, Z) with +Y up
+//! and a vertical field of view of 90 degrees (`scene::SKYBOX_FOV_Y_DEG`): the panorama as a
+//! 360-degree viewer shows it, for the orientation test. Bevy's skybox shader samples the cube at
+//! `(x, y, -z)` of the world direction too (`bevy_core_pipeline/src/skybox/skybox.wgsl`), so it
+//! shows the map in the frame the lighting reads it in.
 //!
 //! Renders six spheres (`scene`) lit only by an `EnvironmentMapLight` made of the two KTX2 cube
 //! maps, in Bevy 0.19.1, windowless (on Mesa's lavapipe in CI: `WGPU_BACKEND=vulkan`), reads the
@@ -27,6 +34,7 @@ use std::time::{Duration, Instant};
 use bevy::app::{AppExit, ScheduleRunnerPlugin};
 use bevy::asset::RenderAssetUsages;
 use bevy::camera::{Exposure, Hdr, RenderTarget, ScalingMode};
+use bevy::core_pipeline::Skybox;
 use bevy::core_pipeline::tonemapping::{DebandDither, Tonemapping};
 use bevy::image::{CompressedImageFormats, ImageSampler, ImageType};
 use bevy::light::{AmbientLight, EnvironmentMapLight, GlobalAmbientLight};
@@ -50,14 +58,16 @@ struct Args {
     width: u32,
     height: u32,
     timeout: Duration,
+    /// `--skybox`: the camera's forward direction
+    skybox: Option<Vec3>,
 }
 
 const USAGE: &str = "usage: hdrflow-bevy-render --diffuse D.ktx2 --specular S.ktx2 --intensity X --out frame.exr \
-                     [--width 768 --height 256] [--geometry scene.json] [--timeout 600]";
+                     [--width 768 --height 256] [--geometry scene.json] [--timeout 600] [--skybox X,Y,Z]";
 
 fn parse_args(mut it: impl Iterator<Item = String>) -> Result<Args, String> {
     let (mut diffuse, mut specular, mut intensity, mut out, mut geometry) = (None, None, None, None, None);
-    let (mut width, mut height, mut timeout) = (768u32, 256u32, 600.0f64);
+    let (mut width, mut height, mut timeout, mut skybox) = (768u32, 256u32, 600.0f64, None);
     while let Some(flag) = it.next() {
         if flag == "--help" || flag == "-h" {
             return Err(USAGE.to_string());
@@ -75,6 +85,7 @@ fn parse_args(mut it: impl Iterator<Item = String>) -> Result<Args, String> {
                 height = value.parse().map_err(|_| format!("--height must be a whole number, not {value:?}"))?
             }
             "--timeout" => timeout = number("--timeout")?,
+            "--skybox" => skybox = Some(parse_direction(&value)?),
             _ => return Err(format!("unknown option {flag}\n{USAGE}")),
         }
     }
@@ -98,7 +109,25 @@ fn parse_args(mut it: impl Iterator<Item = String>) -> Result<Args, String> {
         width,
         height,
         timeout: Duration::from_secs_f64(timeout),
+        skybox,
     })
+}
+
+/// `X,Y,Z`: a direction the camera can look along with +Y up (not along the Y axis).
+fn parse_direction(value: &str) -> Result<Vec3, String> {
+    let v: Vec<f32> = value
+        .split(',')
+        .map(|c| c.trim().parse::<f32>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| format!("--skybox takes a direction X,Y,Z, not {value:?}"))?;
+    let d = match v[..] {
+        [x, y, z] if x.is_finite() && y.is_finite() && z.is_finite() => Vec3::new(x, y, z),
+        _ => return Err(format!("--skybox takes a direction X,Y,Z of three finite numbers, not {value:?}")),
+    };
+    if d.x.hypot(d.z) < 1e-3 * d.length() || d.length() == 0.0 {
+        return Err(format!("--skybox {value}: a camera with +Y up cannot look along the Y axis"));
+    }
+    Ok(d.normalize())
 }
 
 /// Bevy's `ev100` for which `2^-ev100 / 1.2 = 1` (`Exposure::exposure`).
@@ -151,7 +180,10 @@ fn main() -> ExitCode {
     };
     let ev100 = unit_ev100();
     let exposure = Exposure { ev100 }.exposure();
-    let geometry = scene::geometry_json(args.width, args.height, args.intensity, ev100, exposure);
+    let geometry = match args.skybox {
+        Some(forward) => scene::skybox_json(args.width, args.height, args.intensity, ev100, exposure, forward),
+        None => scene::geometry_json(args.width, args.height, args.intensity, ev100, exposure),
+    };
     if let Some(path) = &args.geometry {
         if let Err(e) = std::fs::write(path, &geometry) {
             eprintln!("error: cannot write {}: {e}", path.display());
@@ -198,6 +230,27 @@ fn setup(
     let mut target = Image::new_target_texture(args.width, args.height, TextureFormat::Rgba32Float, None);
     target.texture_descriptor.usage |= TextureUsages::COPY_SRC;
     let target = images.add(target);
+    if let Some(forward) = args.skybox {
+        commands.spawn((
+            Camera3d::default(),
+            Camera { clear_color: ClearColorConfig::Custom(Color::NONE), ..default() },
+            RenderTarget::Image(target.clone().into()),
+            Projection::Perspective(PerspectiveProjection {
+                fov: scene::SKYBOX_FOV_Y_DEG.to_radians(),
+                aspect_ratio: args.width as f32 / args.height as f32,
+                ..default()
+            }),
+            Transform::default().looking_to(forward, Vec3::Y),
+            Hdr,
+            Tonemapping::None,
+            DebandDither::Disabled,
+            Msaa::Off,
+            Exposure { ev100: unit_ev100() },
+            Skybox { image: Some(images.add(specular)), brightness: args.intensity, rotation: Quat::IDENTITY },
+        ));
+        commands.spawn(Readback::texture(target)).observe(capture::on_readback);
+        return;
+    }
 
     // A fine UV sphere: 256 x 128 quads, vertex normals 1.4 degrees apart (interpolated normals
     // are then within ~0.01 degree of the true sphere's).
@@ -253,7 +306,7 @@ fn finish(
     started: Res<Started>,
     mut exit: MessageWriter<AppExit>,
 ) {
-    if let Some(pixels) = capture::settled(&frames, *size) {
+    if let Some(pixels) = capture::settled(&frames, *size, args.skybox.is_some()) {
         match capture::write_exr(&args.out, pixels, *size) {
             Ok(()) => {
                 info!(

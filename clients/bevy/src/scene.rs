@@ -18,6 +18,11 @@ pub const RADIUS: f32 = 0.45;
 /// between the near and far planes).
 pub const CAMERA_Z: f32 = 10.0;
 
+/// The skybox view's vertical field of view (`--skybox`), degrees: a pixel (i, j) of a W x H frame
+/// looks along `forward + right (2 (i + 0.5) / W - 1) t W / H + up (1 - 2 (j + 0.5) / H) t`,
+/// t = tan(fov / 2) = 1, `right = forward x up` (Bevy's `looking_to(forward, Y)`).
+pub const SKYBOX_FOV_Y_DEG: f32 = 90.0;
+
 /// One sphere's material (Bevy `StandardMaterial`, white base colour in every case).
 pub struct SphereSpec {
     pub name: &'static str,
@@ -71,4 +76,22 @@ pub fn geometry_json(width: u32, height: u32, intensity: f32, ev100: f32, exposu
     }
     s.push_str("  ]\n}\n");
     s
+}
+
+/// The skybox view (`--skybox`) as JSON: a perspective camera at the origin.
+pub fn skybox_json(
+    width: u32,
+    height: u32,
+    intensity: f32,
+    ev100: f32,
+    exposure: f32,
+    forward: bevy::math::Vec3,
+) -> String {
+    format!(
+        "{{\n  \"width\": {width},\n  \"height\": {height},\n  \"projection\": \"perspective\",\n  \
+         \"camera_position\": [0, 0, 0],\n  \"forward\": [{}, {}, {}],\n  \"up\": [0, 1, 0],\n  \
+         \"fov_y_degrees\": {SKYBOX_FOV_Y_DEG},\n  \"skybox\": \"specular\",\n  \
+         \"intensity\": {intensity},\n  \"ev100\": {ev100},\n  \"exposure\": {exposure}\n}}\n",
+        forward.x, forward.y, forward.z
+    )
 }
