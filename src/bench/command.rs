@@ -128,20 +128,9 @@ fn bench(args: &BenchArgs) -> ExitCode {
             out_dir: args.out.clone(),
         };
         eprintln!("hdrflow bench --glossy on {} threads", rayon::current_num_threads());
-        return match crate::bench::glossy::run(&config, &|line| eprintln!("{line}")) {
-            Ok(rows) => {
-                print_stdout(&format!(
-                    "{} points; wrote {}/glossy.csv and glossy.md\n",
-                    rows.len(),
-                    args.out.display()
-                ));
-                ExitCode::SUCCESS
-            }
-            Err(e) => {
-                eprintln!("error: {e}");
-                ExitCode::from(1)
-            }
-        };
+        return finish(crate::bench::glossy::run(&config, &|line| eprintln!("{line}")), |rows| {
+            format!("{} points; wrote {}/glossy.csv and glossy.md\n", rows.len(), args.out.display())
+        });
     }
     let config = BenchConfig {
         maps,
@@ -156,16 +145,9 @@ fn bench(args: &BenchArgs) -> ExitCode {
         peers_dir: (!args.no_peers && !args.quick).then(|| args.peers.clone()),
     };
     if let Some(csv) = &args.replot {
-        return match crate::bench::replot(&config, csv) {
-            Ok(n) => {
-                print_stdout(&format!("redrew {n} charts into {}\n", args.out.display()));
-                ExitCode::SUCCESS
-            }
-            Err(e) => {
-                eprintln!("error: {e}");
-                ExitCode::from(1)
-            }
-        };
+        return finish(crate::bench::replot(&config, csv), |n| {
+            format!("redrew {n} charts into {}\n", args.out.display())
+        });
     }
     eprintln!(
         "hdrflow bench on {} threads; {} seed{} per stochastic point (seeds {} to {}){}",
@@ -199,13 +181,21 @@ fn bench(args: &BenchArgs) -> ExitCode {
             return ExitCode::SUCCESS;
         }
     }
-    match crate::bench::run(&config, &|line| eprintln!("{line}")) {
-        Ok(rows) => {
-            print_stdout(&format!(
-                "{} points; wrote {}/results.csv, summary.md and time_error_*.png/.svg\n",
-                rows.len(),
-                args.out.display()
-            ));
+    finish(crate::bench::run(&config, &|line| eprintln!("{line}")), |rows| {
+        format!(
+            "{} points; wrote {}/results.csv, summary.md and time_error_*.png/.svg\n",
+            rows.len(),
+            args.out.display()
+        )
+    })
+}
+
+/// How a measurement ends the command: on success `done(result)` on stdout and exit status 0,
+/// on failure the error on stderr and status 1.
+fn finish<T>(result: Result<T, String>, done: impl FnOnce(T) -> String) -> ExitCode {
+    match result {
+        Ok(value) => {
+            print_stdout(&done(value));
             ExitCode::SUCCESS
         }
         Err(e) => {

@@ -26,6 +26,7 @@ pub mod peak_memory;
 pub mod stats;
 pub mod targets;
 
+mod one_pass;
 mod peers;
 mod results;
 mod summary;

@@ -29,6 +29,7 @@ use hdrflow::maths::texel_samples;
 use hdrflow::values::{Distribution2D, Image};
 use hdrflow::Pipeline;
 
+use super::one_pass::one_pass;
 use super::{luminance, time_median};
 
 /// One measured target.
@@ -410,27 +411,6 @@ fn exr_against_oiio(
     }
     let _ = std::fs::remove_dir_all(&dir);
     Ok(out)
-}
-
-/// Target 2's reference: one pass over every byte of `data` at memory bandwidth, on the same
-/// rayon pool as `BuildCdf` (chunks of 64 Ki values, each summed into 16 independent f32
-/// accumulators so that the compiler vectorises it and no add waits on the previous one; the
-/// chunks' sums in f64).
-fn one_pass(data: &[f32]) -> f64 {
-    use rayon::prelude::*;
-    data.par_chunks(1 << 16)
-        .map(|c| {
-            let mut acc = [0.0f32; 16];
-            let mut blocks = c.chunks_exact(16);
-            for b in &mut blocks {
-                for (a, v) in acc.iter_mut().zip(b) {
-                    *a += v;
-                }
-            }
-            let tail: f64 = blocks.remainder().iter().map(|&v| v as f64).sum();
-            tail + acc.iter().map(|&a| a as f64).sum::<f64>()
-        })
-        .sum()
 }
 
 /// Runs the NumPy peer on `env` at 512x512 with 1024 samples; its warm median in ms.
