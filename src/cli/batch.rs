@@ -8,10 +8,11 @@ use std::sync::Mutex;
 use std::time::Instant;
 
 use clap::Args;
-use indicatif::{ProgressBar, ProgressStyle};
+use indicatif::ProgressBar;
 
+use super::batch_progress::{items_style, Progress};
 use super::{slurm, PersistArg};
-use crate::batch::{self, Axis, BatchObserver, BatchOptions, Item, ItemRow, ItemStatus};
+use crate::batch::{self, Axis, BatchOptions, Item, ItemStatus};
 use crate::engine::cache::store::{default_max_bytes, write_atomic, DEFAULT_LIMIT_BYTES};
 use crate::engine::cache::CacheStore;
 use crate::engine::registry::Registry;
@@ -96,92 +97,6 @@ fn parse_shard(s: &str) -> Result<(usize, usize), String> {
         return Err(err());
     }
     Ok((i, n))
-}
-
-/// The bar while items run.
-fn items_style() -> ProgressStyle {
-    ProgressStyle::with_template("{bar:30} {pos}/{len} items, {msg} [{elapsed_precise}, eta {eta}]").expect("template")
-}
-
-/// The bar during the shared phase: no item has finished, so no item count or eta yet.
-fn shared_style() -> ProgressStyle {
-    ProgressStyle::with_template("{spinner} {msg} [{elapsed_precise}]").expect("template")
-}
-
-struct Progress {
-    total: usize,
-    quiet: bool,
-    bar: Option<ProgressBar>,
-    counts: Mutex<[usize; 3]>,
-    start: Instant,
-    /// The bar shows the shared phase.
-    sharing: AtomicBool,
-}
-
-impl Progress {
-    /// Back to the item bar after the shared phase (once).
-    fn items_phase(&self, bar: &ProgressBar) {
-        if self.sharing.swap(false, Ordering::SeqCst) {
-            bar.disable_steady_tick();
-            bar.set_style(items_style());
-            bar.set_message(self.message());
-        }
-    }
-    fn message(&self) -> String {
-        let c = self.counts.lock().expect("progress lock");
-        let done = c[0] + c[1] + c[2];
-        format!("{} computed, {} cached, {} failed, {} left", c[0], c[1], c[2], self.total - done)
-    }
-}
-
-impl BatchObserver for Progress {
-    fn shared_phase(&self, nodes: usize) {
-        if let Some(bar) = &self.bar {
-            self.sharing.store(true, Ordering::SeqCst);
-            bar.set_style(shared_style());
-            bar.set_message(format!("shared nodes 0/{nodes} (computed once for several items)"));
-            bar.enable_steady_tick(std::time::Duration::from_millis(200));
-        } else if !self.quiet {
-            eprintln!("shared: {nodes} nodes used by several items, computed once first");
-        }
-    }
-    fn shared_progress(&self, done: usize, total: usize) {
-        // Off a terminal one line per shared node would drown the item lines: the first line
-        // and the summary give the count.
-        if let Some(bar) = &self.bar {
-            bar.set_message(format!("shared nodes {done}/{total} (computed once for several items)"));
-            if done == total {
-                self.items_phase(bar);
-            }
-        }
-    }
-    fn item_started(&self, _item: &Item) {
-        // A failed shared job leaves the count short of its total.
-        if let Some(bar) = &self.bar {
-            self.items_phase(bar);
-        }
-    }
-    fn item_finished(&self, row: &ItemRow) {
-        {
-            let mut c = self.counts.lock().expect("progress lock");
-            c[match row.status {
-                ItemStatus::Computed => 0,
-                ItemStatus::Cached => 1,
-                ItemStatus::Failed => 2,
-            }] += 1;
-        }
-        if let Some(bar) = &self.bar {
-            if let Some(e) = &row.error {
-                bar.println(format!("failed: {}: {e}", row.item.dir));
-            }
-            bar.inc(1);
-            bar.set_message(self.message());
-        } else if !self.quiet || row.error.is_some() {
-            let done: usize = self.counts.lock().expect("progress lock").iter().sum();
-            let err = row.error.as_ref().map(|e| format!(": {e}")).unwrap_or_default();
-            eprintln!("[{done}/{}] {} {} {:.1} ms{err}", self.total, row.item.dir, row.status.word(), row.ms);
-        }
-    }
 }
 
 pub(crate) fn batch(registry: &Registry, args: &BatchArgs) -> ExitCode {

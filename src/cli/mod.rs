@@ -29,6 +29,7 @@ macro_rules! out {
 
 mod bake;
 mod batch;
+mod batch_progress;
 mod cache;
 mod ops;
 mod pipeline;
