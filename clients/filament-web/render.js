@@ -324,13 +324,21 @@ async function renderSky(r, job) {
     const scene = engine.createScene();
     const bundle = ktx1Bundle(await getBytes(job.sky));
     const tex = F.ktx1reader$createTexture(engine, bundle, false);
-    scene.setSkybox(F.Skybox.Builder().environment(tex).build(engine));
+    // Filament's Skybox multiplies the cube by its intensity (default 30000, the same as
+    // IndirectLight's: FSkybox); set it to 1 where the web build binds the builder's intensity().
+    const builder = F.Skybox.Builder().environment(tex);
+    let intensity = 30000;
+    if (typeof builder.intensity === 'function') {
+        builder.intensity(1.0);
+        intensity = 1;
+    }
+    scene.setSkybox(builder.build(engine));
     const camera = engine.createCamera(F.EntityManager.get().create());
     camera.setProjectionFov(job.fov_deg, 1.0, 0.1, 10.0, F.Camera$Fov.VERTICAL);
     camera.lookAt([0, 0, 0], job.forward, job.up);
     camera.setExposure(1.0, 1.2, 100.0);
     const v = r.view(scene, camera, job.size, job.size);
-    return { result: await r.settle(v) };
+    return { result: await r.settle(v), intensity };
 }
 
 async function main() {
@@ -360,13 +368,11 @@ async function main() {
     const assetLoader = r.engine.createAssetLoader();
     const glb = Scene.spheresGlb();
     for (const entry of job.renders) {
-        const start = performance.now();
         try {
             const out = entry.kind === 'sky' ? await renderSky(r, entry) : await renderSpheres(r, entry, assetLoader, glb);
             await post(entry.name + '.f32', out.result.pixels.buffer);
-            const ms = performance.now() - start;
-            report.renders.push({ name: entry.name, frames: out.result.frames, covered: out.result.covered, ms, sh: out.sh || null, levels: out.levels || null, exposure: out.exposure || null });
-            log(`${entry.name}: ${out.result.frames} frames, ${ms.toFixed(0)} ms`);
+            report.renders.push({ name: entry.name, frames: out.result.frames, covered: out.result.covered, sh: out.sh || null, levels: out.levels || null, exposure: out.exposure || null, intensity: out.intensity || null });
+            log(`${entry.name}: ${out.result.frames} frames`);
         } catch (e) {
             report.errors.push(`${entry.name}: ${e}\n${e.stack || ''}`);
             log(`${entry.name}: ${e}`);

@@ -4,6 +4,7 @@
 use hdrflow::formats::ktx2::{encode, rgb_to_rgba, KtxFormat, Level};
 use hdrflow::maths::ggx::{points, prefilter_level_fis, pyramid, LobeSequence};
 use hdrflow::maths::resample::{to_cube, LatLongSource};
+use hdrflow::maths::specular_lobe::SpecularBrdf;
 use hdrflow::values::Image;
 
 /// The lat-long map mirrored in z, `L'(x, y, z) = L(x, y, -z)`: phi -> pi - phi, which maps
@@ -77,7 +78,7 @@ pub fn specular_chain(env: &Image, size: usize, levels: usize, roughness: impl F
     let rgba: Vec<Vec<f32>> = (0..levels)
         .map(|k| {
             let s = (size >> k).max(1);
-            let level = if k == 0 { src.clone() } else { prefilter_level_fis(&pyr, s, roughness(k), &pts) };
+            let level = if k == 0 { src.clone() } else { prefilter_level_fis(&pyr, s, roughness(k), &pts, SpecularBrdf::Ggx) };
             rgb_to_rgba(&level.data)
         })
         .collect();
