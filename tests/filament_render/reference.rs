@@ -24,6 +24,10 @@
 //!      specular AO term is 1.
 //!   A correct bake differs from it by the bake's own error, R11F_G11F_B10F rounding, texture
 //!   filtering and the DFG table: this is what the test asserts.
+//! - `split`: the same formula with the chain's two-level blend replaced by the exact prefiltered
+//!   radiance at the pixel's own roughness r': what an infinitely fine chain would give, so
+//!   `engine` against `split` is the cost of 5 levels read trilinearly, `split` against `exact`
+//!   the split-sum approximation. Reported, not asserted.
 //! - `exact`: the material itself, without the split sum, the roughness clamp or the
 //!   anti-aliasing: the single-scattering GGX integral at the nominal roughness
 //!   (`ggx_reference::specular`, Schlick Fresnel of f0, Smith height-correlated) times Filament's
@@ -43,6 +47,7 @@ use hdrflow::maths::ggx_reference::{prefiltered, specular};
 use hdrflow::maths::irradiance_cube::Texels;
 use hdrflow::maths::reference::irradiance_exact;
 use hdrflow::values::Image;
+use rayon::prelude::*;
 
 use super::reference::Map;
 use super::scene::{Geometry, Sphere};
@@ -66,6 +71,7 @@ pub fn level_roughness(k: usize) -> f64 {
 pub struct SphereReference {
     pub pixels: Vec<usize>,
     pub engine: Vec<[f64; 3]>,
+    pub split: Vec<[f64; 3]>,
     pub exact: Vec<[f64; 3]>,
 }
 
@@ -157,6 +163,16 @@ pub fn sphere_reference(
         }
     }
 
+    // The split sum at each pixel's own roughness (one lobe per pixel: r' varies on the mirror).
+    let (full, small) = (Texels::from_latlong(&map.full), Texels::from_latlong(&map.for_ggx));
+    let own: Vec<[f64; 3]> = shading
+        .par_iter()
+        .map(|&(r, dir, _)| {
+            let alpha = r * r;
+            prefiltered(if alpha < 0.05 { &full } else { &small }, &[dir], alpha)[0]
+        })
+        .collect();
+
     // The exact integrals.
     let as_arrays: Vec<[f64; 3]> = normals.iter().map(|n| n.to_array()).collect();
     let irradiance: Vec<[f64; 3]> = if f0 < 1.0 { irradiance_exact(&map.full, &as_arrays) } else { Vec::new() };
@@ -164,10 +180,15 @@ pub fn sphere_reference(
         normals.iter().map(|&n| lookup(&map.full, 2.0 * n.dot(v) * n - v)).collect()
     } else {
         let views = vec![v; normals.len()];
-        specular(&Texels::from_latlong(&map.for_ggx), &normals, &views, s.roughness.powi(2), [f0; 3])
+        specular(&small, &normals, &views, s.roughness.powi(2), [f0; 3])
     };
 
-    let mut out = SphereReference { pixels: pixels.iter().map(|p| p.0).collect(), engine: Vec::new(), exact: Vec::new() };
+    let mut out = SphereReference {
+        pixels: pixels.iter().map(|p| p.0).collect(),
+        engine: Vec::new(),
+        split: Vec::new(),
+        exact: Vec::new(),
+    };
     for (i, &n) in normals.iter().enumerate() {
         let nov = n.dot(v).max(1e-4);
         // Step 3 at the shaded roughness.
@@ -175,6 +196,7 @@ pub fn sphere_reference(
         let e = x + (y - x) * f0;
         let compensation = 1.0 + f0 * (1.0 / y - 1.0);
         let mut engine = blended[i].map(|c| c * e * compensation);
+        let mut split = own[i].map(|c| c * e * compensation);
         // The exact material at the nominal roughness.
         let (ex, ey) = if s.roughness == 0.0 {
             (0.0, 1.0)
@@ -188,10 +210,12 @@ pub fn sphere_reference(
             let sh_value = hdrflow::maths::sh_filament::evaluate(sh, n.to_array()).map(|c| c.max(0.0));
             for c in 0..3 {
                 engine[c] += (1.0 - e) * sh_value[c];
+                split[c] += (1.0 - e) * sh_value[c];
                 exact[c] += (1.0 - e_exact) * irradiance[i][c] / PI;
             }
         }
         out.engine.push(engine);
+        out.split.push(split);
         out.exact.push(exact);
     }
     out
