@@ -75,7 +75,10 @@ fn browser() -> Option<&'static str> {
         if !modules.join(file).is_file() {
             common::skip(
                 REQUIRE,
-                &format!("no {}: install the client's npm packages with scripts/filament-web.sh install", modules.join(file).display()),
+                &format!(
+                    "no {}: install the client's npm packages with scripts/filament-web.sh install",
+                    modules.join(file).display()
+                ),
             );
             return None;
         }
@@ -132,7 +135,13 @@ fn run_page(browser: &str, sandbox: &common::Sandbox, label: &str, job: &Json) -
     for entry in std::fs::read_dir(&results).expect("the results").flatten() {
         let _ = std::fs::copy(entry.path(), keep.join(entry.file_name()));
     }
-    eprintln!("browser: {} renders in {:.1} s ({}); frames kept in {}", job["renders"].as_array().map(Vec::len).unwrap_or(0), out.elapsed.as_secs_f64(), report["webgl"], keep.display());
+    eprintln!(
+        "browser: {} renders in {:.1} s ({}); frames kept in {}",
+        job["renders"].as_array().map(Vec::len).unwrap_or(0),
+        out.elapsed.as_secs_f64(),
+        report["webgl"],
+        keep.display()
+    );
     PageRun { report, results }
 }
 
@@ -156,7 +165,10 @@ impl PageRun {
             *v /= intensity as f32;
         }
         let corner = &img.data[..3];
-        assert!(corner.iter().all(|c| (c - 0.05).abs() < 0.002), "{name}: background {corner:?}, not 0.05: exposure or intensity");
+        assert!(
+            corner.iter().all(|c| (c - 0.05).abs() < 0.002),
+            "{name}: background {corner:?}, not 0.05: exposure or intensity"
+        );
         img
     }
 
@@ -167,7 +179,10 @@ impl PageRun {
     }
 
     fn render_report(&self, name: &str) -> &Json {
-        self.report["renders"].as_array().and_then(|r| r.iter().find(|e| e["name"] == name)).unwrap_or_else(|| panic!("no render {name} in {}", self.report))
+        self.report["renders"]
+            .as_array()
+            .and_then(|r| r.iter().find(|e| e["name"] == name))
+            .unwrap_or_else(|| panic!("no render {name} in {}", self.report))
     }
 }
 
@@ -234,7 +249,10 @@ fn assert_ktx1(report: &Json, file: &str, levels: usize, sh: Option<&[[f64; 3]; 
     assert_eq!(k["pixelDataFormat"], "PixelDataFormat_RGB", "{file}: {k}");
     assert_eq!(k["pixelDataType"], "PixelDataType_UINT_10F_11F_11F_REV", "{file}: {k}");
     // src/formats/ktx1.rs: glType and glInternalFormat 0x8C3A, as cmgen writes them.
-    assert_eq!((&k["glInternalFormat"], &k["glFormat"], &k["glType"]), (&json!(0x8C3A), &json!(0x1907), &json!(0x8C3A)));
+    assert_eq!(
+        (&k["glInternalFormat"], &k["glFormat"], &k["glType"]),
+        (&json!(0x8C3A), &json!(0x1907), &json!(0x8C3A))
+    );
     let blobs: Vec<usize> = (0..levels).map(|l| 6 * 4 * (256usize >> l).pow(2)).collect();
     assert_eq!(k["cubeBlobs"], json!(blobs), "{file}: six faces of 4-byte texels per level");
     match sh {
@@ -331,7 +349,14 @@ fn check_markers(label: &str, img: &Image) -> Vec<String> {
             }
         });
         let ok = got.is_some_and(|(x, y)| (x - want.0).abs() < 2.0 && (y - want.1).abs() < 2.0);
-        eprintln!("  {label}: {:<13} expected at ({:.1}, {:.1}), found at {:?}{}", m.name, want.0, want.1, got.map(|(x, y)| (x.round(), y.round())), if ok { "" } else { "  WRONG" });
+        eprintln!(
+            "  {label}: {:<13} expected at ({:.1}, {:.1}), found at {:?}{}",
+            m.name,
+            want.0,
+            want.1,
+            got.map(|(x, y)| (x.round(), y.round())),
+            if ok { "" } else { "  WRONG" }
+        );
         if !ok {
             wrong.push(format!("{label}: {} at {got:?}, expected {want:?}", m.name));
         }
@@ -357,8 +382,17 @@ fn filament_shows_the_test_map_and_each_mistake_fails() {
     for (engine, dir) in [("khronos", "khronos"), ("bevy", "bevy")] {
         let out = sandbox.join(dir);
         common::run_hdrflow([
-            "bake", plain.to_str().unwrap(), "--for", engine, "--quality", "draft", "--out", out.to_str().unwrap(),
-            "--cache-dir", cache.to_str().unwrap(), "-q",
+            "bake",
+            plain.to_str().unwrap(),
+            "--for",
+            engine,
+            "--quality",
+            "draft",
+            "--out",
+            out.to_str().unwrap(),
+            "--cache-dir",
+            cache.to_str().unwrap(),
+            "-q",
         ])
         .assert_success();
     }
@@ -372,9 +406,7 @@ fn filament_shows_the_test_map_and_each_mistake_fails() {
 
     let ibl = |dir: &Path, stem: &str| rel(&sandbox, &dir.join(format!("{stem}_ibl.ktx")));
     let sky = |dir: &Path, stem: &str| rel(&sandbox, &dir.join(format!("{stem}_skybox.ktx")));
-    let sky_job = |name: &str, file: String| {
-        json!({ "name": name, "kind": "sky", "sky": file, "forward": [0, 0, -1], "up": [0, 1, 0], "fov_deg": 90, "size": SKY_SIZE })
-    };
+    let sky_job = |name: &str, file: String| json!({ "name": name, "kind": "sky", "sky": file, "forward": [0, 0, -1], "up": [0, 1, 0], "fov_deg": 90, "size": SKY_SIZE });
     let job = json!({
         "renders": [
             spheres_job("good", ibl(&good, "test"), None),
@@ -464,6 +496,7 @@ fn the_markers_sit_where_hdrflow_puts_their_directions() {
     }
     // Left of centre in the image is -X: the green marker is a twelfth of the width left of
     // the centre column.
-    let (gx, _) = hdrflow::geometry::latlong::texel_of_direction(mistakes::markers()[1].direction.to_array(), 1024, 512);
+    let (gx, _) =
+        hdrflow::geometry::latlong::texel_of_direction(mistakes::markers()[1].direction.to_array(), 1024, 512);
     assert!((gx as i64 - (512 - 1024 / 12)).abs() <= 1, "{gx}");
 }

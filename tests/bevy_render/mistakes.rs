@@ -78,7 +78,8 @@ pub fn specular_chain(env: &Image, size: usize, levels: usize, roughness: impl F
     let rgba: Vec<Vec<f32>> = (0..levels)
         .map(|k| {
             let s = (size >> k).max(1);
-            let level = if k == 0 { src.clone() } else { prefilter_level_fis(&pyr, s, roughness(k), &pts, SpecularBrdf::Ggx) };
+            let level =
+                if k == 0 { src.clone() } else { prefilter_level_fis(&pyr, s, roughness(k), &pts, SpecularBrdf::Ggx) };
             rgb_to_rgba(&level.data)
         })
         .collect();

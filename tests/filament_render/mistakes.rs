@@ -67,8 +67,8 @@ pub fn orientation_map() -> Image {
         let mut px = [0.05f32; 3];
         for m in &markers {
             let g = 50.0 * (3000.0 * (m.direction.dot(d) - 1.0)).exp() as f32;
-            for k in 0..3 {
-                px[k] += g * m.colour[k];
+            for (p, c) in px.iter_mut().zip(m.colour) {
+                *p += g * c;
             }
         }
         px

@@ -22,6 +22,7 @@
 //!      `(1 - E) max(SH(n), 0)` with the exact 9 pre-scaled SH of the map (`maths::sh::project`,
 //!      `sh_filament::prescaled`). Ambient occlusion is 1 (no texture, no SSAO), so the
 //!      specular AO term is 1.
+//!
 //!   A correct bake differs from it by the bake's own error, R11F_G11F_B10F rounding, texture
 //!   filtering and the DFG table: this is what the test asserts.
 //! - `split`: the same formula with the chain's two-level blend replaced by the exact prefiltered

@@ -33,7 +33,8 @@ impl Server {
         let listener = TcpListener::bind("127.0.0.1:0").expect("a loopback port");
         let port = listener.local_addr().expect("its address").port();
         let stop = Arc::new(AtomicBool::new(false));
-        let roots = Arc::new(Roots { app: app.to_path_buf(), work: work.to_path_buf(), results: results.to_path_buf() });
+        let roots =
+            Arc::new(Roots { app: app.to_path_buf(), work: work.to_path_buf(), results: results.to_path_buf() });
         let flag = stop.clone();
         let thread = std::thread::spawn(move || {
             for stream in listener.incoming() {
