@@ -30,6 +30,8 @@ mod mistakes;
 mod reference;
 #[path = "bevy_render/scene.rs"]
 mod scene;
+#[path = "bevy_render/test_map.rs"]
+mod test_map;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -38,6 +40,7 @@ use std::time::Duration;
 use hdrflow::values::Image;
 use reference::{relative_rmse, sphere_reference, Map, SphereReference};
 use scene::{Geometry, SkyView};
+use test_map::test_map;
 
 const REQUIRE: &str = "HDRFLOW_REQUIRE_BEVY";
 const WIDTH: usize = 768;
@@ -197,23 +200,6 @@ fn write_pictures(label: &str, map: &Map, frame: &Image, geometry: &Geometry) {
 /// Writes `img` as PFM (f32, exact) for `LoadHdr`.
 fn write_map(sandbox: &common::Sandbox, name: &str, img: &Image) -> PathBuf {
     sandbox.write(name, hdrflow::formats::pfm::encode(img))
-}
-
-/// The asymmetric test map, 512 x 256: a blue sky brighter towards the zenith, a brown ground, a
-/// warm light up, right and behind (x, y, z > 0) and a green one low, left, behind; both
-/// spherical Gaussians `a exp(lambda (mu.d - 1))`, smooth enough for a 256 cube.
-fn test_map() -> Image {
-    let warm = glam::DVec3::new(0.45, 0.55, 0.7).normalize();
-    let green = glam::DVec3::new(-0.7, -0.1, 0.5).normalize();
-    let (w, h) = (512, 256);
-    Image::from_fn_rgb(w, h, |x, y| {
-        let d = glam::DVec3::from(hdrflow::geometry::latlong::texel_direction(x, y, w, h));
-        let base = if d.y > 0.0 { [0.3, 0.45, 0.8].map(|c| c * (0.4 + 0.6 * d.y)) } else { [0.12, 0.1, 0.07] };
-        let sw = (100.0 * (warm.dot(d) - 1.0)).exp();
-        let sg = (60.0 * (green.dot(d) - 1.0)).exp();
-        [base[0] + 30.0 * sw + 2.0 * sg, base[1] + 12.0 * sw + 10.0 * sg, base[2] + 3.0 * sw + 3.0 * sg]
-            .map(|c| c as f32)
-    })
 }
 
 #[test]
