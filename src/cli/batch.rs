@@ -390,6 +390,7 @@ fn cache_limit_bytes(mb: u64) -> u64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::batch::BatchObserver;
     use crate::cli::testing::{exit_code, parse_error};
 
     #[test]
