@@ -162,17 +162,6 @@ fn errors(label: &str, frame: &Image, geometry: &Geometry, refs: &[SphereReferen
     out
 }
 
-/// The spheres whose error is above its bound.
-fn failing(geometry: &Geometry, errors: &[f64], bounds: &[f64]) -> Vec<String> {
-    geometry
-        .spheres
-        .iter()
-        .zip(errors.iter().zip(bounds))
-        .filter(|(_, (e, b))| e > b)
-        .map(|(s, _)| s.name.clone())
-        .collect()
-}
-
 /// With `HDRFLOW_BEVY_PICTURES=DIR`: the frame (divided by Bevy's scale) and the exact reference
 /// at every inner pixel of every sphere (0 elsewhere in both) as `DIR/{label}_bevy.exr` and
 /// `DIR/{label}_exact.exr`, RGB f32.
@@ -214,14 +203,14 @@ fn bevy_shows_the_test_map_and_each_mistake_fails() {
     let map = Map::new(map);
     let refs = references(&map, &geometry);
     let good_errors = errors("test map", &frame, &geometry, &refs);
-    let good_failing = failing(&geometry, &good_errors, &TEST_MAP_BOUNDS);
+    let good_failing = geometry.failing(&good_errors, &TEST_MAP_BOUNDS);
     write_pictures("test_map", &map, &frame, &geometry);
 
     let mut missed = Vec::new();
     let mut check_mistake = |name: &str, bake: Bake, must_fail: &[&str]| {
         let (frame, geometry) = render(&client, &sandbox, &bake, name);
         let errs = errors(name, &frame, &geometry, &refs);
-        let failed = failing(&geometry, &errs, &TEST_MAP_BOUNDS);
+        let failed = geometry.failing(&errs, &TEST_MAP_BOUNDS);
         for s in must_fail.iter().filter(|s| !failed.iter().any(|f| f == *s)) {
             missed.push(format!("{name}: {s} passed the comparison (failing: {failed:?})"));
         }
@@ -271,7 +260,7 @@ fn real_map(file: &str, label: &str, bounds: &[f64; 6]) {
     let refs = references(&map, &geometry);
     let errs = errors(&format!("{label} map"), &frame, &geometry, &refs);
     write_pictures(label, &map, &frame, &geometry);
-    assert_eq!(failing(&geometry, &errs, bounds), Vec::<String>::new(), "the {label} map's bake must match");
+    assert_eq!(geometry.failing(&errs, bounds), Vec::<String>::new(), "the {label} map's bake must match");
 }
 
 #[test]

@@ -229,16 +229,6 @@ fn errors(label: &str, frame: &Image, geometry: &Geometry, refs: &[SphereReferen
     out
 }
 
-fn failing(geometry: &Geometry, errors: &[f64], bounds: &[f64]) -> Vec<String> {
-    geometry
-        .spheres
-        .iter()
-        .zip(errors.iter().zip(bounds))
-        .filter(|(_, (e, b))| e > b)
-        .map(|(s, _)| s.name.clone())
-        .collect()
-}
-
 /// The chain, as Filament's own KTX1 reader saw it.
 fn assert_ktx1(report: &Json, file: &str, levels: usize, sh: Option<&[[f64; 3]; 9]>) {
     let k = &report["ktx1"][file];
@@ -447,7 +437,7 @@ fn filament_shows_the_test_map_and_each_mistake_fails() {
     let refs = references(&Map::new(map.clone()), &geometry);
     let (w, h) = (geometry.width, geometry.height);
     let good_errors = errors("test map", &page.frame("good", w, h), &geometry, &refs);
-    let good_failing = failing(&geometry, &good_errors, &TEST_MAP_BOUNDS);
+    let good_failing = geometry.failing(&good_errors, &TEST_MAP_BOUNDS);
     let mut missed = Vec::new();
     for (name, must_fail) in [
         ("mirrored", &["mirror", "metal_0.25", "metal_0.5", "metal_0.75", "metal_1", "diffuse"][..]),
@@ -457,7 +447,7 @@ fn filament_shows_the_test_map_and_each_mistake_fails() {
         ("unscaled", &["diffuse"][..]),
     ] {
         let errs = errors(name, &page.frame(name, w, h), &geometry, &refs);
-        let failed = failing(&geometry, &errs, &TEST_MAP_BOUNDS);
+        let failed = geometry.failing(&errs, &TEST_MAP_BOUNDS);
         for s in must_fail.iter().filter(|s| !failed.iter().any(|f| f == *s)) {
             missed.push(format!("{name}: {s} passed the comparison (failing: {failed:?})"));
         }
@@ -481,7 +471,7 @@ fn filament_shows_the_park_map() {
     let geometry = page.geometry();
     let refs = references(&Map::new(map), &geometry);
     let errs = errors("park map", &page.frame("park", geometry.width, geometry.height), &geometry, &refs);
-    assert_eq!(failing(&geometry, &errs, &PARK_BOUNDS), Vec::<String>::new(), "the park map's bake must match");
+    assert_eq!(geometry.failing(&errs, &PARK_BOUNDS), Vec::<String>::new(), "the park map's bake must match");
 }
 
 #[test]

@@ -42,6 +42,16 @@ fn vec3(j: &Json, key: &str) -> DVec3 {
 }
 
 impl Geometry {
+    /// The names of the spheres whose error (in `spheres` order) is above its bound.
+    pub fn failing(&self, errors: &[f64], bounds: &[f64]) -> Vec<String> {
+        self.spheres
+            .iter()
+            .zip(errors.iter().zip(bounds))
+            .filter(|(_, (e, b))| e > b)
+            .map(|(s, _)| s.name.clone())
+            .collect()
+    }
+
     pub fn read(path: &Path) -> Geometry {
         let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("reading {}: {e}", path.display()));
         let j: Json = serde_json::from_str(&text).unwrap_or_else(|e| panic!("{}: {e}\n{text}", path.display()));
