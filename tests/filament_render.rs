@@ -128,6 +128,13 @@ fn run_page(browser: &str, sandbox: &common::Sandbox, label: &str, job: &Json) -
     let errors = report["errors"].as_array().map(Vec::len).unwrap_or(0);
     assert_eq!(errors, 0, "the page reported errors: {}\nconsole:\n{}", report["errors"], console.join("\n"));
     assert!(out.stdout.contains("data-status=\"done\""), "the page did not finish\n{}", out.describe());
+    assert_eq!(report["filament"], "1.53.4", "the pinned Filament (clients/filament-web/package-lock.json)");
+    // The pieces of Filament's ubershader the reference relies on, in the GLSL it compiled (an
+    // upgrade that changes them must revisit filament_render/reference.rs).
+    let shaders = std::fs::read_to_string(results.join("shaders.txt")).expect("the recorded shaders");
+    for piece in ["0.089, 1.0)", "perceptualRoughness) * (2.0 - ", "energyCompensation", "textureLod(light_iblDFG"] {
+        assert!(shaders.contains(piece), "the recorded fragment shader has no {piece:?}");
+    }
     // The frames and the page's report stay as artefacts (RGBA f32 rows, top first).
     let keep = Path::new(env!("CARGO_TARGET_TMPDIR")).join("filament-render").join(label);
     let _ = std::fs::remove_dir_all(&keep);

@@ -344,6 +344,7 @@ async function renderSky(r, job) {
 async function main() {
     const job = await (await fetch('../work/job.json')).json();
     const report = { filament: null, renders: [], ktx1: {}, ktx2: {}, errors: [] };
+    report.filament = (await (await fetch('node_modules/filament/package.json')).json()).version;
     await new Promise(ready => Filament.init([], ready));
     const canvas = document.getElementById('canvas');
     const r = new Renderer(canvas);

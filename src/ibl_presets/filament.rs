@@ -16,6 +16,9 @@
 //!   default (`--sh-window=auto`); hdrflow does not.
 //! - Files: `<name>_ibl.ktx` (the chain), `<name>_skybox.ktx` (level 0), `sh.txt`; KTX1,
 //!   R11F_G11F_B10F. Size: a power of two ("output size must be a power of two").
+//!
+//! Checked in Filament itself (1.53.4's web build, tests/filament_render.rs): the frame, the
+//! roughness map and the SH scale as stated here, with the map's centre forward and unmirrored.
 
 use super::{Chain, Engine, Preset, Quality, SpecSize, ToolPlacement};
 use crate::geometry::cube_frame::CubeFrame;
