@@ -19,6 +19,7 @@ pub mod guide_table;
 pub mod hierarchical_warp;
 pub mod irradiance_cube;
 pub mod kernels;
+pub mod latlong_cube;
 pub mod least_squares;
 pub mod lights;
 pub mod mis;

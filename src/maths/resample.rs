@@ -90,6 +90,17 @@ impl<'a> LatLongSource<'a> {
         let px = self.img.pixel(x, y);
         self.pick.map(|k| px[k])
     }
+
+    /// The three picked channels of texel (x, y).
+    #[inline]
+    pub(crate) fn texel_rgb(&self, x: usize, y: usize) -> [f32; 3] {
+        self.texel(x, y)
+    }
+
+    /// The map's (width, height).
+    pub fn size(&self) -> (usize, usize) {
+        (self.img.width, self.img.height)
+    }
 }
 
 impl SphereSource for LatLongSource<'_> {

@@ -5,8 +5,8 @@
 //! `Standard` cube; tested where Bevy's lookup of a known direction lands).
 //!
 //! Energy-preserving: each cube texel is the solid-angle-weighted average of the lat-long map
-//! (read as piecewise constant) over the texel's footprint, by adaptive subdivision with exact
-//! cell solid angles (`maths::resample`). A constant map gives the same constant to rounding; the
+//! (read as piecewise constant) over the texel's footprint, gathered from whole map texels and
+//! adaptively split straddling ones with exact cell solid angles (`maths::latlong_cube`). A constant map gives the same constant to rounding; the
 //! sphere integral is kept to 1e-3 relative on the built-in sky (2-degree sun), and texels on
 //! both sides of a face edge agree as neighbours inside a face do (tests).
 
@@ -14,7 +14,8 @@ use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
 use crate::engine::value::Value;
 use crate::geometry::cube_frame::CubeFrame;
-use crate::maths::resample::{to_cube, LatLongSource};
+use crate::maths::latlong_cube::latlong_to_cube;
+use crate::maths::resample::LatLongSource;
 use crate::ops::latlong_input::warn_unless_latlong;
 use crate::values::ty::*;
 use crate::values::{Cubemap, Image};
@@ -49,7 +50,7 @@ fn eval(ctx: &mut OpContext, p: LatLongToCubemapParams) -> Result<Value, OpError
     warn_unless_latlong(ctx, "image", p.image.width, p.image.height);
     let img = &*p.image;
     crate::ops::shading::reference_sphere::check_finite(img)?;
-    Ok(Value::new(in_frame(&to_cube(&LatLongSource::new(img), p.size), p.frame)))
+    Ok(Value::new(in_frame(&latlong_to_cube(&LatLongSource::new(img), p.size), p.frame)))
 }
 
 /// `cube` written for an engine that samples it in `frame` (`geometry::cube_frame`): each texel
@@ -82,7 +83,7 @@ mod tests {
         let mut img = Image::new(w, h, 3);
         img.pixel_mut(mx, my).copy_from_slice(&[1000.0, 0.0, 0.0]);
         let d = DVec3::from(crate::geometry::latlong::texel_direction(mx, my, w, h));
-        let std_cube = to_cube(&LatLongSource::new(&img), size);
+        let std_cube = latlong_to_cube(&LatLongSource::new(&img), size);
         let bevy = in_frame(&std_cube, CubeFrame::MirrorZ);
         let brightest = |c: &Cubemap| (0..c.texel_count()).max_by(|&a, &b| c.texel(a)[0].total_cmp(&c.texel(b)[0]));
         assert_eq!(brightest(&std_cube), Some(geo::texel_index_of_direction(d, size)));

@@ -20,7 +20,8 @@ pub mod prefilter_specular;
 use crate::engine::fields::{AnyValue, Input};
 use crate::engine::op::{OpContext, OpError};
 use crate::engine::registry::Registry;
-use crate::maths::resample::{to_cube, CubeSource, LatLongSource};
+use crate::maths::latlong_cube::latlong_to_cube;
+use crate::maths::resample::{downsample, to_cube, CubeSource, LatLongSource};
 use crate::ops::latlong_input::warn_unless_latlong;
 use crate::values::{Cubemap, Image};
 
@@ -78,16 +79,24 @@ pub(crate) fn check_cube_finite(c: &Cubemap) -> Result<(), OpError> {
 }
 
 /// The `env` input (a lat-long image or a cube map) as a cube map of face size `size`: a cube of
-/// that size as it is, anything else resampled (energy-preserving). Non-finite texels are an
+/// that size as it is, a cube 2^k times larger halved k times (each texel the exact
+/// solid-angle-weighted mean of its children: the same footprint means as a resampling, at the
+/// cost of one pass), anything else resampled (energy-preserving). Non-finite texels are an
 /// error.
 pub(crate) fn env_cube(ctx: &mut OpContext, env: &Input<AnyValue>, size: usize) -> Result<Cubemap, OpError> {
     if let Some(c) = env.value().get::<Cubemap>() {
         check_cube_finite(c)?;
-        return Ok(if c.size == size { c.clone() } else { to_cube(&CubeSource::new(c), size) });
+        let halvings =
+            (c.size % size == 0 && (c.size / size).is_power_of_two()).then(|| (c.size / size).trailing_zeros());
+        return Ok(match halvings {
+            Some(0) => c.clone(),
+            Some(k) => (1..k).fold(downsample(c), |half, _| downsample(&half)),
+            None => to_cube(&CubeSource::new(c), size),
+        });
     }
     let img = env_image(ctx, env)?;
     crate::ops::shading::reference_sphere::check_finite(img)?;
-    Ok(to_cube(&LatLongSource::new(img), size))
+    Ok(latlong_to_cube(&LatLongSource::new(img), size))
 }
 
 /// The `env` input as a lat-long image, when it is not a cube map (validation accepts only these
