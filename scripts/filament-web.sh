@@ -26,27 +26,7 @@ serve)
     dir=$(cd "${2:?usage: scripts/filament-web.sh serve DIR}" && pwd)
     mkdir -p "$dir/results"
     echo "http://127.0.0.1:8765/app/index.html (job: $dir/job.json)"
-    exec python3 - "$PWD" "$dir" <<'PY'
-import http.server, os, sys
-app, work = sys.argv[1], sys.argv[2]
-types = {".js": "text/javascript", ".mjs": "text/javascript", ".wasm": "application/wasm"}
-class Handler(http.server.SimpleHTTPRequestHandler):
-    extensions_map = {**http.server.SimpleHTTPRequestHandler.extensions_map, **types}
-    def translate_path(self, path):
-        path = path.split("?")[0]
-        for prefix, root in (("/app/", app), ("/work/", work)):
-            if path.startswith(prefix) and ".." not in path:
-                return os.path.join(root, path[len(prefix):])
-        return "/nonexistent"
-    def do_POST(self):
-        name = os.path.basename(self.path.split("/result/")[-1])
-        data = self.rfile.read(int(self.headers["Content-Length"]))
-        with open(os.path.join(work, "results", name), "wb") as f:
-            f.write(data)
-        self.send_response(200)
-        self.end_headers()
-http.server.ThreadingHTTPServer(("127.0.0.1", 8765), Handler).serve_forever()
-PY
+    exec python3 ../../scripts/serve-web-client.py "$PWD" "$dir" 8765
     ;;
 *)
     echo "usage: scripts/filament-web.sh install | serve DIR" >&2

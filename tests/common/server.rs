@@ -1,6 +1,7 @@
-//! A loopback HTTP/1.1 server for the render page, standard library only: `GET /app/PATH` serves
-//! `clients/filament-web/PATH` (the page, scene.js, render.js, node_modules), `GET /work/PATH` a
-//! file of the test's folder (job.json, the bakes), `POST /result/NAME` writes the body to
+//! A loopback HTTP/1.1 server for a web client's render page (`web_page.rs`), standard library
+//! only: `GET /app/PATH` serves the client's folder (`clients/filament-web/PATH`,
+//! `clients/three-web/PATH`: the page, its scripts, node_modules), `GET /work/PATH` a file of the
+//! test's folder (job.json, the bakes), `POST /result/NAME` writes the body to
 //! `RESULTS/NAME`. One request per connection (`Connection: close`), bodies up to 64 MiB, paths
 //! without `..`; it listens on 127.0.0.1 only, on a port the system picks, and stops when
 //! dropped.
