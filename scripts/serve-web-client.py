@@ -4,7 +4,7 @@
 
     python3 scripts/serve-web-client.py APP_DIR JOB_DIR PORT
 
-scripts/filament-web.sh serve and scripts/three-web.sh serve call it.
+scripts/web-client.sh (scripts/filament-web.sh, scripts/three-web.sh) calls it for `serve`.
 """
 import http.server
 import os
