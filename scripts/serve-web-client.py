@@ -1,6 +1,7 @@
 """Serves a web client's render page by hand, as the render tests' loopback server does
-(tests/common/server.rs): GET /app/PATH from the client's folder, GET /work/PATH from a job folder
-(job.json, the bakes), POST /result/NAME into the job folder's results/.
+(tests/common/server.rs): GET /app/PATH from the client's folder, GET /common/PATH from the
+clients' shared folder (clients/web-common, beside it), GET /work/PATH from a job folder (job.json,
+the bakes), POST /result/NAME into the job folder's results/.
 
     python3 scripts/serve-web-client.py APP_DIR JOB_DIR PORT
 
@@ -19,7 +20,8 @@ class Handler(http.server.SimpleHTTPRequestHandler):
 
     def translate_path(self, path):
         path = path.split("?")[0]
-        for prefix, root in (("/app/", app), ("/work/", work)):
+        common = os.path.join(os.path.dirname(os.path.abspath(app)), "web-common")
+        for prefix, root in (("/app/", app), ("/common/", common), ("/work/", work)):
             if path.startswith(prefix) and ".." not in path:
                 return os.path.join(root, path[len(prefix):])
         return "/nonexistent"

@@ -31,27 +31,7 @@
 
 import * as THREE from 'three';
 import { HDRLoader } from 'three/addons/loaders/HDRLoader.js';
-
-const logEl = document.getElementById('log');
-function log(msg) {
-    logEl.textContent += msg + '\n';
-    console.log(msg);
-}
-
-async function post(name, body) {
-    const r = await fetch('../result/' + name, { method: 'POST', body });
-    if (!r.ok) {
-        throw new Error(`POST ${name}: ${r.status}`);
-    }
-}
-
-async function getJson(path) {
-    const r = await fetch('../work/' + path);
-    if (!r.ok) {
-        throw new Error(`GET ${path}: ${r.status}`);
-    }
-    return r.json();
-}
+import { getJson, log, post, run } from '../common/page.js';
 
 async function loadMap(path) {
     const texture = await new HDRLoader().setDataType(THREE.FloatType).loadAsync('../work/' + path);
@@ -157,7 +137,7 @@ async function renderSpheres(renderer, job) {
 }
 
 async function main() {
-    const job = await (await fetch('../work/job.json')).json();
+    const job = await getJson('job.json');
     const report = { three: THREE.REVISION, renders: [], errors: [] };
     report.package = (await (await fetch('node_modules/three/package.json')).json()).version;
     const canvas = document.getElementById('canvas');
@@ -182,15 +162,6 @@ async function main() {
         }
     }
     await post('report.json', JSON.stringify(report, null, 1));
-    document.body.dataset.status = 'done';
 }
 
-main().catch(async e => {
-    log('failed: ' + e + '\n' + (e.stack || ''));
-    try {
-        await post('report.json', JSON.stringify({ fatal: String(e), stack: e.stack || '' }));
-    } catch (_) {
-        // the test times out and reports the page's silence
-    }
-    document.body.dataset.status = 'failed';
-});
+run(main);

@@ -39,15 +39,16 @@ pub struct Page {
     pub results: PathBuf,
 }
 
-/// Serves `job` (paths relative to the sandbox) and the client folder `app` to the page
-/// `app/index.html` in headless Chromium, waits for its report (at most `timeout`), fails on any
+/// Serves `job` (paths relative to the sandbox), the client folder `app` and the clients' shared
+/// `clients/web-common` to the page `app/index.html` in headless Chromium, waits for its report (at most `timeout`), fails on any
 /// error the page reports, and keeps the results in `target/tmp/KEEP` (RGBA f32 rows, top first).
 pub fn run(browser: &str, app: &Path, sandbox: &common::Sandbox, job: &Json, keep: &str, timeout: Duration) -> Page {
     std::fs::write(sandbox.join("job.json"), serde_json::to_vec_pretty(job).expect("the job as JSON"))
         .expect("writing job.json");
     let results = sandbox.join("results");
     let _ = std::fs::remove_dir_all(&results);
-    let server = server::Server::start(app, sandbox.path(), &results);
+    let shared = Path::new(common::MANIFEST_DIR).join("clients/web-common");
+    let server = server::Server::start(app, &shared, sandbox.path(), &results);
     let profile = sandbox.join("chromium-profile");
     let _ = std::fs::remove_dir_all(&profile);
     let mut cmd = Command::new(browser);
