@@ -80,7 +80,7 @@ impl SkyCamera {
         let depth = d.dot(f);
         let (u, v) = (d.dot(right) / depth, d.dot(up) / depth);
         let half = self.size as f64 / 2.0;
-        (depth > 0.0 && u.abs() < 1.0 && v.abs() < 1.0).then(|| (half + half * u, half - half * v))
+        (depth > 0.0 && u.abs() < 1.0 && v.abs() < 1.0).then_some((half + half * u, half - half * v))
     }
 }
 
