@@ -8,48 +8,4 @@
 #                                      posts to DIR/results/: to look at a render by hand
 #
 # The test starts its own loopback server and headless Chromium; it needs only `install`.
-set -euo pipefail
-cd "$(dirname "$0")/../clients/filament-web"
-
-case "${1:-install}" in
-install)
-    if ! command -v npm >/dev/null 2>&1; then
-        echo "npm is required (Debian: apt-get install nodejs npm)" >&2
-        exit 1
-    fi
-    npm ci --prefer-offline --no-audit --no-fund --loglevel=error
-    ls node_modules/filament/filament.wasm node_modules/ktx-parse/dist/index.mjs >/dev/null
-    version() { node -p "require('./node_modules/$1/package.json').version"; }
-    echo "clients/filament-web: filament $(version filament), ktx-parse $(version ktx-parse)"
-    ;;
-serve)
-    dir=$(cd "${2:?usage: scripts/filament-web.sh serve DIR}" && pwd)
-    mkdir -p "$dir/results"
-    echo "http://127.0.0.1:8765/app/index.html (job: $dir/job.json)"
-    exec python3 - "$PWD" "$dir" <<'PY'
-import http.server, os, sys
-app, work = sys.argv[1], sys.argv[2]
-types = {".js": "text/javascript", ".mjs": "text/javascript", ".wasm": "application/wasm"}
-class Handler(http.server.SimpleHTTPRequestHandler):
-    extensions_map = {**http.server.SimpleHTTPRequestHandler.extensions_map, **types}
-    def translate_path(self, path):
-        path = path.split("?")[0]
-        for prefix, root in (("/app/", app), ("/work/", work)):
-            if path.startswith(prefix) and ".." not in path:
-                return os.path.join(root, path[len(prefix):])
-        return "/nonexistent"
-    def do_POST(self):
-        name = os.path.basename(self.path.split("/result/")[-1])
-        data = self.rfile.read(int(self.headers["Content-Length"]))
-        with open(os.path.join(work, "results", name), "wb") as f:
-            f.write(data)
-        self.send_response(200)
-        self.end_headers()
-http.server.ThreadingHTTPServer(("127.0.0.1", 8765), Handler).serve_forever()
-PY
-    ;;
-*)
-    echo "usage: scripts/filament-web.sh install | serve DIR" >&2
-    exit 2
-    ;;
-esac
+exec bash "$(dirname "$0")/web-client.sh" filament-web 8765 "$@"

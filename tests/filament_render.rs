@@ -23,6 +23,8 @@
 mod common;
 #[path = "filament_render/reference.rs"]
 mod filament_reference;
+#[path = "common/markers.rs"]
+mod markers;
 #[path = "filament_render/mistakes.rs"]
 mod mistakes;
 #[allow(dead_code)]
@@ -31,13 +33,12 @@ mod reference;
 #[allow(dead_code)]
 #[path = "bevy_render/scene.rs"]
 mod scene;
-#[path = "filament_render/server.rs"]
-mod server;
 #[path = "bevy_render/test_map.rs"]
 mod test_map;
+#[path = "common/web_page.rs"]
+mod web_page;
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
 use std::time::Duration;
 
 use filament_reference::{sphere_reference, SphereReference, SPECULAR_AA};
@@ -64,26 +65,8 @@ fn app_dir() -> PathBuf {
 
 /// Chromium, or `None` after a visible skip when it or the npm packages are missing.
 fn browser() -> Option<&'static str> {
-    let Some(browser) = ["chromium", "chromium-browser", "google-chrome"].into_iter().find(|c| {
-        Command::new("sh").arg("-c").arg(format!("command -v {c}")).output().is_ok_and(|o| o.status.success())
-    }) else {
-        common::skip(REQUIRE, "no chromium (apt-get install chromium)");
-        return None;
-    };
-    let modules = app_dir().join("node_modules");
-    for file in ["filament/filament.js", "filament/filament.wasm", "ktx-parse/dist/index.mjs"] {
-        if !modules.join(file).is_file() {
-            common::skip(
-                REQUIRE,
-                &format!(
-                    "no {}: install the client's npm packages with scripts/filament-web.sh install",
-                    modules.join(file).display()
-                ),
-            );
-            return None;
-        }
-    }
-    Some(browser)
+    let files = ["filament/filament.js", "filament/filament.wasm", "ktx-parse/dist/index.mjs"];
+    web_page::browser(REQUIRE, &app_dir(), &files, "scripts/filament-web.sh install")
 }
 
 /// `hdrflow bake MAP --for filament --sun keep --out DIR` plus `extra`; DIR.
@@ -97,71 +80,32 @@ fn bake(sandbox: &common::Sandbox, map: &Path, dir: &str, extra: &[&str]) -> Pat
     out
 }
 
-/// What the page reported, and where its results are.
-struct PageRun {
-    report: Json,
-    results: PathBuf,
+/// The page's run, with Filament's own views of its frames.
+struct PageRun(web_page::Page);
+
+impl std::ops::Deref for PageRun {
+    type Target = web_page::Page;
+    fn deref(&self) -> &web_page::Page {
+        &self.0
+    }
 }
 
 /// Serves `job` (paths relative to the sandbox) to the page in headless Chromium and waits for
 /// its report; fails on any error the page reports.
 fn run_page(browser: &str, sandbox: &common::Sandbox, label: &str, job: &Json) -> PageRun {
-    std::fs::write(sandbox.join("job.json"), serde_json::to_vec_pretty(job).unwrap()).unwrap();
-    let results = sandbox.join("results");
-    let server = server::Server::start(&app_dir(), sandbox.path(), &results);
-    let mut cmd = Command::new(browser);
-    // --no-sandbox: CI runs as root. SwiftShader: the same CPU WebGL2 everywhere. Virtual time:
-    // the page's timers run as fast as the work allows; the dump waits for the budget or the end.
-    cmd.args(["--headless", "--no-sandbox", "--use-angle=swiftshader", "--enable-unsafe-swiftshader"])
-        .args(["--enable-logging=stderr", "--v=0", "--virtual-time-budget=3600000", "--dump-dom"])
-        .arg(format!("--user-data-dir={}", sandbox.join("chromium-profile").display()))
-        .arg(server.url("app/index.html"));
-    let out = common::run_command(cmd, BROWSER_TIMEOUT);
-    drop(server);
-    let console: Vec<&str> = out.stderr.lines().filter(|l| l.contains(":CONSOLE")).collect();
-    let report_path = results.join("report.json");
-    let report: Json = match std::fs::read(&report_path) {
-        Ok(bytes) => serde_json::from_slice(&bytes).expect("the page's report is JSON"),
-        Err(_) => panic!("the page wrote no report\nconsole:\n{}\n{}", console.join("\n"), out.describe()),
-    };
-    assert!(report.get("fatal").is_none(), "the page failed: {report}\nconsole:\n{}", console.join("\n"));
-    let errors = report["errors"].as_array().map(Vec::len).unwrap_or(0);
-    assert_eq!(errors, 0, "the page reported errors: {}\nconsole:\n{}", report["errors"], console.join("\n"));
-    assert!(out.stdout.contains("data-status=\"done\""), "the page did not finish\n{}", out.describe());
-    assert_eq!(report["filament"], "1.53.4", "the pinned Filament (clients/filament-web/package-lock.json)");
+    let keep = format!("filament-render/{label}");
+    let page = web_page::run(browser, &app_dir(), sandbox, job, &keep, BROWSER_TIMEOUT);
+    assert_eq!(page.report["filament"], "1.53.4", "the pinned Filament (clients/filament-web/package-lock.json)");
     // The pieces of Filament's ubershader the reference relies on, in the GLSL it compiled (an
     // upgrade that changes them must revisit filament_render/reference.rs).
-    let shaders = std::fs::read_to_string(results.join("shaders.txt")).expect("the recorded shaders");
+    let shaders = std::fs::read_to_string(page.results.join("shaders.txt")).expect("the recorded shaders");
     for piece in ["0.089, 1.0)", "perceptualRoughness) * (2.0 - ", "energyCompensation", "textureLod(light_iblDFG"] {
         assert!(shaders.contains(piece), "the recorded fragment shader has no {piece:?}");
     }
-    // The frames and the page's report stay as artefacts (RGBA f32 rows, top first).
-    let keep = Path::new(env!("CARGO_TARGET_TMPDIR")).join("filament-render").join(label);
-    let _ = std::fs::remove_dir_all(&keep);
-    std::fs::create_dir_all(&keep).expect("the artefact folder");
-    for entry in std::fs::read_dir(&results).expect("the results").flatten() {
-        let _ = std::fs::copy(entry.path(), keep.join(entry.file_name()));
-    }
-    eprintln!(
-        "browser: {} renders in {:.1} s ({}); frames kept in {}",
-        job["renders"].as_array().map(Vec::len).unwrap_or(0),
-        out.elapsed.as_secs_f64(),
-        report["webgl"],
-        keep.display()
-    );
-    PageRun { report, results }
+    PageRun(page)
 }
 
 impl PageRun {
-    /// Render `name` as an RGBA image.
-    fn frame(&self, name: &str, width: usize, height: usize) -> Image {
-        let bytes = common::read_file(&self.results.join(format!("{name}.f32")));
-        assert_eq!(bytes.len(), width * height * 16, "{name}: {} bytes", bytes.len());
-        let mut img = Image::new(width, height, 4);
-        img.data = bytes.chunks_exact(4).map(|b| f32::from_le_bytes(b.try_into().unwrap())).collect();
-        img
-    }
-
     /// An orientation view in the map's units: divided by the Skybox intensity the page
     /// reports (Filament's default 30000 where the web build cannot set it), which the map's
     /// grey background (0.05) confirms.
@@ -183,13 +127,6 @@ impl PageRun {
         let g = Geometry::read(&self.results.join("scene.json"));
         assert_eq!((g.exposure, g.intensity), (1.0, 1.0), "the page's exposure and intensity");
         g
-    }
-
-    fn render_report(&self, name: &str) -> &Json {
-        self.report["renders"]
-            .as_array()
-            .and_then(|r| r.iter().find(|e| e["name"] == name))
-            .unwrap_or_else(|| panic!("no render {name} in {}", self.report))
     }
 }
 
@@ -311,68 +248,18 @@ fn assert_ktx2(report: &Json, sandbox: &common::Sandbox, file: &str, vk_format: 
     assert_eq!(k["samples"], json!(samples), "{file}: DFD samples, ktx-parse vs the ktx2 crate");
 }
 
-/// Centroid (x, y) of the pixels where `weight` is positive.
-fn centroid(img: &Image, weight: impl Fn(&[f32]) -> f32) -> Option<(f64, f64)> {
-    let (mut sx, mut sy, mut sw) = (0.0, 0.0, 0.0);
-    for y in 0..img.height {
-        for x in 0..img.width {
-            let i = (y * img.width + x) * img.channels;
-            let w = weight(&img.data[i..i + 3]).max(0.0) as f64;
-            sx += w * (x as f64 + 0.5);
-            sy += w * (y as f64 + 0.5);
-            sw += w;
-        }
-    }
-    (sw > 0.0).then(|| (sx / sw, sy / sw))
-}
-
-/// Each marker of the orientation map where a camera at the origin looking down -Z (+Y up, 90
-/// degrees) must see it, against where it is in `img`.
-fn check_markers(label: &str, img: &Image) -> Vec<String> {
-    let half = SKY_SIZE as f64 / 2.0;
-    let mut wrong = Vec::new();
-    for m in mistakes::markers() {
-        let d = m.direction;
-        // Camera axes: right +X, up +Y, forward -Z; tan(45 degrees) = 1 at the frame's edge.
-        let want = (half + half * d.x / -d.z, half - half * d.y / -d.z);
-        let [r, g, b] = m.colour;
-        let got = centroid(img, |p| {
-            let bg = 0.05 * 1.5;
-            match (r > 0.0, g > 0.0, b > 0.0) {
-                (true, false, false) => p[0] - p[1].max(p[2]) - bg,
-                (false, true, false) => p[1] - p[0].max(p[2]) - bg,
-                (false, false, true) => p[2] - p[0].max(p[1]) - bg,
-                _ => p[0].min(p[1]).min(p[2]) - bg,
-            }
-        });
-        let ok = got.is_some_and(|(x, y)| (x - want.0).abs() < 2.0 && (y - want.1).abs() < 2.0);
-        eprintln!(
-            "  {label}: {:<13} expected at ({:.1}, {:.1}), found at {:?}{}",
-            m.name,
-            want.0,
-            want.1,
-            got.map(|(x, y)| (x.round(), y.round())),
-            if ok { "" } else { "  WRONG" }
-        );
-        if !ok {
-            wrong.push(format!("{label}: {} at {got:?}, expected {want:?}", m.name));
-        }
-    }
-    wrong
-}
-
 #[test]
 fn filament_shows_the_test_map_and_each_mistake_fails() {
     let Some(browser) = browser() else { return };
     let sandbox = common::Sandbox::new();
     let map = test_map::test_map();
     let plain = write_map(&sandbox, "test.pfm", &map);
-    let mirrored = write_map(&sandbox, "mirrored.pfm", &mistakes::mirror_x(&map));
+    let mirrored = write_map(&sandbox, "mirrored.pfm", &markers::mirror_x(&map));
     let good = bake(&sandbox, &plain, "good", &[]);
     let linear = bake(&sandbox, &plain, "linear", &["--set", "spec.roughness_map=Linear"]);
     let flipped = bake(&sandbox, &mirrored, "mirrored", &[]);
     let unscaled = sandbox.write("unscaled/sh.txt", mistakes::unscaled_sh_text(&map));
-    let marked = bake(&sandbox, &write_map(&sandbox, "markers.pfm", &mistakes::orientation_map()), "markers", &[]);
+    let marked = bake(&sandbox, &write_map(&sandbox, "markers.pfm", &markers::orientation_map()), "markers", &[]);
     // KTX2 files for the independent readers: a draft Khronos bake (RGBA16F) and a Bevy bake
     // (rgb9e5 with Zstandard) of the same map.
     let cache = sandbox.cache();
@@ -436,7 +323,8 @@ fn filament_shows_the_test_map_and_each_mistake_fails() {
     // Orientation: the skybox file and the chain's level 0.
     let mut wrong = Vec::new();
     for (label, name) in [("skybox", "markers_skybox"), ("ibl level 0", "markers_ibl")] {
-        wrong.extend(check_markers(label, &page.sky_frame(name)));
+        let camera = markers::SkyCamera { forward: glam::DVec3::NEG_Z, size: SKY_SIZE };
+        wrong.extend(markers::check_markers(label, &page.sky_frame(name), &camera, 0.0, 2.0));
     }
 
     // The spheres.
@@ -479,21 +367,4 @@ fn filament_shows_the_park_map() {
     let refs = references(&Map::new(map), &geometry);
     let errs = errors("park map", &page.frame("park", geometry.width, geometry.height), &geometry, &refs);
     assert_eq!(geometry.failing(&errs, &PARK_BOUNDS), Vec::<String>::new(), "the park map's bake must match");
-}
-
-#[test]
-fn the_markers_sit_where_hdrflow_puts_their_directions() {
-    // The orientation map's own check: each marker is brightest at its direction's texel.
-    let img = mistakes::orientation_map();
-    for m in mistakes::markers() {
-        let (x, y) = hdrflow::geometry::latlong::texel_of_direction(m.direction.to_array(), img.width, img.height);
-        let i = (y * img.width + x) * 3;
-        let peak: f32 = img.data[i..i + 3].iter().sum();
-        assert!(peak > 40.0, "{}: {peak} at ({x}, {y})", m.name);
-    }
-    // Left of centre in the image is -X: the green marker is a twelfth of the width left of
-    // the centre column.
-    let (gx, _) =
-        hdrflow::geometry::latlong::texel_of_direction(mistakes::markers()[1].direction.to_array(), 1024, 512);
-    assert!((gx as i64 - (512 - 1024 / 12)).abs() <= 1, "{gx}");
 }

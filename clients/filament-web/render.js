@@ -29,27 +29,7 @@
 
 import { read as readKtx2 } from './node_modules/ktx-parse/dist/index.mjs';
 import * as Scene from './scene.js';
-
-const logEl = document.getElementById('log');
-function log(msg) {
-    logEl.textContent += msg + '\n';
-    console.log(msg);
-}
-
-async function post(name, body) {
-    const r = await fetch('../result/' + name, { method: 'POST', body });
-    if (!r.ok) {
-        throw new Error(`POST ${name}: ${r.status}`);
-    }
-}
-
-async function getBytes(path) {
-    const r = await fetch('../work/' + path);
-    if (!r.ok) {
-        throw new Error(`GET ${path}: ${r.status}`);
-    }
-    return new Uint8Array(await r.arrayBuffer());
-}
+import { getBytes, getJson, log, post, run } from '../common/page.js';
 
 /// The WebGL2 context Filament will use, instrumented: textures allocated with texStorage2D and
 /// fragment shader sources.
@@ -342,7 +322,7 @@ async function renderSky(r, job) {
 }
 
 async function main() {
-    const job = await (await fetch('../work/job.json')).json();
+    const job = await getJson('job.json');
     const report = { filament: null, renders: [], ktx1: {}, ktx2: {}, errors: [] };
     report.filament = (await (await fetch('node_modules/filament/package.json')).json()).version;
     await new Promise(ready => Filament.init([], ready));
@@ -381,15 +361,6 @@ async function main() {
     }
     await post('shaders.txt', r.state.shaders.join('\n// ======== next shader ========\n'));
     await post('report.json', JSON.stringify(report, null, 1));
-    document.body.dataset.status = 'done';
 }
 
-main().catch(async e => {
-    log('failed: ' + e + '\n' + (e.stack || ''));
-    try {
-        await post('report.json', JSON.stringify({ fatal: String(e), stack: e.stack || '' }));
-    } catch (_) {
-        // the test times out and reports the page's silence
-    }
-    document.body.dataset.status = 'failed';
-});
+run(main);

@@ -1,6 +1,8 @@
-//! A loopback HTTP/1.1 server for the render page, standard library only: `GET /app/PATH` serves
-//! `clients/filament-web/PATH` (the page, scene.js, render.js, node_modules), `GET /work/PATH` a
-//! file of the test's folder (job.json, the bakes), `POST /result/NAME` writes the body to
+//! A loopback HTTP/1.1 server for a web client's render page (`web_page.rs`), standard library
+//! only: `GET /app/PATH` serves the client's folder (`clients/filament-web/PATH`,
+//! `clients/three-web/PATH`: the page, its scripts, node_modules), `GET /common/PATH` the clients'
+//! shared folder (`clients/web-common`), `GET /work/PATH` a file of the test's folder (job.json,
+//! the bakes), `POST /result/NAME` writes the body to
 //! `RESULTS/NAME`. One request per connection (`Connection: close`), bodies up to 64 MiB, paths
 //! without `..`; it listens on 127.0.0.1 only, on a port the system picks, and stops when
 //! dropped.
@@ -23,18 +25,23 @@ pub struct Server {
 
 struct Roots {
     app: PathBuf,
+    common: PathBuf,
     work: PathBuf,
     results: PathBuf,
 }
 
 impl Server {
-    pub fn start(app: &Path, work: &Path, results: &Path) -> Server {
+    pub fn start(app: &Path, common: &Path, work: &Path, results: &Path) -> Server {
         std::fs::create_dir_all(results).expect("the results folder");
         let listener = TcpListener::bind("127.0.0.1:0").expect("a loopback port");
         let port = listener.local_addr().expect("its address").port();
         let stop = Arc::new(AtomicBool::new(false));
-        let roots =
-            Arc::new(Roots { app: app.to_path_buf(), work: work.to_path_buf(), results: results.to_path_buf() });
+        let roots = Arc::new(Roots {
+            app: app.to_path_buf(),
+            common: common.to_path_buf(),
+            work: work.to_path_buf(),
+            results: results.to_path_buf(),
+        });
         let flag = stop.clone();
         let thread = std::thread::spawn(move || {
             for stream in listener.incoming() {
@@ -122,6 +129,8 @@ fn serve(mut stream: TcpStream, roots: &Roots) -> std::io::Result<()> {
         "GET" => {
             let file = if let Some(rel) = target.strip_prefix("/app/") {
                 inside(&roots.app, rel)
+            } else if let Some(rel) = target.strip_prefix("/common/") {
+                inside(&roots.common, rel)
             } else if let Some(rel) = target.strip_prefix("/work/") {
                 inside(&roots.work, rel)
             } else {
