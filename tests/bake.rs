@@ -121,7 +121,8 @@ fn a_khronos_bake_writes_both_luts_as_the_viewer_reads_them() {
     bake(&sb, &["builtin:sky", "--for", "khronos", "--quality", "draft", "-q"]).assert_success();
     let out = sb.out();
     let names: Vec<String> = common::files_under(&out).iter().map(|f| f.display().to_string()).collect();
-    for want in ["lut_charlie.png", "lut_ggx.png", "ggx/specular.ktx2", "charlie/sheen.ktx2", "lambertian/diffuse.ktx2"] {
+    for want in ["lut_charlie.png", "lut_ggx.png", "ggx/specular.ktx2", "charlie/sheen.ktx2", "lambertian/diffuse.ktx2"]
+    {
         assert!(names.iter().any(|n| n == want), "{want} not in {names:?}");
     }
     let read = |name: &str| match image::load_from_memory(&std::fs::read(out.join(name)).unwrap()).unwrap() {
@@ -144,7 +145,10 @@ fn a_khronos_bake_writes_both_luts_as_the_viewer_reads_them() {
     }
     assert!(clamped > 0, "the grazing corner reaches 1");
     let readme = std::fs::read_to_string(out.join("README.txt")).unwrap();
-    assert!(readme.contains("lut_charlie.png  Charlie LUT: sheen = prefiltered sheen * sheenColor * lut.b"), "{readme}");
+    assert!(
+        readme.contains("lut_charlie.png  Charlie LUT: sheen = prefiltered sheen * sheenColor * lut.b"),
+        "{readme}"
+    );
 }
 
 /// `--print-pipeline` prints the engine's pipeline and the overrides the bake applies, without

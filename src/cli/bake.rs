@@ -487,7 +487,12 @@ mod tests {
                 .filter(|&i| p.nodes[i].spec.name == "Save")
                 .filter_map(|i| save_path(&p, &p.nodes[i].name))
                 .collect();
-            assert_eq!(saved.join(", "), preset.files.replace("{name}", "sky"), "{}: Save paths and files", preset.name);
+            assert_eq!(
+                saved.join(", "),
+                preset.files.replace("{name}", "sky"),
+                "{}: Save paths and files",
+                preset.name
+            );
             for code in [preset.loading_code, preset.sun_code] {
                 let filled = fill_files(code, &p);
                 assert!(!filled.contains("{file:"), "{}: {filled}", preset.name);

@@ -91,7 +91,8 @@ mod tests {
         let registry = crate::ops::builtin_registry();
         let p = Pipeline::parse(text, "test.ron", Path::new("."), &registry, &[]).map_err(|e| e.to_string())?;
         let dir = std::env::temp_dir().join(format!("hdrflow-brdf-lut-{}", std::process::id()));
-        let options = RunOptions { targets: vec!["lut".into()], out_dir: dir, cache: None, jobs: Some(1), observer: &Silent };
+        let options =
+            RunOptions { targets: vec!["lut".into()], out_dir: dir, cache: None, jobs: Some(1), observer: &Silent };
         let out = scheduler::run(&p, &options).map_err(|e| e.to_string())?;
         Ok(out.values["lut"].get::<Image>().expect("an image").clone())
     }
@@ -115,8 +116,8 @@ mod tests {
 
     #[test]
     fn multiscatter_with_charlie_is_refused_naming_the_field() {
-        let e = lut(r#"(nodes: { "lut": BrdfLut(size: 4, samples: 64, multiscatter: true, brdf: Charlie) })"#)
-            .unwrap_err();
+        let e =
+            lut(r#"(nodes: { "lut": BrdfLut(size: 4, samples: 64, multiscatter: true, brdf: Charlie) })"#).unwrap_err();
         assert!(e.contains("multiscatter is read only with brdf: Ggx (this node has Charlie)"), "{e}");
         assert!(e.contains("\"lut\""), "{e}");
     }
