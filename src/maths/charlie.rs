@@ -219,8 +219,8 @@ mod tests {
         assert!(charlie_lut_texel(0.002, 1e-3, &pts) > 0.0);
     }
 
-    /// The 128 x 128 table of 1024 samples (the khronos bake's default): R = G = 0, B finite and
-    /// >= 0, above 1 only in the grazing, low-roughness corner (n.v < 0.13, r < 0.36: what a
+    /// The 128 x 128 table of 1024 samples (the khronos bake's default): R = G = 0, B finite, not
+    /// negative, above 1 only in the grazing, low-roughness corner (n.v < 0.13, r < 0.36: what a
     /// 16-bit or 8-bit PNG clamps), never above 2.5.
     #[test]
     fn values_above_one_stay_in_the_grazing_low_roughness_corner() {
