@@ -1,6 +1,6 @@
 //! `hdrflow bake MAP --for ENGINE` end to end: what it writes on a tiny map (the files, named as
-//! the engine names them, a white furnace in the KTX2 read back by the `ktx2` crate, the
-//! README.txt), `--print-pipeline`, `--sun keep`, and the bad inputs it refuses with a message
+//! the engine names them, a white furnace in the KTX2 read back by the `ktx2` crate, the Khronos
+//! LUTs read back by the `image` crate, the README.txt), `--print-pipeline`, `--sun keep`, and the bad inputs it refuses with a message
 //! that says what to do: an unknown engine, a map that is not 2:1, a size the engine refuses,
 //! NaN and infinite texels (and `--sanitize`).
 
@@ -107,6 +107,48 @@ fn a_bevy_bake_writes_what_bevy_loads() {
     bake(&sb, &["builtin:constant", "--for", "bevy", "--quality", "draft", "--sun", "keep"]).assert_success();
     assert!(!sb.out().join("constant_sun.json").exists());
     assert!(sb.out().join("constant_specular_rgb9e5_zstd.ktx2").exists());
+}
+
+/// A draft Khronos bake of the sky writes both LUTs under the Sample Viewer's names, read back by
+/// the `image` crate's PNG decoder: 16-bit RGB the size of the cube's level 0 (the sky is 512 x
+/// 256: 64), `lut_ggx.png` with B = 0, `lut_charlie.png` with R = G = 0 and B = glTF-IBL-Sampler's
+/// Charlie estimate at the texel centres (x = n.v, row 0 = roughness 0; 1024 samples, not the
+/// quality's: the sampler's LUT count), clamped to 1 in the grazing corner; the README names
+/// both and how the viewer reads them.
+#[test]
+fn a_khronos_bake_writes_both_luts_as_the_viewer_reads_them() {
+    let sb = Sandbox::new();
+    bake(&sb, &["builtin:sky", "--for", "khronos", "--quality", "draft", "-q"]).assert_success();
+    let out = sb.out();
+    let names: Vec<String> = common::files_under(&out).iter().map(|f| f.display().to_string()).collect();
+    for want in ["lut_charlie.png", "lut_ggx.png", "ggx/specular.ktx2", "charlie/sheen.ktx2", "lambertian/diffuse.ktx2"]
+    {
+        assert!(names.iter().any(|n| n == want), "{want} not in {names:?}");
+    }
+    let read = |name: &str| match image::load_from_memory(&std::fs::read(out.join(name)).unwrap()).unwrap() {
+        image::DynamicImage::ImageRgb16(img) => img,
+        other => panic!("{name} is {:?}, not 16-bit RGB", other.color()),
+    };
+    let (ggx, charlie) = (read("lut_ggx.png"), read("lut_charlie.png"));
+    assert_eq!((ggx.width(), ggx.height(), charlie.width(), charlie.height()), (64, 64, 64, 64));
+    assert!(ggx.pixels().all(|p| p[2] == 0 && p[0] > 0));
+    assert!(charlie.pixels().all(|p| p[0] == 0 && p[1] == 0));
+    let pts = hdrflow::maths::ggx::points(hdrflow::maths::ggx::LobeSequence::Hammersley, 1024);
+    let mut clamped = 0;
+    for (x, y) in [(0, 0), (0, 3), (2, 10), (10, 20), (32, 32), (63, 5), (5, 63), (63, 63)] {
+        let (nov, r) = ((x as f64 + 0.5) / 64.0, (y as f64 + 0.5) / 64.0);
+        let want = hdrflow::maths::charlie::charlie_lut_texel(nov, r, &pts);
+        clamped += usize::from(want > 1.0);
+        let code = (want.clamp(0.0, 1.0) * 65535.0).round() as i32;
+        let got = charlie.get_pixel(x, y)[2] as i32;
+        assert!((got - code).abs() <= 1, "({x}, {y}): {got} vs {code} ({want})");
+    }
+    assert!(clamped > 0, "the grazing corner reaches 1");
+    let readme = std::fs::read_to_string(out.join("README.txt")).unwrap();
+    assert!(
+        readme.contains("lut_charlie.png  Charlie LUT: sheen = prefiltered sheen * sheenColor * lut.b"),
+        "{readme}"
+    );
 }
 
 /// `--print-pipeline` prints the engine's pipeline and the overrides the bake applies, without

@@ -447,7 +447,8 @@ mod tests {
 
     /// Every shipped pipeline validates, and agrees with its preset: the cube frame of its
     /// cube maps, the roughness map of its chains, the default quality's sizes and samples, and
-    /// levels that follow the chain rule; every `{file:NODE}` of its code names a Save node.
+    /// levels that follow the chain rule; its Save nodes write exactly the preset's `files`, in
+    /// order; every `{file:NODE}` of its code names a Save node.
     #[test]
     fn each_pipeline_agrees_with_its_preset() {
         let registry = crate::ops::builtin_registry();
@@ -482,6 +483,16 @@ mod tests {
                     _ => {}
                 }
             }
+            let saved: Vec<String> = (0..p.nodes.len())
+                .filter(|&i| p.nodes[i].spec.name == "Save")
+                .filter_map(|i| save_path(&p, &p.nodes[i].name))
+                .collect();
+            assert_eq!(
+                saved.join(", "),
+                preset.files.replace("{name}", "sky"),
+                "{}: Save paths and files",
+                preset.name
+            );
             for code in [preset.loading_code, preset.sun_code] {
                 let filled = fill_files(code, &p);
                 assert!(!filled.contains("{file:"), "{}: {filled}", preset.name);

@@ -6,7 +6,11 @@
 //!   viewer (`getIBLRadianceGGX`), so level k is filtered for `k / (N - 1)`: `RoughnessMap::Linear`.
 //! - Three chains: GGX (`ggx/specular.ktx2`), Charlie for sheen (`charlie/sheen.ktx2`,
 //!   `PrefilterSpecular(brdf: Charlie)`), Lambertian (`lambertian/diffuse.ktx2`, `E / pi`), and
-//!   the GGX LUT (`lut_ggx.png`: x = n.v, y = roughness, R scale, G bias).
+//!   two LUTs, x = n.v, y = roughness, row 0 = roughness 0, the size of the cube: GGX
+//!   (`lut_ggx.png`: R scale, G bias) and Charlie for sheen (`lut_charlie.png`, `BrdfLut(brdf:
+//!   Charlie)`: B, read by the viewer's `getIBLRadianceCharlie` as `.b`; `maths::charlie`). The
+//!   viewer's other sheen texture, `lut_sheen_E.png` (the albedo scaling of the layers below the
+//!   sheen), depends on no environment and is not written: the viewer's own copy serves.
 //! - Lookup: `textureLod(u_GGXEnvSampler, u_envRotation * reflection, lod)`, the world direction
 //!   turned about +Y by the viewer's `environmentRotation` (90 degrees by default):
 //!   `CubeFrame::Standard` for a rotation of 0. The sampler's `panoramaToCubeMap` (`uvToXYZ`,
@@ -22,15 +26,15 @@ use crate::maths::specular_lobe::RoughnessMap;
 pub const PRESET: Preset = Preset {
     engine: Engine::Khronos,
     name: "khronos",
-    loads: "ggx/specular.ktx2, charlie/sheen.ktx2, lambertian/diffuse.ktx2 (KTX2 cube maps with mips) and the GGX LUT",
+    loads: "ggx/specular.ktx2, charlie/sheen.ktx2, lambertian/diffuse.ktx2 (KTX2 cube maps with mips), the GGX and the Charlie LUTs",
     world: "right-handed, +Y up (glTF); environmentRotation 0: hdrflow's axes",
     cube_frame: Some(CubeFrame::Standard),
     roughness_map: Some(RoughnessMap::Linear),
     lod: "lod = r (N - 1)",
     irradiance: "a cube map of E / pi, times the diffuse colour",
-    files: "ggx/specular.ktx2, charlie/sheen.ktx2, lambertian/diffuse.ktx2, lut_ggx.png, {name}_sun.json",
-    texel_formats:
-        "RGBA16F KTX2 (as glTF-IBL-Sampler), the LUT as a 16-bit linear PNG (as the glTF Sample Viewer reads it)",
+    files: "ggx/specular.ktx2, charlie/sheen.ktx2, lambertian/diffuse.ktx2, lut_ggx.png, lut_charlie.png, {name}_sun.json",
+    texel_formats: "RGBA16F KTX2 (as glTF-IBL-Sampler), the LUTs as 16-bit linear PNGs (as the glTF Sample Viewer reads them; \
+                    the Charlie LUT's values above 1 clamped, as the sampler's 8-bit PNG)",
     centre_yaw: 0.0,
     tools: &[ToolPlacement {
         tool: "glTF-IBL-Sampler (at the viewer's default environmentRotation 90: +Z)",
@@ -52,6 +56,7 @@ pub const PRESET: Preset = Preset {
 //   {file:save_sheen}  Charlie (sheen), lod = sheenRoughness * (levels - 1)
 //   {file:save_irr}    Lambertian: diffuse = baseColor * texture(lambertian, n)
 //   {file:save_lut}    GGX LUT: specular = prefiltered * (F0 * lut.r + lut.g)
+//   {file:save_lut_charlie}  Charlie LUT: sheen = prefiltered sheen * sheenColor * lut.b (u_CharlieLUT)
 vec3 specular = textureLod(u_GGXEnvSampler, reflect(-v, n), roughness * float(u_MipCount - 1)).rgb;
 "#,
     sun_code: r#"// The sun taken out of the map ({file:save_sun}) as a KHR_lights_punctual directional light:

@@ -7,6 +7,7 @@ pub mod bilinear;
 pub mod camera;
 pub mod camera_area;
 pub mod camera_view;
+pub mod charlie;
 pub mod chi_square;
 pub mod colour;
 pub mod disc_image;
