@@ -218,7 +218,7 @@ fn bevy_shows_the_test_map_and_each_mistake_fails() {
 
     // 1. The map not mirrored in z (both cubes written for a plain lookup): everything Bevy shows
     //    is mirrored front to back.
-    let plain = bake(&sandbox, &path, "plain", &["cube.frame=Standard", "irr_src.frame=Standard"], &[]);
+    let plain = bake(&sandbox, &path, "plain", &["cube.frame=Standard"], &[]);
     check_mistake("mirrored map", plain, &["mirror", "metal_0.25", "metal_0.5", "diffuse"]);
 
     // 2. Faces +Z and -Z exchanged in both files.
@@ -422,7 +422,7 @@ fn bevy_shows_the_map_unmirrored_up_and_its_centre_forward() {
     let turned = bake(&sandbox, &path, "turned", &[], &["--quality", "draft", "--yaw", "-90"]);
     let yaw = skybox_problems(&client, &sandbox, &turned, "sky_yaw", "1,0,0");
     // Not mirrored in z: the check must see it (the markers are behind the camera, mirrored).
-    let plain = bake(&sandbox, &path, "plain", &["cube.frame=Standard", "irr_src.frame=Standard"], &draft);
+    let plain = bake(&sandbox, &path, "plain", &["cube.frame=Standard"], &draft);
     let mistake = skybox_problems(&client, &sandbox, &plain, "sky_unmirrored", "0,0,-1");
     // Looking back at its centre there: up is up, but left and right are swapped (a reflection).
     let back = skybox_problems(&client, &sandbox, &plain, "sky_unmirrored_back", "0,0,1");

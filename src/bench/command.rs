@@ -91,10 +91,40 @@ pub struct BenchArgs {
     /// --glossy: Phong exponents.
     #[arg(long, value_delimiter = ',', default_value = "10,200")]
     exponents: Vec<f64>,
+    /// Measure `hdrflow bake` instead: each preset's time and peak memory on 2048x1024 and
+    /// 4096x2048 maps, and the Bevy chain's error per level for each estimator (bake.md).
+    #[arg(long)]
+    bake: bool,
+    /// --bake: the map the sizes are made from.
+    #[arg(long, default_value = "assets/maps/rooitou_park_1k.hdr")]
+    bake_map: PathBuf,
+    /// --bake: lat-long widths (heights are half).
+    #[arg(long, value_delimiter = ',', default_value = "2048,4096")]
+    bake_widths: Vec<usize>,
+    /// --bake: texels per level the exact reference is evaluated at.
+    #[arg(long, default_value_t = 600)]
+    bake_texels: usize,
+    /// --bake: only the chain errors, not the presets' bakes.
+    #[arg(long)]
+    bake_errors_only: bool,
 }
 
 fn bench(args: &BenchArgs) -> ExitCode {
     use crate::bench::{BenchConfig, MapSpec};
+    if args.bake {
+        let config = crate::bench::bake::BakeBenchConfig {
+            source: args.bake_map.clone(),
+            widths: args.bake_widths.clone(),
+            estimators: crate::bench::bake::default_estimators(),
+            texels_per_level: args.bake_texels,
+            errors_only: args.bake_errors_only,
+            out_dir: args.out.clone(),
+        };
+        eprintln!("hdrflow bench --bake on {} threads", rayon::current_num_threads());
+        return finish(crate::bench::bake::run(&config, &|line| eprintln!("{line}")), |md| {
+            format!("{md}wrote {}/bake.md\n", args.out.display())
+        });
+    }
     let candidates = [
         ("sky", "builtin:sky".to_string(), false),
         ("grace", args.data.join("grace_latlong.exr").display().to_string(), true),

@@ -20,6 +20,8 @@
 //! Writes `results.csv`, one log-log chart per map (`time_error_<map>.png` / `.svg`, error bars
 //! = the 95% CI) and `summary.md` into the output folder.
 
+pub mod bake;
+pub mod bake_error;
 pub mod command;
 pub mod glossy;
 pub mod peak_memory;

@@ -34,7 +34,7 @@ const GOAL_RATIO: f64 = 3.0;
 
 /// The `hdrflow` binary to run: `HDRFLOW_BIN`, else this process's own executable when it is
 /// `hdrflow` (the target runs from `hdrflow bench`).
-fn hdrflow_binary() -> Result<PathBuf, String> {
+pub(crate) fn hdrflow_binary() -> Result<PathBuf, String> {
     if let Some(bin) = std::env::var_os("HDRFLOW_BIN") {
         return Ok(PathBuf::from(bin));
     }
@@ -122,7 +122,7 @@ fn measure(dir: &Path) -> Result<(u64, f64), String> {
 /// spawning process's own high-water mark into the child's at exec, and this process has held
 /// the 16384x8192 maps of target 2 by then.
 #[cfg(target_os = "linux")]
-fn run_for_peak(command: &mut std::process::Command) -> Result<(bool, u64), String> {
+pub(crate) fn run_for_peak(command: &mut std::process::Command) -> Result<(bool, u64), String> {
     let mut child = command.spawn().map_err(|e| e.to_string())?;
     let status_path = format!("/proc/{}/status", child.id());
     let mut peak = 0u64;
@@ -148,7 +148,7 @@ fn vm_hwm_kib(status: &str) -> Option<u64> {
 }
 
 #[cfg(not(target_os = "linux"))]
-fn run_for_peak(_: &mut std::process::Command) -> Result<(bool, u64), String> {
+pub(crate) fn run_for_peak(_: &mut std::process::Command) -> Result<(bool, u64), String> {
     Err("the peak of a child process is read from /proc on Linux only".into())
 }
 

@@ -41,7 +41,8 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::geometry::cubemap as cube;
-use crate::maths::irradiance_cube::{normalised, Texels};
+use crate::maths::fis_kernel::{Lobe, LobeSample, PaddedPyramid};
+use crate::maths::irradiance_cube::Texels;
 use crate::maths::resample::downsample;
 use crate::maths::sequences::{radical_inverse, sobol_2d};
 use crate::maths::specular_lobe::SpecularBrdf;
@@ -154,51 +155,6 @@ pub fn basis(n: DVec3) -> (DVec3, DVec3) {
     (DVec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x), DVec3::new(b, sign + n.y * n.y * a, -n.y))
 }
 
-/// Bilinear lookup of a cube map at face point (face, a, b), seamless: a neighbour texel beyond the face's
-/// edge is read from the adjacent face (the texel containing the direction of that neighbour's
-/// centre in the face's plane), so lookups are continuous across edges even on 1 x 1 faces.
-fn bilinear(c: &Cubemap, (f, a, b): (usize, f64, f64)) -> [f64; 3] {
-    let s = c.size;
-    let si = s as i64;
-    let fx = (a + 1.0) * 0.5 * s as f64 - 0.5;
-    let fy = (b + 1.0) * 0.5 * s as f64 - 0.5;
-    let (x0, y0) = (fx.floor(), fy.floor());
-    let (tx, ty) = (fx - x0, fy - y0);
-    let (x0, y0) = (x0 as i64, y0 as i64);
-    let at = |x: i64, y: i64| -> [f64; 3] {
-        let t = if (0..si).contains(&x) && (0..si).contains(&y) {
-            (f * s + y as usize) * s + x as usize
-        } else {
-            let ca = (2 * x + 1) as f64 / s as f64 - 1.0;
-            let cb = (2 * y + 1) as f64 / s as f64 - 1.0;
-            cube::texel_index_of_direction(cube::face_direction(f, ca, cb), s)
-        };
-        c.texel(t).map(f64::from)
-    };
-    let (v00, v10, v01, v11) = (at(x0, y0), at(x0 + 1, y0), at(x0, y0 + 1), at(x0 + 1, y0 + 1));
-    let mut out = [0.0; 3];
-    for k in 0..3 {
-        out[k] = (v00[k] * (1.0 - tx) + v10[k] * tx) * (1.0 - ty) + (v01[k] * (1.0 - tx) + v11[k] * tx) * ty;
-    }
-    out
-}
-
-/// Trilinear lookup in a pyramid (level 0 the finest) at a fractional level.
-fn trilinear(pyr: &[Cubemap], d: DVec3, lod_centre: f64) -> [f64; 3] {
-    let top = (pyr.len() - 1) as f64;
-    let fab = cube::direction_to_face(d);
-    // The texel at (a, b) subtends (1 + a^2 + b^2)^(-3/2) of a face-centre texel.
-    let lod = (lod_centre + 0.75 * (1.0 + fab.1 * fab.1 + fab.2 * fab.2).log2()).clamp(0.0, top);
-    let l0 = lod.floor() as usize;
-    let t = lod - l0 as f64;
-    let a = bilinear(&pyr[l0], fab);
-    if t == 0.0 || l0 + 1 >= pyr.len() {
-        return a;
-    }
-    let b = bilinear(&pyr[l0 + 1], fab);
-    [0, 1, 2].map(|k| a[k] * (1.0 - t) + b[k] * t)
-}
-
 /// The source's mip pyramid, down to 1 x 1 faces (each level the solid-angle-weighted 2 x 2 mean).
 pub fn pyramid(src: &Cubemap) -> Vec<Cubemap> {
     let mut pyr = vec![src.clone()];
@@ -219,21 +175,23 @@ pub fn level_roughness(k: usize, levels: usize) -> f64 {
 }
 
 /// One level filtered with filtered importance sampling, for the lobe `brdf`
-/// (`maths::specular_lobe`).
+/// (`maths::specular_lobe`); `filtered: false` reads every sample from level 0 (plain Monte
+/// Carlo with bilinear reads: the estimate the benchmark compares against).
 pub fn prefilter_level_fis(
-    pyr: &[Cubemap],
+    pyr: &PaddedPyramid,
     size: usize,
     roughness: f64,
     pts: &[[f64; 2]],
     brdf: SpecularBrdf,
+    filtered: bool,
 ) -> Cubemap {
     let alpha = roughness * roughness;
-    let s0 = pyr[0].size as f64;
+    let s0 = pyr.top_size() as f64;
     // The solid angle of a texel at a face's centre (texels elsewhere: see `trilinear`).
     let omega_p = 4.0 / (s0 * s0);
     let n = pts.len() as f64;
     // The samples in the frame n = v = +z: light direction, its cosine, its pyramid level.
-    let lobe: Vec<(DVec3, f64, f64)> = pts
+    let lobe: Vec<LobeSample> = pts
         .iter()
         .filter_map(|&u| {
             let h = brdf.sample_h(u, alpha);
@@ -245,23 +203,22 @@ pub fn prefilter_level_fis(
             let omega_s = 1.0 / (n * pdf);
             let lod = 0.5 * (omega_s / omega_p).log2() + 1.0;
             // A zero pdf (Charlie's lobe at h = n) reads the coarsest level; -inf the finest.
-            Some((l, l.z, if lod.is_nan() { 0.0 } else { lod }))
+            // Plain sampling: far enough below 0 that the corner offset (at most 1.19) stays below.
+            let lod = if !filtered {
+                -16.0
+            } else if lod.is_nan() {
+                0.0
+            } else {
+                lod.clamp(-1e6, 1e6)
+            };
+            Some(LobeSample { l: l.as_vec3(), weight: l.z as f32, lod: lod as f32 })
         })
         .collect();
+    let lobe = Lobe::new(&lobe);
     Cubemap::from_fn(size, |f, x, y| {
         let nrm = cube::texel_direction(f, x, y, size);
         let (t, b) = basis(nrm);
-        let mut acc = [0.0f64; 3];
-        let mut w = 0.0;
-        for &(l, nol, lod) in &lobe {
-            let d = t * l.x + b * l.y + nrm * l.z;
-            let v = trilinear(pyr, d, lod);
-            for k in 0..3 {
-                acc[k] += v[k] * nol;
-            }
-            w += nol;
-        }
-        normalised(acc, w)
+        pyr.lobe_mean(nrm, t, b, &lobe)
     })
 }
 
@@ -282,11 +239,28 @@ pub fn prefilter_level_exact(src: &Cubemap, size: usize, roughness: f64, brdf: S
     })
 }
 
+/// The most texel pairs (output texels times source texels) a level is summed exactly over
+/// instead of sampled: 2^26, about a tenth of a second on two cores.
+pub const ROUGH_EXACT_PAIRS: usize = 1 << 26;
+
+/// The pyramid level a GGX level of face size `size` and perceptual roughness `roughness` is
+/// summed exactly over, when that is cheap: the coarsest level whose face-centre texel (2 / s
+/// radians) is at most alpha / 8, if it has at most [`ROUGH_EXACT_PAIRS`] pairs with the level.
+/// Where the lobe spans 8 texels or more, the exact sum's quadrature (the lobe at each texel's
+/// centre) is within about 1e-3 of the sum over the finest level (`prefilter_level_exact`'s
+/// error bound; `bench --bake` measures it), and needs no samples.
+pub fn exact_source_level(pyr: &[Cubemap], size: usize, roughness: f64) -> Option<usize> {
+    let alpha = roughness * roughness;
+    let m = pyr.iter().rposition(|c| 2.0 / c.size as f64 <= alpha / 8.0)?;
+    let pairs = 36 * (size * size).saturating_mul(pyr[m].size * pyr[m].size);
+    (pairs <= ROUGH_EXACT_PAIRS).then_some(m)
+}
+
 /// The prefiltered chain of `src` (level 0 is `src` itself): `levels` levels, level k of size
 /// max(1, S >> k) and roughness k / (levels - 1), GGX.
 pub fn prefilter(src: &Cubemap, levels: usize, samples: usize, seq: LobeSequence, exact: bool) -> MipChain {
     let roughness: Vec<f64> = (0..levels).map(|k| level_roughness(k, levels)).collect();
-    prefilter_chain(src, &roughness, samples, seq, exact, SpecularBrdf::Ggx)
+    prefilter_chain(src, &roughness, samples, seq, exact, SpecularBrdf::Ggx, false)
 }
 
 /// The chain of `src` filtered with `brdf`, one level per entry of `roughness` (perceptual),
@@ -300,11 +274,13 @@ pub fn prefilter_chain(
     seq: LobeSequence,
     exact: bool,
     brdf: SpecularBrdf,
+    rough_exact: bool,
 ) -> MipChain {
     let pts = points(seq, samples);
     let mirror_below_top = brdf == SpecularBrdf::Ggx && roughness.iter().skip(1).any(|&r| r == 0.0);
     let pyr = if exact && !mirror_below_top { Vec::new() } else { pyramid(src) };
     let levels = roughness.len();
+    let mut padded = None;
     let mut out = MipChain { levels: Vec::with_capacity(levels), roughness: Vec::with_capacity(levels) };
     for (k, &rough) in roughness.iter().enumerate() {
         let size = (src.size >> k).max(1);
@@ -316,8 +292,13 @@ pub fn prefilter_chain(
             }
         } else if exact {
             prefilter_level_exact(src, size, rough, brdf)
+        } else if let Some(m) =
+            (rough_exact && brdf == SpecularBrdf::Ggx).then(|| exact_source_level(&pyr, size, rough)).flatten()
+        {
+            prefilter_level_exact(&pyr[m], size, rough, brdf)
         } else {
-            prefilter_level_fis(&pyr, size, rough, &pts, brdf)
+            let padded = padded.get_or_insert_with(|| PaddedPyramid::new(&pyr));
+            prefilter_level_fis(padded, size, rough, &pts, brdf, true)
         };
         out.levels.push(level);
         out.roughness.push(rough);

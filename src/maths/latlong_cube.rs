@@ -57,8 +57,26 @@ const ON_PLANE: f64 = 1e-12;
 /// The cube map of face size `size` whose texels are the solid-angle-weighted means of `src`
 /// over their footprints (see the module documentation).
 pub fn latlong_to_cube(src: &LatLongSource, size: usize) -> Cubemap {
+    use rayon::prelude::*;
     let grid = Grid::new(src);
-    Cubemap::from_fn(size, |f, x, y| grid.cube_texel(f, x, y, size))
+    let mut out = Cubemap::new(size);
+    // One scratch per row of texels: an allocation per texel costs more than the texel when
+    // the threads share the allocator.
+    out.data.par_chunks_mut(3 * size.max(1)).enumerate().for_each(|(row, texels)| {
+        let mut scratch = Scratch::default();
+        for x in 0..size {
+            texels[3 * x..3 * x + 3].copy_from_slice(&grid.cube_texel(row / size, x, row % size, size, &mut scratch));
+        }
+    });
+    out
+}
+
+/// The buffers one cube texel's gather fills, reused across a row.
+#[derive(Default)]
+struct Scratch {
+    sides: Vec<Side>,
+    straddlers: Vec<(usize, usize, Cell, [Side; 4])>,
+    first: Vec<f64>,
 }
 
 /// Which of a cube texel's four planes a point is inside (bit set: value >= -ON_PLANE) and
@@ -195,7 +213,7 @@ impl<'a> Grid<'a> {
     }
 
     /// The mean of the map over cube texel (face, x, y) of a `size` face.
-    fn cube_texel(&self, face: usize, x: usize, y: usize, size: usize) -> [f32; 3] {
+    fn cube_texel(&self, face: usize, x: usize, y: usize, size: usize, scratch: &mut Scratch) -> [f32; 3] {
         let (a0, a1, b0, b1) =
             (cube::edge(x, size), cube::edge(x + 1, size), cube::edge(y, size), cube::edge(y + 1, size));
         let planes = [
@@ -214,7 +232,10 @@ impl<'a> Grid<'a> {
         let (nx, ny) = ((cols.1 - cols.0 + 1) as usize, rows.1 - rows.0 + 1);
 
         // The sides of every lattice point of the box, row by row.
-        let mut sides = Vec::with_capacity((nx + 1) * (ny + 1));
+        let Scratch { sides, straddlers, first } = scratch;
+        sides.clear();
+        straddlers.clear();
+        first.clear();
         for r in rows.0..=rows.1 + 1 {
             for c in cols.0..=cols.1 + 1 {
                 sides.push(Side::of(&planes, direction(self.rows[r], self.col_trig(c))));
@@ -222,7 +243,6 @@ impl<'a> Grid<'a> {
         }
         // Texels inside add whole; straddling ones wait until the texel's mean is estimated.
         let mut sum = Sum::default();
-        let mut straddlers = Vec::new();
         for j in 0..ny {
             let ty = rows.0 + j;
             for i in 0..nx {
@@ -247,14 +267,13 @@ impl<'a> Grid<'a> {
         // counted whole when their centre is inside.
         let coarse = Split { spread: 0.0, scale: 0.0, ..split };
         let mut estimate = sum;
-        let mut first: Vec<f64> = Vec::with_capacity(straddlers.len());
-        for &(tx, ty, cell, corner_sides) in &straddlers {
+        for &(tx, ty, cell, corner_sides) in straddlers.iter() {
             let w = self.straddling(&planes, cell, corner_sides, &coarse);
             estimate.add(self.src.texel_rgb(tx, ty), w);
             first.push(w);
         }
         let mean = estimate.mean();
-        for ((tx, ty, cell, corner_sides), w) in straddlers.into_iter().zip(first) {
+        for (&(tx, ty, cell, corner_sides), &w) in straddlers.iter().zip(first.iter()) {
             let v = self.src.texel_rgb(tx, ty);
             let spread = (0..3).map(|k| (v[k] as f64 - mean[k]).abs()).fold(0.0, f64::max);
             let scale = (0..3).map(|k| (v[k] as f64).abs().max(mean[k].abs())).fold(0.0, f64::max);

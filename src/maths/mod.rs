@@ -12,6 +12,7 @@ pub mod chi_square;
 pub mod colour;
 pub mod disc_image;
 pub mod error_metrics;
+pub mod fis_kernel;
 pub mod fresnel;
 pub mod ggx;
 pub mod ggx_reference;

@@ -13,7 +13,9 @@
 //! otherwise), `min_unwindowed` and `min_irradiance` (the smallest channel value over the output
 //! texels and 6 x 32 x 32 more directions, without and with the window; for Exact both are the
 //! output's minimum). White furnace to 1e-3 both ways (tests). `env` is a lat-long image (its own
-//! texels are summed or projected) or a cube map.
+//! texels are summed or projected) or a cube map; `source_size` reads it as a cube of that face
+//! size instead (`ops::ibl::env_cube`: a cube 2^k times larger is halved k times, exactly), so
+//! that a bake's irradiance can come from its specular source cube.
 
 use crate::engine::fields::{AnyValue, Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Outputs};
@@ -39,6 +41,9 @@ crate::params! {
         pub order: usize = 2,
         /// SH window: None, Hann, Lanczos, Deringing (smallest strength giving non-negative irradiance)
         pub window: ShWindow = ShWindow::None,
+        /// read env as a cube map of this face size (a cube 2^k times larger is halved k times): Exact costs the output's texels times the source's
+        #[range(1, 1024)]
+        pub source_size: Option<usize>,
     }
 }
 
@@ -57,7 +62,11 @@ pub fn spec() -> OpSpec {
 }
 
 fn eval(ctx: &mut OpContext, p: IrradianceCubemapParams) -> Result<Outputs, OpError> {
-    let (texels, coeffs) = if let Some(c) = p.env.value().get::<Cubemap>() {
+    let resized = match p.source_size {
+        Some(s) => Some(super::env_cube(ctx, &p.env, s)?),
+        None => None,
+    };
+    let (texels, coeffs) = if let Some(c) = resized.as_ref().or_else(|| p.env.value().get::<Cubemap>()) {
         super::check_cube_finite(c)?;
         let coeffs = (p.method == IrradianceMethod::Sh).then(|| project_cube(c, p.order));
         (Texels::from_cube(c), coeffs)
