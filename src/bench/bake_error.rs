@@ -3,7 +3,8 @@
 //! several sample counts, and plain Monte Carlo at the engines' tools' 1024 samples per texel
 //! (every sample one bilinear read of the source: no filtered importance sampling).
 //!
-//! The exact reference sums the lobe over every source texel (`maths::ggx`), 6 S^2 texel pairs
+//! The exact reference sums the lobe over every source texel (`maths::zonal_sum`, as
+//! `PrefilterSpecular(exact: true)` does), 6 S^2 texel pairs
 //! per output texel: on a 256 source that is 0.4 M pairs a texel, so it is evaluated on a fixed
 //! subset of each level's texels (`texels_per_level`, spread over every face by a stride with a
 //! varying offset; all of a level when it has fewer), and each error is the RMS over that subset's
@@ -11,7 +12,6 @@
 
 use std::time::Instant;
 
-use glam::DVec3;
 use rayon::prelude::*;
 
 use hdrflow::geometry::cubemap as cube;
@@ -19,8 +19,8 @@ use hdrflow::maths::fis_kernel::PaddedPyramid;
 use hdrflow::maths::ggx::{
     exact_source_level, points, prefilter_level_exact, prefilter_level_fis, pyramid, LobeSequence,
 };
-use hdrflow::maths::irradiance_cube::Texels;
 use hdrflow::maths::specular_lobe::SpecularBrdf;
+use hdrflow::maths::zonal_sum::ZonalSource;
 use hdrflow::values::Cubemap;
 
 /// An estimator of a chain's levels.
@@ -57,21 +57,14 @@ pub fn subset(size: usize, texels_per_level: usize) -> Vec<usize> {
 
 /// The exact prefiltered value at each texel of `texels` (indices into a level of face size
 /// `size`), roughness `roughness`, from the source's texels.
-pub fn exact_at(src: &Texels, size: usize, roughness: f64, texels: &[usize]) -> Vec<[f32; 3]> {
+pub fn exact_at(src: &ZonalSource, size: usize, roughness: f64, texels: &[usize]) -> Vec<[f32; 3]> {
     let alpha = roughness * roughness;
+    let lobe = move |c: f64| if c > 0.0 { SpecularBrdf::Ggx.d((0.5 * (1.0 + c)).sqrt(), alpha) * c } else { 0.0 };
     texels
         .par_iter()
         .map(|&t| {
             let (f, y, x) = (t / (size * size), (t / size) % size, t % size);
-            let n = cube::texel_direction(f, x, y, size);
-            src.weighted_mean(|l: DVec3| {
-                let nol = n.dot(l);
-                if nol > 0.0 {
-                    SpecularBrdf::Ggx.d(n.dot((n + l).normalize()), alpha) * nol
-                } else {
-                    0.0
-                }
-            })
+            src.mean(cube::texel_direction(f, x, y, size), lobe)
         })
         .collect()
 }
@@ -130,7 +123,7 @@ pub fn chain_errors(
     texels_per_level: usize,
     log: &dyn Fn(&str),
 ) -> (Vec<ChainErrors>, f64) {
-    let texels = Texels::from_cube(src);
+    let texels = ZonalSource::from_cube(src);
     let t0 = Instant::now();
     let references: Vec<(Vec<usize>, Vec<[f32; 3]>)> = roughness
         .iter()

@@ -107,6 +107,10 @@ pub struct BenchArgs {
     /// --bake: only the chain errors, not the presets' bakes.
     #[arg(long)]
     bake_errors_only: bool,
+    /// --bake: only these presets (default: all; a 16384x8192 map's Khronos chain is 4096 per
+    /// face, the sampler's half the map's height, and takes hours).
+    #[arg(long, value_delimiter = ',')]
+    bake_presets: Vec<String>,
 }
 
 fn bench(args: &BenchArgs) -> ExitCode {
@@ -118,6 +122,7 @@ fn bench(args: &BenchArgs) -> ExitCode {
             estimators: crate::bench::bake::default_estimators(),
             texels_per_level: args.bake_texels,
             errors_only: args.bake_errors_only,
+            presets: args.bake_presets.clone(),
             out_dir: args.out.clone(),
         };
         eprintln!("hdrflow bench --bake on {} threads", rayon::current_num_threads());

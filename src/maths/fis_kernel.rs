@@ -146,7 +146,7 @@ impl PaddedPyramid {
     /// one-sample form of the batched loop, for tests).
     #[cfg(test)]
     fn trilinear(&self, d: Vec3, lod_centre: f32) -> Vec3 {
-        let (face, a, b) = face_point(d);
+        let (face, a, b) = face_point_branchless(d);
         let top = (self.levels.len() - 1) as f32;
         let lod = (lod_centre + 0.75 * log2_1_to_3(1.0 + a * a + b * b)).clamp(0.0, top);
         let l0 = lod as usize;
@@ -202,9 +202,14 @@ impl PaddedPyramid {
             let mut points = [[0.0f32; 2]; BATCH];
             let mut level_t = [0.0f32; BATCH];
             let mut level = [0usize; BATCH];
+            let (mut dx, mut dy, mut dz) = ([0.0f32; BATCH], [0.0f32; BATCH], [0.0f32; BATCH]);
             for i in 0..BATCH {
-                let d = t * lx[i] + b * ly[i] + n * lz[i];
-                let (face, fa, fb) = face_point_branchless(d);
+                dx[i] = t.x * lx[i] + b.x * ly[i] + n.x * lz[i];
+                dy[i] = t.y * lx[i] + b.y * ly[i] + n.y * lz[i];
+                dz[i] = t.z * lx[i] + b.z * ly[i] + n.z * lz[i];
+            }
+            for i in 0..BATCH {
+                let (face, fa, fb) = face_point_branchless(Vec3::new(dx[i], dy[i], dz[i]));
                 let lod = (llod[i] + 0.75 * log2_1_to_3(1.0 + fa * fa + fb * fb)).clamp(0.0, top);
                 let l0 = lod as usize;
                 level[i] = l0;
@@ -262,8 +267,8 @@ impl PaddedPyramid {
     }
 }
 
-/// [`face_point`] with selects instead of branches, for the lane loops (the same faces, ties
-/// and coordinates).
+/// `geometry::cubemap::direction_to_face` in f32 with selects instead of branches, for the lane
+/// loops (the same faces, ties and coordinates; tested against it).
 #[inline(always)]
 fn face_point_branchless(d: Vec3) -> (usize, f32, f32) {
     let (ax, ay, az) = (d.x.abs(), d.y.abs(), d.z.abs());
@@ -279,34 +284,6 @@ fn face_point_branchless(d: Vec3) -> (usize, f32, f32) {
     let b = sel(x_major, -d.y, sel(y_major, sel(d.y > 0.0, d.z, -d.z), -d.y));
     let inv = sel(m > 0.0, 1.0 / m, 0.0);
     (face as usize, (a * inv).clamp(-1.0, 1.0), (b * inv).clamp(-1.0, 1.0))
-}
-
-/// `geometry::cubemap::direction_to_face` in f32 (the same faces and ties).
-#[cfg(test)]
-fn face_point(d: Vec3) -> (usize, f32, f32) {
-    let (ax, ay, az) = (d.x.abs(), d.y.abs(), d.z.abs());
-    let (face, a, b, m) = if ax >= ay && ax >= az {
-        if d.x > 0.0 {
-            (0, -d.z, -d.y, ax)
-        } else {
-            (1, d.z, -d.y, ax)
-        }
-    } else if ay >= az {
-        if d.y > 0.0 {
-            (2, d.x, d.z, ay)
-        } else {
-            (3, d.x, -d.z, ay)
-        }
-    } else if d.z > 0.0 {
-        (4, d.x, -d.y, az)
-    } else {
-        (5, -d.x, -d.y, az)
-    };
-    if !(m > 0.0) {
-        return (0, 0.0, 0.0);
-    }
-    let inv = 1.0 / m;
-    (face, (a * inv).clamp(-1.0, 1.0), (b * inv).clamp(-1.0, 1.0))
 }
 
 /// log2 of x in [1, 3]: the exponent plus a cubic in the mantissa m in [1, 2) (least-squares
@@ -424,10 +401,9 @@ mod tests {
         for _ in 0..10000 {
             let d = DVec3::new(next(), next(), next());
             let (f, a, b) = cube::direction_to_face(d);
-            for (g, x, y) in [face_point(d.as_vec3()), face_point_branchless(d.as_vec3())] {
-                assert_eq!(f, g, "{d}");
-                assert!((a as f32 - x).abs() < 1e-5 && (b as f32 - y).abs() < 1e-5);
-            }
+            let (g, x, y) = face_point_branchless(d.as_vec3());
+            assert_eq!(f, g, "{d}");
+            assert!((a as f32 - x).abs() < 1e-5 && (b as f32 - y).abs() < 1e-5);
         }
     }
 }

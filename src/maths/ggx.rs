@@ -42,10 +42,10 @@ use rayon::prelude::*;
 
 use crate::geometry::cubemap as cube;
 use crate::maths::fis_kernel::{Lobe, LobeSample, PaddedPyramid};
-use crate::maths::irradiance_cube::Texels;
 use crate::maths::resample::downsample;
 use crate::maths::sequences::{radical_inverse, sobol_2d};
 use crate::maths::specular_lobe::SpecularBrdf;
+use crate::maths::zonal_sum::ZonalSource;
 use crate::values::{Cubemap, Image, MipChain};
 
 crate::choice! {
@@ -214,6 +214,10 @@ pub fn prefilter_level_fis(
             Some(LobeSample { l: l.as_vec3(), weight: l.z as f32, lod: lod as f32 })
         })
         .collect();
+    // In order of level, so that the reads of one level and of two levels each come in runs (the
+    // kernel's per-sample branch is then predicted); the sum's order is fixed either way.
+    let mut lobe = lobe;
+    lobe.sort_by(|a, b| a.lod.total_cmp(&b.lod));
     let lobe = Lobe::new(&lobe);
     Cubemap::from_fn(size, |f, x, y| {
         let nrm = cube::texel_direction(f, x, y, size);
@@ -225,18 +229,10 @@ pub fn prefilter_level_fis(
 /// One level filtered exactly: the same weighted lobe summed over every source texel.
 pub fn prefilter_level_exact(src: &Cubemap, size: usize, roughness: f64, brdf: SpecularBrdf) -> Cubemap {
     let alpha = roughness * roughness;
-    let texels = Texels::from_cube(src);
-    Cubemap::from_fn(size, |f, x, y| {
-        let nrm = cube::texel_direction(f, x, y, size);
-        texels.weighted_mean(|l| {
-            let nol = nrm.dot(l);
-            if nol > 0.0 {
-                brdf.d(nrm.dot((nrm + l).normalize()), alpha) * nol
-            } else {
-                0.0
-            }
-        })
-    })
+    let texels = ZonalSource::from_cube(src);
+    // With n = v the half vector of l is normalize(n + l): n.h = sqrt((1 + n.l) / 2).
+    let lobe = move |c: f64| if c > 0.0 { brdf.d((0.5 * (1.0 + c)).sqrt(), alpha) * c } else { 0.0 };
+    Cubemap::from_fn(size, |f, x, y| texels.mean(cube::texel_direction(f, x, y, size), lobe))
 }
 
 /// The most texel pairs (output texels times source texels) a level is summed exactly over

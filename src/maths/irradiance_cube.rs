@@ -146,6 +146,10 @@ pub fn normalised(acc: [f64; 3], weight: f64) -> [f32; 3] {
 /// The exact irradiance / pi cube map of face size `size`: per texel the cosine-weighted mean
 /// of the map over the hemisphere around its direction.
 pub fn exact(src: &Texels, size: usize) -> Cubemap {
+    if let Texels::Cube { cube: c, .. } = src {
+        let zonal = crate::maths::zonal_sum::ZonalSource::from_cube(c);
+        return Cubemap::from_fn(size, |f, x, y| zonal.mean(cube::texel_direction(f, x, y, size), |c| c));
+    }
     Cubemap::from_fn(size, |f, x, y| {
         let n = cube::texel_direction(f, x, y, size);
         src.weighted_mean(|l| n.dot(l))
@@ -377,6 +381,23 @@ fn deringing_strength(bands: &BandSums, order: usize, min_unwindowed: f64) -> f6
 mod tests {
     use super::*;
     use crate::formats::builtin::builtin;
+
+    /// The exact irradiance from a coarser cube (the bakes sum over their 256 cube halved to
+    /// 64, as they summed over a 64 cube of the map before): on the sky, whose sun is a few
+    /// texels of the 128 cube, the 64 source's RMS relative difference is 2.9e-3 (largest 3.3e-2,
+    /// texels with the sun at their horizon); a 32 source's is 2.0e-2, too coarse for a sun.
+    #[test]
+    fn exact_from_a_coarse_cube_is_close() {
+        use crate::maths::latlong_cube::latlong_to_cube;
+        use crate::maths::resample::{downsample, LatLongSource};
+        let fine = latlong_to_cube(&LatLongSource::new(&builtin("sky").unwrap()), 128);
+        let a = exact(&Texels::from_cube(&fine), 8);
+        let b = exact(&Texels::from_cube(&downsample(&fine)), 8);
+        let rel = a.data.iter().zip(&b.data).map(|(x, y)| ((x - y) / x).abs());
+        let worst = rel.clone().fold(0.0f32, f32::max);
+        let rms = (rel.map(|r| r * r).sum::<f32>() / a.data.len() as f32).sqrt();
+        assert!(rms < 5e-3 && worst < 5e-2, "rms {rms}, largest {worst}");
+    }
 
     #[test]
     fn white_furnace_both_methods() {

@@ -19,15 +19,18 @@
 //!    value times its exact solid angle `dphi (cos theta0 - cos theta1)`; a texel whose corners
 //!    are all outside one plane adds nothing;
 //! 3. a texel that straddles an edge is split in (theta, phi) quadrants (corner directions by
-//!    half-angle rotations of the parent's, no trigonometric calls) while `spread * Omega(cell)
-//!    > tol`, and once more at the top when `spread` exceeds 1% of the texels' largest value,
-//!    where `spread` is the largest channel difference between the texel and its eight
-//!    neighbours and `tol = 1e-7` times the source's integral of its largest channel (the
-//!    generic subdivision's tolerance), down to 1/256 of a texel; a leaf that still straddles
-//!    counts whole if its centre is inside.
+//!    half-angle rotations of the parent's, no trigonometric calls): always while a cell is wider
+//!    than half the cube texel's shortest edge (so that a cube texel smaller than a map texel
+//!    still holds leaf centres); then while `spread * Omega(cell) > tol`, and once more at the
+//!    top when `spread` exceeds 1% of the larger of the two, where `spread` is the largest
+//!    channel difference between the texel and the cube texel's mean (estimated first from the
+//!    texels inside and the straddlers' leaf centres) and `tol = 1e-7` times the source's
+//!    integral of its largest channel (the generic subdivision's tolerance), down to 1/256 of a
+//!    texel; a leaf that still straddles counts whole if its centre is inside.
 //!
-//! Error: a leaf assigned by its centre moves at most its area between two cube texels whose
-//! values differ by at most `spread`, so each leaf's error in a cube texel's integral is below
+//! Error: a leaf assigned by its centre moves at most its area in or out of a cube texel, which
+//! moves the texel's mean by at most `spread` times that area over the texel's, so each leaf's
+//! error in a cube texel's integral is below
 //! `tol` unless the depth limit stopped it, as in the generic subdivision; the texel's weights are
 //! the solid angles it actually gathered, so a constant map stays constant to rounding. A
 //! texel's parallel edges (small circles) are classified by their corners: the sliver by which a
@@ -162,8 +165,8 @@ impl Sum {
     #[inline]
     fn add(&mut self, v: [f32; 3], w: f64) {
         if w > 0.0 {
-            for k in 0..3 {
-                self.acc[k] += v[k] as f64 * w;
+            for (a, c) in self.acc.iter_mut().zip(v) {
+                *a += c as f64 * w;
             }
             self.weight += w;
         }

@@ -41,6 +41,7 @@ pub mod spherical_gaussians;
 pub mod statistics;
 pub mod sun;
 pub mod texel_samples;
+pub mod zonal_sum;
 
 /// Asks the processor to bring `value`'s cache line towards L1 (`prefetcht0`): a hint with no
 /// effect on results. No-op off x86_64.

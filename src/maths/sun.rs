@@ -102,10 +102,17 @@ pub(crate) fn neighbours(x: usize, y: usize, w: usize, h: usize, out: &mut [(usi
 /// Extracts the sun of `env` (see the module documentation). `env` should be finite (the
 /// operator checks); `threshold_stops` is any finite number. Never NaN for finite input.
 pub fn extract_sun(env: &Image, threshold_stops: f64) -> SunExtraction {
+    extract_sun_in_place(env.clone(), threshold_stops)
+}
+
+/// [`extract_sun`] of a map the caller gives up: the residual is `env` itself with the sun's
+/// texels filled, so a 16384 x 8192 map is not held twice (`SunExtract` takes its input when no
+/// other node reads it).
+pub fn extract_sun_in_place(env: Image, threshold_stops: f64) -> SunExtraction {
     let (w, h) = (env.width, env.height);
-    let none = |env: &Image, direction: [f64; 3], level: f64, threshold: f64| SunExtraction {
+    let none = |env: Image, direction: [f64; 3], level: f64, threshold: f64| SunExtraction {
         light: Light::none(direction),
-        residual: env.clone(),
+        residual: env,
         level,
         threshold,
         texels: 0,
@@ -116,7 +123,7 @@ pub fn extract_sun(env: &Image, threshold_stops: f64) -> SunExtraction {
     }
 
     // Luminance per texel (rows in parallel), the brightest texel and the level.
-    let lum = luminances(env);
+    let lum = luminances(&env);
     let brightest = lum.iter().enumerate().fold(0usize, |b, (i, &y)| if y > lum[b] { i } else { b });
     let brightest_dir = latlong::texel_direction(brightest % w, brightest / w, w, h);
     let level = level(&lum, w, h);
@@ -145,7 +152,7 @@ pub fn extract_sun(env: &Image, threshold_stops: f64) -> SunExtraction {
     region.sort_unstable();
 
     // The ring and the fill colour.
-    let cc = colour_channels(env);
+    let cc = colour_channels(&env);
     let mut ring_sum = [0.0f64; 3];
     let mut ring_area = 0.0f64;
     let mut region_min = [f64::INFINITY; 3];
@@ -175,7 +182,7 @@ pub fn extract_sun(env: &Image, threshold_stops: f64) -> SunExtraction {
     let fill = if cc == 1 { [fill[0]; 3] } else { fill };
 
     // The residual, and the light from what was removed.
-    let mut residual = env.clone();
+    let mut residual = env;
     let y_fill = luminance(fill);
     let mut removed = [0.0f64; 3];
     let mut solid_angle = 0.0f64;
@@ -183,7 +190,7 @@ pub fn extract_sun(env: &Image, threshold_stops: f64) -> SunExtraction {
     for &i in &region {
         let (x, y) = (i % w, i / w);
         let d_omega = latlong::texel_solid_angle(y, w, h);
-        let l = env.rgb(x, y);
+        let l = residual.rgb(x, y);
         for ch in 0..3 {
             removed[ch] += (l[ch] as f64 - fill[ch] as f64) * d_omega;
         }

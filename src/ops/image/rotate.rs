@@ -61,9 +61,25 @@ fn check(_: &CheckContext, p: RotateParams<Check>) -> Result<(), CheckProblem> {
 
 fn eval(ctx: &mut OpContext, p: RotateParams) -> Result<Value, OpError> {
     let r = p.rotation().map_err(|e| OpError::Invalid(e.message))?;
+    if p.matrix.is_none() && [p.yaw, p.pitch, p.roll] == [0.0; 3] {
+        if let Some(img) = p.image.value().get::<Image>() {
+            warn_unless_latlong(ctx, "image", img.width, img.height);
+        }
+        // No turn: the map itself (a bake's `turned` node without --yaw).
+        return Ok(p.image.into_value());
+    }
     let v = p.image.value();
     if let Some(img) = v.get::<Image>() {
         warn_unless_latlong(ctx, "image", img.width, img.height);
+        if let Some(k) = r.whole_column_shift(img.width) {
+            // An exact roll of whole columns, in place when no other node reads the map.
+            let mut img = p.image.into_value().take::<Image>().expect("the value is an image");
+            let row_len = img.width * img.channels;
+            for row in img.data.chunks_exact_mut(row_len.max(1)) {
+                row.rotate_left(k * img.channels);
+            }
+            return Ok(Value::new(img));
+        }
         return Ok(Value::new(rotate_latlong(img, r)));
     }
     if let Some(cube) = v.get::<Cubemap>() {

@@ -21,7 +21,7 @@
 use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Outputs};
 use crate::engine::value::Value;
-use crate::maths::sun::extract_sun;
+use crate::maths::sun::extract_sun_in_place;
 use crate::ops::latlong_input::warn_unless_latlong;
 use crate::ops::shading::reference_sphere::check_finite;
 use crate::values::ty::*;
@@ -53,8 +53,9 @@ pub fn spec() -> OpSpec {
 
 fn eval(ctx: &mut OpContext, p: SunExtractParams) -> Result<Outputs, OpError> {
     warn_unless_latlong(ctx, "env", p.env.width, p.env.height);
-    let env = &*p.env;
-    check_finite(env)?;
-    let s = extract_sun(env, p.threshold_stops);
+    check_finite(&p.env)?;
+    // The residual is the map itself with the sun filled: no second copy when no other node
+    // reads the map (else `take` copies it).
+    let s = extract_sun_in_place(p.env.take(), p.threshold_stops);
     Ok(Outputs::new().with("sun", Value::new(s.light)).with("residual", Value::new(s.residual)))
 }
