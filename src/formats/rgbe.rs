@@ -621,16 +621,20 @@ fn encode_row(image: &Image, y: usize, rle: bool, max_value: f64) -> Vec<u8> {
 
 /// Encodes `image` as a Radiance RGBE file, `-Y H +X W` (row 0 at the top), new-style RLE for
 /// widths 8..=32767 and flat scanlines otherwise. 1-channel images are written grey.
-/// Rows are encoded in parallel (rayon) and concatenated.
+/// Rows are encoded in parallel (rayon), a block of rows at a time, and concatenated (so the
+/// encoded rows of a 16384 x 8192 map are not held twice).
 pub fn encode(image: &Image) -> Vec<u8> {
+    const BLOCK_ROWS: usize = 256;
     let (w, h) = (image.width, image.height);
     let mut out = format!("#?RADIANCE\n# Written by hdrflow\nFORMAT=32-bit_rle_rgbe\n\n-Y {h} +X {w}\n").into_bytes();
     let rle = (8..=32767).contains(&w);
     let max_value = max_rgbe_value();
-    let rows: Vec<Vec<u8>> = (0..h).into_par_iter().map(|y| encode_row(image, y, rle, max_value)).collect();
-    out.reserve(rows.iter().map(Vec::len).sum());
-    for r in rows {
-        out.extend_from_slice(&r);
+    for first in (0..h).step_by(BLOCK_ROWS) {
+        let block = first..(first + BLOCK_ROWS).min(h);
+        let rows: Vec<Vec<u8>> = block.into_par_iter().map(|y| encode_row(image, y, rle, max_value)).collect();
+        for r in rows {
+            out.extend_from_slice(&r);
+        }
     }
     out
 }
