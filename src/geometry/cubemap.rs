@@ -113,6 +113,20 @@ pub fn texel_index_of_direction(d: DVec3, size: usize) -> usize {
     (f * size + y) * size + x
 }
 
+/// The texel a seamless lookup reads at (x, y) of face `face`, where x and y may be one texel
+/// beyond the face (-1 or `size`): the face's own texel inside it, else the texel containing the
+/// direction of that position's centre in the face's plane (on a neighbouring face).
+pub fn seamless_texel_index(face: usize, x: i64, y: i64, size: usize) -> usize {
+    let si = size as i64;
+    if (0..si).contains(&x) && (0..si).contains(&y) {
+        (face * size + y as usize) * size + x as usize
+    } else {
+        let ca = (2 * x + 1) as f64 / size as f64 - 1.0;
+        let cb = (2 * y + 1) as f64 / size as f64 - 1.0;
+        texel_index_of_direction(face_direction(face, ca, cb), size)
+    }
+}
+
 /// Unit direction of texel (face, x, y)'s centre.
 #[inline]
 pub fn texel_direction(face: usize, x: usize, y: usize, size: usize) -> DVec3 {

@@ -33,14 +33,7 @@ impl PaddedLevel {
         for f in 0..6 {
             for y in -1..=si {
                 for x in -1..=si {
-                    let t = if (0..si).contains(&x) && (0..si).contains(&y) {
-                        (f * s + y as usize) * s + x as usize
-                    } else {
-                        let ca = (2 * x + 1) as f64 / s as f64 - 1.0;
-                        let cb = (2 * y + 1) as f64 / s as f64 - 1.0;
-                        cube::texel_index_of_direction(cube::face_direction(f, ca, cb), s)
-                    };
-                    data.push(c.texel(t));
+                    data.push(c.texel(cube::seamless_texel_index(f, x, y, s)));
                 }
             }
         }
@@ -300,27 +293,17 @@ fn log2_1_to_3(x: f32) -> f32 {
 mod tests {
     use super::*;
 
-    /// The f64 lookup the kernel replaces: bilinear lookup of a cube map at face point (face, a, b), seamless: a neighbour texel beyond the face's
-    /// edge is read from the adjacent face (the texel containing the direction of that neighbour's
-    /// centre in the face's plane), so lookups are continuous across edges even on 1 x 1 faces.
+    /// The f64 lookup the kernel replaces: bilinear lookup of a cube map at face point (face, a,
+    /// b), seamless (`geometry::cubemap::seamless_texel_index`), so lookups are continuous across
+    /// edges even on 1 x 1 faces.
     fn reference_bilinear(c: &Cubemap, (f, a, b): (usize, f64, f64)) -> [f64; 3] {
         let s = c.size;
-        let si = s as i64;
         let fx = (a + 1.0) * 0.5 * s as f64 - 0.5;
         let fy = (b + 1.0) * 0.5 * s as f64 - 0.5;
         let (x0, y0) = (fx.floor(), fy.floor());
         let (tx, ty) = (fx - x0, fy - y0);
         let (x0, y0) = (x0 as i64, y0 as i64);
-        let at = |x: i64, y: i64| -> [f64; 3] {
-            let t = if (0..si).contains(&x) && (0..si).contains(&y) {
-                (f * s + y as usize) * s + x as usize
-            } else {
-                let ca = (2 * x + 1) as f64 / s as f64 - 1.0;
-                let cb = (2 * y + 1) as f64 / s as f64 - 1.0;
-                cube::texel_index_of_direction(cube::face_direction(f, ca, cb), s)
-            };
-            c.texel(t).map(f64::from)
-        };
+        let at = |x: i64, y: i64| -> [f64; 3] { c.texel(cube::seamless_texel_index(f, x, y, s)).map(f64::from) };
         let (v00, v10, v01, v11) = (at(x0, y0), at(x0 + 1, y0), at(x0, y0 + 1), at(x0 + 1, y0 + 1));
         let mut out = [0.0; 3];
         for k in 0..3 {
