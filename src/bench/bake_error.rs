@@ -17,7 +17,7 @@ use rayon::prelude::*;
 use hdrflow::geometry::cubemap as cube;
 use hdrflow::maths::fis_kernel::PaddedPyramid;
 use hdrflow::maths::ggx::{
-    exact_source_level, points, prefilter_level_exact, prefilter_level_fis, pyramid, LobeSequence,
+    exact_source_level, points, prefilter_level_exact, prefilter_level_fis, pyramid, zonal_lobe, LobeSequence,
 };
 use hdrflow::maths::specular_lobe::SpecularBrdf;
 use hdrflow::maths::zonal_sum::ZonalSource;
@@ -58,8 +58,7 @@ pub fn subset(size: usize, texels_per_level: usize) -> Vec<usize> {
 /// The exact prefiltered value at each texel of `texels` (indices into a level of face size
 /// `size`), roughness `roughness`, from the source's texels.
 pub fn exact_at(src: &ZonalSource, size: usize, roughness: f64, texels: &[usize]) -> Vec<[f32; 3]> {
-    let alpha = roughness * roughness;
-    let lobe = move |c: f64| if c > 0.0 { SpecularBrdf::Ggx.d((0.5 * (1.0 + c)).sqrt(), alpha) * c } else { 0.0 };
+    let lobe = zonal_lobe(SpecularBrdf::Ggx, roughness * roughness);
     texels
         .par_iter()
         .map(|&t| {

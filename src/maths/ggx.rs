@@ -187,11 +187,11 @@ pub fn prefilter_level_fis(
 ) -> Cubemap {
     let alpha = roughness * roughness;
     let s0 = pyr.top_size() as f64;
-    // The solid angle of a texel at a face's centre (texels elsewhere: see `trilinear`).
+    // The solid angle of a texel at a face's centre (texels elsewhere: `maths::fis_kernel`).
     let omega_p = 4.0 / (s0 * s0);
     let n = pts.len() as f64;
     // The samples in the frame n = v = +z: light direction, its cosine, its pyramid level.
-    let lobe: Vec<LobeSample> = pts
+    let mut lobe: Vec<LobeSample> = pts
         .iter()
         .filter_map(|&u| {
             let h = brdf.sample_h(u, alpha);
@@ -209,14 +209,13 @@ pub fn prefilter_level_fis(
             } else if lod.is_nan() {
                 0.0
             } else {
-                lod.clamp(-1e6, 1e6)
+                lod
             };
             Some(LobeSample { l: l.as_vec3(), weight: l.z as f32, lod: lod as f32 })
         })
         .collect();
     // In order of level, so that the reads of one level and of two levels each come in runs (the
     // kernel's per-sample branch is then predicted); the sum's order is fixed either way.
-    let mut lobe = lobe;
     lobe.sort_by(|a, b| a.lod.total_cmp(&b.lod));
     let lobe = Lobe::new(&lobe);
     Cubemap::from_fn(size, |f, x, y| {
@@ -228,11 +227,15 @@ pub fn prefilter_level_fis(
 
 /// One level filtered exactly: the same weighted lobe summed over every source texel.
 pub fn prefilter_level_exact(src: &Cubemap, size: usize, roughness: f64, brdf: SpecularBrdf) -> Cubemap {
-    let alpha = roughness * roughness;
     let texels = ZonalSource::from_cube(src);
-    // With n = v the half vector of l is normalize(n + l): n.h = sqrt((1 + n.l) / 2).
-    let lobe = move |c: f64| if c > 0.0 { brdf.d((0.5 * (1.0 + c)).sqrt(), alpha) * c } else { 0.0 };
+    let lobe = zonal_lobe(brdf, roughness * roughness);
     Cubemap::from_fn(size, |f, x, y| texels.mean(cube::texel_direction(f, x, y, size), lobe))
+}
+
+/// The prefilter's weight `D(h) (n.l)+` as a function of `c = n.l` alone (n = v, so h =
+/// normalize(n + l) and `n.h = sqrt((1 + c) / 2)`): the filter `ZonalSource::mean` sums.
+pub fn zonal_lobe(brdf: SpecularBrdf, alpha: f64) -> impl Fn(f64) -> f64 + Copy {
+    move |c: f64| if c > 0.0 { brdf.d((0.5 * (1.0 + c)).sqrt(), alpha) * c } else { 0.0 }
 }
 
 /// The most texel pairs (output texels times source texels) a level is summed exactly over

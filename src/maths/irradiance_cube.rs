@@ -146,6 +146,8 @@ pub fn normalised(acc: [f64; 3], weight: f64) -> [f32; 3] {
 /// The exact irradiance / pi cube map of face size `size`: per texel the cosine-weighted mean
 /// of the map over the hemisphere around its direction.
 pub fn exact(src: &Texels, size: usize) -> Cubemap {
+    // A cube's texels as arrays, summed in lanes (`maths::zonal_sum`); a lat-long map stays on
+    // `weighted_mean`, which reads it in place (arrays of a 16k map's texels would take 7.5 GB).
     if let Texels::Cube { cube: c, .. } = src {
         let zonal = crate::maths::zonal_sum::ZonalSource::from_cube(c);
         return Cubemap::from_fn(size, |f, x, y| zonal.mean(cube::texel_direction(f, x, y, size), |c| c));

@@ -118,6 +118,15 @@ impl<S: SphereSource> SphereSource for Rotated<'_, S> {
     }
 }
 
+/// Rolls every row of a lat-long image left by `k` columns, in place: the exact rotation by a
+/// yaw of `k` whole columns (`Rotation::whole_column_shift`), column x taking column x + k.
+pub fn roll_columns(img: &mut Image, k: usize) {
+    let row_len = img.width * img.channels;
+    for row in img.data.chunks_exact_mut(row_len.max(1)) {
+        row.rotate_left(k * img.channels);
+    }
+}
+
 /// A lat-long map rotated by `r`, every channel alike, keeping its size and channel names.
 ///
 /// A whole-column yaw is an exact roll of the columns (the same bits). Any other rotation gives
@@ -125,15 +134,10 @@ impl<S: SphereSource> SphereSource for Rotated<'_, S> {
 /// (`resample::to_latlong_precise`, leaves to 1e-9 of the map's magnitude), which keeps the sphere integral
 /// (tested: 1e-4 relative).
 pub fn rotate_latlong(img: &Image, r: Rotation) -> Image {
-    let (w, h, c) = (img.width, img.height, img.channels);
+    let (w, h) = (img.width, img.height);
     if let Some(k) = r.whole_column_shift(w) {
         let mut out = img.clone();
-        for y in 0..h {
-            let row = &img.data[y * w * c..(y + 1) * w * c];
-            let dst = &mut out.data[y * w * c..(y + 1) * w * c];
-            dst[..(w - k) * c].copy_from_slice(&row[k * c..]);
-            dst[(w - k) * c..].copy_from_slice(&row[..k * c]);
-        }
+        roll_columns(&mut out, k);
         return out;
     }
     per_channel_triples(img, w, h, |src| to_latlong_precise(&Rotated::new(src, r), w, h, 1e-9, 12))

@@ -10,7 +10,7 @@ use crate::engine::fields::{AnyValue, Check, Input};
 use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec};
 use crate::engine::value::Value;
 use crate::maths::resample::{to_cube, CubeSource};
-use crate::maths::rotation::{rotate_latlong, Rotated, Rotation};
+use crate::maths::rotation::{roll_columns, rotate_latlong, Rotated, Rotation};
 use crate::ops::latlong_input::warn_unless_latlong;
 use crate::values::ty::*;
 use crate::values::{Cubemap, Image};
@@ -74,10 +74,7 @@ fn eval(ctx: &mut OpContext, p: RotateParams) -> Result<Value, OpError> {
         if let Some(k) = r.whole_column_shift(img.width) {
             // An exact roll of whole columns, in place when no other node reads the map.
             let mut img = p.image.into_value().take::<Image>().expect("the value is an image");
-            let row_len = img.width * img.channels;
-            for row in img.data.chunks_exact_mut(row_len.max(1)) {
-                row.rotate_left(k * img.channels);
-            }
+            roll_columns(&mut img, k);
             return Ok(Value::new(img));
         }
         return Ok(Value::new(rotate_latlong(img, r)));
