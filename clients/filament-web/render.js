@@ -28,7 +28,7 @@
 // not empty (shaders may compile over several frames).
 
 import { read as readKtx2 } from './node_modules/ktx-parse/dist/index.mjs';
-import * as Scene from './scene.js';
+import * as Scene from '../common/scene.js';
 import { getBytes, getJson, log, post, run } from '../common/page.js';
 
 /// The WebGL2 context Filament will use, instrumented: textures allocated with texStorage2D and

@@ -1,5 +1,6 @@
-// The fixed scene, declared once here and written out as scene.json for the test (the same
-// fields as clients/bevy's --geometry, read by tests/bevy_render/scene.rs): six spheres in a row,
+// The fixed scene of the web engine tests (clients/filament-web, clients/khronos-web), declared
+// once here and written out as scene.json for the test (the same fields as clients/bevy's
+// --geometry, read by tests/bevy_render/scene.rs): six spheres in a row,
 // seen by an orthographic camera on +Z looking down -Z with +Y up, 768 x 256 pixels spanning
 // 6 x 2 world units; sphere k (0..6) has centre (k - 2.5, 0, 0) and radius 0.45.
 //
@@ -82,6 +83,13 @@ function uvSphere(radius, segments, rings) {
 
 /// The six spheres as one binary glTF (GLB): one mesh shared by six nodes, one material each.
 export function spheresGlb() {
+    const { gltf, bin } = spheresGltf();
+    return toGlb(gltf, bin);
+}
+
+/// The six spheres as glTF JSON (scene 0: the spheres' nodes 0..6) and its one binary buffer, for
+/// a client to add to (cameras, scenes) before packing it with `toGlb`.
+export function spheresGltf() {
     const mesh = uvSphere(RADIUS, 256, 128);
     const bin = [mesh.positions, mesh.normals, mesh.indices];
     const offsets = [];
@@ -120,6 +128,17 @@ export function spheresGlb() {
             { bufferView: 2, componentType: 5125, count: mesh.indices.length, type: 'SCALAR' },
         ],
     };
+    const bytes = new Uint8Array(length);
+    for (let k = 0; k < bin.length; k++) {
+        bytes.set(new Uint8Array(bin[k].buffer, bin[k].byteOffset, bin[k].byteLength), offsets[k]);
+    }
+    return { gltf, bin: bytes };
+}
+
+/// `gltf` and its binary buffer `bin` as a GLB file (glTF 2.0, section 4.4: a JSON chunk padded
+/// with spaces, a BIN chunk).
+export function toGlb(gltf, bin) {
+    const length = bin.byteLength;
     let json = new TextEncoder().encode(JSON.stringify(gltf));
     const jsonPad = (4 - (json.length % 4)) % 4;
     const jsonChunk = new Uint8Array(json.length + jsonPad).fill(0x20);
@@ -136,9 +155,6 @@ export function spheresGlb() {
     let at = 20 + jsonChunk.length;
     dv.setUint32(at, length, true);
     dv.setUint32(at + 4, 0x004e4942, true); // 'BIN\0'
-    at += 8;
-    for (let k = 0; k < bin.length; k++) {
-        out.set(new Uint8Array(bin[k].buffer, bin[k].byteOffset, bin[k].byteLength), at + offsets[k]);
-    }
+    out.set(bin, at + 8);
     return out;
 }
