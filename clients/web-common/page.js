@@ -1,5 +1,5 @@
 // What every render page of the engine render tests shares (clients/filament-web/render.js,
-// clients/three-web/render.js): the page's log, the test's folder (GET ../work/PATH: job.json,
+// clients/three-web/render.js, clients/khronos-web/render.js): the page's log, the test's folder (GET ../work/PATH: job.json,
 // the bakes), the results (POST ../result/NAME), and the page's end: `data-status` on the body is
 // "done" once main() has posted its report.json, or "failed" after the error is posted as
 // `{ "fatal", "stack" }` in its place. Served at /common/ beside each client's /app/ by the
