@@ -146,7 +146,7 @@ fn three_shows_the_marker_map_as_a_360_viewer_does_and_each_mistake_fails() {
     let dirs = [
         ("good", bake(&sandbox, &plain, "good", &[])),
         ("yaw", bake(&sandbox, &plain, "yaw", &["--yaw", "-90"])),
-        ("unturned", bake(&sandbox, &plain, "unturned", &["--set", "for_three.yaw=0"])),
+        ("unturned", bake(&sandbox, &plain, "unturned", &["--set", "for_three.yaw=0", "--set", "sh.yaw=0"])),
         ("mirrored", bake(&sandbox, &mirrored, "mirrored", &[])),
     ];
     let file = |dir: &str| {

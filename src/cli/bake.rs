@@ -241,8 +241,9 @@ fn targets(p: &Pipeline, sun: SunArg) -> Vec<String> {
         .filter(|&i| p.nodes[i].writes_file() && !(sun == SunArg::Keep && from_sun(i)))
         .map(|i| p.nodes[i].name.clone())
         .collect();
+    // The light only (`sun.sun`): naming the node would keep its residual map to the end.
     if let (SunArg::Extract, Some(i)) = (sun, sun_node) {
-        out.push(p.nodes[i].name.clone());
+        out.push(format!("{}.sun", p.nodes[i].name));
     }
     out
 }

@@ -348,11 +348,20 @@ pub fn lambert_coefficient(l: usize) -> f64 {
 /// texels (midpoint solid angle), f64, rows in parallel, deterministic (see the module
 /// documentation). An empty map gives zeros; non-finite texels give non-finite coefficients.
 pub fn project(env: &Image, order: usize, frame: ShFrame) -> Vec<[f64; 3]> {
-    from_latlong(&project_latlong(env, order), order, frame)
+    project_turned(env, order, frame, 0.0)
 }
 
-/// [`project`] in the `LatLong` frame: one Fourier sum per row.
-fn project_latlong(env: &Image, order: usize) -> Vec<[f64; 3]> {
+/// [`project`] of `env` turned by `yaw` degrees about +Y as `Rotate(yaw)` turns it (`maths::rotation`),
+/// without turning it: `L_lm = sum_texels L(d) Y_lm(R_y(yaw) d) dOmega`. A yaw about +Y is a shift
+/// of the lat-long azimuth, so each texel's basis is evaluated at `phi - yaw` (exact for any angle;
+/// for a whole-column yaw it equals the projection of the rolled map to summation order, tested).
+pub fn project_turned(env: &Image, order: usize, frame: ShFrame, yaw: f64) -> Vec<[f64; 3]> {
+    from_latlong(&project_latlong(env, order, -yaw.to_radians()), order, frame)
+}
+
+/// [`project`] in the `LatLong` frame, each column's azimuth shifted by `phi_shift` (radians): one
+/// Fourier sum per row.
+fn project_latlong(env: &Image, order: usize, phi_shift: f64) -> Vec<[f64; 3]> {
     let count = sh_count(order);
     let (w, h) = (env.width, env.height);
     if w == 0 || h == 0 {
@@ -361,7 +370,7 @@ fn project_latlong(env: &Image, order: usize) -> Vec<[f64; 3]> {
     // cos(m phi_x), sin(m phi_x) for every column and 0 <= m <= order.
     let trig: Vec<(f64, f64)> = (0..w)
         .flat_map(|x| {
-            let phi = latlong::phi_of_column(x, w);
+            let phi = latlong::phi_of_column(x, w) + phi_shift;
             (0..=order).map(move |m| {
                 let (s, c) = (m as f64 * phi).sin_cos();
                 (c, s)
@@ -453,7 +462,7 @@ pub fn sh_sphere(env: &Image, view: &SphereView, albedo: [f64; 3], order: usize)
         return image;
     }
     let count = sh_count(order);
-    let coeffs = project_latlong(env, order);
+    let coeffs = project_latlong(env, order, 0.0);
     // Fold A_l and albedo / pi into the coefficients once.
     let k: Vec<[f64; 3]> = coeffs
         .iter()
@@ -500,6 +509,40 @@ mod tests {
         let r = (1.0 - z * z).max(0.0).sqrt();
         let phi = 2.0 * PI * rng.next_f64();
         [r * phi.cos(), r * phi.sin(), z]
+    }
+
+    /// A yaw is a shift of the azimuth: turning the coefficients equals turning the map. For a
+    /// whole-column yaw the rolled map's projection agrees to summation order; for any yaw the
+    /// l = 1 band (proportional to `sum L d dOmega`, (y, z, x) in `World`) turns with R_y(yaw), and
+    /// each band's energy `sum_m L_lm^2` is unchanged.
+    #[test]
+    fn a_turned_projection_is_the_projection_of_the_turned_map() {
+        use crate::maths::rotation::{rotate_latlong, Rotation};
+        let env = map(64, 32, |d| [1.0 + d[0] + 0.5 * d[1] * d[2], (3.0 * d[2]).exp(), 2.0 + d[0] * d[0] - d[1]]);
+        for yaw in [90.0, -90.0, 180.0, 33.75] {
+            let turned = project_turned(&env, 4, ShFrame::World, yaw);
+            let r = Rotation::from_yaw_pitch_roll(yaw, 0.0, 0.0);
+            if r.whole_column_shift(env.width).is_some() {
+                let rolled = project(&rotate_latlong(&env, r), 4, ShFrame::World);
+                for (a, b) in turned.iter().zip(&rolled) {
+                    for ch in 0..3 {
+                        assert!((a[ch] - b[ch]).abs() < 1e-9 * (1.0 + b[ch].abs()), "yaw {yaw}: {a:?} vs {b:?}");
+                    }
+                }
+            }
+            let plain = project(&env, 4, ShFrame::World);
+            for ch in 0..3 {
+                let v = |c: &[[f64; 3]]| glam::DVec3::new(c[3][ch], c[1][ch], c[2][ch]);
+                let want = r.0 * v(&plain);
+                assert!((v(&turned) - want).length() < 1e-9 * (1.0 + want.length()), "yaw {yaw}: l = 1 band");
+                for l in 0..=4usize {
+                    let band = |c: &[[f64; 3]]| {
+                        (-(l as isize)..=l as isize).map(|m| c[sh_index(l, m)][ch].powi(2)).sum::<f64>()
+                    };
+                    assert!((band(&turned) - band(&plain)).abs() < 1e-9 * (1.0 + band(&plain)), "yaw {yaw}: band {l}");
+                }
+            }
+        }
     }
 
     #[test]

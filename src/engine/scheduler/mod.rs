@@ -191,7 +191,8 @@ fn run_in_pool(p: &Pipeline, options: &RunOptions) -> Result<RunOutcome, RunErro
     for &i in &targets {
         is_target[i] = true;
     }
-    let slots: Vec<Vec<Slot>> = release_counts(p, &is_compute, &is_target)
+    let kept = plan::kept_ports(p, &options.targets, &targets);
+    let slots: Vec<Vec<Slot>> = release_counts(p, &is_compute, &kept)
         .into_iter()
         .map(|ports| {
             ports.into_iter().map(|c| Slot { value: Mutex::new(None), remaining: AtomicUsize::new(c) }).collect()
@@ -280,7 +281,7 @@ mod tests {
 
     use super::*;
     use crate::engine::fields::Input;
-    use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
+    use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Outputs};
     use crate::engine::registry::Registry;
     use crate::values::ty::IMAGE_T;
     use crate::values::Image;
@@ -335,6 +336,11 @@ mod tests {
         Ok(Value::new(Image::new(1, 1, 3)))
     }
 
+    /// Two ports: `image` (width 8) and `small` (width 1).
+    fn two(_: &mut OpContext, _: SrcParams) -> Result<Outputs, OpError> {
+        Ok(Outputs::new().with("image", Value::new(Image::new(8, 1, 3))).with("small", Value::new(Image::new(1, 1, 3))))
+    }
+
     fn pipeline(text: &str) -> Pipeline {
         let mut r = Registry::empty();
         crate::values::register_all(&mut r);
@@ -345,6 +351,12 @@ mod tests {
             OpSpec::new("Pass", "test", 1, "reads x and y")
                 .output("image", OutputType::Fixed(IMAGE_T), "it")
                 .eval(pass),
+        );
+        r.register(
+            OpSpec::new("Two", "test", 1, "two images")
+                .output("image", OutputType::Fixed(IMAGE_T), "the first")
+                .output("small", OutputType::Fixed(IMAGE_T), "the second")
+                .eval(two),
         );
         r.register(
             OpSpec::new("Release", "test", 1, "hands x back first")
@@ -389,15 +401,32 @@ mod tests {
         let idx = |name: &str| p.nodes.iter().position(|n| n.name == name).unwrap();
         let mut is_compute = vec![true; p.nodes.len()];
         is_compute[idx("d")] = false; // as if served from the cache
-        let mut is_target = vec![false; p.nodes.len()];
-        is_target[idx("b")] = true;
-        is_target[idx("d")] = true;
-        let counts = release_counts(&p, &is_compute, &is_target);
+        let kept = plan::kept_ports(&p, &["b".into(), "d".into()], &[idx("b"), idx("d")]);
+        let counts = release_counts(&p, &is_compute, &kept);
         assert_eq!(counts[idx("a")], [3]);
         assert_eq!(counts[idx("b")], [1]);
         assert_eq!(counts[idx("c")], [0], "its only consumer is not computed");
         assert_eq!(counts[idx("d")], [1]);
         assert_eq!(counts[idx("e")], [0]);
+    }
+
+    /// A `node.port` target keeps only that port for the caller: the node's other port goes to its
+    /// last consumer, which gets the buffer itself; naming the node keeps every port, and the
+    /// consumer gets a copy.
+    #[test]
+    fn a_port_target_keeps_only_its_port() {
+        let p = pipeline(
+            r#"(nodes: { "two_a": Two(), "pass_a": Pass(x: "two_a"), "two_b": Two(), "pass_b": Pass(x: "two_b") })"#,
+        );
+        let obs = Events::default();
+        let out = run_one_thread(&p, &["two_a.small", "pass_a"], &obs);
+        assert!(out.values.contains_key("two_a.small") && !out.values.contains_key("two_a"), "{:?}", out.values.keys());
+        let out = run_one_thread(&p, &["two_b", "pass_b"], &obs);
+        assert!(out.values.contains_key("two_b") && out.values.contains_key("two_b.small"));
+        let owned = OWNED.lock().unwrap();
+        let of = |name: &str| owned.iter().find(|(n, _)| n == name).map(|(_, o)| o[0]);
+        assert_eq!(of("pass_a"), Some(true), "the unkept port's buffer moves to its consumer");
+        assert_eq!(of("pass_b"), Some(false), "a kept port is copied for its consumer");
     }
 
     /// A node starts only after every input has finished; of two nodes made ready at once, the

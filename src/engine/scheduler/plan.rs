@@ -36,6 +36,30 @@ pub(super) fn resolve_targets(p: &Pipeline, targets: &[String]) -> Result<Vec<us
         .collect()
 }
 
+/// Per node and port, whether the caller keeps that port's value at the end of the run: every port
+/// of a node named as a target (or of a default target), only the named port of a `node.port`
+/// target (a node with open ports keeps them all), so that a port the caller does not want is
+/// released to its last consumer (which may then reuse its buffer) instead of being held to the end.
+pub(super) fn kept_ports(p: &Pipeline, names: &[String], targets: &[usize]) -> Vec<Vec<bool>> {
+    let mut kept: Vec<Vec<bool>> = p.nodes.iter().map(|n| vec![false; n.ports.len()]).collect();
+    let whole = |kept: &mut Vec<Vec<bool>>, i: usize| kept[i].iter_mut().for_each(|k| *k = true);
+    if names.is_empty() {
+        targets.iter().for_each(|&i| whole(&mut kept, i));
+        return kept;
+    }
+    for (name, &i) in names.iter().zip(targets) {
+        let port = match p.index_of(name) {
+            Some(_) => None,
+            None => name.rsplit_once('.').and_then(|(_, port)| p.nodes[i].ports.iter().position(|q| q.name == port)),
+        };
+        match port {
+            Some(k) if p.nodes[i].spec.open_ports.is_none() => kept[i][k] = true,
+            _ => whole(&mut kept, i),
+        }
+    }
+    kept
+}
+
 /// Marks every ancestor of `targets` (inclusive), stopping at provided nodes (their value
 /// needs none of their inputs).
 fn ancestors(p: &Pipeline, targets: &[usize]) -> Vec<bool> {

@@ -36,11 +36,11 @@ pub(super) struct Timing {
 
 /// The release counts: per node and port, the consumers that will take its value (one per
 /// input edge of a computed node, so a node reading a port twice counts twice), plus one if
-/// the node is a target (the caller takes its values at the end). A port whose count is 0 is
-/// dropped as soon as it is produced.
-pub(super) fn release_counts(p: &Pipeline, is_compute: &[bool], is_target: &[bool]) -> Vec<Vec<usize>> {
+/// the caller keeps the port (`kept`: it takes those values at the end). A port whose count is 0
+/// is dropped as soon as it is produced.
+pub(super) fn release_counts(p: &Pipeline, is_compute: &[bool], kept: &[Vec<bool>]) -> Vec<Vec<usize>> {
     let mut counts: Vec<Vec<usize>> =
-        p.nodes.iter().enumerate().map(|(i, node)| vec![usize::from(is_target[i]); node.ports.len()]).collect();
+        kept.iter().map(|ports| ports.iter().map(|&k| usize::from(k)).collect()).collect();
     for (i, node) in p.nodes.iter().enumerate() {
         if is_compute[i] {
             for s in node.sources() {

@@ -19,6 +19,11 @@
 //! `--sh-shader` form; bands past `order` are 0; `maths::sh_filament`), saved as cmgen's `sh.txt`
 //! (`.txt`) or `.json`. Use `frame: World` for Filament's world.
 //!
+//! `yaw` gives the coefficients of the map turned about +Y as `Rotate(yaw)` would turn it, without
+//! turning it (`maths::sh::project_turned`: a shift of the azimuth): the SH of rotation
+//! augmentations, or of a map some other node has turned (the three.js preset reads its turned map
+//! and turns it back).
+//!
 //! Version 2: the `frame` field (version 1 always used `LatLong`), the `sh coefficients` type on
 //! the default port, and the `metrics` port.
 
@@ -26,7 +31,7 @@ use super::reference_sphere::check_finite;
 use crate::engine::fields::Input;
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Outputs};
 use crate::engine::value::Value;
-use crate::maths::sh::{coefficient_name, project, sh_lm};
+use crate::maths::sh::{coefficient_name, project_turned, sh_lm};
 use crate::maths::sh_filament::prescaled;
 use crate::ops::latlong_input::warn_unless_latlong;
 use crate::values::ty::*;
@@ -43,6 +48,9 @@ crate::params! {
         pub order: usize = 2,
         /// axes of the basis: World (X, Y up, Z: three.js, Filament), Paper (X, Y, -Z: Ramamoorthi-Hanrahan for a Debevec probe), LatLong (Z, -X, Y: version 1)
         pub frame: ShFrame = ShFrame::World,
+        /// degrees about +Y: the coefficients of the map turned as Rotate(yaw) turns it, without turning it (exact for any angle)
+        #[range(-3600.0, 3600.0)]
+        pub yaw: f64 = 0.0,
     }
 }
 
@@ -72,7 +80,7 @@ fn eval(ctx: &mut OpContext, p: ShIrradianceParams) -> Result<Outputs, OpError> 
     warn_unless_latlong(ctx, "env", p.env.width, p.env.height);
     let env = &*p.env;
     check_finite(env)?;
-    let rgb = project(env, p.order, p.frame);
+    let rgb = project_turned(env, p.order, p.frame, p.yaw);
     let mut fields = Vec::with_capacity(rgb.len() * 3);
     for (i, c) in rgb.iter().enumerate() {
         let (l, m) = sh_lm(i);
