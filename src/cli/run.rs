@@ -20,8 +20,9 @@ pub(super) struct RunArgs {
     /// Output folder for Save nodes.
     #[arg(long, default_value = "out")]
     pub(super) out: PathBuf,
-    /// Evaluate only these nodes and what they need (repeatable). Default: every Save node and
-    /// every node nothing consumes.
+    /// Evaluate only these nodes and what they need (repeatable); NODE.PORT keeps only that port's
+    /// value to the end (the node's other ports go to their consumers). Default: every Save node
+    /// and every node nothing consumes.
     #[arg(long = "target", value_name = "NODE")]
     pub(super) targets: Vec<String>,
     /// Cache folder (default: $HDRFLOW_CACHE_DIR, $XDG_CACHE_HOME/hdrflow or ~/.cache/hdrflow).
