@@ -137,12 +137,9 @@ pub fn charlie_lut_texel(nov: f64, roughness: f64, pts: &[[f64; 2]]) -> f64 {
 pub fn charlie_lut(size: usize, samples: usize) -> Image {
     let pts = points(LobeSequence::Hammersley, samples);
     let mut data = vec![0.0f32; size * size * 3];
+    // Row by row, each texel as `charlie_lut_texel` computes it (`maths::lut_rows`).
     data.par_chunks_mut(3 * size).enumerate().for_each(|(y, row)| {
-        let rough = (y as f64 + 0.5) / size as f64;
-        for x in 0..size {
-            let nov = (x as f64 + 0.5) / size as f64;
-            row[3 * x + 2] = charlie_lut_texel(nov, rough, &pts) as f32;
-        }
+        crate::maths::lut_rows::charlie_row((y as f64 + 0.5) / size as f64, &pts, row);
     });
     Image::with_names(size, size, vec!["R".into(), "G".into(), "B".into()], data)
 }

@@ -133,14 +133,9 @@ pub fn dfg(nov: f64, roughness: f64, pts: &[[f64; 2]], multiscatter: bool) -> [f
 pub fn brdf_lut(size: usize, samples: usize, seq: LobeSequence, multiscatter: bool) -> Image {
     let pts = points(seq, samples);
     let mut data = vec![0.0f32; size * size * 2];
+    // Row by row, each texel as `dfg` computes it (`maths::lut_rows`).
     data.par_chunks_mut(2 * size).enumerate().for_each(|(y, row)| {
-        let rough = (y as f64 + 0.5) / size as f64;
-        for x in 0..size {
-            let nov = (x as f64 + 0.5) / size as f64;
-            let v = dfg(nov, rough, &pts, multiscatter);
-            row[2 * x] = v[0] as f32;
-            row[2 * x + 1] = v[1] as f32;
-        }
+        crate::maths::lut_rows::dfg_row((y as f64 + 0.5) / size as f64, &pts, multiscatter, row);
     });
     Image::with_names(size, size, vec!["R".into(), "G".into()], data)
 }
