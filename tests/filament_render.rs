@@ -23,6 +23,7 @@
 mod common;
 #[path = "filament_render/reference.rs"]
 mod filament_reference;
+#[allow(dead_code)]
 #[path = "common/markers.rs"]
 mod markers;
 #[path = "filament_render/mistakes.rs"]

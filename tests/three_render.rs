@@ -49,7 +49,6 @@ use std::time::Duration;
 
 use glam::DVec3;
 use hdrflow::values::Image;
-use markers::SkyCamera;
 use reference::{relative_rmse, sphere_reference, Map};
 use scene::{Geometry, Sphere};
 use serde_json::{json, Value as Json};
@@ -169,36 +168,17 @@ fn three_shows_the_marker_map_as_a_360_viewer_does_and_each_mistake_fails() {
         .collect();
     let page = run_page(browser, &sandbox, "markers", &json!({ "renders": renders }));
 
-    let mut wrong = Vec::new();
-    let mut missed = Vec::new();
-    for v in &views {
-        let map = &page.render_report(v.name)["map"];
-        assert_eq!((&map["width"], &map["height"]), (&json!(1024), &json!(512)), "{}: {map}", v.name);
-        let img = page.frame(v.name, SKY_SIZE, SKY_SIZE);
-        // The grey between the markers, in the map's units: linear output, intensity 1.
-        let corner = &img.data[..3];
-        assert!(corner.iter().all(|c| (c - markers::BACKGROUND).abs() < 0.002), "{}: background {corner:?}", v.name);
-        let camera = SkyCamera { forward: v.forward, size: SKY_SIZE };
-        let off = markers::check_markers(v.name, &img, &camera, v.yaw, MARKER_TOLERANCE);
-        match (v.mistake, off.is_empty()) {
-            (false, false) => wrong.extend(off),
-            (true, true) => missed.push(format!("{}: every marker in place", v.name)),
-            _ => {}
-        }
-    }
-    // The mirrored map keeps its centre and up, and swaps left and right.
-    let seen = markers::find_markers(
-        &page.frame("mirrored_front", SKY_SIZE, SKY_SIZE),
-        &SkyCamera { forward: DVec3::NEG_Z, size: SKY_SIZE },
-        0.0,
-    );
-    let (left, right) = (&seen[1], &seen[2]);
-    let swapped = |a: &markers::Seen, b: &markers::Seen| {
-        a.found.zip(b.expected).is_some_and(|(f, e)| (f.0 - e.0).hypot(f.1 - e.1) < MARKER_TOLERANCE)
-    };
-    assert!(swapped(left, right) && swapped(right, left), "the mirrored map does not just swap left and right");
-    assert!(wrong.is_empty(), "the markers are not where a 360-degree viewer puts them:\n{}", wrong.join("\n"));
-    assert!(missed.is_empty(), "mistakes the check did not catch:\n{}", missed.join("\n"));
+    let seen: Vec<markers::View> = views
+        .iter()
+        .map(|v| {
+            let map = &page.render_report(v.name)["map"];
+            assert_eq!((&map["width"], &map["height"]), (&json!(1024), &json!(512)), "{}: {map}", v.name);
+            // In the map's units: linear output, intensity 1.
+            let img = page.frame(v.name, SKY_SIZE, SKY_SIZE);
+            markers::View { name: v.name, img, forward: v.forward, yaw: v.yaw, mistake: v.mistake }
+        })
+        .collect();
+    markers::assert_views(&seen, "mirrored_front", MARKER_TOLERANCE);
 }
 
 /// The probe scene: one white sphere at the origin.

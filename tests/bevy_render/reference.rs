@@ -53,7 +53,8 @@ impl Map {
     }
 }
 
-fn lookup(env: &Image, d: DVec3) -> [f64; 3] {
+/// A bilinear lookup of the lat-long map in direction `d`, as RGB (grey for one channel).
+pub fn lookup(env: &Image, d: DVec3) -> [f64; 3] {
     let mut out = vec![0.0; env.channels];
     bilinear::latlong(env, d, &mut out);
     if env.channels < 3 {

@@ -163,6 +163,43 @@ pub fn check_markers(label: &str, img: &Image, camera: &SkyCamera, yaw: f64, tol
     wrong
 }
 
+/// A sky view of the marker map an engine rendered, in the map's units.
+pub struct View<'a> {
+    pub name: &'a str,
+    pub img: Image,
+    pub forward: DVec3,
+    /// the yaw whose markers it must show
+    pub yaw: f64,
+    /// a deliberate mistake: the view must not show every marker in place
+    pub mistake: bool,
+}
+
+/// The orientation check of a set of views: each shows the map's grey between the markers and
+/// its markers within `tolerance` pixels of where a 360-degree viewer puts them (a mistake must
+/// not), and the view named `mirrored` (a mirrored map, looking along -Z, yaw 0) swaps left and
+/// right and nothing else. Panics with every marker out of place.
+pub fn assert_views(views: &[View], mirrored: &str, tolerance: f64) {
+    let (mut wrong, mut missed) = (Vec::new(), Vec::new());
+    for v in views {
+        let corner = &v.img.data[..3];
+        assert!(corner.iter().all(|c| (c - BACKGROUND).abs() < 0.002), "{}: background {corner:?}", v.name);
+        let camera = SkyCamera { forward: v.forward, size: v.img.width };
+        let off = check_markers(v.name, &v.img, &camera, v.yaw, tolerance);
+        match (v.mistake, off.is_empty()) {
+            (false, false) => wrong.extend(off),
+            (true, true) => missed.push(format!("{}: every marker in place", v.name)),
+            _ => {}
+        }
+    }
+    let m = views.iter().find(|v| v.name == mirrored).expect("the mirrored view");
+    let seen = find_markers(&m.img, &SkyCamera { forward: DVec3::NEG_Z, size: m.img.width }, 0.0);
+    let near =
+        |a: &Seen, b: &Seen| a.found.zip(b.expected).is_some_and(|(f, e)| (f.0 - e.0).hypot(f.1 - e.1) < tolerance);
+    assert!(near(&seen[1], &seen[2]) && near(&seen[2], &seen[1]), "the mirrored map does not just swap left and right");
+    assert!(wrong.is_empty(), "the markers are not where a 360-degree viewer puts them:\n{}", wrong.join("\n"));
+    assert!(missed.is_empty(), "mistakes the check did not catch:\n{}", missed.join("\n"));
+}
+
 #[test]
 fn the_markers_sit_where_hdrflow_puts_their_directions() {
     // The orientation map's own check: each marker is brightest at its direction's texel.

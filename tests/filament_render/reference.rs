@@ -42,15 +42,13 @@
 use std::f64::consts::PI;
 
 use glam::DVec3;
-use hdrflow::maths::bilinear;
 use hdrflow::maths::ggx::{dfg, points, LobeSequence};
 use hdrflow::maths::ggx_reference::{prefiltered, specular};
 use hdrflow::maths::irradiance_cube::Texels;
 use hdrflow::maths::reference::irradiance_exact;
-use hdrflow::values::Image;
 use rayon::prelude::*;
 
-use super::reference::Map;
+use super::reference::{lookup, Map};
 use super::scene::{Geometry, Sphere};
 
 /// The chain's levels (cmgen's 256 down to 16).
@@ -85,16 +83,6 @@ pub fn shaded_roughness(roughness: f64, n: DVec3, radius: f64, pixel_size: f64) 
     let kernel = (2.0 * variance * slope).min(threshold * threshold);
     let alpha2 = (roughness.powi(4) + kernel).clamp(0.0, 1.0);
     alpha2.powf(0.25).clamp(MIN_PERCEPTUAL_ROUGHNESS, 1.0)
-}
-
-fn lookup(env: &Image, d: DVec3) -> [f64; 3] {
-    let mut out = vec![0.0; env.channels];
-    bilinear::latlong(env, d, &mut out);
-    if env.channels < 3 {
-        [out[0]; 3]
-    } else {
-        [out[0], out[1], out[2]]
-    }
 }
 
 /// The exact content of chain level `k` in each direction of `dirs`.

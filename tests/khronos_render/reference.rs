@@ -38,15 +38,13 @@ use std::f64::consts::PI;
 
 use glam::DVec3;
 use hdrflow::geometry::cubemap as cube;
-use hdrflow::maths::bilinear;
 use hdrflow::maths::ggx::{dfg, points, LobeSequence};
 use hdrflow::maths::ggx_reference::{prefiltered, specular};
 use hdrflow::maths::irradiance_cube::Texels;
 use hdrflow::maths::reference::irradiance_exact;
-use hdrflow::values::Image;
 use rayon::prelude::*;
 
-use super::reference::Map;
+use super::reference::{lookup, Map};
 use super::scene::Sphere;
 
 /// F0 of a glTF dielectric (IOR 1.5).
@@ -57,16 +55,6 @@ pub struct SphereReference {
     pub pixels: Vec<usize>,
     pub engine: Vec<[f64; 3]>,
     pub exact: Vec<[f64; 3]>,
-}
-
-fn lookup(env: &Image, d: DVec3) -> [f64; 3] {
-    let mut out = vec![0.0; env.channels];
-    bilinear::latlong(env, d, &mut out);
-    if env.channels < 3 {
-        [out[0]; 3]
-    } else {
-        [out[0], out[1], out[2]]
-    }
 }
 
 /// A bake's specular chain: its level 0 face size and level count (down to 1 x 1).
