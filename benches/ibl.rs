@@ -21,8 +21,9 @@
 use std::path::Path;
 use std::time::Instant;
 
-use hdrflow::maths::ggx::{brdf_lut, prefilter, LobeSequence};
+use hdrflow::maths::ggx::{prefilter, LobeSequence};
 use hdrflow::maths::irradiance_cube::{exact, from_sh, project_latlong, ShWindow, Texels};
+use hdrflow::maths::luts::brdf_lut;
 use hdrflow::maths::resample::{cube_integral, latlong_integral, to_cube, to_latlong, CubeSource, LatLongSource};
 use hdrflow::values::{Cubemap, Image};
 

@@ -9,8 +9,9 @@ use std::f64::consts::PI;
 use glam::DVec3;
 use hdrflow::formats::builtin::builtin;
 use hdrflow::geometry::cubemap as cube;
-use hdrflow::maths::ggx::{brdf_lut, prefilter, LobeSequence};
+use hdrflow::maths::ggx::{prefilter, LobeSequence};
 use hdrflow::maths::irradiance_cube::{exact, from_sh, project_cube, project_latlong, ShWindow, Texels};
+use hdrflow::maths::luts::brdf_lut;
 use hdrflow::maths::resample::{cube_integral, latlong_integral, to_cube, to_latlong, CubeSource, LatLongSource};
 use hdrflow::values::{Cubemap, Image};
 

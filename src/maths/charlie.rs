@@ -91,12 +91,8 @@
 
 use std::f64::consts::PI;
 
-use glam::DVec3;
-use rayon::prelude::*;
-
-use crate::maths::ggx::{points, LobeSequence};
 use crate::maths::specular_lobe::SpecularBrdf;
-use crate::values::Image;
+use glam::DVec3;
 
 /// Ashikhmin's visibility as glTF-IBL-Sampler's `V_Ashikhmin` (Filament's `visibilityAshikhmin`):
 /// `clamp(1 / (4 (n.l + n.v - n.l n.v)), 0, 1)`.
@@ -131,22 +127,10 @@ pub fn charlie_lut_texel(nov: f64, roughness: f64, pts: &[[f64; 2]]) -> f64 {
     8.0 * PI * c / pts.len().max(1) as f64
 }
 
-/// The size x size Charlie LUT: column x is `n.v = (x + 0.5) / size`, row y (row 0 at the top) is
-/// the sheen roughness `(y + 0.5) / size`; channels `R`, `G`, `B` = (0, 0, LUT), as
-/// glTF-IBL-Sampler writes it and the viewer reads `.b`; `samples` Hammersley points.
-pub fn charlie_lut(size: usize, samples: usize) -> Image {
-    let pts = points(LobeSequence::Hammersley, samples);
-    let mut data = vec![0.0f32; size * size * 3];
-    // Row by row, each texel as `charlie_lut_texel` computes it (`maths::lut_rows`).
-    data.par_chunks_mut(3 * size).enumerate().for_each(|(y, row)| {
-        crate::maths::lut_rows::charlie_row((y as f64 + 0.5) / size as f64, &pts, row);
-    });
-    Image::with_names(size, size, vec!["R".into(), "G".into(), "B".into()], data)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::maths::ggx::{points, LobeSequence};
 
     /// `D(h; a)` from the formula, apart from the estimator's code.
     fn d(sin_t: f64, a: f64) -> f64 {
@@ -214,25 +198,5 @@ mod tests {
             assert_eq!(charlie_lut_texel(nov, 1e-3, &pts), 0.0, "n.v {nov}");
         }
         assert!(charlie_lut_texel(0.002, 1e-3, &pts) > 0.0);
-    }
-
-    /// The 128 x 128 table of 1024 samples (the khronos bake's default): R = G = 0, B finite, not
-    /// negative, above 1 only in the grazing, low-roughness corner (n.v < 0.13, r < 0.36: what a
-    /// 16-bit or 8-bit PNG clamps), never above 2.5.
-    #[test]
-    fn values_above_one_stay_in_the_grazing_low_roughness_corner() {
-        let lut = charlie_lut(128, 1024);
-        assert_eq!(lut.names, ["R", "G", "B"]);
-        let mut over = 0;
-        for (i, px) in lut.data.chunks_exact(3).enumerate() {
-            let (x, y) = (i % 128, i / 128);
-            assert_eq!((px[0], px[1]), (0.0, 0.0));
-            assert!(px[2].is_finite() && px[2] >= 0.0 && px[2] < 2.5, "({x}, {y}): {}", px[2]);
-            if px[2] > 1.0 {
-                over += 1;
-                assert!(x <= 16 && y <= 45, "({x}, {y}): {}", px[2]);
-            }
-        }
-        assert!(over > 0 && over < 600, "{over} texels above 1");
     }
 }

@@ -38,7 +38,6 @@
 use std::f64::consts::PI;
 
 use glam::DVec3;
-use rayon::prelude::*;
 
 use crate::geometry::cubemap as cube;
 use crate::maths::fis_kernel::{Lobe, LobeSample, PaddedPyramid};
@@ -46,7 +45,7 @@ use crate::maths::resample::downsample;
 use crate::maths::sequences::{radical_inverse, sobol_2d};
 use crate::maths::specular_lobe::SpecularBrdf;
 use crate::maths::zonal_sum::ZonalSource;
-use crate::values::{Cubemap, Image, MipChain};
+use crate::values::{Cubemap, MipChain};
 
 crate::choice! {
     /// The low-discrepancy points the lobe is sampled with.
@@ -125,19 +124,6 @@ pub fn dfg(nov: f64, roughness: f64, pts: &[[f64; 2]], multiscatter: bool) -> [f
     }
     let n = pts.len().max(1) as f64;
     [x / n, y / n]
-}
-
-/// The size x size DFG texture: column x is `n.v = (x + 0.5) / size`, row y (row 0 at the top) is
-/// perceptual roughness `(y + 0.5) / size`; channels `R`, `G` = (scale, bias), or (`E[Fc Gv]`,
-/// `E[Gv]`) with `multiscatter`.
-pub fn brdf_lut(size: usize, samples: usize, seq: LobeSequence, multiscatter: bool) -> Image {
-    let pts = points(seq, samples);
-    let mut data = vec![0.0f32; size * size * 2];
-    // Row by row, each texel as `dfg` computes it (`maths::lut_rows`).
-    data.par_chunks_mut(2 * size).enumerate().for_each(|(y, row)| {
-        crate::maths::lut_rows::dfg_row((y as f64 + 0.5) / size as f64, &pts, multiscatter, row);
-    });
-    Image::with_names(size, size, vec!["R".into(), "G".into()], data)
 }
 
 /// An orthonormal basis (t, b) around unit n (Duff et al., "Building an Orthonormal Basis,
@@ -307,14 +293,7 @@ mod tests {
     use crate::maths::resample::{to_cube, LatLongSource};
 
     #[test]
-    fn lut_bounded_and_smooth_limit() {
-        for multi in [false, true] {
-            let lut = brdf_lut(16, 512, LobeSequence::Sobol, multi);
-            for px in lut.data.chunks(2) {
-                let total = if multi { px[1] } else { px[0] + px[1] };
-                assert!(total <= 1.0 + 1e-6 && px[0] >= 0.0 && px[1] >= 0.0, "{px:?}");
-            }
-        }
+    fn dfg_smooth_limit() {
         // roughness -> 0: D is a delta at h = n, Gv -> 1: scale + bias -> 1, bias -> (1 - n.v)^5.
         let pts = points(LobeSequence::Hammersley, 256);
         for nov in [0.2, 0.5, 0.9] {

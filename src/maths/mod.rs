@@ -24,7 +24,7 @@ pub mod kernels;
 pub mod latlong_cube;
 pub mod least_squares;
 pub mod lights;
-pub mod lut_rows;
+pub mod luts;
 pub mod mis;
 pub mod per_pixel;
 pub mod phong;

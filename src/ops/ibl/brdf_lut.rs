@@ -26,8 +26,8 @@
 use crate::engine::fields::Check;
 use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec, OutputType};
 use crate::engine::value::Value;
-use crate::maths::charlie::charlie_lut;
-use crate::maths::ggx::{brdf_lut, LobeSequence};
+use crate::maths::ggx::LobeSequence;
+use crate::maths::luts::{brdf_lut, charlie_lut};
 use crate::maths::specular_lobe::SpecularBrdf;
 use crate::values::ty::*;
 

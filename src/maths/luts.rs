@@ -1,4 +1,6 @@
-//! The split-sum LUTs (`ggx::brdf_lut`, `charlie::charlie_lut`) one row at a time. A row is one
+//! The split-sum LUTs: GGX's DFG texture ([`brdf_lut`]) and glTF-IBL-Sampler's Charlie sheen LUT
+//! ([`charlie_lut`]), each texel as `ggx::dfg` and `charlie::charlie_lut_texel` define it, made one
+//! row at a time. A row is one
 //! roughness, so its half vectors do not depend on the column: they are drawn once per row and
 //! kept as two arrays (`h.x`, `h.z`: with `v = (sqrt(1 - n.v^2), 0, n.v)` the `y` component never
 //! enters), with every factor that depends on the sample alone (Charlie's `D`). Each texel is
@@ -12,9 +14,38 @@
 //! and a sine and cosine per sample), which made a 4096 x 4096 LUT of 1024 samples, the size
 //! glTF-IBL-Sampler gives a 16k map's Khronos bake, take most of an hour.
 
+use rayon::prelude::*;
+
 use crate::maths::charlie::v_ashikhmin;
-use crate::maths::ggx::sample_h;
+use crate::maths::ggx::{points, sample_h, LobeSequence};
 use crate::maths::specular_lobe::SpecularBrdf;
+use crate::values::Image;
+
+/// The size x size DFG texture: column x is `n.v = (x + 0.5) / size`, row y (row 0 at the top) is
+/// perceptual roughness `(y + 0.5) / size`; channels `R`, `G` = (scale, bias), or (`E[Fc Gv]`,
+/// `E[Gv]`) with `multiscatter`.
+pub fn brdf_lut(size: usize, samples: usize, seq: LobeSequence, multiscatter: bool) -> Image {
+    let pts = points(seq, samples);
+    let mut data = vec![0.0f32; size * size * 2];
+    // Row by row, each texel as `dfg` computes it .
+    data.par_chunks_mut(2 * size).enumerate().for_each(|(y, row)| {
+        dfg_row((y as f64 + 0.5) / size as f64, &pts, multiscatter, row);
+    });
+    Image::with_names(size, size, vec!["R".into(), "G".into()], data)
+}
+
+/// The size x size Charlie LUT: column x is `n.v = (x + 0.5) / size`, row y (row 0 at the top) is
+/// the sheen roughness `(y + 0.5) / size`; channels `R`, `G`, `B` = (0, 0, LUT), as
+/// glTF-IBL-Sampler writes it and the viewer reads `.b`; `samples` Hammersley points.
+pub fn charlie_lut(size: usize, samples: usize) -> Image {
+    let pts = points(LobeSequence::Hammersley, samples);
+    let mut data = vec![0.0f32; size * size * 3];
+    // Row by row, each texel as `charlie::charlie_lut_texel` computes it.
+    data.par_chunks_mut(3 * size).enumerate().for_each(|(y, row)| {
+        charlie_row((y as f64 + 0.5) / size as f64, &pts, row);
+    });
+    Image::with_names(size, size, vec!["R".into(), "G".into(), "B".into()], data)
+}
 
 /// The lanes of one accumulation step.
 const LANES: usize = 8;
@@ -55,7 +86,7 @@ fn charlie_samples(roughness: f64, pts: &[[f64; 2]]) -> RowSamples {
     RowSamples { hx: h.iter().map(|h| h.x).collect(), hz: h.iter().map(|h| h.z).collect(), d }.pad()
 }
 
-/// One row of the DFG texture (`ggx::brdf_lut`): `out` holds (R, G) per column, n.v = (x + 0.5) /
+/// One row of the DFG texture ([`brdf_lut`]): `out` holds (R, G) per column, n.v = (x + 0.5) /
 /// width, from `pts` (unpadded count `n`).
 pub fn dfg_row(roughness: f64, pts: &[[f64; 2]], multiscatter: bool, out: &mut [f32]) {
     let s = ggx_samples(roughness, pts);
@@ -70,7 +101,7 @@ pub fn dfg_row(roughness: f64, pts: &[[f64; 2]], multiscatter: bool, out: &mut [
     }
 }
 
-/// One row of the Charlie LUT (`charlie::charlie_lut`): `out` holds (R, G, B) = (0, 0, LUT) per
+/// One row of the Charlie LUT ([`charlie_lut`]): `out` holds (R, G, B) = (0, 0, LUT) per
 /// column.
 pub fn charlie_row(roughness: f64, pts: &[[f64; 2]], out: &mut [f32]) {
     let s = charlie_samples(roughness, pts);
@@ -160,7 +191,19 @@ fn charlie_texel(s: &RowSamples, nov: f64) -> [f64; 2] {
 mod tests {
     use super::*;
     use crate::maths::charlie::charlie_lut_texel;
-    use crate::maths::ggx::{dfg, points, LobeSequence};
+    use crate::maths::ggx::dfg;
+
+    /// Scale + bias (or the multiscatter form's `E[Gv]`) never exceed 1 and are never negative.
+    #[test]
+    fn the_dfg_table_is_bounded() {
+        for multi in [false, true] {
+            let lut = brdf_lut(16, 512, LobeSequence::Sobol, multi);
+            for px in lut.data.chunks(2) {
+                let total = if multi { px[1] } else { px[0] + px[1] };
+                assert!(total <= 1.0 + 1e-6 && px[0] >= 0.0 && px[1] >= 0.0, "{px:?}");
+            }
+        }
+    }
 
     /// Every texel of a few rows (roughness 0 to 1, the smallest and grazing n.v included) against
     /// the scalar texel functions, for a sample count that is not a multiple of the lanes.
@@ -200,5 +243,25 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// The 128 x 128 table of 1024 samples (the khronos bake's default): R = G = 0, B finite, not
+    /// negative, above 1 only in the grazing, low-roughness corner (n.v < 0.13, r < 0.36: what a
+    /// 16-bit or 8-bit PNG clamps), never above 2.5.
+    #[test]
+    fn values_above_one_stay_in_the_grazing_low_roughness_corner() {
+        let lut = charlie_lut(128, 1024);
+        assert_eq!(lut.names, ["R", "G", "B"]);
+        let mut over = 0;
+        for (i, px) in lut.data.chunks_exact(3).enumerate() {
+            let (x, y) = (i % 128, i / 128);
+            assert_eq!((px[0], px[1]), (0.0, 0.0));
+            assert!(px[2].is_finite() && px[2] >= 0.0 && px[2] < 2.5, "({x}, {y}): {}", px[2]);
+            if px[2] > 1.0 {
+                over += 1;
+                assert!(x <= 16 && y <= 45, "({x}, {y}): {}", px[2]);
+            }
+        }
+        assert!(over > 0 && over < 600, "{over} texels above 1");
     }
 }
