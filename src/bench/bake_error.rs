@@ -97,7 +97,9 @@ pub fn estimate(pyr: &[Cubemap], padded: &PaddedPyramid, roughness: &[f64], e: E
         .skip(1)
         .map(|(k, &r)| {
             let size = (pyr[0].size >> k).max(1);
-            match exact_source_level(pyr, size, r).filter(|_| matches!(e, Estimator::Default(_))) {
+            match exact_source_level(&pyr.iter().map(|c| c.size).collect::<Vec<_>>(), size, r)
+                .filter(|_| matches!(e, Estimator::Default(_)))
+            {
                 Some(m) => prefilter_level_exact(&pyr[m], size, r, SpecularBrdf::Ggx),
                 None => prefilter_level_fis(padded, size, r, &pts, SpecularBrdf::Ggx, filtered),
             }
@@ -138,7 +140,7 @@ pub fn chain_errors(
     let reference_seconds = t0.elapsed().as_secs_f64();
     log(&format!("exact references of {} levels: {reference_seconds:.1} s", references.len()));
     let pyr = pyramid(src);
-    let padded = PaddedPyramid::new(&pyr);
+    let padded = PaddedPyramid::new(&pyr.iter().collect::<Vec<_>>());
     let rows = estimators
         .iter()
         .map(|&e| {

@@ -58,6 +58,14 @@ pub const PRESET: Preset = Preset {
 //   {file:save_lut}    GGX LUT: specular = prefiltered * (F0 * lut.r + lut.g)
 //   {file:save_lut_charlie}  Charlie LUT: sheen = prefiltered sheen * sheenColor * lut.b (u_CharlieLUT)
 vec3 specular = textureLod(u_GGXEnvSampler, reflect(-v, n), roughness * float(u_MipCount - 1)).rgb;
+
+// The glTF Sample Renderer (npm @khronosgroup/gltf-viewer 1.1.0) filters panoramas itself; to light
+// a scene with these files instead, give it the environment its loadEnvironment would build, as
+// hdrflow's test page does (clients/khronos-web/render.js, loadBake): each KTX2 file through
+// view.ktxDecoder.loadKtxFromBuffer, trilinear and clamped, the LUTs as PNG images, then
+//   state.environment = { samplers, images, textures, diffuseEnvMap, specularEnvMap, sheenEnvMap,
+//                         lut, sheenLUT, mipCount: <the chain's levels>, iblIntensityScale: 1 };
+//   state.renderingParameters.environmentRotation = 0;  // its default of 90 turns the map
 "#,
     sun_code: r#"// The sun taken out of the map ({file:save_sun}) as a KHR_lights_punctual directional light:
 // "lights": [{ "type": "directional", "color": [{sun:color}], "intensity": {sun:illuminance} }]

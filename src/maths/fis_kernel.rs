@@ -75,8 +75,10 @@ impl Lobe {
 }
 
 impl PaddedPyramid {
-    pub fn new(pyr: &[Cubemap]) -> PaddedPyramid {
-        let mut rgba = Vec::new();
+    pub fn new(pyr: &[&Cubemap]) -> PaddedPyramid {
+        // Reserved whole: pushing would double the capacity past 2^k texels and copy the array
+        // (for a 4096 cube, 2.1 GB copied into a 4.3 GB allocation).
+        let mut rgba = Vec::with_capacity(pyr.iter().map(|c| 6 * (c.size + 2) * (c.size + 2)).sum());
         let (mut offsets, mut sizes, mut strides) = (Vec::new(), Vec::new(), Vec::new());
         for c in pyr {
             let s = c.size;
@@ -307,7 +309,7 @@ mod tests {
             *v = (0.1 + 10.0 * next()) as f32;
         }
         let pyr = crate::maths::ggx::pyramid(&c);
-        let padded = PaddedPyramid::new(&pyr);
+        let padded = PaddedPyramid::new(&pyr.iter().collect::<Vec<_>>());
         let mut worst = 0.0f64;
         for _ in 0..20000 {
             let d = DVec3::new(2.0 * next() - 1.0, 2.0 * next() - 1.0, 2.0 * next() - 1.0);

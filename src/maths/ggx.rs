@@ -138,12 +138,18 @@ pub fn basis(n: DVec3) -> (DVec3, DVec3) {
 
 /// The source's mip pyramid, down to 1 x 1 faces (each level the solid-angle-weighted 2 x 2 mean).
 pub fn pyramid(src: &Cubemap) -> Vec<Cubemap> {
-    let mut pyr = vec![src.clone()];
-    while pyr.last().map(|c| c.size > 1).unwrap_or(false) {
-        let next = downsample(pyr.last().expect("non-empty"));
-        pyr.push(next);
+    std::iter::once(src.clone()).chain(pyramid_below(src)).collect()
+}
+
+/// [`pyramid`] without its level 0 (the source itself, which a 4096 cube makes 1.2 GB: the
+/// chain borrows it instead of copying it).
+pub fn pyramid_below(src: &Cubemap) -> Vec<Cubemap> {
+    let mut below: Vec<Cubemap> = Vec::new();
+    while below.last().unwrap_or(src).size > 1 {
+        let next = downsample(below.last().unwrap_or(src));
+        below.push(next);
     }
-    pyr
+    below
 }
 
 /// Perceptual roughness of level k of `levels`: k / (levels - 1) (0 for a single level).
@@ -229,10 +235,10 @@ pub const ROUGH_EXACT_PAIRS: usize = 1 << 26;
 /// Where the lobe spans 8 texels or more, the exact sum's quadrature (the lobe at each texel's
 /// centre) is within about 1e-3 of the sum over the finest level (`prefilter_level_exact`'s
 /// error bound; `bench --bake` measures it), and needs no samples.
-pub fn exact_source_level(pyr: &[Cubemap], size: usize, roughness: f64) -> Option<usize> {
+pub fn exact_source_level(level_sizes: &[usize], size: usize, roughness: f64) -> Option<usize> {
     let alpha = roughness * roughness;
-    let m = pyr.iter().rposition(|c| 2.0 / c.size as f64 <= alpha / 8.0)?;
-    let pairs = 36 * (size * size).saturating_mul(pyr[m].size * pyr[m].size);
+    let m = level_sizes.iter().rposition(|&s| 2.0 / s as f64 <= alpha / 8.0)?;
+    let pairs = 36 * (size * size).saturating_mul(level_sizes[m] * level_sizes[m]);
     (pairs <= ROUGH_EXACT_PAIRS).then_some(m)
 }
 
@@ -258,7 +264,9 @@ pub fn prefilter_chain(
 ) -> MipChain {
     let pts = points(seq, samples);
     let mirror_below_top = brdf == SpecularBrdf::Ggx && roughness.iter().skip(1).any(|&r| r == 0.0);
-    let pyr = if exact && !mirror_below_top { Vec::new() } else { pyramid(src) };
+    let below = if exact && !mirror_below_top { Vec::new() } else { pyramid_below(src) };
+    let pyr: Vec<&Cubemap> = std::iter::once(src).chain(&below).collect();
+    let level_sizes: Vec<usize> = pyr.iter().map(|c| c.size).collect();
     let levels = roughness.len();
     let mut padded = None;
     let mut out = MipChain { levels: Vec::with_capacity(levels), roughness: Vec::with_capacity(levels) };
@@ -273,9 +281,9 @@ pub fn prefilter_chain(
         } else if exact {
             prefilter_level_exact(src, size, rough, brdf)
         } else if let Some(m) =
-            (rough_exact && brdf == SpecularBrdf::Ggx).then(|| exact_source_level(&pyr, size, rough)).flatten()
+            (rough_exact && brdf == SpecularBrdf::Ggx).then(|| exact_source_level(&level_sizes, size, rough)).flatten()
         {
-            prefilter_level_exact(&pyr[m], size, rough, brdf)
+            prefilter_level_exact(pyr[m], size, rough, brdf)
         } else {
             let padded = padded.get_or_insert_with(|| PaddedPyramid::new(&pyr));
             prefilter_level_fis(padded, size, rough, &pts, brdf, true)
