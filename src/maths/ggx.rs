@@ -161,25 +161,23 @@ pub fn level_roughness(k: usize, levels: usize) -> f64 {
     }
 }
 
-/// One level filtered with filtered importance sampling, for the lobe `brdf`
-/// (`maths::specular_lobe`); `filtered: false` reads every sample from level 0 (plain Monte
-/// Carlo with bilinear reads: the estimate the benchmark compares against).
-pub fn prefilter_level_fis(
-    pyr: &PaddedPyramid,
-    size: usize,
+/// The lobe of one filtered level in the frame n = v = +z, for a pyramid whose level 0 has faces
+/// of `top` texels: each sample's light direction, its cosine and its pyramid level (Colbert and
+/// Krivanek's `0.5 log2(omega_s / omega_p) + 1`, `omega_s = 1 / (N pdf)`, `omega_p` a face-centre
+/// texel of level 0; the per-texel offset is the kernel's). `filtered: false` reads level 0.
+pub fn lobe_samples(
     roughness: f64,
     pts: &[[f64; 2]],
     brdf: SpecularBrdf,
+    top: usize,
     filtered: bool,
-) -> Cubemap {
+) -> Vec<LobeSample> {
     let alpha = roughness * roughness;
-    let s0 = pyr.top_size() as f64;
+    let s0 = top as f64;
     // The solid angle of a texel at a face's centre (texels elsewhere: `maths::fis_kernel`).
     let omega_p = 4.0 / (s0 * s0);
     let n = pts.len() as f64;
-    // The samples in the frame n = v = +z: light direction, its cosine, its pyramid level.
-    let mut lobe: Vec<LobeSample> = pts
-        .iter()
+    pts.iter()
         .filter_map(|&u| {
             let h = brdf.sample_h(u, alpha);
             let l = 2.0 * h.z * h - DVec3::Z;
@@ -200,7 +198,21 @@ pub fn prefilter_level_fis(
             };
             Some(LobeSample { l: l.as_vec3(), weight: l.z as f32, lod: lod as f32 })
         })
-        .collect();
+        .collect()
+}
+
+/// One level filtered with filtered importance sampling, for the lobe `brdf`
+/// (`maths::specular_lobe`); `filtered: false` reads every sample from level 0 (plain Monte
+/// Carlo with bilinear reads: the estimate the benchmark compares against).
+pub fn prefilter_level_fis(
+    pyr: &PaddedPyramid,
+    size: usize,
+    roughness: f64,
+    pts: &[[f64; 2]],
+    brdf: SpecularBrdf,
+    filtered: bool,
+) -> Cubemap {
+    let mut lobe = lobe_samples(roughness, pts, brdf, pyr.top_size(), filtered);
     // In order of level, so that the reads of one level and of two levels each come in runs (the
     // kernel's per-sample branch is then predicted); the sum's order is fixed either way.
     lobe.sort_by(|a, b| a.lod.total_cmp(&b.lod));
@@ -267,31 +279,74 @@ pub fn prefilter_chain(
     let below = if exact && !mirror_below_top { Vec::new() } else { pyramid_below(src) };
     let pyr: Vec<&Cubemap> = std::iter::once(src).chain(&below).collect();
     let level_sizes: Vec<usize> = pyr.iter().map(|c| c.size).collect();
-    let levels = roughness.len();
-    let mut padded = None;
-    let mut out = MipChain { levels: Vec::with_capacity(levels), roughness: Vec::with_capacity(levels) };
-    for (k, &rough) in roughness.iter().enumerate() {
-        let size = (src.size >> k).max(1);
-        let level = if brdf == SpecularBrdf::Ggx && rough == 0.0 {
-            if k == 0 {
-                src.clone()
-            } else {
-                pyr[k.min(pyr.len() - 1)].clone()
-            }
-        } else if exact {
-            prefilter_level_exact(src, size, rough, brdf)
-        } else if let Some(m) =
-            (rough_exact && brdf == SpecularBrdf::Ggx).then(|| exact_source_level(&level_sizes, size, rough)).flatten()
-        {
-            prefilter_level_exact(pyr[m], size, rough, brdf)
-        } else {
-            let padded = padded.get_or_insert_with(|| PaddedPyramid::new(&pyr));
-            prefilter_level_fis(padded, size, rough, &pts, brdf, true)
-        };
-        out.levels.push(level);
-        out.roughness.push(rough);
+    // How each level is made: a copy of the source at its size (GGX at roughness 0), exact over
+    // a pyramid level, or filtered importance sampling.
+    enum How {
+        Copy,
+        Exact(usize),
+        Fis,
     }
-    out
+    let how: Vec<How> = roughness
+        .iter()
+        .enumerate()
+        .map(|(k, &rough)| {
+            let size = (src.size >> k).max(1);
+            if brdf == SpecularBrdf::Ggx && rough == 0.0 {
+                How::Copy
+            } else if exact {
+                How::Exact(0)
+            } else if let Some(m) = (rough_exact && brdf == SpecularBrdf::Ggx)
+                .then(|| exact_source_level(&level_sizes, size, rough))
+                .flatten()
+            {
+                How::Exact(m)
+            } else {
+                How::Fis
+            }
+        })
+        .collect();
+    // The padded pyramid starts at the finest level a filtered level's sample reads (each read is
+    // at its sample's level or coarser): a 4096 chain's sharpest filtered level reads the 2048
+    // level at the finest, its Charlie chain the 128 one, so the 1.6 GB padded copy of the top is
+    // not made. The lods are then counted from that level: the same reads.
+    let finest_read = roughness
+        .iter()
+        .zip(&how)
+        .filter(|(_, h)| matches!(h, How::Fis))
+        .flat_map(|(&r, _)| lobe_samples(r, &pts, brdf, src.size, true))
+        .map(|s| s.lod.max(0.0).floor() as usize)
+        .min()
+        .unwrap_or(0)
+        .min(pyr.len() - 1);
+    let mut padded = None;
+    // The filtered levels first, the copies of the source once the padded pyramid is gone: for a
+    // 4096 cube the copy of level 0 (1.2 GB) and the padded pyramid are never held at once.
+    let mut levels: Vec<Option<Cubemap>> = how
+        .iter()
+        .zip(roughness)
+        .enumerate()
+        .map(|(k, (h, &rough))| {
+            let size = (src.size >> k).max(1);
+            match *h {
+                How::Copy => None,
+                How::Exact(m) => Some(prefilter_level_exact(pyr[m], size, rough, brdf)),
+                How::Fis => {
+                    let padded = padded.get_or_insert_with(|| PaddedPyramid::new(&pyr[finest_read..]));
+                    Some(prefilter_level_fis(padded, size, rough, &pts, brdf, true))
+                }
+            }
+        })
+        .collect();
+    drop(padded);
+    for (k, level) in levels.iter_mut().enumerate() {
+        if level.is_none() {
+            *level = Some(pyr[k.min(pyr.len() - 1)].clone());
+        }
+    }
+    MipChain {
+        levels: levels.into_iter().map(|l| l.expect("every level is filled")).collect(),
+        roughness: roughness.to_vec(),
+    }
 }
 
 #[cfg(test)]

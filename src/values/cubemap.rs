@@ -271,17 +271,20 @@ fn save_chain_level0(value: &Value, o: &SaveOptions) -> Result<Vec<u8>, String> 
 /// (faceCount 6, +X -X +Y -Y +Z -Z, alpha 1); level k must be of size max(1, size >> k), else an
 /// error.
 pub fn encode_ktx(levels: &[Cubemap], o: &SaveOptions) -> Result<Vec<u8>, String> {
-    let rgba: Vec<Vec<f32>> = levels.iter().map(|c| crate::formats::ktx2::rgb_to_rgba(&c.data)).collect();
-    let levels: Vec<_> = levels
-        .iter()
-        .zip(&rgba)
-        .map(|(c, rgba)| crate::formats::ktx2::Level { width: c.size, height: c.size, rgba })
-        .collect();
     if o.ext == "ktx" {
+        let rgba: Vec<Vec<f32>> = levels.iter().map(|c| crate::formats::ktx2::rgb_to_rgba(&c.data)).collect();
+        let levels: Vec<_> = levels
+            .iter()
+            .zip(&rgba)
+            .map(|(c, rgba)| crate::formats::ktx2::Level { width: c.size, height: c.size, rgba })
+            .collect();
         return crate::formats::ktx1::encode(&levels, 6, o.get_or_default(), &o.get_or_default())
             .map_err(|e| e.to_string());
     }
-    crate::formats::ktx2::encode_with(&levels, 6, o.get_or_default(), o.get_or_default()).map_err(|e| e.to_string())
+    // Straight from the RGB levels: a 4096 chain's RGBA copy would be 2.1 GB.
+    let levels: Vec<_> =
+        levels.iter().map(|c| crate::formats::ktx2::RgbLevel { width: c.size, height: c.size, rgb: &c.data }).collect();
+    crate::formats::ktx2::encode_rgb_with(&levels, 6, o.get_or_default(), o.get_or_default()).map_err(|e| e.to_string())
 }
 
 /// Every level's strip, at `template` with `{level}` replaced by the level number.

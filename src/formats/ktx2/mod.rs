@@ -155,6 +155,23 @@ impl KtxFormat {
         }
         out
     }
+
+    /// Appends the texels of `values` (`channels` 4: RGBA; 3: RGB, alpha 1) to `out`, in parallel
+    /// blocks written in place (a 4096 cube's level 0 is 100 M texels: no second copy of it).
+    pub fn encode_texels_into(self, values: &[f32], channels: usize, out: &mut Vec<u8>) {
+        const BLOCK: usize = 1 << 16;
+        let (start, bytes) = (out.len(), self.texel_bytes());
+        let texels = values.len() / channels;
+        out.resize(start + texels * bytes, 0);
+        out[start..].par_chunks_mut(BLOCK * bytes).zip(values.par_chunks(BLOCK * channels)).for_each(|(dst, src)| {
+            let mut block = Vec::with_capacity(dst.len());
+            for t in src.chunks_exact(channels) {
+                let alpha = if channels == 4 { t[3] } else { 1.0 };
+                self.encode_texel([t[0], t[1], t[2], alpha], &mut block);
+            }
+            dst.copy_from_slice(&block);
+        });
+    }
 }
 
 crate::choice! {
@@ -197,15 +214,33 @@ pub struct Level<'a> {
     pub rgba: &'a [f32],
 }
 
+/// One mip level given as RGB (alpha 1): `rgb.len() == faces * w * h * 3` (a cube map's levels as
+/// they are held, written without an RGBA copy).
+pub struct RgbLevel<'a> {
+    pub width: usize,
+    pub height: usize,
+    pub rgb: &'a [f32],
+}
+
 /// Checks a texture of `face_count` (1 or 6) faces and the given levels (level 0 first; level k
 /// must be max(1, width >> k) x max(1, height >> k)); `what` names the container in messages.
 pub fn check_levels(levels: &[Level], face_count: usize, what: &str) -> Result<(), FormatError> {
+    let data: Vec<(usize, usize, usize)> = levels.iter().map(|l| (l.width, l.height, l.rgba.len())).collect();
+    check_dims(&data, 4, face_count, what)
+}
+
+/// [`check_levels`] on (width, height, value count) per level, `channels` values a texel.
+fn check_dims(
+    levels: &[(usize, usize, usize)],
+    channels: usize,
+    face_count: usize,
+    what: &str,
+) -> Result<(), FormatError> {
     let err = |m: String| Err(FormatError::Invalid(m));
     if face_count != 1 && face_count != 6 {
         return err(format!("a {what} texture has 1 or 6 faces, not {face_count}"));
     }
-    let Some(base) = levels.first() else { return err("no levels to write".into()) };
-    let (w0, h0) = (base.width, base.height);
+    let Some(&(w0, h0, _)) = levels.first() else { return err("no levels to write".into()) };
     if w0 == 0 || h0 == 0 || w0 > u32::MAX as usize || h0 > u32::MAX as usize {
         return err(format!("a {w0}x{h0} image cannot be written as {what}"));
     }
@@ -216,16 +251,13 @@ pub fn check_levels(levels: &[Level], face_count: usize, what: &str) -> Result<(
     if levels.len() > max_levels {
         return err(format!("{} levels is more than a {w0}x{h0} base allows ({max_levels})", levels.len()));
     }
-    for (k, l) in levels.iter().enumerate() {
+    for (k, &(lw, lh, len)) in levels.iter().enumerate() {
         let (w, h) = ((w0 >> k).max(1), (h0 >> k).max(1));
-        if (l.width, l.height) != (w, h) {
-            return err(format!(
-                "{what} level {k} must be {w}x{h} (max(1, base >> {k})), but it is {}x{}",
-                l.width, l.height
-            ));
+        if (lw, lh) != (w, h) {
+            return err(format!("{what} level {k} must be {w}x{h} (max(1, base >> {k})), but it is {lw}x{lh}"));
         }
-        if l.rgba.len() != face_count * w * h * 4 {
-            return err(format!("level {k} holds {} values, not {}", l.rgba.len(), face_count * w * h * 4));
+        if len != face_count * w * h * channels {
+            return err(format!("level {k} holds {len} values, not {}", face_count * w * h * channels));
         }
     }
     Ok(())
@@ -244,31 +276,42 @@ pub fn encode_with(
     format: KtxFormat,
     compression: Compression,
 ) -> Result<Vec<u8>, FormatError> {
-    check_levels(levels, face_count, "KTX2")?;
+    let data: Vec<(usize, usize, usize)> = levels.iter().map(|l| (l.width, l.height, l.rgba.len())).collect();
+    check_dims(&data, 4, face_count, "KTX2")?;
+    encode_core(&data, face_count, format, compression, |k, out| format.encode_texels_into(levels[k].rgba, 4, out))
+}
+
+/// [`encode_with`] for levels held as RGB (alpha 1), each encoded straight from its RGB values.
+pub fn encode_rgb_with(
+    levels: &[RgbLevel],
+    face_count: usize,
+    format: KtxFormat,
+    compression: Compression,
+) -> Result<Vec<u8>, FormatError> {
+    let data: Vec<(usize, usize, usize)> = levels.iter().map(|l| (l.width, l.height, l.rgb.len())).collect();
+    check_dims(&data, 3, face_count, "KTX2")?;
+    encode_core(&data, face_count, format, compression, |k, out| format.encode_texels_into(levels[k].rgb, 3, out))
+}
+
+/// The file around checked levels: `write_level(k, out)` appends level k's texels to `out`. The
+/// levels are stored smallest first, each written in place at the end of the file as it grows
+/// (compressed ones through one level's buffer), so the file is the only copy of the texels.
+fn encode_core(
+    levels: &[(usize, usize, usize)],
+    face_count: usize,
+    format: KtxFormat,
+    compression: Compression,
+    write_level: impl Fn(usize, &mut Vec<u8>),
+) -> Result<Vec<u8>, FormatError> {
     let zstd = compression.scheme == KtxSupercompression::Zstd;
     if zstd && !(1..=22).contains(&compression.zstd_level) {
         return Err(FormatError::Invalid(format!("zstd level {} is out of range (1 to 22)", compression.zstd_level)));
     }
-    let (w0, h0) = (levels[0].width, levels[0].height);
+    let (w0, h0, _) = levels[0];
     let n = levels.len();
     // lcm(texel block size, 4) uncompressed: 8, 16 or 4; 1 when supercompressed.
     let align = if zstd { 1 } else { format.texel_bytes() };
     let index_end = 80 + 24 * n;
-
-    // Every level's bytes (and its uncompressed length), in parallel: the largest level dominates.
-    let stored: Vec<(Vec<u8>, usize)> = levels
-        .par_iter()
-        .map(|l| {
-            let raw = format.encode_texels(l.rgba);
-            if !zstd {
-                let len = raw.len();
-                return Ok((raw, len));
-            }
-            let packed = zstd::bulk::compress(&raw, compression.zstd_level)
-                .map_err(|e| FormatError::Invalid(format!("zstd compression failed: {e}")))?;
-            Ok((packed, raw.len()))
-        })
-        .collect::<Result<_, FormatError>>()?;
 
     let dfd = dfd::basic_dfd(format);
     let dfd_offset = index_end;
@@ -277,8 +320,12 @@ pub fn encode_with(
         ("KTXorientation", b"rd\0".as_slice()),
         ("KTXwriter", format!("hdrflow {}\0", env!("CARGO_PKG_VERSION")).as_bytes()),
     ]);
-    let mut out =
-        Vec::with_capacity(kvd_offset + kvd.len() + stored.iter().map(|(b, _)| b.len() + align).sum::<usize>());
+    let raw_bytes = |k: usize| {
+        let (w, h) = ((w0 >> k).max(1), (h0 >> k).max(1));
+        face_count * w * h * format.texel_bytes()
+    };
+    let texel_total: usize = (0..n).map(|k| raw_bytes(k) + align).sum();
+    let mut out = Vec::with_capacity(kvd_offset + kvd.len() + if zstd { 0 } else { texel_total });
     out.extend_from_slice(&IDENTIFIER);
     for v in [format.vk_format(), format.type_size() as u32, w0 as u32, h0 as u32, 0, 0] {
         out.extend_from_slice(&v.to_le_bytes());
@@ -299,9 +346,19 @@ pub fn encode_with(
     let mut index = vec![(0u64, 0u64, 0u64); n];
     for k in (0..n).rev() {
         out.resize(out.len().next_multiple_of(align), 0);
-        let (bytes, uncompressed) = &stored[k];
-        index[k] = (out.len() as u64, bytes.len() as u64, *uncompressed as u64);
-        out.extend_from_slice(bytes);
+        let offset = out.len();
+        if zstd {
+            let mut raw = Vec::with_capacity(raw_bytes(k));
+            write_level(k, &mut raw);
+            let packed = zstd::bulk::compress(&raw, compression.zstd_level)
+                .map_err(|e| FormatError::Invalid(format!("zstd compression failed: {e}")))?;
+            index[k] = (offset as u64, packed.len() as u64, raw.len() as u64);
+            out.extend_from_slice(&packed);
+        } else {
+            write_level(k, &mut out);
+            let len = (out.len() - offset) as u64;
+            index[k] = (offset as u64, len, len);
+        }
     }
     for (k, (offset, length, uncompressed)) in index.into_iter().enumerate() {
         let at = 80 + 24 * k;
@@ -349,6 +406,34 @@ pub fn rgb_to_rgba(rgb: &[f32]) -> Vec<f32> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A cube map written from its RGB levels is the file written from their RGBA copies, byte
+    /// for byte, in every format and both supercompressions (levels larger than one encoding
+    /// block included).
+    #[test]
+    fn rgb_levels_write_the_same_file_as_rgba_ones() {
+        let rgb: Vec<Vec<f32>> = [300usize, 150, 75]
+            .iter()
+            .map(|&s| (0..6 * s * s * 3).map(|i| ((i * 7919) % 1000) as f32 * 0.37 - 20.0).collect())
+            .collect();
+        let rgba: Vec<Vec<f32>> = rgb.iter().map(|l| rgb_to_rgba(l)).collect();
+        let sizes = [300usize, 150, 75];
+        let as_rgb: Vec<RgbLevel> =
+            sizes.iter().zip(&rgb).map(|(&s, l)| RgbLevel { width: s, height: s, rgb: l }).collect();
+        let as_rgba: Vec<Level> =
+            sizes.iter().zip(&rgba).map(|(&s, l)| Level { width: s, height: s, rgba: l }).collect();
+        for format in [KtxFormat::Rgba16f, KtxFormat::Rgba32f, KtxFormat::Rgb9e5, KtxFormat::Rg11b10f] {
+            for scheme in [KtxSupercompression::None, KtxSupercompression::Zstd] {
+                let c = Compression { scheme, ..Compression::default() };
+                let a = encode_rgb_with(&as_rgb, 6, format, c).unwrap();
+                let b = encode_with(&as_rgba, 6, format, c).unwrap();
+                assert!(a == b, "{format:?} {scheme:?}: the files differ");
+            }
+        }
+        // The RGB path checks its value count per three.
+        let short = [RgbLevel { width: 2, height: 2, rgb: &[0.0; 12] }];
+        assert!(encode_rgb_with(&short, 6, KtxFormat::Rgba16f, Compression::default()).is_err());
+    }
 
     #[test]
     fn layout_smallest_level_first_and_aligned() {
