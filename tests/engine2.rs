@@ -1175,3 +1175,26 @@ fn relighting_with_samples_from_a_coarser_distribution() {
     assert!(relative_errors(unb_s, reference).iter().all(|e| *e < 0.02), "Unbiased, 64x32 distribution:\n{report}");
     assert!(relative_errors(seed_s, seed_f).iter().all(|e| *e < 0.03), "Seed, 64x32 vs 256x128:\n{report}");
 }
+
+/// A Save target's value, once its file is written, keeps the file's path and not its bytes (the
+/// run does not hold a large file to its end); a second run from the cache writes the same file.
+#[test]
+fn a_written_file_is_kept_as_its_path() {
+    use hdrflow::engine::value::FileBlob;
+    let r = registry();
+    let p = parse_ok(
+        r#"( nodes: { "c": Constant(width: 64, height: 32, color: (0.25, 0.5, 2.0)), "save": Save(input: "c", path: "c.pfm") } )"#,
+        &r,
+    );
+    let sandbox = Sandbox::new();
+    let out = sandbox.join("out");
+    for pass in ["computed", "cached"] {
+        let outcome = run_ok(&p, &["save"], &out, Some(cache_in(&sandbox.join("cache"))), 2);
+        let want = if pass == "computed" { NodeStatus::Computed } else { NodeStatus::Cached };
+        assert_eq!(outcome.report.nodes.iter().find(|n| n.name == "save").map(|n| n.status), Some(want));
+        let f = outcome.values["save"].get::<FileBlob>().expect("the Save value");
+        assert_eq!((f.rel_path.as_str(), f.bytes.len()), ("c.pfm", 0), "{pass}");
+        let written = std::fs::read(out.join("c.pfm")).expect("the file");
+        assert_eq!(written.len(), 64 * 32 * 12 + "PF\n64 32\n-1.0\n".len(), "{pass}");
+    }
+}

@@ -253,6 +253,15 @@ impl FileBlob {
     pub fn new(rel_path: String, bytes: Vec<u8>) -> Self {
         FileBlob { rel_path, bytes, more: Vec::new() }
     }
+    /// The same files with their bytes dropped (their paths kept): what a run holds once it has
+    /// written them.
+    pub fn written(&self) -> FileBlob {
+        FileBlob {
+            rel_path: self.rel_path.clone(),
+            bytes: Vec::new(),
+            more: self.more.iter().map(|(p, _)| (p.clone(), Vec::new())).collect(),
+        }
+    }
     /// Every file: the first, then `more`.
     pub fn files(&self) -> impl Iterator<Item = (&str, &[u8])> {
         std::iter::once((self.rel_path.as_str(), self.bytes.as_slice()))

@@ -103,9 +103,11 @@ impl State<'_> {
     }
 
     /// Stores a node's outputs in its port slots (ports nothing waits for are dropped), after
-    /// writing its files into the output folder.
+    /// writing its files into the output folder. A file is kept as its paths only
+    /// ([`FileBlob::written`]): its bytes are on disk, and a large one (a 4096 cube's chain is
+    /// 1 GB) is not held to the end of the run for a caller that reads only where it went.
     pub fn store(&self, i: usize, outputs: Vec<Value>) -> Result<(), RunError> {
-        for (port, value) in outputs.into_iter().enumerate() {
+        for (port, mut value) in outputs.into_iter().enumerate() {
             if let Some(f) = value.get::<FileBlob>() {
                 for (rel_path, bytes) in f.files() {
                     self.files.lock().expect("files lock").push((self.p.nodes[i].name.clone(), rel_path.to_string()));
@@ -113,6 +115,7 @@ impl State<'_> {
                         self.written.lock().expect("written lock").push(path);
                     }
                 }
+                value = Value::new(f.written());
             }
             let slot = &self.slots[i][port];
             if slot.remaining.load(Ordering::SeqCst) > 0 {
