@@ -276,9 +276,8 @@ pub fn encode_with(
     format: KtxFormat,
     compression: Compression,
 ) -> Result<Vec<u8>, FormatError> {
-    let data: Vec<(usize, usize, usize)> = levels.iter().map(|l| (l.width, l.height, l.rgba.len())).collect();
-    check_dims(&data, 4, face_count, "KTX2")?;
-    encode_core(&data, face_count, format, compression, |k, out| format.encode_texels_into(levels[k].rgba, 4, out))
+    let values: Vec<_> = levels.iter().map(|l| (l.width, l.height, l.rgba)).collect();
+    encode_values(&values, 4, face_count, format, compression)
 }
 
 /// [`encode_with`] for levels held as RGB (alpha 1), each encoded straight from its RGB values.
@@ -288,9 +287,21 @@ pub fn encode_rgb_with(
     format: KtxFormat,
     compression: Compression,
 ) -> Result<Vec<u8>, FormatError> {
-    let data: Vec<(usize, usize, usize)> = levels.iter().map(|l| (l.width, l.height, l.rgb.len())).collect();
-    check_dims(&data, 3, face_count, "KTX2")?;
-    encode_core(&data, face_count, format, compression, |k, out| format.encode_texels_into(levels[k].rgb, 3, out))
+    let values: Vec<_> = levels.iter().map(|l| (l.width, l.height, l.rgb)).collect();
+    encode_values(&values, 3, face_count, format, compression)
+}
+
+/// Levels as (width, height, values), `channels` values a texel (4: RGBA, 3: RGB, alpha 1).
+fn encode_values(
+    levels: &[(usize, usize, &[f32])],
+    channels: usize,
+    face_count: usize,
+    format: KtxFormat,
+    compression: Compression,
+) -> Result<Vec<u8>, FormatError> {
+    let dims: Vec<(usize, usize, usize)> = levels.iter().map(|&(w, h, v)| (w, h, v.len())).collect();
+    check_dims(&dims, channels, face_count, "KTX2")?;
+    encode_core(&dims, face_count, format, compression, |k, out| format.encode_texels_into(levels[k].2, channels, out))
 }
 
 /// The file around checked levels: `write_level(k, out)` appends level k's texels to `out`. The
