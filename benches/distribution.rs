@@ -16,7 +16,7 @@
 use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use hdrflow::maths::sequences::SplitMix64;
+use hdrflow::maths::sampling::sequences::SplitMix64;
 use hdrflow::values::{Distribution2D, Image};
 use rayon::prelude::*;
 

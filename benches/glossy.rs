@@ -1,4 +1,4 @@
-//! `maths::glossy`: `GlossySphere`'s three strategies (power heuristic for `Mis`) at 128x128 and
+//! `maths::render::glossy`: `GlossySphere`'s three strategies (power heuristic for `Mis`) at 128x128 and
 //! 64 spp, and the exact `ReferenceGlossySphere`, on the built-in sky (512x256), Phong exponent
 //! 50 (diffuse (0.2, 0.15, 0.1), specular 0.6: the unit tests' BRDF).
 //!
@@ -8,9 +8,9 @@ use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, Criterion, SamplingMode};
 use hdrflow::geometry::latlong;
-use hdrflow::maths::colour::rec709_luminance_f32;
-use hdrflow::maths::glossy::{glossy_sphere, reference_glossy_sphere, GlossyBrdf, GlossyStrategy, Heuristic};
-use hdrflow::maths::relight::SphereView;
+use hdrflow::maths::render::glossy::{glossy_sphere, reference_glossy_sphere, GlossyBrdf, GlossyStrategy, Heuristic};
+use hdrflow::maths::render::relight::SphereView;
+use hdrflow::maths::stats::colour::rec709_luminance_f32;
 use hdrflow::values::{Distribution2D, Image};
 
 /// The sin(theta)-weighted distribution of the map's Rec. 709 luminance.

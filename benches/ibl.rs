@@ -21,10 +21,13 @@
 use std::path::Path;
 use std::time::Instant;
 
-use hdrflow::maths::ggx::{prefilter, LobeSequence};
-use hdrflow::maths::irradiance_cube::{exact, from_sh, project_latlong, ShWindow, Texels};
-use hdrflow::maths::luts::brdf_lut;
-use hdrflow::maths::resample::{cube_integral, latlong_integral, to_cube, to_latlong, CubeSource, LatLongSource};
+use hdrflow::maths::brdf::ggx::LobeSequence;
+use hdrflow::maths::ibl::irradiance_cube::{exact, from_sh, project_latlong, ShWindow, Texels};
+use hdrflow::maths::ibl::luts::brdf_lut;
+use hdrflow::maths::ibl::prefilter::prefilter;
+use hdrflow::maths::resample::layouts::{
+    cube_integral, latlong_integral, to_cube, to_latlong, CubeSource, LatLongSource,
+};
 use hdrflow::values::{Cubemap, Image};
 
 fn median<T>(mut f: impl FnMut() -> T) -> (f64, T) {
@@ -241,7 +244,7 @@ fn sun_split(maps: &[(String, Image)]) {
     println!("| map | sun share | {} |", counts.map(|n| format!("{n}: whole map / residual + exact sun")).join(" | "));
     println!("|---|---|{}", "---|".repeat(counts.len()));
     for (name, img) in maps {
-        let split = hdrflow::maths::sun::extract_sun(img, 8.0);
+        let split = hdrflow::maths::fit::sun::extract_sun(img, 8.0);
         let mut sun_only = img.clone();
         for (s, r) in sun_only.data.iter_mut().zip(&split.residual.data) {
             *s -= r;
@@ -251,10 +254,10 @@ fn sun_split(maps: &[(String, Image)]) {
         let sun = to_cube(&LatLongSource::new(&sun_only), 64);
         let reference = prefilter(&whole, 5, 1, LobeSequence::Sobol, true);
         let sun_exact = prefilter(&sun, 5, 1, LobeSequence::Sobol, true);
-        let total = hdrflow::maths::sun::integral(img);
-        let [wr, wg, wb] = hdrflow::maths::colour::REC709;
+        let total = hdrflow::maths::fit::sun::integral(img);
+        let [wr, wg, wb] = hdrflow::maths::stats::colour::REC709;
         let lum = |c: [f64; 3]| wr * c[0] + wg * c[1] + wb * c[2];
-        let share = 1.0 - lum(hdrflow::maths::sun::integral(&split.residual)) / lum(total);
+        let share = 1.0 - lum(hdrflow::maths::fit::sun::integral(&split.residual)) / lum(total);
         let mut cells = Vec::new();
         for n in counts {
             let plain = prefilter(&whole, 5, n, LobeSequence::Sobol, false);

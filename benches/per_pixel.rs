@@ -1,4 +1,4 @@
-//! `maths::per_pixel`: every per-pixel strategy with each sequence, a 128x128 sphere at
+//! `maths::render::per_pixel`: every per-pixel strategy with each sequence, a 128x128 sphere at
 //! 1024 spp (the benchmark's largest per-pixel point), on Grace Cathedral from ../shared when
 //! present (flipped, as `hdrflow bench` loads it), else the built-in sky. Each render includes
 //! building the strategy's records and tables (`relight_per_pixel_with`).
@@ -15,12 +15,12 @@ use std::path::PathBuf;
 
 use criterion::{criterion_group, criterion_main, Criterion, SamplingMode};
 use hdrflow::geometry::latlong;
-use hdrflow::maths::colour::rec709_luminance_f32;
-use hdrflow::maths::glossy::Heuristic;
-use hdrflow::maths::per_pixel::{
+use hdrflow::maths::render::glossy::Heuristic;
+use hdrflow::maths::render::per_pixel::{
     relight_per_pixel_with, PerPixelOptions, PerPixelSequence, PerPixelStrategy, PerPixelWarp,
 };
-use hdrflow::maths::relight::SphereView;
+use hdrflow::maths::render::relight::SphereView;
+use hdrflow::maths::stats::colour::rec709_luminance_f32;
 use hdrflow::values::{Distribution2D, Image};
 
 /// The map: `HDRFLOW_PER_PIXEL_MAP`, else Grace Cathedral, else the built-in sky.

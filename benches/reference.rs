@@ -1,4 +1,4 @@
-//! `maths::reference::reference_sphere`, the exact sum over every texel: a 256x256 sphere
+//! `maths::render::reference::reference_sphere`, the exact sum over every texel: a 256x256 sphere
 //! against 1024x512 maps (target: a few seconds on 2 cores).
 //!
 //!     cargo bench --bench reference
@@ -14,9 +14,9 @@ use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, Criterion, SamplingMode};
 use hdrflow::geometry::latlong;
-use hdrflow::maths::reference::{reference_sphere, reference_work};
-use hdrflow::maths::relight::SphereView;
-use hdrflow::maths::sequences::SplitMix64;
+use hdrflow::maths::render::reference::{reference_sphere, reference_work};
+use hdrflow::maths::render::relight::SphereView;
+use hdrflow::maths::sampling::sequences::SplitMix64;
 use hdrflow::values::Image;
 
 /// A random map: one texel in five black, one in fifty at (500, 300, 100), the others random.
@@ -40,7 +40,10 @@ fn random_map(w: usize, h: usize, seed: u64) -> Image {
 fn reference(c: &mut Criterion) {
     let view = SphereView::new(256, latlong::direction_deg(90.0, 90.0));
     let sky = hdrflow::formats::builtin::builtin("sky").expect("built-in");
-    let maps = [("random", random_map(1024, 512, 11)), ("sky", hdrflow::maths::area_resize::resize(&sky, 1024, 512))];
+    let maps = [
+        ("random", random_map(1024, 512, 11)),
+        ("sky", hdrflow::maths::resample::area_resize::resize(&sky, 1024, 512)),
+    ];
     let mut group = c.benchmark_group("reference_sphere_256x256_on_1024x512");
     // One render takes seconds: the fewest samples criterion allows, one render each.
     group.sample_size(10);

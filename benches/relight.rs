@@ -1,4 +1,4 @@
-//! Shared-sample relighting: the whole 512x512 sphere under 1024 lights (`maths::relight`), and
+//! Shared-sample relighting: the whole 512x512 sphere under 1024 lights (`maths::render::relight`), and
 //! the inner kernel on one hot tile, each SIMD kernel against the portable loop.
 //!
 //!     cargo bench --bench relight
@@ -15,8 +15,8 @@ use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use hdrflow::geometry::latlong;
-use hdrflow::maths::kernels::{pack_blocks, wide_total, Kernel, WideSums, WIDE};
-use hdrflow::maths::relight::{relight, LightSample, SphereView};
+use hdrflow::maths::render::kernels::{pack_blocks, wide_total, Kernel, WideSums, WIDE};
+use hdrflow::maths::render::relight::{relight, LightSample, SphereView};
 
 fn relight_sphere(c: &mut Criterion) {
     let lights: Vec<LightSample> = hdrflow::geometry::fibonacci_sphere(1024)

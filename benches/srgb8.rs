@@ -14,7 +14,7 @@ use std::hint::black_box;
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use hdrflow::formats::png::linear_to_srgb8;
 use hdrflow::formats::srgb8::Srgb8Table;
-use hdrflow::maths::sequences::SplitMix64;
+use hdrflow::maths::sampling::sequences::SplitMix64;
 
 fn srgb8(c: &mut Criterion) {
     let mut rng = SplitMix64::new(1);

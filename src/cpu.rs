@@ -1,6 +1,6 @@
 //! Processor features, below every other layer, and the one place the crate detects them: every
-//! SIMD path asks here (the distribution's row kernels in `maths::row_kernels`, the relight and
-//! reference kernels in `maths::kernels`, the per-pixel batches, the hierarchical descent), so
+//! SIMD path asks here (the distribution's row kernels in `values::distribution::row_kernels`, the relight and
+//! reference kernels in `maths::render::kernels`, the per-pixel batches, the hierarchical descent), so
 //! they agree on what "AVX-512" and "AVX2" mean and are dispatched one way:
 //!
 //! - each `#[target_feature]` function is reached only through a safe dispatcher that asks

@@ -133,11 +133,11 @@ fn a_khronos_bake_writes_both_luts_as_the_viewer_reads_them() {
     assert_eq!((ggx.width(), ggx.height(), charlie.width(), charlie.height()), (64, 64, 64, 64));
     assert!(ggx.pixels().all(|p| p[2] == 0 && p[0] > 0));
     assert!(charlie.pixels().all(|p| p[0] == 0 && p[1] == 0));
-    let pts = hdrflow::maths::ggx::points(hdrflow::maths::ggx::LobeSequence::Hammersley, 1024);
+    let pts = hdrflow::maths::brdf::ggx::points(hdrflow::maths::brdf::ggx::LobeSequence::Hammersley, 1024);
     let mut clamped = 0;
     for (x, y) in [(0, 0), (0, 3), (2, 10), (10, 20), (32, 32), (63, 5), (5, 63), (63, 63)] {
         let (nov, r) = ((x as f64 + 0.5) / 64.0, (y as f64 + 0.5) / 64.0);
-        let want = hdrflow::maths::charlie::charlie_lut_texel(nov, r, &pts);
+        let want = hdrflow::maths::brdf::charlie::charlie_lut_texel(nov, r, &pts);
         clamped += usize::from(want > 1.0);
         let code = (want.clamp(0.0, 1.0) * 65535.0).round() as i32;
         let got = charlie.get_pixel(x, y)[2] as i32;

@@ -12,7 +12,7 @@ use std::path::Path;
 use hdrflow::engine::scheduler::{self, RunOptions, Silent};
 use hdrflow::engine::value::Value;
 use hdrflow::geometry::latlong;
-use hdrflow::maths::camera::{Lens, Model};
+use hdrflow::geometry::lens::{Lens, Model};
 use hdrflow::values::Image;
 
 fn run(text: &str, targets: &[&str]) -> Result<BTreeMap<String, Value>, String> {

@@ -149,7 +149,7 @@ fn spheres_job(name: &str, ibl: String, sh: Option<String>) -> Json {
 
 /// The 9 pre-scaled SH Filament evaluates, computed exactly from `map` (hdrflow's axes).
 fn exact_sh(map: &Image) -> [[f64; 3]; 9] {
-    hdrflow::maths::sh_filament::prescaled(&hdrflow::maths::sh::project(map, 2, ShFrame::World))
+    hdrflow::maths::ibl::sh_filament::prescaled(&hdrflow::maths::ibl::sh::project(map, 2, ShFrame::World))
 }
 
 fn references(map: &Map, geometry: &Geometry) -> Vec<SphereReference> {

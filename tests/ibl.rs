@@ -9,10 +9,13 @@ use std::f64::consts::PI;
 use glam::DVec3;
 use hdrflow::formats::builtin::builtin;
 use hdrflow::geometry::cubemap as cube;
-use hdrflow::maths::ggx::{prefilter, LobeSequence};
-use hdrflow::maths::irradiance_cube::{exact, from_sh, project_cube, project_latlong, ShWindow, Texels};
-use hdrflow::maths::luts::brdf_lut;
-use hdrflow::maths::resample::{cube_integral, latlong_integral, to_cube, to_latlong, CubeSource, LatLongSource};
+use hdrflow::maths::brdf::ggx::LobeSequence;
+use hdrflow::maths::ibl::irradiance_cube::{exact, from_sh, project_cube, project_latlong, ShWindow, Texels};
+use hdrflow::maths::ibl::luts::brdf_lut;
+use hdrflow::maths::ibl::prefilter::prefilter;
+use hdrflow::maths::resample::layouts::{
+    cube_integral, latlong_integral, to_cube, to_latlong, CubeSource, LatLongSource,
+};
 use hdrflow::values::{Cubemap, Image};
 
 fn max_dev_from_one(c: &Cubemap) -> f64 {

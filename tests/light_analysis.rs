@@ -13,7 +13,7 @@ use glam::DVec3;
 use hdrflow::engine::value::Value;
 use hdrflow::formats::builtin::builtin;
 use hdrflow::geometry::latlong;
-use hdrflow::maths::lights::integral;
+use hdrflow::maths::fit::lights::integral;
 use hdrflow::values::{Image, Lights, Metrics};
 
 fn run(text: &str, targets: &[&str]) -> Result<BTreeMap<String, Value>, String> {
@@ -136,7 +136,7 @@ fn extract_lights_on_synthetic_blobs_across_the_seam_and_the_pole() {
             }
             [0.4, 0.5, 0.7]
         });
-        let e = hdrflow::maths::lights::extract_lights(&env, 8, 6.0);
+        let e = hdrflow::maths::fit::lights::extract_lights(&env, 8, 6.0);
         assert_eq!(e.lights.lights.len(), n);
         let (model, with_residual) = conservation(&env, &e.lights, &e.residual);
         assert!(model < 1e-4 && with_residual < 1e-4, "{n}: {model:e} {with_residual:e}");

@@ -13,7 +13,7 @@ use std::f64::consts::PI;
 use glam::DVec3;
 use hdrflow::engine::value::Value;
 use hdrflow::geometry::latlong;
-use hdrflow::maths::rotation::Rotation;
+use hdrflow::geometry::rotation::Rotation;
 use hdrflow::values::Image;
 
 fn run(text: &str, targets: &[&str]) -> Result<BTreeMap<String, Value>, String> {
@@ -426,9 +426,9 @@ fn the_documented_pipeline_runs_on_the_park() {
     }
     let park = load_park();
     let ball = load("ball.exr");
-    let want = hdrflow::maths::resample::latlong_integral(&park);
+    let want = hdrflow::maths::resample::layouts::latlong_integral(&park);
     let map = hdrflow::geometry::azimuthal::DiscMap::mirror_ball(DVec3::X, DVec3::Y, DVec3::Z);
-    let got = hdrflow::maths::disc_image::disc_integral(&ball, &map);
+    let got = hdrflow::maths::resample::disc_image::disc_integral(&ball, &map);
     let rel = (0..3).map(|k| ((got[k] - want[k]) / want[k]).abs()).fold(0.0, f64::max);
     eprintln!("park: ball integral {got:?} vs {want:?} ({rel:.1e})");
     assert!(rel < 2e-3, "{rel}");

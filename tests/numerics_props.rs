@@ -15,10 +15,10 @@ use std::f64::consts::PI;
 
 use hdrflow::engine::scheduler::{self, RunOptions, Silent};
 use hdrflow::geometry::latlong::{self, texel_solid_angle, theta_of_row};
-use hdrflow::maths::chi_square::chi_square_test;
-use hdrflow::maths::relight::{merge_duplicates, relight, Estimator, LightSample, SphereView};
-use hdrflow::maths::sequences::SplitMix64;
-use hdrflow::maths::{fresnel, phong};
+use hdrflow::maths::brdf::{fresnel, phong};
+use hdrflow::maths::render::relight::{merge_duplicates, relight, Estimator, LightSample, SphereView};
+use hdrflow::maths::sampling::chi_square::chi_square_test;
+use hdrflow::maths::sampling::sequences::SplitMix64;
 use hdrflow::values::distribution::{Distribution2D, DistributionError};
 use hdrflow::values::Image;
 use hdrflow::Pipeline;
@@ -807,7 +807,7 @@ fn unbiased_weight_overflow_is_visible() {
     }
 }
 
-/// BUG: `maths::relight::relight` documents "Lights with a non-finite weight poison only the
+/// BUG: `maths::render::relight::relight` documents "Lights with a non-finite weight poison only the
 /// pixels that face them", but a pixel *behind* such a light (in a tile that is not culled)
 /// computes `max(n.d, 0) * weight = 0 * Inf = NaN`. Minimal input: one light, direction +X,
 /// weight +Inf, view from +Z, 32 x 32: 1218 NaN samples, all on the left half of the disc (which
@@ -1013,7 +1013,7 @@ fn integral_rgb(env: &Image) -> [f64; 3] {
 }
 
 fn check_sun(env: &Image, stops: f64, what: &str) -> Result<(), TestCaseError> {
-    let s = hdrflow::maths::sun::extract_sun(env, stops);
+    let s = hdrflow::maths::fit::sun::extract_sun(env, stops);
     let l = &s.light;
     prop_assert!(l.radiance.iter().all(|r| r.is_finite() && *r >= 0.0), "{what}: radiance {:?}", l.radiance);
     prop_assert!(l.solid_angle.is_finite() && l.solid_angle >= 0.0, "{what}: {}", l.solid_angle);
@@ -1095,7 +1095,7 @@ proptest! {
         theta in 0.0f64..180.0,
         phi in 0.0f64..360.0,
     ) {
-        use hdrflow::maths::glossy::{glossy_sphere, reference_glossy_sphere, GlossyBrdf, GlossyStrategy, Heuristic};
+        use hdrflow::maths::render::glossy::{glossy_sphere, reference_glossy_sphere, GlossyBrdf, GlossyStrategy, Heuristic};
         let grey = make_map(w, h, kind, seed);
         let env = tinted(&grey);
         let dist = Distribution2D::build(&grey, true, false).unwrap();

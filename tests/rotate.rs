@@ -4,7 +4,7 @@
 
 mod common;
 
-use hdrflow::maths::resample::{cube_integral, latlong_integral};
+use hdrflow::maths::resample::layouts::{cube_integral, latlong_integral};
 use hdrflow::values::{Cubemap, Image};
 
 #[test]

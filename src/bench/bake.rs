@@ -17,11 +17,11 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use hdrflow::ibl_presets::PRESETS;
-use hdrflow::maths::area_resize;
-use hdrflow::maths::latlong_cube::latlong_to_cube;
-use hdrflow::maths::resample::LatLongSource;
-use hdrflow::maths::specular_lobe::RoughnessMap;
-use hdrflow::maths::sun::extract_sun;
+use hdrflow::maths::brdf::specular_lobe::RoughnessMap;
+use hdrflow::maths::fit::sun::extract_sun;
+use hdrflow::maths::resample::area_resize;
+use hdrflow::maths::resample::latlong_cube::latlong_to_cube;
+use hdrflow::maths::resample::layouts::LatLongSource;
 use hdrflow::values::Image;
 
 use super::bake_error::{chain_errors, Estimator};

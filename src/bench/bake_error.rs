@@ -3,7 +3,7 @@
 //! several sample counts, and plain Monte Carlo at the engines' tools' 1024 samples per texel
 //! (every sample one bilinear read of the source: no filtered importance sampling).
 //!
-//! The exact reference sums the lobe over every source texel (`maths::zonal_sum`, as
+//! The exact reference sums the lobe over every source texel (`maths::ibl::zonal_sum`, as
 //! `PrefilterSpecular(exact: true)` does), 6 S^2 texel pairs
 //! per output texel: on a 256 source that is 0.4 M pairs a texel, so it is evaluated on a fixed
 //! subset of each level's texels (`texels_per_level`, spread over every face by a stride with a
@@ -15,12 +15,13 @@ use std::time::Instant;
 use rayon::prelude::*;
 
 use hdrflow::geometry::cubemap as cube;
-use hdrflow::maths::fis_kernel::PaddedPyramid;
-use hdrflow::maths::ggx::{
-    exact_source_level, points, prefilter_level_exact, prefilter_level_fis, pyramid, zonal_lobe, LobeSequence,
+use hdrflow::maths::brdf::ggx::{points, LobeSequence};
+use hdrflow::maths::brdf::specular_lobe::SpecularBrdf;
+use hdrflow::maths::ibl::fis_kernel::PaddedPyramid;
+use hdrflow::maths::ibl::prefilter::{
+    exact_source_level, prefilter_level_exact, prefilter_level_fis, pyramid, zonal_lobe,
 };
-use hdrflow::maths::specular_lobe::SpecularBrdf;
-use hdrflow::maths::zonal_sum::ZonalSource;
+use hdrflow::maths::ibl::zonal_sum::ZonalSource;
 use hdrflow::values::Cubemap;
 
 /// An estimator of a chain's levels.

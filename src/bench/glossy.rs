@@ -14,12 +14,12 @@ use std::fmt::Write as _;
 use crate::bench::{inner_disc_mask, load_map, luminance, time_median, MapSpec};
 use hdrflow::engine::cache::store::write_atomic;
 use hdrflow::geometry::latlong;
-use hdrflow::maths::error_metrics::image_error;
-use hdrflow::maths::glossy::{
+use hdrflow::maths::fit::sun::extract_sun;
+use hdrflow::maths::render::glossy::{
     add_light, glossy_sphere, reference_glossy_sphere, GlossyBrdf, GlossyStrategy, Heuristic,
 };
-use hdrflow::maths::relight::SphereView;
-use hdrflow::maths::sun::extract_sun;
+use hdrflow::maths::render::relight::SphereView;
+use hdrflow::maths::stats::error_metrics::image_error;
 use hdrflow::values::{Distribution2D, Image};
 
 /// What to run.

@@ -1,7 +1,7 @@
 //! `hdrflow bench`: run time against error for every relighting strategy, beside the peers a
 //! user would pick instead (NumPy, Mitsuba 3), plus the point targets.
 //!
-//! For each map: build its distribution and the exact reference sphere (`maths::reference`),
+//! For each map: build its distribution and the exact reference sphere (`maths::render::reference`),
 //! then for each sample count and strategy render the same sphere (same framing) and measure
 //! its relative RMSE against the reference over the inner disc (pixel centres with
 //! sx^2 + sy^2 <= 0.9: Mitsuba jitters its rays inside each pixel, so silhouette pixels would
@@ -37,7 +37,7 @@ mod sweep;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use hdrflow::maths::colour::rec709_luminance_f32;
+use hdrflow::maths::stats::colour::rec709_luminance_f32;
 use hdrflow::values::Image;
 pub use results::replot;
 pub use sweep::run;

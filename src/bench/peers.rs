@@ -2,7 +2,7 @@
 //! maps and counts when their dependencies are present.
 
 use hdrflow::engine::cache::store::write_atomic;
-use hdrflow::maths::error_metrics::image_error;
+use hdrflow::maths::stats::error_metrics::image_error;
 use hdrflow::values::Image;
 use std::path::Path;
 

@@ -3,15 +3,15 @@
 
 use hdrflow::engine::cache::store::write_atomic;
 use hdrflow::geometry::latlong;
-use hdrflow::maths::error_metrics::image_error;
-use hdrflow::maths::glossy::Heuristic;
-use hdrflow::maths::per_pixel::{PerPixelRenderer, PerPixelSequence, PerPixelStrategy, PerPixelWarp};
-use hdrflow::maths::reference::reference_sphere;
-use hdrflow::maths::relight::{Estimator, SphereView};
-use hdrflow::maths::sequences::Sequence;
-use hdrflow::maths::sh;
-use hdrflow::maths::shared_relight::relight_sphere;
-use hdrflow::maths::texel_samples;
+use hdrflow::maths::ibl::sh;
+use hdrflow::maths::render::glossy::Heuristic;
+use hdrflow::maths::render::per_pixel::{PerPixelRenderer, PerPixelSequence, PerPixelStrategy, PerPixelWarp};
+use hdrflow::maths::render::reference::reference_sphere;
+use hdrflow::maths::render::relight::{Estimator, SphereView};
+use hdrflow::maths::render::shared_relight::relight_sphere;
+use hdrflow::maths::sampling::sequences::Sequence;
+use hdrflow::maths::sampling::texel_samples;
+use hdrflow::maths::stats::error_metrics::image_error;
 use hdrflow::values::{Distribution2D, Image};
 use std::time::Instant;
 

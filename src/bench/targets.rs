@@ -21,11 +21,11 @@ use std::time::Instant;
 use hdrflow::engine::cache::CacheStore;
 use hdrflow::engine::scheduler::{self, RunOptions, Silent};
 use hdrflow::geometry::latlong;
-use hdrflow::maths::area_resize::resize;
-use hdrflow::maths::relight::Estimator;
-use hdrflow::maths::sequences::Sequence;
-use hdrflow::maths::shared_relight::relight_sphere;
-use hdrflow::maths::texel_samples;
+use hdrflow::maths::render::relight::Estimator;
+use hdrflow::maths::render::shared_relight::relight_sphere;
+use hdrflow::maths::resample::area_resize::resize;
+use hdrflow::maths::sampling::sequences::Sequence;
+use hdrflow::maths::sampling::texel_samples;
 use hdrflow::values::{Distribution2D, Image};
 use hdrflow::Pipeline;
 
@@ -277,10 +277,10 @@ fn reference_against_floor(maps: &[(String, Image)], log: &dyn Fn(&str)) -> Targ
         Some((n, m)) => (n.clone(), m.clone()),
         None => ("built-in sky resized".to_string(), resize(&maps[0].1, 1024, 512)),
     };
-    let view = hdrflow::maths::relight::SphereView::new(512, latlong::direction_deg(90.0, 90.0));
-    let (ms, img) = time_median(1, || hdrflow::maths::reference::reference_sphere(&env, &view, [0.8; 3]));
+    let view = hdrflow::maths::render::relight::SphereView::new(512, latlong::direction_deg(90.0, 90.0));
+    let (ms, img) = time_median(1, || hdrflow::maths::render::reference::reference_sphere(&env, &view, [0.8; 3]));
     std::hint::black_box(img);
-    let (evaluated, all) = hdrflow::maths::reference::reference_work(&env, &view);
+    let (evaluated, all) = hdrflow::maths::render::reference::reference_work(&env, &view);
     let cores = rayon::current_num_threads() as f64;
     let target_name = format!("ReferenceSphere 512x512 on a 1024x512 map ({name})");
     match measure_clock_hz() {

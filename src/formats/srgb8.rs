@@ -137,7 +137,7 @@ mod tests {
 
     #[test]
     fn the_table_gives_the_exact_code_under_any_exposure() {
-        use crate::maths::sequences::SplitMix64;
+        use crate::maths::sampling::sequences::SplitMix64;
         let table = Srgb8Table::new();
         let mut rng = SplitMix64::new(7);
         for _ in 0..2_000_000 {

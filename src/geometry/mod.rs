@@ -12,7 +12,9 @@ pub mod cube_layout;
 pub mod cubemap;
 pub mod latlong;
 pub mod latlong_grid;
+pub mod lens;
 pub mod octahedral;
+pub mod rotation;
 
 use glam::DVec3;
 

@@ -17,7 +17,7 @@
 //!
 //! **Axes.** pbrt's (x, y, z) above are the light's frame, z up. hdrflow's world is +Y up, -Z
 //! forward; the mapping used here is `pbrt = (Z, -X, Y)` of hdrflow's (X, Y, Z) (the `LatLong`
-//! frame of `maths::sh`): it is the frame in which a lat-long map's theta and phi are pbrt's
+//! frame of `maths::ibl::sh`): it is the frame in which a lat-long map's theta and phi are pbrt's
 //! `SphericalTheta` (from +z) and `SphericalPhi` (from +x towards +y), so an hdrflow lat-long map
 //! given to `imgtool makeequiarea` and the same map through `LatLongToOctahedral` agree. Pixel
 //! (x, y) of an N x N image (row 0 at the top) is centred on `p = ((x + 0.5) / N, (y + 0.5) / N)`,

@@ -14,7 +14,7 @@
 
 use super::{Chain, Engine, Preset, Quality, SpecSize, ToolPlacement};
 use crate::geometry::cube_frame::CubeFrame;
-use crate::maths::specular_lobe::RoughnessMap;
+use crate::maths::brdf::specular_lobe::RoughnessMap;
 
 pub const PRESET: Preset = Preset {
     engine: Engine::Bevy,

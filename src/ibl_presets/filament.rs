@@ -12,7 +12,7 @@
 //!   (`atan2(x, z)`), mirrored, then mirrors the cube by default (`mirrorCubemap`: x negated),
 //!   so cmgen's result faces +Z unmirrored: hdrflow's with a yaw of 180 degrees.
 //! - Irradiance: 9 SH pre-scaled for the shader (`--sh-shader`; `E / pi = sh0 + sh1 y + ...`),
-//!   written to `sh.txt` and the KTX key `sh` (`maths::sh_filament`). cmgen windows them by
+//!   written to `sh.txt` and the KTX key `sh` (`maths::ibl::sh_filament`). cmgen windows them by
 //!   default (`--sh-window=auto`); hdrflow does not.
 //! - Files: `<name>_ibl.ktx` (the chain), `<name>_skybox.ktx` (level 0), `sh.txt`; KTX1,
 //!   R11F_G11F_B10F. Size: a power of two ("output size must be a power of two").
@@ -22,7 +22,7 @@
 
 use super::{Chain, Engine, Preset, Quality, SpecSize, ToolPlacement};
 use crate::geometry::cube_frame::CubeFrame;
-use crate::maths::specular_lobe::RoughnessMap;
+use crate::maths::brdf::specular_lobe::RoughnessMap;
 
 pub const PRESET: Preset = Preset {
     engine: Engine::Filament,

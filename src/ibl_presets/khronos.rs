@@ -8,7 +8,7 @@
 //!   `PrefilterSpecular(brdf: Charlie)`), Lambertian (`lambertian/diffuse.ktx2`, `E / pi`), and
 //!   two LUTs, x = n.v, y = roughness, row 0 = roughness 0, the size of the cube: GGX
 //!   (`lut_ggx.png`: R scale, G bias) and Charlie for sheen (`lut_charlie.png`, `BrdfLut(brdf:
-//!   Charlie)`: B, read by the viewer's `getIBLRadianceCharlie` as `.b`; `maths::charlie`). The
+//!   Charlie)`: B, read by the viewer's `getIBLRadianceCharlie` as `.b`; `maths::brdf::charlie`). The
 //!   viewer's other sheen texture, `lut_sheen_E.png` (the albedo scaling of the layers below the
 //!   sheen), depends on no environment and is not written: the viewer's own copy serves.
 //! - Lookup: `textureLod(u_GGXEnvSampler, u_envRotation * reflection, lod)`, the world direction
@@ -21,7 +21,7 @@
 
 use super::{Chain, Engine, Preset, Quality, SpecSize, ToolPlacement};
 use crate::geometry::cube_frame::CubeFrame;
-use crate::maths::specular_lobe::RoughnessMap;
+use crate::maths::brdf::specular_lobe::RoughnessMap;
 
 pub const PRESET: Preset = Preset {
     engine: Engine::Khronos,

@@ -18,7 +18,7 @@ pub mod khronos;
 pub mod three;
 
 use crate::geometry::cube_frame::CubeFrame;
-use crate::maths::specular_lobe::RoughnessMap;
+use crate::maths::brdf::specular_lobe::RoughnessMap;
 
 crate::choice! {
     /// An engine `hdrflow bake` writes for.

@@ -62,7 +62,8 @@ scene.add(sun);
 mod tests {
     use super::PRESET;
     use crate::geometry::latlong;
-    use crate::maths::rotation::{rotate_latlong, Rotation};
+    use crate::geometry::rotation::Rotation;
+    use crate::maths::resample::rotation::rotate_latlong;
     use crate::values::Image;
 
     /// three.js reads world direction d at `u = atan2(d.z, d.x) / (2 pi) + 0.5`, `v = asin(d.y) /

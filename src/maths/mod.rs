@@ -1,48 +1,27 @@
-//! The mathematics behind the operators, free of the engine: sequences, lobes, Fresnel,
-//! relighting and its SIMD kernels, and statistical tests. The lat-long convention they all use
-//! lives below them, in [`crate::geometry::latlong`].
+//! The mathematics behind the operators, free of the engine, by domain. Each folder says what it
+//! holds and what it may import; the domains form no cycle (checked by
+//! `scripts/module_cycles.py`), in this order from the bottom up:
+//!
+//! - [`stats`]: statistics, error metrics, colour weights;
+//! - [`sampling`]: point sequences, warps of a distribution, and the tests that samplers are right;
+//! - [`brdf`]: lobes and Fresnel (evaluate, sample, pdf);
+//! - [`resample`]: footprint means, rotations, projections between spherical layouts;
+//! - [`render`]: the sphere renderers and their exact references;
+//! - [`ibl`]: prefiltering, irradiance, split-sum tables, spherical harmonics;
+//! - [`camera`]: camera views of a map and their footprints;
+//! - [`fit`]: least squares and what is fitted with it (lights, suns, spherical Gaussians).
+//!
+//! Below them all: the data types ([`crate::values`]) and the geometry of directions, layouts,
+//! lenses and rotations ([`crate::geometry`]).
 
-pub mod area_resize;
-pub mod bilinear;
+pub mod brdf;
 pub mod camera;
-pub mod camera_area;
-pub mod camera_view;
-pub mod charlie;
-pub mod chi_square;
-pub mod colour;
-pub mod disc_image;
-pub mod error_metrics;
-pub mod fis_kernel;
-pub mod fresnel;
-pub mod ggx;
-pub mod ggx_reference;
-pub mod glossy;
-pub mod guide_table;
-pub mod hierarchical_warp;
-pub mod irradiance_cube;
-pub mod kernels;
-pub mod latlong_cube;
-pub mod least_squares;
-pub mod lights;
-pub mod luts;
-pub mod mis;
-pub mod per_pixel;
-pub mod phong;
-pub mod reference;
-pub mod relight;
+pub mod fit;
+pub mod ibl;
+pub mod render;
 pub mod resample;
-pub mod rotation;
-pub(crate) mod row_kernels;
-pub mod sequences;
-pub mod sh;
-pub mod sh_filament;
-pub mod shared_relight;
-pub mod specular_lobe;
-pub mod spherical_gaussians;
-pub mod statistics;
-pub mod sun;
-pub mod texel_samples;
-pub mod zonal_sum;
+pub mod sampling;
+pub mod stats;
 
 /// Asks the processor to bring `value`'s cache line towards L1 (`prefetcht0`): a hint with no
 /// effect on results. No-op off x86_64.
@@ -69,7 +48,7 @@ pub(crate) mod test_maps {
         let lum: Vec<f32> = (0..env.height)
             .flat_map(|y| (0..env.width).map(move |x| (x, y)))
             .map(|(x, y)| {
-                let ([r, g, b], [wr, wg, wb]) = (env.rgb(x, y), crate::maths::colour::REC709_F32);
+                let ([r, g, b], [wr, wg, wb]) = (env.rgb(x, y), crate::maths::stats::colour::REC709_F32);
                 wr * r + wg * g + wb * b
             })
             .collect();

@@ -253,7 +253,7 @@ fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, curves: &Curves) -> R
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::maths::fresnel::fresnel_curves;
+    use crate::maths::brdf::fresnel::fresnel_curves;
 
     fn sample_curves() -> Curves {
         Curves {

@@ -81,7 +81,7 @@ fn fit(w: u32, h: u32) -> (u32, u32) {
 }
 
 fn luminance(rgb: [f32; 3]) -> f32 {
-    let [wr, wg, wb] = crate::maths::colour::REC709_F32;
+    let [wr, wg, wb] = crate::maths::stats::colour::REC709_F32;
     wr * rgb[0] + wg * rgb[1] + wb * rgb[2]
 }
 

@@ -12,13 +12,13 @@ use glam::DVec3;
 use super::json::num;
 use crate::engine::cache::codec::{Reader, Writer};
 use crate::engine::value::{SaveOptions, TypeSpec, Value, ValueData, ValueType};
-use crate::maths::camera::Model;
-use crate::maths::rotation::Rotation;
+use crate::geometry::lens::Model;
+use crate::geometry::rotation::Rotation;
 
 /// A `width x height` view through a lens of `model` and horizontal field of view `fov`
 /// (degrees), turned by `yaw`, `pitch`, `roll` (degrees, `Rotate`'s angles:
 /// `R = R_y(yaw) R_x(pitch) R_z(roll)`). Camera space looks down -Z with +Y up and +X right, and
-/// the view sees world direction `R c` for camera ray `c` (`maths::camera`).
+/// the view sees world direction `R c` for camera ray `c` (`geometry::lens`).
 /// Plain data, its fields public: `Project` declares the camera it renders with, field by field.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Camera {

@@ -144,7 +144,7 @@ impl Cubemap {
 
 /// A prefiltered chain: level k is a cube map of size max(1, size >> k), filtered for the
 /// perceptual roughness `roughness[k]` (alpha = roughness^2).
-/// Plain data, its fields public: the GGX prefilter (`maths::ggx`) builds it level by level.
+/// Plain data, its fields public: the GGX prefilter (`maths::brdf::ggx`) builds it level by level.
 #[derive(Clone, Debug, PartialEq)]
 pub struct MipChain {
     pub levels: Vec<Cubemap>,

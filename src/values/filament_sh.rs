@@ -1,5 +1,5 @@
 //! `filament sh`: Filament's 9 pre-scaled irradiance coefficients ([`FilamentSh`],
-//! `maths::sh_filament`), the type, its cache codec and its files in one module. Saved as:
+//! `maths::ibl::sh_filament`), the type, its cache codec and its files in one module. Saved as:
 //!
 //! - `.txt`: cmgen's `sh.txt`, byte for byte in layout (tools/cmgen/src/cmgen.cpp, `outputSh`):
 //!   one line per coefficient, l = 0..2, m = -l..l,
@@ -14,7 +14,7 @@ use crate::engine::cache::codec::{Reader, Writer};
 use crate::engine::value::{SaveOptions, TypeSpec, Value, ValueData, ValueType};
 
 /// Filament's irradiance SH: `E(n) / pi = sh[0] + sh[1] y + sh[2] z + sh[3] x + ...` in
-/// Filament's world (`maths::sh_filament`), one `[r, g, b]` per coefficient.
+/// Filament's world (`maths::ibl::sh_filament`), one `[r, g, b]` per coefficient.
 #[derive(Clone, Debug, PartialEq)]
 pub struct FilamentSh {
     pub rgb: [[f64; 3]; 9],

@@ -132,7 +132,7 @@ fn save(value: &Value, _: &SaveOptions) -> Result<Vec<u8>, String> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::maths::camera::Model;
+    use crate::geometry::lens::Model;
     use crate::values::{Light, SgLobe, ShFrame};
 
     fn full() -> Label {

@@ -1,6 +1,6 @@
 //! `ShCoefficients` (`sh coefficients` in graphs): real spherical-harmonic coefficients of an
 //! environment, per RGB channel, with their order and the frame their basis was evaluated in. The
-//! basis, the frames and the projection are documented in `maths::sh`. Saved as:
+//! basis, the frames and the projection are documented in `maths::ibl::sh`. Saved as:
 //!
 //! - `.json`: `{"frame": "World", "order": 2, "basis": "<the convention and axes, one line>",
 //!   "coefficients": [[r, g, b], ...]}`, `(order + 1)^2` rows in `(l, m)` order (l = 0..=order,

@@ -1,5 +1,5 @@
 //! What each sphere pixel should be under the map, from exact sums over the map's texels
-//! (`hdrflow::maths::reference`, `hdrflow::maths::ggx_reference`), in two forms:
+//! (`hdrflow::maths::render::reference`, `hdrflow::maths::ibl::ggx_reference`), in two forms:
 //!
 //! - `engine`: Bevy's own shading formula (`scene::lookup_weights`, its dominant direction) with
 //!   each cube-map lookup replaced by its exact value: the specular map by the exact GGX
@@ -20,11 +20,11 @@
 use std::f64::consts::PI;
 
 use glam::DVec3;
-use hdrflow::maths::bilinear;
-use hdrflow::maths::ggx::{dfg, points, LobeSequence};
-use hdrflow::maths::ggx_reference::{prefiltered, specular};
-use hdrflow::maths::irradiance_cube::Texels;
-use hdrflow::maths::reference::irradiance_exact;
+use hdrflow::maths::brdf::ggx::{dfg, points, LobeSequence};
+use hdrflow::maths::ibl::ggx_reference::{prefiltered, specular};
+use hdrflow::maths::ibl::irradiance_cube::Texels;
+use hdrflow::maths::render::reference::irradiance_exact;
+use hdrflow::maths::resample::bilinear;
 use hdrflow::values::Image;
 
 use super::scene::{lookup_weights, shader_alpha, specular_direction, Sphere};
@@ -47,8 +47,11 @@ pub struct Map {
 
 impl Map {
     pub fn new(full: Image) -> Map {
-        let for_ggx =
-            if full.width > 512 { hdrflow::maths::area_resize::resize(&full, 512, 256) } else { full.clone() };
+        let for_ggx = if full.width > 512 {
+            hdrflow::maths::resample::area_resize::resize(&full, 512, 256)
+        } else {
+            full.clone()
+        };
         Map { full, for_ggx }
     }
 }

@@ -2,7 +2,7 @@
 //! a bake can make through hdrflow's options are made with `--set` there; the mirrored map is
 //! `common/markers.rs`'s `mirror_x`).
 
-use hdrflow::maths::sh::project;
+use hdrflow::maths::ibl::sh::project;
 use hdrflow::values::{Image, ShFrame};
 
 /// `sh.txt` in cmgen's layout (9 lines `( r, g, b); // name`) holding `coeffs`.

@@ -19,7 +19,7 @@
 //!      Sobol points; Filament reads a built-in 128 x 128 table of the same integral), the
 //!      specular term `E (1 + f0 (1 / dfg.y - 1)) P` (Filament's energy compensation: for the
 //!      white metals, f0 = 1, exactly `P`), plus for the dielectric (f0 = 0.04, diffuse colour 1)
-//!      `(1 - E) max(SH(n), 0)` with the exact 9 pre-scaled SH of the map (`maths::sh::project`,
+//!      `(1 - E) max(SH(n), 0)` with the exact 9 pre-scaled SH of the map (`maths::ibl::sh::project`,
 //!      `sh_filament::prescaled`). Ambient occlusion is 1 (no texture, no SSAO), so the
 //!      specular AO term is 1.
 //!
@@ -42,10 +42,10 @@
 use std::f64::consts::PI;
 
 use glam::DVec3;
-use hdrflow::maths::ggx::{dfg, points, LobeSequence};
-use hdrflow::maths::ggx_reference::{prefiltered, specular};
-use hdrflow::maths::irradiance_cube::Texels;
-use hdrflow::maths::reference::irradiance_exact;
+use hdrflow::maths::brdf::ggx::{dfg, points, LobeSequence};
+use hdrflow::maths::ibl::ggx_reference::{prefiltered, specular};
+use hdrflow::maths::ibl::irradiance_cube::Texels;
+use hdrflow::maths::render::reference::irradiance_exact;
 use rayon::prelude::*;
 
 use super::reference::{lookup, Map};
@@ -196,7 +196,7 @@ pub fn sphere_reference(
         let e_exact = ex + (ey - ex) * f0;
         let mut exact = single[i].map(|c| c * (1.0 + f0 * (1.0 / ey - 1.0)));
         if f0 < 1.0 {
-            let sh_value = hdrflow::maths::sh_filament::evaluate(sh, n.to_array()).map(|c| c.max(0.0));
+            let sh_value = hdrflow::maths::ibl::sh_filament::evaluate(sh, n.to_array()).map(|c| c.max(0.0));
             for c in 0..3 {
                 engine[c] += (1.0 - e) * sh_value[c];
                 split[c] += (1.0 - e) * sh_value[c];

@@ -38,10 +38,10 @@ use std::f64::consts::PI;
 
 use glam::DVec3;
 use hdrflow::geometry::cubemap as cube;
-use hdrflow::maths::ggx::{dfg, points, LobeSequence};
-use hdrflow::maths::ggx_reference::{prefiltered, specular};
-use hdrflow::maths::irradiance_cube::Texels;
-use hdrflow::maths::reference::irradiance_exact;
+use hdrflow::maths::brdf::ggx::{dfg, points, LobeSequence};
+use hdrflow::maths::ibl::ggx_reference::{prefiltered, specular};
+use hdrflow::maths::ibl::irradiance_cube::Texels;
+use hdrflow::maths::render::reference::irradiance_exact;
 use rayon::prelude::*;
 
 use super::reference::{lookup, Map};

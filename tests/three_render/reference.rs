@@ -6,7 +6,7 @@
 //! `E_SH(n) = sum_l A_l sum_m c_lm Y_lm(n)` at the world normal n (`shGetIrradianceAt` in
 //! `lights_pars_begin.glsl.js`: `0.886227 = pi x 0.282095`, `2 x 0.511664 = (2 pi / 3) x
 //! 0.488603`, `2 x 0.429043 = (pi / 4) x 1.092548`, ...: Ramamoorthi and Hanrahan's form with the
-//! basis in slots 1-3 as y, z, x, which is `maths::sh::irradiance_sh` in hdrflow's `World`
+//! basis in slots 1-3 as y, z, x, which is `maths::ibl::sh::irradiance_sh` in hdrflow's `World`
 //! frame). Then:
 //!
 //! - `MeshLambertMaterial`: `E_SH (albedo / pi)`, exactly.
@@ -21,7 +21,7 @@
 //!   DFG integral (`ggx::dfg`, 1024 Sobol points) where three reads a 16 x 16 half-float table:
 //!   the white-furnace frame of the test (a probe of constant radiance 1) shows three's own.
 //!
-//! The reference is the map's exact irradiance (`maths::reference::irradiance_exact`, the sum
+//! The reference is the map's exact irradiance (`maths::render::reference::irradiance_exact`, the sum
 //! over its texels) in place of `E_SH`: the difference is the order-2 SH's approximation plus
 //! three's arithmetic. `sh` is `E_SH` of the coefficients three was given, evaluated here, so
 //! the frame against `sh` is three's arithmetic alone.
@@ -29,9 +29,9 @@
 use std::f64::consts::PI;
 
 use glam::DVec3;
-use hdrflow::maths::ggx::{dfg, points, LobeSequence};
-use hdrflow::maths::reference::irradiance_exact;
-use hdrflow::maths::sh::irradiance_sh;
+use hdrflow::maths::brdf::ggx::{dfg, points, LobeSequence};
+use hdrflow::maths::ibl::sh::irradiance_sh;
+use hdrflow::maths::render::reference::irradiance_exact;
 use hdrflow::values::{Image, ShFrame};
 
 /// F0 of three's `MeshStandardMaterial` (no IOR: `material.specularColor = vec3(0.04)`).

@@ -63,8 +63,8 @@ mod tests {
     use glam::DVec3;
 
     use crate::geometry::latlong::{texel_direction, texel_of_direction};
-    use crate::maths::camera::{Lens, Model};
-    use crate::maths::camera_view::{project, Filter};
+    use crate::geometry::lens::{Lens, Model};
+    use crate::maths::camera::view::{project, Filter};
     use crate::values::{Camera, Image};
 
     /// The crop Project cuts shows a texel where the label's matrix says the camera sees it.

@@ -13,22 +13,22 @@
 //!   `specular = mix(R, G, f0)` and the multiscatter compensation `1 + f0 (1 / G - 1)`.
 //!
 //! Tested: scale + bias (or `G`) <= 1 everywhere (to 1e-3), and at roughness -> 0 scale + bias -> 1
-//! and bias -> (1 - n.v)^5 (the closed form of a mirror). Formulas in `maths::ggx`.
+//! and bias -> (1 - n.v)^5 (the closed form of a mirror). Formulas in `maths::brdf::ggx`.
 //!
 //! `brdf: Charlie`: the sheen LUT the glTF Sample Viewer reads (`u_CharlieLUT`, `.b`, times the
 //! sheen colour and the Charlie chain), as glTF-IBL-Sampler's `LUT()` computes it for its Charlie
 //! distribution: Estevez and Kulla's sheen distribution, Ashikhmin's visibility, `samples`
 //! Hammersley points in the sampler's order. Three channels, (R, G, B) = (0, 0, LUT), as the
 //! sampler writes them; values reach 2.4 at grazing n.v and low roughness, which a PNG clamps to 1
-//! as the sampler's 8-bit file does. Formula, sources and tests in `maths::charlie`.
+//! as the sampler's 8-bit file does. Formula, sources and tests in `maths::brdf::charlie`.
 //! `multiscatter` is GGX's and is refused with Charlie.
 
 use crate::engine::fields::Check;
 use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec, OutputType};
 use crate::engine::value::Value;
-use crate::maths::ggx::LobeSequence;
-use crate::maths::luts::{brdf_lut, charlie_lut};
-use crate::maths::specular_lobe::SpecularBrdf;
+use crate::maths::brdf::ggx::LobeSequence;
+use crate::maths::brdf::specular_lobe::SpecularBrdf;
+use crate::maths::ibl::luts::{brdf_lut, charlie_lut};
 use crate::values::ty::*;
 
 crate::params! {
@@ -82,8 +82,8 @@ mod tests {
     use std::path::Path;
 
     use crate::engine::scheduler::{self, RunOptions, Silent};
-    use crate::maths::charlie::charlie_lut_texel;
-    use crate::maths::ggx::{points, LobeSequence};
+    use crate::maths::brdf::charlie::charlie_lut_texel;
+    use crate::maths::brdf::ggx::{points, LobeSequence};
     use crate::values::Image;
     use crate::Pipeline;
 

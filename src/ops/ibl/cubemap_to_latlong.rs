@@ -1,12 +1,12 @@
 //! `CubemapToLatLong(cubemap, width, height)`: a cube map as a W x H lat-long RGB map (hdrflow's
 //! lat-long convention), each texel the solid-angle-weighted average of the cube map (read as
-//! piecewise constant) over its footprint `dphi (cos theta0 - cos theta1)` (`maths::resample`):
+//! piecewise constant) over its footprint `dphi (cos theta0 - cos theta1)` (`maths::resample::layouts`):
 //! energy-preserving, exact for a constant map, 1e-3 relative on the built-in sky (tests).
 
 use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
 use crate::engine::value::Value;
-use crate::maths::resample::{to_latlong, CubeSource};
+use crate::maths::resample::layouts::{to_latlong, CubeSource};
 use crate::values::ty::*;
 use crate::values::Cubemap;
 

@@ -7,7 +7,7 @@
 //!   scaled by a window `w_l`: `None`, `Hann`, `Lanczos` (Sloan 2008), or `Deringing`: the
 //!   Laplacian window `1 / (1 + lambda l^2 (l+1)^2)` with the smallest `lambda` that makes the
 //!   irradiance non-negative in every channel (Sloan, "Deringing Spherical Harmonics", 2017),
-//!   found by bisection. Formulas and sources in `maths::irradiance_cube`.
+//!   found by bisection. Formulas and sources in `maths::ibl::irradiance_cube`.
 //!
 //! The `metrics` port reports `window_strength` (lambda for Deringing, 1 for Hann and Lanczos, 0
 //! otherwise), `min_unwindowed` and `min_irradiance` (the smallest channel value over the output
@@ -20,7 +20,7 @@
 use crate::engine::fields::{AnyValue, Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Outputs};
 use crate::engine::value::Value;
-use crate::maths::irradiance_cube::{
+use crate::maths::ibl::irradiance_cube::{
     exact, from_sh, project_cube, project_latlong, IrradianceMethod, ShWindow, Texels,
 };
 use crate::values::ty::*;

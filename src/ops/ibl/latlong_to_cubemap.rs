@@ -6,7 +6,7 @@
 //!
 //! Energy-preserving: each cube texel is the solid-angle-weighted average of the lat-long map
 //! (read as piecewise constant) over the texel's footprint, gathered from whole map texels and
-//! adaptively split straddling ones with exact cell solid angles (`maths::latlong_cube`). A constant map gives the same constant to rounding; the
+//! adaptively split straddling ones with exact cell solid angles (`maths::resample::latlong_cube`). A constant map gives the same constant to rounding; the
 //! sphere integral is kept to 1e-3 relative on the built-in sky (2-degree sun), and texels on
 //! both sides of a face edge agree as neighbours inside a face do (tests).
 
@@ -14,8 +14,8 @@ use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
 use crate::engine::value::Value;
 use crate::geometry::cube_frame::CubeFrame;
-use crate::maths::latlong_cube::latlong_to_cube;
-use crate::maths::resample::LatLongSource;
+use crate::maths::resample::latlong_cube::latlong_to_cube;
+use crate::maths::resample::layouts::LatLongSource;
 use crate::ops::latlong_input::warn_unless_latlong;
 use crate::values::ty::*;
 use crate::values::{Cubemap, Image};

@@ -3,12 +3,12 @@
 //! centred on `EqualAreaSquareToSphere((x + 0.5) / size, (y + 0.5) / size)` in pbrt's frame,
 //! which is hdrflow's `(Z, -X, Y)` (`geometry::octahedral`). Every pixel subtends 4 pi / size^2.
 //! Each pixel is the solid-angle-weighted average of the lat-long map over its footprint
-//! (`maths::resample`): energy-preserving, 1e-3 relative on the built-in sky (tests).
+//! (`maths::resample::layouts`): energy-preserving, 1e-3 relative on the built-in sky (tests).
 
 use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
 use crate::engine::value::Value;
-use crate::maths::resample::{to_octahedral, LatLongSource};
+use crate::maths::resample::layouts::{to_octahedral, LatLongSource};
 use crate::ops::latlong_input::warn_unless_latlong;
 use crate::values::ty::*;
 use crate::values::Image;

@@ -3,7 +3,7 @@
 //! six face images (exact copies), the specular prefiltered chain, diffuse irradiance and the
 //! split-sum BRDF texture. Conventions: `geometry::cubemap` (face order and axes),
 //! `geometry::cube_layout` (layouts), `geometry::octahedral` (pbrt-v4's mapping and axes),
-//! `maths::ggx` (roughness, lobe, DFG), `maths::irradiance_cube`.
+//! `maths::brdf::ggx` (roughness, lobe, DFG), `maths::ibl::irradiance_cube`.
 
 pub mod brdf_lut;
 pub mod cubemap_face;
@@ -20,8 +20,8 @@ pub mod prefilter_specular;
 use crate::engine::fields::{AnyValue, Input};
 use crate::engine::op::{OpContext, OpError};
 use crate::engine::registry::Registry;
-use crate::maths::latlong_cube::latlong_to_cube;
-use crate::maths::resample::{downsample, to_cube, CubeSource, LatLongSource};
+use crate::maths::resample::latlong_cube::latlong_to_cube;
+use crate::maths::resample::layouts::{downsample, to_cube, CubeSource, LatLongSource};
 use crate::ops::latlong_input::warn_unless_latlong;
 use crate::values::{Cubemap, Image};
 

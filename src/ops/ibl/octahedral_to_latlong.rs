@@ -1,11 +1,11 @@
 //! `OctahedralToLatLong(image, width, height)`: a square equal-area octahedral map (pbrt-v4's
 //! layout, `geometry::octahedral`) as a W x H lat-long RGB map, each texel the solid-angle-weighted
-//! average of the octahedral map over its footprint (`maths::resample`).
+//! average of the octahedral map over its footprint (`maths::resample::layouts`).
 
 use crate::engine::fields::{Check, Input};
 use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec, OutputType};
 use crate::engine::value::Value;
-use crate::maths::resample::{to_latlong, OctahedralSource};
+use crate::maths::resample::layouts::{to_latlong, OctahedralSource};
 use crate::values::ty::*;
 use crate::values::Image;
 

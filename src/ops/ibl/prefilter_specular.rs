@@ -8,7 +8,7 @@
 //! level). A GGX level of roughness 0 (level 0 by default) is the environment resampled to its size.
 //!
 //! `brdf: Charlie` filters with glTF-IBL-Sampler's sheen lobe instead of GGX (its `charlie`
-//! chain; `maths::specular_lobe`), every level included: at low roughness its lobe reflects
+//! chain; `maths::brdf::specular_lobe`), every level included: at low roughness its lobe reflects
 //! almost nothing above the horizon and the level tends to black, as the sampler's level 0 is.
 //!
 //! Each texel of level k > 0, with `n = v = r` its direction, is
@@ -17,10 +17,10 @@
 //! and filtered importance sampling (Krivanek and Colbert 2008: each sample reads the source's
 //! mip pyramid at `lod = 0.5 log2(Omega_s / Omega_p) + 1`, `Omega_s = 1 / (N pdf)`, `Omega_p` the
 //! solid angle of the level-0 texel in the sample's direction); `exact: true` sums the same weighted lobe over every source
-//! texel (the reference; O(6 size^2 x texels of the level) per level). Formulas in `maths::ggx`.
+//! texel (the reference; O(6 size^2 x texels of the level) per level). Formulas in `maths::brdf::ggx`.
 //! `rough_exact: true` (GGX, sampled chains) sums the rough levels exactly too, each over the
 //! coarsest level of the source's pyramid whose texels are at most alpha / 8 wide, where that is
-//! at most 2^26 texel pairs (`maths::ggx::exact_source_level`): no sampling error, and within
+//! at most 2^26 texel pairs (`maths::ibl::prefilter::exact_source_level`): no sampling error, and within
 //! about 1e-3 of the sum over the finest level (`hdrflow bench --bake` measures both).
 //! A constant environment gives 1 at every level and texel, both ways, to 1e-3 (tests), and the
 //! error of the estimate against the reference falls as `samples` grows (tests).
@@ -31,8 +31,9 @@
 use crate::engine::fields::{AnyValue, Check, Input};
 use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec, OutputType};
 use crate::engine::value::Value;
-use crate::maths::ggx::{prefilter_chain, LobeSequence};
-pub use crate::maths::specular_lobe::{RoughnessMap, SpecularBrdf};
+use crate::maths::brdf::ggx::LobeSequence;
+pub use crate::maths::brdf::specular_lobe::{RoughnessMap, SpecularBrdf};
+use crate::maths::ibl::prefilter::prefilter_chain;
 use crate::values::ty::*;
 
 crate::params! {
@@ -112,9 +113,10 @@ fn eval(ctx: &mut OpContext, p: PrefilterSpecularParams) -> Result<Value, OpErro
 #[cfg(test)]
 mod tests {
     use crate::formats::builtin::builtin;
-    use crate::maths::ggx::{prefilter_chain, LobeSequence};
-    use crate::maths::resample::{to_cube, LatLongSource};
-    use crate::maths::specular_lobe::{RoughnessMap, SpecularBrdf};
+    use crate::maths::brdf::ggx::LobeSequence;
+    use crate::maths::brdf::specular_lobe::{RoughnessMap, SpecularBrdf};
+    use crate::maths::ibl::prefilter::prefilter_chain;
+    use crate::maths::resample::layouts::{to_cube, LatLongSource};
 
     /// A constant map gives the constant at every level and texel, for every roughness map and
     /// both lobes (Charlie from roughness 0.5 on: below it almost no sample is above the

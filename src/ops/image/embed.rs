@@ -13,9 +13,9 @@
 use crate::engine::fields::{Check, Input};
 use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec, OutputType, Outputs};
 use crate::engine::value::Value;
-use crate::maths::camera::{fov_problem, Lens, Model};
-use crate::maths::camera_view::embed;
-use crate::maths::rotation::Rotation;
+use crate::geometry::lens::{fov_problem, Lens, Model};
+use crate::geometry::rotation::Rotation;
+use crate::maths::camera::view::embed;
 use crate::ops::latlong_input::warn_unless_latlong;
 use crate::values::ty::*;
 use crate::values::Image;

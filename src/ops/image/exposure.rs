@@ -7,7 +7,7 @@
 //! always scaled, whatever its name). `s = 2^stops` (rounded to f32), or, with
 //! `match_percentile: (p, value)`, `s = value / P_p` (rounded to f32), where `P_p` is the
 //! solid-angle-weighted p-th percentile of the Rec. 709 luminance of the lat-long map, as
-//! `Statistics` computes it (`maths::statistics`: the smallest texel luminance whose
+//! `Statistics` computes it (`maths::stats::statistics`: the smallest texel luminance whose
 //! cumulative solid angle reaches p%; NaN and infinite texels left out). So after scaling the
 //! p-th percentile is `value` up to f32 rounding (the tests check 1e-6 relative). Giving both a
 //! non-zero `stops` and `match_percentile` is a pipeline error, and so are `p` outside
@@ -19,7 +19,7 @@ use rayon::prelude::*;
 use crate::engine::fields::{Check, Input};
 use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec, Persist};
 use crate::engine::value::Value;
-use crate::maths::statistics::latlong_percentile;
+use crate::maths::stats::statistics::latlong_percentile;
 use crate::values::ty::*;
 use crate::values::Image;
 

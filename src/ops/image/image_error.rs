@@ -1,5 +1,5 @@
 //! `ImageError(image, reference, mask: Sphere)`: error metrics of an image against a reference
-//! of the same size (`maths::error_metrics`): `pixels`, `values`, `rmse`, `relative_rmse`
+//! of the same size (`maths::stats::error_metrics`): `pixels`, `values`, `rmse`, `relative_rmse`
 //! (rmse / RMS of the reference), `mean_abs`, `max_abs`, `mean_error` (signed bias), `psnr`
 //! (20 log10(max(reference) / rmse), capped at +-999 dB), `reference_rms`, `reference_max`.
 //!
@@ -14,8 +14,8 @@ use crate::engine::value::Value;
 use crate::values::ty::*;
 use crate::values::Image;
 
-use crate::maths::error_metrics::image_error;
-use crate::maths::relight::SphereView;
+use crate::maths::render::relight::SphereView;
+use crate::maths::stats::error_metrics::image_error;
 
 crate::choice! {
     /// Which pixels count.

@@ -1,7 +1,7 @@
 //! `Project(env, width: 512, height: 512, fov: 90, yaw, pitch, roll, model: Perspective,
 //! filter: Bilinear)`: a camera view of a lat-long map, as datasets cut their input crops.
 //!
-//! The lens (`maths::camera`): pixel (i, j)'s centre is the plane point
+//! The lens (`geometry::lens`): pixel (i, j)'s centre is the plane point
 //! `u = (i + 0.5) / W * 2 - 1`, `v = 1 - (j + 0.5) / H * 2`, `(x, y) = (u, v H / W)`; `fov`
 //! is the horizontal field of view in degrees; `Perspective` (fov in (0, 180)), `Fisheye`
 //! (equidistant, `theta = r fov / 2`, fov in (0, 360], black outside the circle r = 1) or
@@ -10,7 +10,7 @@
 //! are `Rotate`'s (`R = R_y(yaw) R_x(pitch) R_z(roll)`) and each ray is `R` times the camera
 //! ray, so `Project(Rotate(env, R))` equals `Project(env)` turned by `R^T`. `filter` is
 //! `Bilinear` (a lookup along the pixel's centre ray) or `Area` (the solid-angle mean over the
-//! pixel's footprint, `maths::camera_view`). A fov outside its model's range is a pipeline
+//! pixel's footprint, `maths::camera::view`). A fov outside its model's range is a pipeline
 //! error at `fov` before anything runs.
 //!
 //! Port `camera` (version 2) is the view's camera (`values::Camera`: model, fov, size, angles and
@@ -20,8 +20,8 @@
 use crate::engine::fields::{Check, Input};
 use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec, OutputType, Outputs};
 use crate::engine::value::Value;
-use crate::maths::camera::{fov_problem, Lens, Model};
-use crate::maths::camera_view::{project, Filter};
+use crate::geometry::lens::{fov_problem, Lens, Model};
+use crate::maths::camera::view::{project, Filter};
 use crate::ops::latlong_input::warn_unless_latlong;
 use crate::values::ty::*;
 use crate::values::{Camera, Image};

@@ -1,12 +1,12 @@
 //! `Resize(image, width, height)`: area-averaging, energy-preserving resample
-//! (`maths::area_resize`: a box filter with exact fractional coverage; the image mean is
+//! (`maths::resample::area_resize`: a box filter with exact fractional coverage; the image mean is
 //! unchanged, for shrinking and enlarging alike). Every channel is averaged alike, alpha
 //! included, and the channel names are kept.
 
 use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec};
 use crate::engine::value::Value;
-use crate::maths::area_resize;
+use crate::maths::resample::area_resize;
 use crate::values::ty::*;
 use crate::values::Image;
 

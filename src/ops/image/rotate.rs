@@ -3,14 +3,15 @@
 //!
 //! Angles in degrees about hdrflow's world axes, `R = R_y(yaw) R_x(pitch) R_z(roll)`; the matrix
 //! is row-major, world to world; the content seen in direction v moves to R v (see
-//! `maths::rotation`). A whole-column yaw of a lat-long map is an exact column roll; any other
+//! `maths::resample::rotation`). A whole-column yaw of a lat-long map is an exact column roll; any other
 //! rotation averages the rotated map over each output texel's footprint.
 
 use crate::engine::fields::{AnyValue, Check, Input};
 use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec};
 use crate::engine::value::Value;
-use crate::maths::resample::{to_cube, CubeSource};
-use crate::maths::rotation::{roll_columns, rotate_latlong, Rotated, Rotation};
+use crate::geometry::rotation::Rotation;
+use crate::maths::resample::layouts::{to_cube, CubeSource};
+use crate::maths::resample::rotation::{roll_columns, rotate_latlong, Rotated};
 use crate::ops::latlong_input::warn_unless_latlong;
 use crate::values::ty::*;
 use crate::values::{Cubemap, Image};

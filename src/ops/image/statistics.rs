@@ -1,5 +1,5 @@
 //! `Statistics(image, percentiles: [1, 50, 99, 99.9], latlong: true)` -> `metrics`: the
-//! luminance statistics of an image (`maths::statistics`).
+//! luminance statistics of an image (`maths::stats::statistics`).
 //!
 //! Luminance is Rec. 709 (`0.2126 R + 0.7152 G + 0.0722 B`; a one-channel field is its own
 //! luminance). With `latlong: true` every texel weighs its solid angle
@@ -23,7 +23,7 @@
 use crate::engine::fields::Input;
 use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec, OutputType};
 use crate::engine::value::Value;
-use crate::maths::statistics::LuminanceSamples;
+use crate::maths::stats::statistics::LuminanceSamples;
 use crate::values::ty::*;
 use crate::values::{Image, Metrics};
 

@@ -8,13 +8,13 @@
 //! (`geometry::azimuthal::DiscMap::ANGULAR`). Pixels outside the unit disc carry no light
 //! (grace_probe.hdr has copyright text there) and are masked out. Each output texel is a
 //! bilinear lookup at its centre direction, taps outside the disc having weight 0
-//! (`maths::disc_image::disc_to_latlong`). `LatLongToAngular` is the inverse.
+//! (`maths::resample::disc_image::disc_to_latlong`). `LatLongToAngular` is the inverse.
 
 use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec};
 use crate::engine::value::Value;
 use crate::geometry::azimuthal::DiscMap;
-use crate::maths::disc_image::disc_to_latlong;
+use crate::maths::resample::disc_image::disc_to_latlong;
 use crate::values::ty::*;
 use crate::values::Image;
 

@@ -3,7 +3,7 @@
 //! forward pi r, the back direction +Z on the rim; `geometry::azimuthal::DiscMap::ANGULAR`).
 //!
 //! Each `size x size` pixel whose centre is in the disc is the solid-angle mean of the map over
-//! its footprint (`maths::disc_image::latlong_to_disc`, leaves weighted by
+//! its footprint (`maths::resample::disc_image::latlong_to_disc`, leaves weighted by
 //! `dOmega/dA = pi sin(pi r) / r`); outside the disc 0. The tests check the round trip
 //! lat-long -> angular -> lat-long and that the integral is kept (1e-3 on the sky).
 
@@ -11,7 +11,7 @@ use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec};
 use crate::engine::value::Value;
 use crate::geometry::azimuthal::DiscMap;
-use crate::maths::disc_image::latlong_to_disc;
+use crate::maths::resample::disc_image::latlong_to_disc;
 use crate::ops::latlong_input::warn_unless_latlong;
 use crate::values::ty::*;
 use crate::values::Image;

@@ -7,13 +7,13 @@
 //! an equal-area layout (`dOmega = 4 du dv`, `geometry::azimuthal`), so each pixel whose centre
 //! is in the disc is the plain area mean of the map over the pixel's part of the disc, computed
 //! as the solid-angle mean over its footprint by adaptive subdivision
-//! (`maths::disc_image::latlong_to_disc`): a rim pixel, which reflects a band tens of degrees
+//! (`maths::resample::disc_image::latlong_to_disc`): a rim pixel, which reflects a band tens of degrees
 //! wide around the back direction, averages all of it instead of point-sampling it.
 
 use crate::engine::fields::{Check, Input};
 use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec};
 use crate::engine::value::Value;
-use crate::maths::disc_image::latlong_to_disc;
+use crate::maths::resample::disc_image::latlong_to_disc;
 use crate::ops::latlong_input::warn_unless_latlong;
 use crate::values::ty::*;
 use crate::values::Image;

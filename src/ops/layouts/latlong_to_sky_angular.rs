@@ -5,7 +5,7 @@
 //! `skyangular`.
 //!
 //! Each `size x size` pixel whose centre is in the disc is the solid-angle mean of the map over
-//! its footprint (`maths::disc_image::latlong_to_disc`, leaves weighted by
+//! its footprint (`maths::resample::disc_image::latlong_to_disc`, leaves weighted by
 //! `dOmega/dA = (pi / 2) sin(pi r / 2) / r`); outside the disc 0. `SkyAngularToLatLong` is the
 //! inverse on the upper hemisphere.
 
@@ -13,7 +13,7 @@ use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec};
 use crate::engine::value::Value;
 use crate::geometry::azimuthal::DiscMap;
-use crate::maths::disc_image::latlong_to_disc;
+use crate::maths::resample::disc_image::latlong_to_disc;
 use crate::ops::latlong_input::warn_unless_latlong;
 use crate::values::ty::*;
 use crate::values::Image;

@@ -19,7 +19,7 @@
 use crate::engine::fields::{Check, Input};
 use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec, OutputType, Outputs};
 use crate::engine::value::Value;
-use crate::maths::disc_image::disc_to_latlong;
+use crate::maths::resample::disc_image::disc_to_latlong;
 use crate::values::ty::*;
 use crate::values::Image;
 

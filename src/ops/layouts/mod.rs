@@ -1,6 +1,6 @@
 //! Layout conversions between lat-long maps and the layouts captures and datasets store: the
 //! angular probe, the mirror ball, and the upper hemisphere alone (sky lat-long, sky angular).
-//! The geometry is `geometry::azimuthal`, the resampling `maths::disc_image`; the conventions
+//! The geometry is `geometry::azimuthal`, the resampling `maths::resample::disc_image`; the conventions
 //! are in docs/toolkit/map_layouts.md.
 
 pub mod angular_to_latlong;
@@ -18,8 +18,8 @@ use crate::engine::fields::Shape;
 use crate::engine::op::{CheckProblem, OpError};
 use crate::engine::registry::Registry;
 use crate::geometry::azimuthal::DiscMap;
+use crate::geometry::rotation::Rotation;
 use crate::geometry::unit;
-use crate::maths::rotation::Rotation;
 use crate::values::Image;
 
 pub fn register(r: &mut Registry) {

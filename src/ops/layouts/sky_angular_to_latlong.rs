@@ -3,7 +3,7 @@
 //! 2)`; see `LatLongToSkyAngular`) to a lat-long map.
 //!
 //! Each texel is a bilinear lookup at its centre direction's disc point, taps whose pixel centres
-//! lie outside the disc weighing 0 (`maths::disc_image::disc_to_latlong`). The lower hemisphere,
+//! lie outside the disc weighing 0 (`maths::resample::disc_image::disc_to_latlong`). The lower hemisphere,
 //! which the disc does not hold, is the constant `fill` per channel (none given: 0; one number:
 //! every channel; else one per channel). Port `mask`: 1 where the disc saw the texel (the upper
 //! hemisphere), 0 where it was filled. A non-square image is an error (before the run when its
@@ -13,7 +13,7 @@ use crate::engine::fields::{Check, Input};
 use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec, OutputType, Outputs};
 use crate::engine::value::Value;
 use crate::geometry::azimuthal::DiscMap;
-use crate::maths::disc_image::disc_to_latlong;
+use crate::maths::resample::disc_image::disc_to_latlong;
 use crate::values::ty::*;
 use crate::values::Image;
 

@@ -1,6 +1,6 @@
 //! `ExtractLights(env, max_lights: 3, threshold_stops: 8)`: parametric lights (the `max_lights`
 //! most energetic connected bright regions) and an ambient colour, as a `lights` value, and the
-//! map with those regions filled, conserving the map's integral exactly (`maths::lights`).
+//! map with those regions filled, conserving the map's integral exactly (`maths::fit::lights`).
 //!
 //! - Regions: the connected sets of texels (8-connected, wrapping across the seam and the poles,
 //!   as `SunExtract`) whose Rec. 709 luminance exceeds `m 2^threshold_stops`, `m` the median
@@ -23,7 +23,7 @@
 use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Outputs};
 use crate::engine::value::Value;
-use crate::maths::lights::extract_lights;
+use crate::maths::fit::lights::extract_lights;
 use crate::ops::latlong_input::warn_unless_latlong;
 use crate::ops::shading::reference_sphere::check_finite;
 use crate::values::ty::*;

@@ -1,5 +1,5 @@
 //! `SgToLatLong(lobes, width: 512, height: 256)`: spherical Gaussian lobes rendered into a
-//! `width x height` RGB lat-long map (`maths::spherical_gaussians::render`), to compare a fit
+//! `width x height` RGB lat-long map (`maths::fit::spherical_gaussians::render`), to compare a fit
 //! with its map (`Difference`) or save it.
 //!
 //! Each texel is `sum_k a_k exp(lambda_k (mu_k . d - 1))` at its centre direction `d`
@@ -12,7 +12,7 @@
 use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
 use crate::engine::value::Value;
-use crate::maths::spherical_gaussians::render;
+use crate::maths::fit::spherical_gaussians::render;
 use crate::values::ty::*;
 use crate::values::SphericalGaussians;
 

@@ -1,6 +1,6 @@
 //! `SphericalGaussians(env, lobes: 12, iterations: 30, seed: 0)`: `lobes` spherical Gaussians
 //! `a exp(lambda (mu . d - 1))` fitted to a lat-long map by solid-angle-weighted least squares
-//! (`maths::spherical_gaussians`: a matching-pursuit start on the residual's peaks, then rounds
+//! (`maths::fit::spherical_gaussians`: a matching-pursuit start on the residual's peaks, then rounds
 //! of a Levenberg-Marquardt step on axes and sharpnesses and exact NNLS amplitudes).
 //!
 //! - Port `lobes`: the `sg` value, most energetic lobe first (axes in hdrflow's world
@@ -18,7 +18,7 @@
 use crate::engine::fields::Input;
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Outputs};
 use crate::engine::value::Value;
-use crate::maths::spherical_gaussians::fit;
+use crate::maths::fit::spherical_gaussians::fit;
 use crate::ops::latlong_input::warn_unless_latlong;
 use crate::ops::shading::reference_sphere::check_finite;
 use crate::values::ty::*;

@@ -1,5 +1,5 @@
 //! `SunExtract(env, threshold_stops: 8)`: the sun of an environment map as a `light`, and the
-//! map without it, conserving the map's integral exactly (`maths::sun`).
+//! map without it, conserving the map's integral exactly (`maths::fit::sun`).
 //!
 //! - The sun region is the connected set of texels (8-connected, wrapping in longitude and
 //!   across the poles) around the brightest texel whose Rec. 709 luminance exceeds
@@ -21,7 +21,7 @@
 use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Outputs};
 use crate::engine::value::Value;
-use crate::maths::sun::extract_sun_in_place;
+use crate::maths::fit::sun::extract_sun_in_place;
 use crate::ops::latlong_input::warn_unless_latlong;
 use crate::ops::shading::reference_sphere::check_finite;
 use crate::values::ty::*;

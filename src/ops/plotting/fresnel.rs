@@ -1,10 +1,10 @@
 //! `Fresnel(eta_i, eta_t, steps: 901)`: exact dielectric reflectance for s and p polarisation
 //! and their mean from 0 to 90 degrees, with the Brewster angle atan(eta_t/eta_i) and, when
-//! eta_i > eta_t, the critical angle asin(eta_t/eta_i) in closed form (see `maths::fresnel`).
+//! eta_i > eta_t, the critical angle asin(eta_t/eta_i) in closed form (see `maths::brdf::fresnel`).
 
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
 use crate::engine::value::Value;
-use crate::maths::fresnel::fresnel_curves;
+use crate::maths::brdf::fresnel::fresnel_curves;
 use crate::values::ty::*;
 
 crate::params! {

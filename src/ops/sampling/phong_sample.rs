@@ -11,7 +11,8 @@ use rayon::prelude::*;
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
 use crate::engine::value::Value;
 use crate::geometry::latlong;
-use crate::maths::{phong, sequences};
+use crate::maths::brdf::phong;
+use crate::maths::sampling::sequences;
 use crate::values::ty::*;
 use crate::values::{Sample, SampleSet};
 

@@ -1,12 +1,12 @@
 //! `Sample(cdf, count, seed, sequence: Random)`: directions drawn from an environment
 //! distribution, each the centre of its texel with the texel's solid-angle pdf
-//! (`maths::texel_samples`, where the formula and why texel centres are). Texel centres make
+//! (`maths::sampling::texel_samples`, where the formula and why texel centres are). Texel centres make
 //! the estimators' expectation equal the exact sum over texels that `ReferenceSphere` computes.
 
 use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
 use crate::engine::value::Value;
-use crate::maths::{sequences, texel_samples};
+use crate::maths::sampling::{sequences, texel_samples};
 use crate::values::ty::*;
 use crate::values::Distribution2D;
 

@@ -2,7 +2,7 @@
 //! heuristic: Power, seed: 1, size: 256, view: (90, 90))`: a sphere with the modified Phong
 //! BRDF `f = diffuse / pi + specular (s + 2) / (2 pi) cos^s(alpha)` (alpha from the mirror
 //! direction of the view; Lafortune and Willems 1994), rendered per pixel by Monte Carlo with
-//! `spp` radiance lookups (`maths::glossy`):
+//! `spp` radiance lookups (`maths::render::glossy`):
 //!
 //! - `Environment`: texels from `cdf`, a point uniform in solid angle inside each;
 //! - `Brdf`: the diffuse (cosine) or the Phong lobe (the seed's sampler, `PhongSample`'s),
@@ -21,7 +21,7 @@ use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
 use crate::engine::params::Rgb;
 use crate::engine::value::Value;
-use crate::maths::glossy::{glossy_sphere, GlossyBrdf, GlossyStrategy, Heuristic};
+use crate::maths::render::glossy::{glossy_sphere, GlossyBrdf, GlossyStrategy, Heuristic};
 use crate::ops::latlong_input::warn_unless_latlong;
 use crate::values::ty::*;
 use crate::values::Distribution2D;

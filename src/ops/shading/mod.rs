@@ -16,7 +16,7 @@ use crate::engine::fields::Shape;
 use crate::engine::op::CheckProblem;
 use crate::engine::registry::Registry;
 use crate::geometry::latlong;
-use crate::maths::relight::SphereView;
+use crate::maths::render::relight::SphereView;
 
 pub fn register(r: &mut Registry) {
     r.register(relight_sphere::spec());

@@ -1,6 +1,6 @@
 //! `PerPixelSphere(env, cdf, size: 256, albedo, view, strategy: Environment, sequence: Random, heuristic: Balance, warp: Inversion, spp: 16, seed: 1)`:
 //! the diffuse sphere rendered as a path tracer renders direct lighting, every pixel with its
-//! own `spp` independent samples (`maths::per_pixel`):
+//! own `spp` independent samples (`maths::render::per_pixel`):
 //! `Lo = (albedo / pi) (1/spp) sum_j L(w_j) max(n.w_j, 0) / pdf(w_j)`.
 //!
 //! - `Environment`: texel centres from `cdf` (expectation: exactly `ReferenceSphere`);
@@ -26,8 +26,8 @@ use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Persist};
 use crate::engine::params::Rgb;
 use crate::engine::value::Value;
-use crate::maths::glossy::Heuristic;
-use crate::maths::per_pixel::{
+use crate::maths::render::glossy::Heuristic;
+use crate::maths::render::per_pixel::{
     relight_per_pixel_with, PerPixelOptions, PerPixelSequence, PerPixelStrategy, PerPixelWarp,
 };
 use crate::ops::latlong_input::warn_unless_latlong;

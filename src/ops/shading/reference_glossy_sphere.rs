@@ -1,7 +1,7 @@
 //! `ReferenceGlossySphere(env, exponent: 10, diffuse: 0.2, specular: 0.8, size: 256, view:
 //! (90, 90))`: the exact answer for `GlossySphere`'s BRDF on the piecewise-constant map, the
 //! sum over every texel `Lo = sum_i L_i f(d_i) max(n.d_i, 0) dOmega_i` (texel centres, midpoint
-//! solid angles, f64; `maths::glossy`), 0 off the disc. Under a constant map of radiance 1 the
+//! solid angles, f64; `maths::render::glossy`), 0 off the disc. Under a constant map of radiance 1 the
 //! centre pixel (seen along its normal) is `diffuse + specular` (within 1e-3 on a 1024 x 512
 //! map, the test's bound). `GlossySphere` converges to the same integral over exact texel
 //! areas, which differs by the midpoint rule (O(s h^2), h the texel angle).
@@ -13,7 +13,7 @@ use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
 use crate::engine::params::Rgb;
 use crate::engine::value::Value;
-use crate::maths::glossy::{reference_glossy_sphere, GlossyBrdf};
+use crate::maths::render::glossy::{reference_glossy_sphere, GlossyBrdf};
 use crate::ops::latlong_input::warn_unless_latlong;
 use crate::ops::shading::reference_sphere::check_finite;
 use crate::values::ty::*;

@@ -1,6 +1,6 @@
 //! `ReferenceSphere(env, size: 256, albedo, view)`: the exact answer for the relit diffuse
 //! sphere, `Lo(n) = (albedo / pi) sum_texels L dOmega max(n.d, 0)` at every pixel of the disc
-//! (`maths::reference`), 0 elsewhere. Same `size`, `albedo` and `view` fields and defaults as
+//! (`maths::render::reference`), 0 elsewhere. Same `size`, `albedo` and `view` fields and defaults as
 //! `RelightSphere`, so the images compare pixel for pixel (e.g. with `ImageError`): the
 //! expectation of `RelightSphere` with `Unbiased` samples from `Sample` is exactly this image
 //! (up to f32 rounding).
@@ -13,7 +13,7 @@ use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Persist};
 use crate::engine::params::Rgb;
 use crate::engine::value::Value;
-use crate::maths::reference::{first_non_finite, reference_sphere};
+use crate::maths::render::reference::{first_non_finite, reference_sphere};
 use crate::ops::latlong_input::warn_unless_latlong;
 use crate::values::ty::*;
 use crate::values::Image;

@@ -9,7 +9,7 @@
 //!   dark under grey light).
 //!
 //! The formulas, the merging of samples on one texel and the spreading of samples drawn over a
-//! coarser grid are in `maths::shared_relight`.
+//! coarser grid are in `maths::render::shared_relight`.
 
 use super::sphere_view;
 use crate::engine::fields::{Check, Input};
@@ -17,8 +17,8 @@ use crate::engine::op::{CheckContext, CheckProblem};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
 use crate::engine::params::Rgb;
 use crate::engine::value::Value;
-use crate::maths::relight::Estimator;
-use crate::maths::shared_relight;
+use crate::maths::render::relight::Estimator;
+use crate::maths::render::shared_relight;
 use crate::ops::latlong_input::warn_unless_latlong;
 use crate::values::ty::*;
 use crate::values::Image;

@@ -2,7 +2,7 @@
 //! `L_lm = sum_texels L Y_lm(d) dOmega` of the map up to band `order`, per channel, with the
 //! basis evaluated in the axes `frame` names. With `order: 2` these are the 9 coefficients of
 //! Ramamoorthi and Hanrahan's irradiance environment map (SIGGRAPH 2001). The basis (real SH,
-//! orthonormal, no Condon-Shortley phase) and the frames are documented in `maths::sh`:
+//! orthonormal, no Condon-Shortley phase) and the frames are documented in `maths::ibl::sh`:
 //!
 //! - `World` (default): `(x, y, z)` = hdrflow's `(X, Y, Z)`, +Y up, -Z forward, as Y-up engines
 //!   evaluate the basis with a world normal (three.js `SphericalHarmonics3`, Filament).
@@ -16,11 +16,11 @@
 //! the flat record of version 1 (`L_{l}_{m}_{r|g|b}`, e.g. `L_0_0_r`, `L_1_-1_g`, in the order
 //! l, m, channel), in the chosen frame, and `filament`, Filament's 9 pre-scaled irradiance
 //! coefficients in the chosen frame (`E / pi = sh0 + sh1 y + sh2 z + sh3 x + ...`, cmgen's
-//! `--sh-shader` form; bands past `order` are 0; `maths::sh_filament`), saved as cmgen's `sh.txt`
+//! `--sh-shader` form; bands past `order` are 0; `maths::ibl::sh_filament`), saved as cmgen's `sh.txt`
 //! (`.txt`) or `.json`. Use `frame: World` for Filament's world.
 //!
 //! `yaw` gives the coefficients of the map turned about +Y as `Rotate(yaw)` would turn it, without
-//! turning it (`maths::sh::project_turned`: a shift of the azimuth): the SH of rotation
+//! turning it (`maths::ibl::sh::project_turned`: a shift of the azimuth): the SH of rotation
 //! augmentations, or of a map some other node has turned (the three.js preset reads its turned map
 //! and turns it back).
 //!
@@ -31,8 +31,8 @@ use super::reference_sphere::check_finite;
 use crate::engine::fields::Input;
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Outputs};
 use crate::engine::value::Value;
-use crate::maths::sh::{coefficient_name, project_turned, sh_lm};
-use crate::maths::sh_filament::prescaled;
+use crate::maths::ibl::sh::{coefficient_name, project_turned, sh_lm};
+use crate::maths::ibl::sh_filament::prescaled;
 use crate::ops::latlong_input::warn_unless_latlong;
 use crate::values::ty::*;
 use crate::values::FilamentSh;

@@ -1,7 +1,7 @@
 //! `ShSphere(env, size: 256, albedo, view, order: 2)`: the diffuse sphere lit by the map's
 //! spherical-harmonic irradiance approximation (Ramamoorthi and Hanrahan, "An Efficient
 //! Representation for Irradiance Environment Maps", SIGGRAPH 2001):
-//! `Lo(n) = (albedo / pi) sum_{l <= order} A_l sum_m L_lm Y_lm(n)` (`maths::sh`). Same `size`,
+//! `Lo(n) = (albedo / pi) sum_{l <= order} A_l sum_m L_lm Y_lm(n)` (`maths::ibl::sh`). Same `size`,
 //! `albedo` and `view` fields and defaults as `RelightSphere`, so it compares pixel for pixel
 //! with `ReferenceSphere`. Accurate (~1%) for smooth lighting at order 2; a small sun gives large
 //! errors and rings, even negative values, which are kept (not clamped) so they can be measured.
@@ -12,7 +12,7 @@ use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
 use crate::engine::params::Rgb;
 use crate::engine::value::Value;
-use crate::maths::sh::sh_sphere;
+use crate::maths::ibl::sh::sh_sphere;
 use crate::ops::latlong_input::warn_unless_latlong;
 use crate::values::ty::*;
 use crate::values::Image;

@@ -12,7 +12,7 @@ pub mod save;
 pub use codec::CURVES;
 
 /// A set of curves over a shared x axis.
-/// Plain data, its fields public: what computes the curves (`maths::fresnel`) fills them in.
+/// Plain data, its fields public: what computes the curves (`maths::brdf::fresnel`) fills them in.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Curves {
     /// Plot title.
