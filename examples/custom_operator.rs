@@ -8,8 +8,9 @@
 //! line (without `bench`, the binary's own benchmark) over a registry we hand it. The operator, `Invert(image, white: 1.0)`, replaces every value v
 //! by white - v; its parameters are one typed struct, as for the built-in operators.
 
-use hdrflow::engine::fields::{Check, Input};
+use hdrflow::engine::fields::Input;
 use hdrflow::engine::op::{OpContext, OpError, OpSpec};
+use hdrflow::engine::typed_op::Op;
 use hdrflow::values::ty::ANY_IMAGE;
 use hdrflow::values::Image;
 use hdrflow::Value;
@@ -27,14 +28,15 @@ hdrflow::params! {
     }
 }
 
-// 2. The operator: name, version (bump it when its output changes), output port (of the
-//    input's type), and its source (hashed into the cache key, so an edit to this file never
-//    reuses stale results).
+// 2. The operator: name, version (bump it when its output changes), its evaluation (which
+//    fixes the struct every later call is typed by), output port (of the input's type), and its
+//    source (hashed into the cache key, so an edit to this file never reuses stale results).
+//    Its category in `hdrflow ops` is the crate's name, `custom_operator`.
 fn invert_spec() -> OpSpec {
-    OpSpec::new("Invert", "example", 1, "Replace every value v by white - v")
-        .output_like("image", |p: InvertParams<Check>| p.image, "the inverted image")
+    Op::new("Invert", 1, "Replace every value v by white - v", invert)
+        .output_like("image", |p| p.image, "the inverted image")
+        .spec()
         .code(include_str!("custom_operator.rs"))
-        .eval(invert)
 }
 
 // 3. Its evaluation: the struct, its input already an image; taken by value, the buffer is
@@ -49,6 +51,9 @@ fn invert(_: &mut OpContext, p: InvertParams) -> Result<Value, OpError> {
 fn main() -> std::process::ExitCode {
     // 4. The built-ins plus ours, then the whole command line over them.
     let mut registry = hdrflow::builtin_registry();
-    registry.register(invert_spec());
+    if let Err(e) = registry.register(invert_spec()) {
+        eprintln!("error: {e}");
+        return std::process::ExitCode::FAILURE;
+    }
     hdrflow::cli::main_with(registry)
 }

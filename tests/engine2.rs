@@ -498,10 +498,10 @@ fn registry() -> Registry {
         blend_spec(),
         tick_spec(),
     ] {
-        r.register(spec);
+        r.register(spec).unwrap();
     }
     for spec in tracked_specs() {
-        r.register(spec);
+        r.register(spec).unwrap();
     }
     r
 }

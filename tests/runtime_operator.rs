@@ -44,7 +44,7 @@ fn scale_spec(code: &str) -> OpSpec {
 
 fn run_with(code: &str, text: &str, cache: &Path) -> scheduler::RunOutcome {
     let mut registry = hdrflow::builtin_registry();
-    registry.register(scale_spec(code));
+    registry.register(scale_spec(code)).unwrap();
     let p = Pipeline::parse(text, "t.ron", Path::new("."), &registry, &[]).expect("validates");
     let options = RunOptions {
         targets: vec!["s".into()],
@@ -66,7 +66,7 @@ fn a_runtime_declared_operator_is_validated_run_and_cached_by_its_code() {
     assert_eq!(run_with("v2", text, dir.path()).report.status_of("s"), Some(NodeStatus::Computed));
 
     let mut registry = hdrflow::builtin_registry();
-    registry.register(scale_spec("v1"));
+    registry.register(scale_spec("v1")).unwrap();
     let bad =
         r#"(nodes: { "c": Constant(width: 2, height: 1, color: 1.5), "s": RuntimeScale(image: "c", k: 11.0, q: 1) })"#;
     let errors = Pipeline::parse(bad, "t.ron", Path::new("."), &registry, &[]).unwrap_err().to_string();

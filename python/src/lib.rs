@@ -411,8 +411,15 @@ fn register_operator(
     spec = spec.output("out", OutputType::Fixed(out_ty), "the function's result");
     let func = Arc::new(func);
     spec = spec.eval_raw(Arc::new(move |ctx: &mut OpContext| eval_python(op_name, &func, ctx)));
+    // A Python operator declared again (a notebook cell run twice) replaces the first; a
+    // built-in's name is refused.
+    if hdrflow::builtin_registry().get(op_name).is_some() {
+        return Err(PyValueError::new_err(format!(
+            "{op_name:?} is the name of a built-in operator: choose another name"
+        )));
+    }
     with_registry(|r| {
-        r.register(spec);
+        r.replace(spec);
     });
     Ok(())
 }

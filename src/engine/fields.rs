@@ -58,6 +58,8 @@ impl Stage for Check {
 /// tell (file headers, parameters), its default output's pixel size.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Shape {
+    /// The field the input is wired to (problems about it name this field).
+    pub field: &'static str,
     pub ty: ValueType,
     pub size: Size,
 }
@@ -87,19 +89,24 @@ impl InputKind for AnyValue {
 /// A wired input's value, of the declared Rust type `T` (checked when the struct was built).
 pub struct Input<T: InputKind> {
     value: Value,
+    field: &'static str,
     kind: PhantomData<fn() -> T>,
 }
 
 impl<T: InputKind> Input<T> {
     fn new(field: &'static str, value: Value) -> Result<Self, OpError> {
         if T::holds(&value) {
-            Ok(Input { value, kind: PhantomData })
+            Ok(Input { value, field, kind: PhantomData })
         } else {
             Err(OpError::Invalid(format!(
                 "input {field:?} holds a {}, which is not the Rust type the operator declares (a bug in its declaration)",
                 value.value_type()
             )))
         }
+    }
+    /// The field it is wired to (warnings and errors about it name this field).
+    pub fn field(&self) -> &'static str {
+        self.field
     }
     /// The value as it travels on the edge.
     pub fn value(&self) -> &Value {
@@ -143,7 +150,7 @@ impl<T: ValueData> Deref for Input<T> {
 
 impl<T: InputKind> Clone for Input<T> {
     fn clone(&self) -> Self {
-        Input { value: self.value.clone(), kind: PhantomData }
+        Input { value: self.value.clone(), field: self.field, kind: PhantomData }
     }
 }
 
@@ -167,7 +174,7 @@ fn take_values(inputs: &mut RunInputs, field: &'static str) -> Vec<Value> {
 fn shapes(ctx: &CheckContext, field: &'static str) -> Vec<Shape> {
     let types = ctx.input_types.get(field).map(Vec::as_slice).unwrap_or_default();
     let sizes = ctx.input_sizes.get(field).map(Vec::as_slice).unwrap_or_default();
-    types.iter().enumerate().map(|(k, &ty)| Shape { ty, size: sizes.get(k).copied().flatten() }).collect()
+    types.iter().enumerate().map(|(k, &ty)| Shape { field, ty, size: sizes.get(k).copied().flatten() }).collect()
 }
 
 /// One field of a `params!` struct: its spec, and how it is read in each stage.
@@ -285,6 +292,12 @@ impl<T: InputKind> Field for Vec<Input<T>> {
 
 /// A `params!` struct in the evaluation stage (`eval` receives it).
 pub trait Fields: Sized {
+    /// The same struct in the validation stage.
+    type Check: CheckFields + 'static;
+    /// The file the struct is declared in (`file!()`): the operator's source, for its code hash.
+    const SOURCE: &'static str;
+    /// The module it is declared in (`module_path!()`): its folder is the operator's category.
+    const MODULE: &'static str;
     /// The fields' specs, in declaration order.
     fn fields() -> Vec<FieldSpec>;
     /// The struct from a node's validated parameters and its wired inputs (moved in).
@@ -326,6 +339,9 @@ macro_rules! params {
         );
 
         impl $crate::engine::fields::Fields for $name {
+            type Check = $name<$crate::engine::fields::Check>;
+            const SOURCE: &'static str = file!();
+            const MODULE: &'static str = module_path!();
             fn fields() -> Vec<$crate::engine::params::FieldSpec> {
                 Vec::new()
             }
@@ -360,7 +376,17 @@ macro_rules! params {
             $( $(#[doc = $doc])* $fvis $field: <$ty as $crate::engine::fields::Field>::At<S>, )+
         }
 
+        /// Each field's name, as a constant of the same name: problems and warnings name a
+        /// field as `Params::field`, checked by the compiler.
+        #[allow(non_upper_case_globals, dead_code)]
+        impl $name {
+            $( pub const $field: &'static str = stringify!($field); )+
+        }
+
         impl $crate::engine::fields::Fields for $name {
+            type Check = $name<$crate::engine::fields::Check>;
+            const SOURCE: &'static str = file!();
+            const MODULE: &'static str = module_path!();
             fn fields() -> Vec<$crate::engine::params::FieldSpec> {
                 vec![$(
                     <$ty as $crate::engine::fields::Field>::spec(

@@ -13,4 +13,5 @@ pub mod op;
 pub mod params;
 pub mod registry;
 pub mod scheduler;
+pub mod typed_op;
 pub mod value;

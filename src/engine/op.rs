@@ -17,12 +17,15 @@ use crate::engine::fields::{CheckFields, Fields, Shape};
 use crate::engine::params::FieldSpec;
 
 /// Checks that two inputs' sizes, when both are known before running, are equal; the message
-/// names both fields (`a` and `b` are their names, for the message and the position).
-pub fn check_same_size(a: &'static str, a_shape: Shape, b: &'static str, b_shape: Shape) -> Result<(), CheckProblem> {
-    match (a_shape.size, b_shape.size) {
+/// names both fields, and the problem is placed at `b`'s.
+pub fn check_same_size(a: Shape, b: Shape) -> Result<(), CheckProblem> {
+    match (a.size, b.size) {
         (Some(sa), Some(sb)) if sa != sb => Err(CheckProblem::at(
-            b,
-            format!("{b:?} is {}x{} but {a:?} is {}x{}: they must be the same size", sb.0, sb.1, sa.0, sa.1),
+            b.field,
+            format!(
+                "{:?} is {}x{} but {:?} is {}x{}: they must be the same size",
+                b.field, sb.0, sb.1, a.field, sa.0, sa.1
+            ),
         )),
         _ => Ok(()),
     }
@@ -30,17 +33,17 @@ pub fn check_same_size(a: &'static str, a_shape: Shape, b: &'static str, b_shape
 
 /// [`check_same_size`], and the same value type (a one-channel scalar field against a colour
 /// image is found before running, from the producers' declared outputs).
-pub fn check_same_shape(a: &'static str, a_shape: Shape, b: &'static str, b_shape: Shape) -> Result<(), CheckProblem> {
-    if a_shape.ty != b_shape.ty {
+pub fn check_same_shape(a: Shape, b: Shape) -> Result<(), CheckProblem> {
+    if a.ty != b.ty {
         return Err(CheckProblem::at(
-            b,
+            b.field,
             format!(
-                "{b:?} gives {} but {a:?} gives {}: they must have the same channels (Luminance makes a scalar field of an image)",
-                b_shape.ty, a_shape.ty
+                "{:?} gives {} but {:?} gives {}: they must have the same channels (Luminance makes a scalar field of an image)",
+                b.field, b.ty, a.field, a.ty
             ),
         ));
     }
-    check_same_size(a, a_shape, b, b_shape)
+    check_same_size(a, b)
 }
 pub use crate::engine::cache::Persist;
 use crate::engine::value::{Value, ValueType};
@@ -162,6 +165,9 @@ pub struct OpSpec {
     pub code_hash: [u8; 32],
     /// Whether its large results are worth storing (see `engine::cache::policy`).
     pub persist: Persist,
+    /// The file its `params!` struct is declared in, when built with [`Op`](crate::engine::typed_op::Op):
+    /// the registry takes its code hash from it (see `Registry::hash_sources_with`).
+    pub source_file: Option<&'static str>,
 }
 
 impl std::fmt::Debug for OpSpec {
@@ -188,6 +194,7 @@ impl OpSpec {
             size: None,
             code_hash: [0; 32],
             persist: Persist::Measured,
+            source_file: None,
         }
     }
 
@@ -317,8 +324,8 @@ impl OpSpec {
     }
 
     /// The hash `code` would compute, given directly (the built-in operators take theirs from
-    /// the table of their files' hashes that `build.rs` makes: `crate::op_code_hash!()`, in
-    /// `crate::ops`).
+    /// the table of their files' hashes that `build.rs` makes, through
+    /// `Registry::hash_sources_with`).
     pub fn code_hash(mut self, hash: [u8; 32]) -> Self {
         self.code_hash = hash;
         self

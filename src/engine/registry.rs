@@ -15,6 +15,16 @@ use crate::engine::value::{TypeSpec, ValueType, FILE};
 pub struct Registry {
     ops: BTreeMap<&'static str, Arc<OpSpec>>,
     types: BTreeMap<&'static str, ValueType>,
+    /// The code hash of an operator's source file, for specs that name their file and give no
+    /// hash of their own (see [`Registry::hash_sources_with`]).
+    source_hash: Option<fn(&str) -> [u8; 32]>,
+}
+
+/// Why an operator could not be registered.
+#[derive(Debug, thiserror::Error, PartialEq, Eq)]
+pub enum RegistryError {
+    #[error("an operator named {0:?} is already registered: operator names must be unique")]
+    Duplicate(&'static str),
 }
 
 impl std::fmt::Debug for Registry {
@@ -32,14 +42,39 @@ impl Default for Registry {
 impl Registry {
     /// A registry with no operator, and only the engine's own `file` type.
     pub fn empty() -> Self {
-        let mut r = Registry { ops: BTreeMap::new(), types: BTreeMap::new() };
+        let mut r = Registry { ops: BTreeMap::new(), types: BTreeMap::new(), source_hash: None };
         r.register_type(&FILE);
         r
     }
 
-    /// Adds an operator. A second operator with the same name replaces the first.
-    pub fn register(&mut self, spec: OpSpec) -> &mut Self {
+    /// Adds an operator; a second operator of the same name is an error (it would silently
+    /// replace the first). A spec that names its source file (`OpSpec::source_file`) and has no
+    /// code hash gets the hash [`Registry::hash_sources_with`] gives for that file.
+    pub fn register(&mut self, spec: impl Into<OpSpec>) -> Result<&mut Self, RegistryError> {
+        let mut spec = spec.into();
+        if self.ops.contains_key(spec.name) {
+            return Err(RegistryError::Duplicate(spec.name));
+        }
+        if let (Some(file), Some(hash), true) = (spec.source_file, self.source_hash, spec.code_hash == [0; 32]) {
+            spec.code_hash = hash(file);
+        }
         self.ops.insert(spec.name, Arc::new(spec));
+        Ok(self)
+    }
+
+    /// Adds an operator in place of the one of the same name, if any (a Python operator declared
+    /// again, e.g. when a notebook cell runs twice).
+    pub fn replace(&mut self, spec: impl Into<OpSpec>) -> &mut Self {
+        let spec = spec.into();
+        self.ops.insert(spec.name, Arc::new(spec));
+        self
+    }
+
+    /// How operators registered from now on that name their source file get their code hash
+    /// (the built-ins: the table `build.rs` makes of their files' hashes). The engine knows no
+    /// operator file; whoever registers them says how their files hash.
+    pub fn hash_sources_with(&mut self, hash: fn(&str) -> [u8; 32]) -> &mut Self {
+        self.source_hash = Some(hash);
         self
     }
 
@@ -72,5 +107,21 @@ impl Registry {
 
     pub fn names(&self) -> Vec<&'static str> {
         self.ops.keys().copied().collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn registering_a_name_twice_is_an_error_and_replace_says_so() {
+        let mut r = Registry::empty();
+        r.register(OpSpec::new("A", "test", 1, "first")).unwrap();
+        let e = r.register(OpSpec::new("A", "test", 2, "second")).unwrap_err();
+        assert_eq!(e, RegistryError::Duplicate("A"));
+        assert_eq!(r.get("A").unwrap().version, 1);
+        r.replace(OpSpec::new("A", "test", 3, "third"));
+        assert_eq!(r.get("A").unwrap().version, 3);
     }
 }

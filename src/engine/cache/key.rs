@@ -196,7 +196,8 @@ mod tests {
                 .output("image", OutputType::Fixed(IMAGE_T), "an image")
                 .code("a fixed source text")
                 .eval(|_, _: KeyedParams| Ok(Value::new(Image::new(1, 1, 3)))),
-        );
+        )
+        .unwrap();
         r
     }
 

@@ -346,23 +346,27 @@ mod tests {
         crate::values::register_all(&mut r);
         r.register(
             OpSpec::new("Src", "test", 1, "an image").output("image", OutputType::Fixed(IMAGE_T), "it").eval(src),
-        );
+        )
+        .unwrap();
         r.register(
             OpSpec::new("Pass", "test", 1, "reads x and y")
                 .output("image", OutputType::Fixed(IMAGE_T), "it")
                 .eval(pass),
-        );
+        )
+        .unwrap();
         r.register(
             OpSpec::new("Two", "test", 1, "two images")
                 .output("image", OutputType::Fixed(IMAGE_T), "the first")
                 .output("small", OutputType::Fixed(IMAGE_T), "the second")
                 .eval(two),
-        );
+        )
+        .unwrap();
         r.register(
             OpSpec::new("Release", "test", 1, "hands x back first")
                 .output("image", OutputType::Fixed(IMAGE_T), "it")
                 .eval(release),
-        );
+        )
+        .unwrap();
         Pipeline::parse(text, "t.ron", Path::new("."), &r, &[]).expect("validates")
     }
 

@@ -15,7 +15,8 @@
 //! (+X right, +Y up, looking down -Z).
 
 use crate::engine::fields::Input;
-use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
+use crate::engine::op::{OpContext, OpError, OpSpec};
+use crate::engine::typed_op::Op;
 use crate::engine::value::Value;
 use crate::values::ty::*;
 use crate::values::{Camera, Label, Lights, ShCoefficients, SphericalGaussians};
@@ -38,15 +39,14 @@ crate::params! {
 }
 
 pub fn spec() -> OpSpec {
-    OpSpec::new(
+    Op::new(
         "CropLabel",
-        "dataset",
         1,
         "A crop's dataset label: its camera (with the world-to-camera matrix) and the map's SH, lobes and lights",
+        eval,
     )
-    .output("label", OutputType::Fixed(LABEL_T), "the label (Save it as .json)")
-    .code_hash(crate::op_code_hash!())
-    .eval(eval)
+    .output("label", LABEL_T, "the label (Save it as .json)")
+    .into()
 }
 
 fn eval(_: &mut OpContext, p: CropLabelParams) -> Result<Value, OpError> {

@@ -2,8 +2,9 @@
 
 pub mod crop_label;
 
-use crate::engine::registry::Registry;
+use crate::engine::registry::{Registry, RegistryError};
 
-pub fn register(r: &mut Registry) {
-    r.register(crop_label::spec());
+pub fn register(r: &mut Registry) -> Result<(), RegistryError> {
+    r.register(crop_label::spec())?;
+    Ok(())
 }

@@ -24,7 +24,8 @@
 //! `multiscatter` is GGX's and is refused with Charlie.
 
 use crate::engine::fields::Check;
-use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec, OutputType};
+use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec};
+use crate::engine::typed_op::Op;
 use crate::engine::value::Value;
 use crate::maths::brdf::ggx::LobeSequence;
 use crate::maths::brdf::specular_lobe::SpecularBrdf;
@@ -47,17 +48,11 @@ crate::params! {
 }
 
 pub fn spec() -> OpSpec {
-    OpSpec::new(
-        "BrdfLut",
-        "ibl",
-        1,
-        "Split-sum LUT, x = n.v, y = roughness: GGX's DFG (R, G) = (scale, bias) with Smith height-correlated visibility, or the Charlie sheen LUT in B",
-    )
-    .output("image", OutputType::Fixed(IMAGE_T), "the size x size texture: (R, G) for Ggx, (R, G, B) = (0, 0, LUT) for Charlie")
-    .size(|_, p: BrdfLutParams<Check>| Some((p.size as u64, p.size as u64)))
+    Op::new("BrdfLut", 1, "Split-sum LUT, x = n.v, y = roughness: GGX's DFG (R, G) = (scale, bias) with Smith height-correlated visibility, or the Charlie sheen LUT in B", eval)
+    .output("image", IMAGE_T, "the size x size texture: (R, G) for Ggx, (R, G, B) = (0, 0, LUT) for Charlie")
+    .size(|_, p| Some((p.size as u64, p.size as u64)))
     .check(check)
-    .code_hash(crate::op_code_hash!())
-    .eval(eval)
+        .into()
 }
 
 fn check(_: &CheckContext, p: BrdfLutParams<Check>) -> Result<(), CheckProblem> {

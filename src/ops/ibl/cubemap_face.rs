@@ -4,8 +4,9 @@
 //! world axes: +X -Z, -Y; -X +Z, -Y; +Y +X, +Z; -Y +X, -Z; +Z +X, -Y; -Z -X, -Y).
 //! `FacesToCubemap` of the six is the cube map again, bit for bit (tests).
 
-use crate::engine::fields::{Check, Input};
-use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Persist};
+use crate::engine::fields::Input;
+use crate::engine::op::{OpContext, OpError, OpSpec, Persist};
+use crate::engine::typed_op::Op;
 use crate::engine::value::Value;
 use crate::geometry::cube_layout::CubeFace;
 use crate::values::ty::*;
@@ -22,12 +23,11 @@ crate::params! {
 }
 
 pub fn spec() -> OpSpec {
-    OpSpec::new("CubemapFace", "ibl", 1, "One face of a cube map as an image, as stored (OpenGL / KTX axes)")
-        .output("image", OutputType::Fixed(IMAGE_T), "the face (RGB, S x S)")
-        .size(|_, p: CubemapFaceParams<Check>| p.cubemap.size.map(|(_, s)| (s, s)))
+    Op::new("CubemapFace", 1, "One face of a cube map as an image, as stored (OpenGL / KTX axes)", eval)
+        .output("image", IMAGE_T, "the face (RGB, S x S)")
+        .size(|_, p| p.cubemap.size.map(|(_, s)| (s, s)))
         .persist(Persist::IfSmall)
-        .code_hash(crate::op_code_hash!())
-        .eval(eval)
+        .into()
 }
 
 fn eval(_: &mut OpContext, p: CubemapFaceParams) -> Result<Value, OpError> {

@@ -3,8 +3,9 @@
 //! piecewise constant) over its footprint `dphi (cos theta0 - cos theta1)` (`maths::resample::layouts`):
 //! energy-preserving, exact for a constant map, 1e-3 relative on the built-in sky (tests).
 
-use crate::engine::fields::{Check, Input};
-use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
+use crate::engine::fields::Input;
+use crate::engine::op::{OpContext, OpError, OpSpec};
+use crate::engine::typed_op::Op;
 use crate::engine::value::Value;
 use crate::maths::resample::layouts::{to_latlong, CubeSource};
 use crate::values::ty::*;
@@ -17,16 +18,15 @@ super::latlong_size_params!(CubemapToLatLongParams {
 });
 
 pub fn spec() -> OpSpec {
-    OpSpec::new(
+    Op::new(
         "CubemapToLatLong",
-        "ibl",
         1,
         "Cube map to lat-long map, each texel the solid-angle-weighted mean of its footprint",
+        eval,
     )
-    .output("image", OutputType::Fixed(IMAGE_T), "the lat-long RGB map")
-    .size(|_, p: CubemapToLatLongParams<Check>| Some((p.width as u64, p.height as u64)))
-    .code_hash(crate::op_code_hash!())
-    .eval(eval)
+    .output("image", IMAGE_T, "the lat-long RGB map")
+    .size(|_, p| Some((p.width as u64, p.height as u64)))
+    .into()
 }
 
 fn eval(_: &mut OpContext, p: CubemapToLatLongParams) -> Result<Value, OpError> {

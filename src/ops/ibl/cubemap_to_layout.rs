@@ -6,8 +6,9 @@
 //! A copy: every texel lands unchanged in its cell, cells without a face are 0, so
 //! `LayoutToCubemap` of the result gives the cube map back bit for bit (tests, every layout).
 
-use crate::engine::fields::{Check, Input};
-use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Persist};
+use crate::engine::fields::Input;
+use crate::engine::op::{OpContext, OpError, OpSpec, Persist};
+use crate::engine::typed_op::Op;
 use crate::engine::value::Value;
 use crate::geometry::cube_layout::CubeLayout;
 use crate::values::ty::*;
@@ -24,16 +25,15 @@ crate::params! {
 }
 
 pub fn spec() -> OpSpec {
-    OpSpec::new("CubemapToLayout", "ibl", 1, "Cube map to one image: a cross, dice, horizon or strip of its six faces")
-        .output("image", OutputType::Fixed(IMAGE_T), "the layout (RGB; cells without a face are 0)")
-        .size(|_, p: CubemapToLayoutParams<Check>| {
+    Op::new("CubemapToLayout", 1, "Cube map to one image: a cross, dice, horizon or strip of its six faces", eval)
+        .output("image", IMAGE_T, "the layout (RGB; cells without a face are 0)")
+        .size(|_, p| {
             let (_, s) = p.cubemap.size?;
             let (w, h) = p.layout.image_size(usize::try_from(s).ok()?);
             Some((w as u64, h as u64))
         })
         .persist(Persist::IfSmall)
-        .code_hash(crate::op_code_hash!())
-        .eval(eval)
+        .into()
 }
 
 fn eval(_: &mut OpContext, p: CubemapToLayoutParams) -> Result<Value, OpError> {

@@ -10,7 +10,8 @@
 //! three channels, one channel is grey, alpha is ignored; non-finite texels are an error.
 
 use crate::engine::fields::{Check, Input, Shape};
-use crate::engine::op::{check_same_size, CheckContext, CheckProblem, OpContext, OpError, OpSpec, OutputType, Persist};
+use crate::engine::op::{check_same_size, CheckContext, CheckProblem, OpContext, OpError, OpSpec, Persist};
+use crate::engine::typed_op::Op;
 use crate::engine::value::Value;
 use crate::values::ty::*;
 use crate::values::{Cubemap, Image};
@@ -39,24 +40,24 @@ crate::params! {
 }
 
 pub fn spec() -> OpSpec {
-    OpSpec::new("FacesToCubemap", "ibl", 1, "Six face images (+X -X +Y -Y +Z -Z, OpenGL / KTX axes) to a cube map")
-        .output("cubemap", OutputType::Fixed(CUBEMAP_T), "the cube map")
-        .size(|_, p: FacesToCubemapParams<Check>| p.px.size.map(|(s, _)| (6 * s, s)))
+    Op::new("FacesToCubemap", 1, "Six face images (+X -X +Y -Y +Z -Z, OpenGL / KTX axes) to a cube map", eval)
+        .output("cubemap", CUBEMAP_T, "the cube map")
+        .size(|_, p| p.px.size.map(|(s, _)| (6 * s, s)))
         .check(check)
         .persist(Persist::IfSmall)
-        .code_hash(crate::op_code_hash!())
-        .eval(eval)
+        .into()
 }
-
-const FIELDS: [&str; 6] = ["px", "nx", "py", "ny", "pz", "nz"];
 
 fn check(_: &CheckContext, p: FacesToCubemapParams<Check>) -> Result<(), CheckProblem> {
     let shapes: [Shape; 6] = [p.px, p.nx, p.py, p.ny, p.pz, p.nz];
-    for (field, shape) in FIELDS.iter().zip(shapes) {
+    for shape in shapes {
         if let Some((w, h)) = shape.size.filter(|(w, h)| w != h) {
-            return Err(CheckProblem::at(field, format!("{field:?} is {w}x{h}: a cube face must be square")));
+            return Err(CheckProblem::at(
+                shape.field,
+                format!("{:?} is {w}x{h}: a cube face must be square", shape.field),
+            ));
         }
-        check_same_size(FIELDS[0], shapes[0], field, shape)?;
+        check_same_size(shapes[0], shape)?;
     }
     Ok(())
 }

@@ -17,9 +17,9 @@
 //! size instead (`ops::ibl::env_cube`: a cube 2^k times larger is halved k times, exactly), so
 //! that a bake's irradiance can come from its specular source cube.
 
-use crate::engine::fields::{AnyValue, Check, Input};
-use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Outputs};
-use crate::engine::value::Value;
+use crate::engine::fields::{AnyValue, Input};
+use crate::engine::op::{OpContext, OpError, OpSpec, Outputs};
+use crate::engine::typed_op::{Op, Port};
 use crate::maths::ibl::irradiance_cube::{
     exact, from_sh, project_cube, project_latlong, IrradianceMethod, ShWindow, Texels,
 };
@@ -47,18 +47,21 @@ crate::params! {
     }
 }
 
+/// The output ports, declared once: the spec and `eval` name them through these.
+const CUBEMAP: Port<Cubemap> = Port::new("cubemap");
+const METRICS: Port<Metrics> = Port::new("metrics");
+
 pub fn spec() -> OpSpec {
-    OpSpec::new(
+    Op::new(
         "IrradianceCubemap",
-        "ibl",
         1,
         "Diffuse irradiance / pi as a cube map, exactly or by windowed SH (Deringing: Sloan 2017); constant 1 gives 1",
+        eval,
     )
-    .output("cubemap", OutputType::Fixed(CUBEMAP_T), "the irradiance / pi cube map")
-    .output("metrics", OutputType::Fixed(METRICS_T), "window_strength, min_unwindowed, min_irradiance")
-    .size(|_, p: IrradianceCubemapParams<Check>| Some((6 * p.size as u64, p.size as u64)))
-    .code_hash(crate::op_code_hash!())
-    .eval(eval)
+    .port(CUBEMAP, CUBEMAP_T, "the irradiance / pi cube map")
+    .port(METRICS, METRICS_T, "window_strength, min_unwindowed, min_irradiance")
+    .size(|_, p| Some((6 * p.size as u64, p.size as u64)))
+    .into()
 }
 
 fn eval(ctx: &mut OpContext, p: IrradianceCubemapParams) -> Result<Outputs, OpError> {
@@ -97,5 +100,5 @@ fn eval(ctx: &mut OpContext, p: IrradianceCubemapParams) -> Result<Outputs, OpEr
             (cube, m)
         }
     };
-    Ok(Outputs::new().with("cubemap", Value::new(cube)).with("metrics", Value::new(Metrics { fields: metrics })))
+    Ok(Outputs::new().port(CUBEMAP, cube).port(METRICS, Metrics { fields: metrics }))
 }

@@ -10,8 +10,9 @@
 //! sphere integral is kept to 1e-3 relative on the built-in sky (2-degree sun), and texels on
 //! both sides of a face edge agree as neighbours inside a face do (tests).
 
-use crate::engine::fields::{Check, Input};
-use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
+use crate::engine::fields::Input;
+use crate::engine::op::{OpContext, OpError, OpSpec};
+use crate::engine::typed_op::Op;
 use crate::engine::value::Value;
 use crate::geometry::cube_frame::CubeFrame;
 use crate::maths::resample::latlong_cube::latlong_to_cube;
@@ -34,20 +35,19 @@ crate::params! {
 }
 
 pub fn spec() -> OpSpec {
-    OpSpec::new(
+    Op::new(
         "LatLongToCubemap",
-        "ibl",
         1,
         "Lat-long map to cube map (+X -X +Y -Y +Z -Z), each texel the solid-angle-weighted mean of its footprint",
+        eval,
     )
-    .output("cubemap", OutputType::Fixed(CUBEMAP_T), "the cube map")
-    .size(|_, p: LatLongToCubemapParams<Check>| Some((6 * p.size as u64, p.size as u64)))
-    .code_hash(crate::op_code_hash!())
-    .eval(eval)
+    .output("cubemap", CUBEMAP_T, "the cube map")
+    .size(|_, p| Some((6 * p.size as u64, p.size as u64)))
+    .into()
 }
 
 fn eval(ctx: &mut OpContext, p: LatLongToCubemapParams) -> Result<Value, OpError> {
-    warn_unless_latlong(ctx, "image", p.image.width, p.image.height);
+    warn_unless_latlong(ctx, LatLongToCubemapParams::image, p.image.width, p.image.height);
     let img = &*p.image;
     crate::ops::shading::reference_sphere::check_finite(img)?;
     Ok(Value::new(in_frame(&latlong_to_cube(&LatLongSource::new(img), p.size), p.frame)))

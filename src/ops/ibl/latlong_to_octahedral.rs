@@ -5,8 +5,9 @@
 //! Each pixel is the solid-angle-weighted average of the lat-long map over its footprint
 //! (`maths::resample::layouts`): energy-preserving, 1e-3 relative on the built-in sky (tests).
 
-use crate::engine::fields::{Check, Input};
-use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
+use crate::engine::fields::Input;
+use crate::engine::op::{OpContext, OpError, OpSpec};
+use crate::engine::typed_op::Op;
 use crate::engine::value::Value;
 use crate::maths::resample::layouts::{to_octahedral, LatLongSource};
 use crate::ops::latlong_input::warn_unless_latlong;
@@ -25,20 +26,19 @@ crate::params! {
 }
 
 pub fn spec() -> OpSpec {
-    OpSpec::new(
+    Op::new(
         "LatLongToOctahedral",
-        "ibl",
         1,
         "Lat-long map to pbrt-v4's equal-area octahedral map (Clarberg; pbrt axes = hdrflow (Z, -X, Y))",
+        eval,
     )
-    .output("image", OutputType::Fixed(IMAGE_T), "the size x size octahedral RGB map")
-    .size(|_, p: LatLongToOctahedralParams<Check>| Some((p.size as u64, p.size as u64)))
-    .code_hash(crate::op_code_hash!())
-    .eval(eval)
+    .output("image", IMAGE_T, "the size x size octahedral RGB map")
+    .size(|_, p| Some((p.size as u64, p.size as u64)))
+    .into()
 }
 
 fn eval(ctx: &mut OpContext, p: LatLongToOctahedralParams) -> Result<Value, OpError> {
-    warn_unless_latlong(ctx, "image", p.image.width, p.image.height);
+    warn_unless_latlong(ctx, LatLongToOctahedralParams::image, p.image.width, p.image.height);
     let img = &*p.image;
     crate::ops::shading::reference_sphere::check_finite(img)?;
     Ok(Value::new(to_octahedral(&LatLongSource::new(img), p.size)))

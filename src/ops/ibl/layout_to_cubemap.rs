@@ -9,7 +9,8 @@
 //! read. Non-finite texels in a face are an error naming the face and texel.
 
 use crate::engine::fields::{Check, Input};
-use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec, OutputType, Persist};
+use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec, Persist};
+use crate::engine::typed_op::Op;
 use crate::engine::value::Value;
 use crate::geometry::cube_layout::CubeLayout;
 use crate::values::ty::*;
@@ -26,16 +27,15 @@ crate::params! {
 }
 
 pub fn spec() -> OpSpec {
-    OpSpec::new("LayoutToCubemap", "ibl", 1, "One image of a cross, dice, horizon or strip layout to a cube map")
-        .output("cubemap", OutputType::Fixed(CUBEMAP_T), "the cube map")
-        .size(|_, p: LayoutToCubemapParams<Check>| {
+    Op::new("LayoutToCubemap", 1, "One image of a cross, dice, horizon or strip layout to a cube map", eval)
+        .output("cubemap", CUBEMAP_T, "the cube map")
+        .size(|_, p| {
             let s = face_size(&p)?.ok()?;
             Some((6 * s as u64, s as u64))
         })
         .check(check)
         .persist(Persist::IfSmall)
-        .code_hash(crate::op_code_hash!())
-        .eval(eval)
+        .into()
 }
 
 /// The face size, when the image's size is known before running.
@@ -46,7 +46,7 @@ fn face_size(p: &LayoutToCubemapParams<Check>) -> Option<Result<usize, String>> 
 
 fn check(_: &CheckContext, p: LayoutToCubemapParams<Check>) -> Result<(), CheckProblem> {
     match face_size(&p) {
-        Some(Err(e)) => Err(CheckProblem::at("image", e)),
+        Some(Err(e)) => Err(CheckProblem::at(LayoutToCubemapParams::image, e)),
         _ => Ok(()),
     }
 }

@@ -19,7 +19,7 @@ pub mod prefilter_specular;
 
 use crate::engine::fields::{AnyValue, Input};
 use crate::engine::op::{OpContext, OpError};
-use crate::engine::registry::Registry;
+use crate::engine::registry::{Registry, RegistryError};
 use crate::maths::resample::latlong_cube::latlong_to_cube;
 use crate::maths::resample::layouts::{downsample, to_cube, CubeSource, LatLongSource};
 use crate::ops::latlong_input::warn_unless_latlong;
@@ -46,18 +46,19 @@ macro_rules! latlong_size_params {
 }
 pub(crate) use latlong_size_params;
 
-pub fn register(r: &mut Registry) {
-    r.register(latlong_to_cubemap::spec());
-    r.register(cubemap_to_latlong::spec());
-    r.register(cubemap_to_layout::spec());
-    r.register(layout_to_cubemap::spec());
-    r.register(cubemap_face::spec());
-    r.register(faces_to_cubemap::spec());
-    r.register(latlong_to_octahedral::spec());
-    r.register(octahedral_to_latlong::spec());
-    r.register(prefilter_specular::spec());
-    r.register(irradiance_cubemap::spec());
-    r.register(brdf_lut::spec());
+pub fn register(r: &mut Registry) -> Result<(), RegistryError> {
+    r.register(latlong_to_cubemap::spec())?;
+    r.register(cubemap_to_latlong::spec())?;
+    r.register(cubemap_to_layout::spec())?;
+    r.register(layout_to_cubemap::spec())?;
+    r.register(cubemap_face::spec())?;
+    r.register(faces_to_cubemap::spec())?;
+    r.register(latlong_to_octahedral::spec())?;
+    r.register(octahedral_to_latlong::spec())?;
+    r.register(prefilter_specular::spec())?;
+    r.register(irradiance_cubemap::spec())?;
+    r.register(brdf_lut::spec())?;
+    Ok(())
 }
 
 /// An error naming the first non-finite value of a cube map.
@@ -104,10 +105,11 @@ pub(crate) fn env_cube(ctx: &mut OpContext, env: &Input<AnyValue>, size: usize) 
 pub(crate) fn env_image<'v>(ctx: &mut OpContext, env: &'v Input<AnyValue>) -> Result<&'v Image, OpError> {
     let img = env.value().get::<Image>().ok_or_else(|| {
         OpError::Invalid(format!(
-            "input \"env\" is a {}, neither a lat-long image nor a cube map (a bug in its declaration)",
+            "input {:?} is a {}, neither a lat-long image nor a cube map (a bug in its declaration)",
+            env.field(),
             env.value_type()
         ))
     })?;
-    warn_unless_latlong(ctx, "env", img.width, img.height);
+    warn_unless_latlong(ctx, env.field(), img.width, img.height);
     Ok(img)
 }

@@ -3,7 +3,8 @@
 //! average of the octahedral map over its footprint (`maths::resample::layouts`).
 
 use crate::engine::fields::{Check, Input};
-use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec, OutputType};
+use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec};
+use crate::engine::typed_op::Op;
 use crate::engine::value::Value;
 use crate::maths::resample::layouts::{to_latlong, OctahedralSource};
 use crate::values::ty::*;
@@ -16,22 +17,18 @@ super::latlong_size_params!(OctahedralToLatLongParams {
 });
 
 pub fn spec() -> OpSpec {
-    OpSpec::new(
-        "OctahedralToLatLong",
-        "ibl",
-        1,
-        "pbrt-v4 equal-area octahedral map to lat-long map (energy-preserving)",
-    )
-    .output("image", OutputType::Fixed(IMAGE_T), "the lat-long RGB map")
-    .size(|_, p: OctahedralToLatLongParams<Check>| Some((p.width as u64, p.height as u64)))
-    .check(check)
-    .code_hash(crate::op_code_hash!())
-    .eval(eval)
+    Op::new("OctahedralToLatLong", 1, "pbrt-v4 equal-area octahedral map to lat-long map (energy-preserving)", eval)
+        .output("image", IMAGE_T, "the lat-long RGB map")
+        .size(|_, p| Some((p.width as u64, p.height as u64)))
+        .check(check)
+        .into()
 }
 
 fn check(_: &CheckContext, p: OctahedralToLatLongParams<Check>) -> Result<(), CheckProblem> {
     match p.image.size {
-        Some((w, h)) if w != h => Err(CheckProblem::at("image", format!("an octahedral map is square, not {w}x{h}"))),
+        Some((w, h)) if w != h => {
+            Err(CheckProblem::at(p.image.field, format!("an octahedral map is square, not {w}x{h}")))
+        }
         _ => Ok(()),
     }
 }

@@ -29,7 +29,8 @@
 //! (used as is when its face size is `size`, else resampled).
 
 use crate::engine::fields::{AnyValue, Check, Input};
-use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec, OutputType};
+use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec};
+use crate::engine::typed_op::Op;
 use crate::engine::value::Value;
 use crate::maths::brdf::ggx::LobeSequence;
 pub use crate::maths::brdf::specular_lobe::{RoughnessMap, SpecularBrdf};
@@ -67,24 +68,19 @@ crate::params! {
 }
 
 pub fn spec() -> OpSpec {
-    OpSpec::new(
-        "PrefilterSpecular",
-        "ibl",
-        1,
-        "GGX (or Charlie) prefiltered cube-map chain, level k at the roughness roughness_map gives it, by filtered importance sampling, or exactly",
-    )
-    .output("chain", OutputType::Fixed(MIP_CHAIN_T), "the chain; Save it with {level} in the path")
-    .size(|_, p: PrefilterSpecularParams<Check>| Some((6 * p.size as u64, p.size as u64)))
+    Op::new("PrefilterSpecular", 1, "GGX (or Charlie) prefiltered cube-map chain, level k at the roughness roughness_map gives it, by filtered importance sampling, or exactly", eval)
+    .output("chain", MIP_CHAIN_T, "the chain; Save it with {level} in the path")
+    .size(|_, p| Some((6 * p.size as u64, p.size as u64)))
     .check(check)
-    .code_hash(crate::op_code_hash!())
-    .eval(eval)
+        .into()
 }
 
 fn check(_: &CheckContext, p: PrefilterSpecularParams<Check>) -> Result<(), CheckProblem> {
     match (p.roughness_map, &p.roughness_list) {
-        (RoughnessMap::List, None) => {
-            Err(CheckProblem::at("roughness_list", "roughness_map: List needs roughness_list, one roughness per level"))
-        }
+        (RoughnessMap::List, None) => Err(CheckProblem::at(
+            PrefilterSpecularParams::roughness_list,
+            "roughness_map: List needs roughness_list, one roughness per level",
+        )),
         (RoughnessMap::List, Some(list)) if list.len() != p.levels => Err(CheckProblem::at(
             "roughness_list",
             format!("roughness_list has {} values for {} levels: give one per level", list.len(), p.levels),

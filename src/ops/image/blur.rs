@@ -25,8 +25,9 @@
 
 use rayon::prelude::*;
 
-use crate::engine::fields::{Check, Input};
+use crate::engine::fields::Input;
 use crate::engine::op::{OpContext, OpError, OpSpec};
+use crate::engine::typed_op::Op;
 use crate::engine::value::Value;
 use crate::values::ty::*;
 use crate::values::Image;
@@ -45,11 +46,10 @@ crate::params! {
 }
 
 pub fn spec() -> OpSpec {
-    OpSpec::new("Blur", "image", 1, "Separable Gaussian blur (radius 3 sigma), clamp or horizontal wrap-around")
-        .output_like("image", |p: BlurParams<Check>| p.image, "the blurred image")
-        .size(|_, p: BlurParams<Check>| p.image.size)
-        .code_hash(crate::op_code_hash!())
-        .eval(eval)
+    Op::new("Blur", 1, "Separable Gaussian blur (radius 3 sigma), clamp or horizontal wrap-around", eval)
+        .output_like("image", |p| p.image, "the blurred image")
+        .size(|_, p| p.image.size)
+        .into()
 }
 
 /// The normalised kernel `w_{-r..r}` (length 2r + 1, r = ceil(3 sigma)); `[1.0]` for sigma 0.

@@ -1,9 +1,9 @@
 //! `Constant(width, height, color)`: an image of one colour (a canvas for `Overlay`, or a
 //! constant environment whose relit sphere is exactly albedo * color).
 
-use crate::engine::fields::Check;
-use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Persist};
+use crate::engine::op::{OpContext, OpError, OpSpec, Persist};
 use crate::engine::params::Rgb;
+use crate::engine::typed_op::Op;
 use crate::engine::value::Value;
 use crate::values::ty::*;
 use crate::values::Image;
@@ -23,12 +23,11 @@ crate::params! {
 }
 
 pub fn spec() -> OpSpec {
-    OpSpec::new("Constant", "image", 1, "An image of a single colour (canvas, or a constant environment)")
-        .output("image", OutputType::Fixed(IMAGE_T), "the image")
-        .size(|_, p: ConstantParams<Check>| Some((p.width as u64, p.height as u64)))
+    Op::new("Constant", 1, "An image of a single colour (canvas, or a constant environment)", eval)
+        .output("image", IMAGE_T, "the image")
+        .size(|_, p| Some((p.width as u64, p.height as u64)))
         .persist(Persist::IfSmall)
-        .code_hash(crate::op_code_hash!())
-        .eval(eval)
+        .into()
 }
 
 fn eval(_: &mut OpContext, p: ConstantParams) -> Result<Value, OpError> {

@@ -7,8 +7,9 @@
 //! size is known only when the node runs: a rectangle that does not fit inside the image is then
 //! an error that names the image's size (nothing is padded or clamped).
 
-use crate::engine::fields::{Check, Input};
+use crate::engine::fields::Input;
 use crate::engine::op::{OpContext, OpError, OpSpec, Persist};
+use crate::engine::typed_op::Op;
 use crate::engine::value::Value;
 use crate::values::ty::*;
 use crate::values::Image;
@@ -34,12 +35,11 @@ crate::params! {
 }
 
 pub fn spec() -> OpSpec {
-    OpSpec::new("Crop", "image", 1, "A rectangle of an image (x, y: its top-left pixel)")
-        .output_like("image", |p: CropParams<Check>| p.image, "the rectangle, same channels")
-        .size(|_, p: CropParams<Check>| Some((p.width as u64, p.height as u64)))
+    Op::new("Crop", 1, "A rectangle of an image (x, y: its top-left pixel)", eval)
+        .output_like("image", |p| p.image, "the rectangle, same channels")
+        .size(|_, p| Some((p.width as u64, p.height as u64)))
         .persist(Persist::IfSmall)
-        .code_hash(crate::op_code_hash!())
-        .eval(eval)
+        .into()
 }
 
 /// The `width` x `height` rectangle whose top-left pixel is (x, y), or an error naming the

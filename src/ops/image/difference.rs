@@ -33,10 +33,8 @@
 use rayon::prelude::*;
 
 use crate::engine::fields::{Check, Input};
-use crate::engine::op::{
-    check_same_shape, CheckContext, CheckProblem, OpContext, OpError, OpSpec, OutputType, Outputs, Persist,
-};
-use crate::engine::value::Value;
+use crate::engine::op::{check_same_shape, CheckContext, CheckProblem, OpContext, OpError, OpSpec, Outputs, Persist};
+use crate::engine::typed_op::{Op, Port};
 use crate::values::ty::*;
 use crate::values::{Image, Metrics};
 
@@ -64,20 +62,24 @@ crate::params! {
 /// Height in pixels of the legend strip below the heat map.
 pub const LEGEND_HEIGHT: usize = 28;
 
+/// The output ports, declared once: the spec and `eval` name them through these.
+const IMAGE: Port<Image> = Port::new("image");
+const ERROR: Port<Image> = Port::new("error");
+const METRICS: Port<Metrics> = Port::new("metrics");
+
 pub fn spec() -> OpSpec {
-    OpSpec::new("Difference", "image", 1, "Error heat map of a against b: colour image with legend, raw field, metrics")
-        .output("image", OutputType::Fixed(IMAGE_T), "the heat map in viridis, with a min..max legend below (for PNG)")
-        .output("error", OutputType::Fixed(SCALAR_T), "the per-pixel error d, a scalar field `E`")
-        .output("metrics", OutputType::Fixed(METRICS_T), "mean, max, rmse of d (and min, pixels, nonfinite)")
+    Op::new("Difference", 1, "Error heat map of a against b: colour image with legend, raw field, metrics", eval)
+        .port(IMAGE, IMAGE_T, "the heat map in viridis, with a min..max legend below (for PNG)")
+        .port(ERROR, SCALAR_T, "the per-pixel error d, a scalar field `E`")
+        .port(METRICS, METRICS_T, "mean, max, rmse of d (and min, pixels, nonfinite)")
         .check(check)
         .persist(Persist::IfSmall)
-        .code_hash(crate::op_code_hash!())
-        .eval(eval)
+        .into()
 }
 
 /// `a` and `b`, when both sizes are known before running, must be equal.
 fn check(_: &CheckContext, p: DifferenceParams<Check>) -> Result<(), CheckProblem> {
-    check_same_shape("a", p.a, "b", p.b)
+    check_same_shape(p.a, p.b)
 }
 
 /// The per-pixel error d as a scalar field named `E`.
@@ -294,10 +296,7 @@ fn eval(_: &mut OpContext, p: DifferenceParams) -> Result<Outputs, OpError> {
         DiffMode::Relative => format!("mean |a - b| / (|b| + {})", label(p.epsilon)),
     };
     let image = heat_image(&d, min, max, &what)?;
-    Ok(Outputs::new()
-        .with("image", Value::new(image))
-        .with("error", Value::new(d))
-        .with("metrics", Value::new(metrics)))
+    Ok(Outputs::new().port(IMAGE, image).port(ERROR, d).port(METRICS, metrics))
 }
 
 #[cfg(test)]

@@ -11,8 +11,8 @@
 //! `view` must have `env`'s channel count and kind (both scalar fields or both images).
 
 use crate::engine::fields::{Check, Input};
-use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec, OutputType, Outputs};
-use crate::engine::value::Value;
+use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec, Outputs};
+use crate::engine::typed_op::{Op, Port};
 use crate::geometry::lens::{fov_problem, Lens, Model};
 use crate::geometry::rotation::Rotation;
 use crate::maths::camera::view::embed;
@@ -50,22 +50,25 @@ crate::params! {
     }
 }
 
+/// The output ports, declared once: the spec and `eval` name them through these.
+const IMAGE: Port<Image> = Port::new("image");
+const MASK: Port<Image> = Port::new("mask");
+
 pub fn spec() -> OpSpec {
-    OpSpec::new("Embed", "image", 1, "Paste a camera view (perspective, fisheye, orthographic) into a lat-long map")
+    Op::new("Embed", 1, "Paste a camera view (perspective, fisheye, orthographic) into a lat-long map", eval)
         .output_computed(
-            "image",
+            IMAGE,
             "the type of `env`, else of `view`",
-            |_, p: EmbedParams<Check>| Ok(p.env.unwrap_or(p.view).ty),
+            |_, p| Ok(p.env.unwrap_or(p.view).ty),
             "the map with the view pasted in",
         )
-        .output("mask", OutputType::Fixed(SCALAR_T), "1 where the view was pasted, 0 elsewhere")
-        .size(|_, p: EmbedParams<Check>| match p.env {
+        .port(MASK, SCALAR_T, "1 where the view was pasted, 0 elsewhere")
+        .size(|_, p| match p.env {
             Some(env) => env.size,
             None => Some(blank_size(p.width, p.height)),
         })
         .check(check)
-        .code_hash(crate::op_code_hash!())
-        .eval(eval)
+        .into()
 }
 
 fn blank_size(width: Option<usize>, height: Option<usize>) -> (u64, u64) {
@@ -75,7 +78,7 @@ fn blank_size(width: Option<usize>, height: Option<usize>) -> (u64, u64) {
 
 fn check(_: &CheckContext, p: EmbedParams<Check>) -> Result<(), CheckProblem> {
     if let Some(e) = fov_problem(p.model, p.fov) {
-        return Err(CheckProblem::at("fov", e));
+        return Err(CheckProblem::at(EmbedParams::fov, e));
     }
     let Some(env) = p.env else { return Ok(()) };
     for (field, given) in [("width", p.width.is_some()), ("height", p.height.is_some())] {
@@ -97,7 +100,7 @@ fn check(_: &CheckContext, p: EmbedParams<Check>) -> Result<(), CheckProblem> {
 
 fn eval(ctx: &mut OpContext, p: EmbedParams) -> Result<Outputs, OpError> {
     if let Some(env) = &p.env {
-        warn_unless_latlong(ctx, "env", env.width, env.height);
+        warn_unless_latlong(ctx, EmbedParams::env, env.width, env.height);
     }
     let view = &*p.view;
     let lens = Lens::new(p.model, p.fov, view.width, view.height).map_err(OpError::Invalid)?;
@@ -120,5 +123,5 @@ fn eval(ctx: &mut OpContext, p: EmbedParams) -> Result<Outputs, OpError> {
         }
     };
     let (image, mask) = embed(&env, view, &lens, rotation);
-    Ok(Outputs::new().with("image", Value::new(image)).with("mask", Value::new(mask)))
+    Ok(Outputs::new().port(IMAGE, image).port(MASK, mask))
 }

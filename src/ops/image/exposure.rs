@@ -18,6 +18,7 @@ use rayon::prelude::*;
 
 use crate::engine::fields::{Check, Input};
 use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec, Persist};
+use crate::engine::typed_op::Op;
 use crate::engine::value::Value;
 use crate::maths::stats::statistics::latlong_percentile;
 use crate::values::ty::*;
@@ -37,25 +38,30 @@ crate::params! {
 }
 
 pub fn spec() -> OpSpec {
-    OpSpec::new("Exposure", "image", 2, "Scale an image by 2^stops (alpha unchanged)")
-        .output_like("image", |p: ExposureParams<Check>| p.image, "the scaled image")
-        .size(|_, p: ExposureParams<Check>| p.image.size)
+    Op::new("Exposure", 2, "Scale an image by 2^stops (alpha unchanged)", eval)
+        .output_like("image", |p| p.image, "the scaled image")
+        .size(|_, p| p.image.size)
         .persist(Persist::IfSmall)
         .check(check)
-        .code_hash(crate::op_code_hash!())
-        .eval(eval)
+        .into()
 }
 
 fn check(_: &CheckContext, p: ExposureParams<Check>) -> Result<(), CheckProblem> {
     let Some([pct, value]) = p.match_percentile else { return Ok(()) };
     if p.stops != 0.0 {
-        return Err(CheckProblem::at("match_percentile", "give either stops or match_percentile, not both"));
+        return Err(CheckProblem::at(
+            ExposureParams::match_percentile,
+            "give either stops or match_percentile, not both",
+        ));
     }
     if !(0.0..=100.0).contains(&pct) {
-        return Err(CheckProblem::at("match_percentile", format!("the percentile p = {pct} is outside [0, 100]")));
+        return Err(CheckProblem::at(
+            ExposureParams::match_percentile,
+            format!("the percentile p = {pct} is outside [0, 100]"),
+        ));
     }
     if !(value > 0.0) {
-        return Err(CheckProblem::at("match_percentile", format!("the value {value} must be positive")));
+        return Err(CheckProblem::at(ExposureParams::match_percentile, format!("the value {value} must be positive")));
     }
     Ok(())
 }

@@ -2,8 +2,9 @@
 //!
 //! out(x, y) = image(x, H - 1 - y), every channel (alpha included) and its name kept.
 
-use crate::engine::fields::{Check, Input};
+use crate::engine::fields::Input;
 use crate::engine::op::{OpContext, OpError, OpSpec, Persist};
+use crate::engine::typed_op::Op;
 use crate::engine::value::Value;
 use crate::values::ty::*;
 use crate::values::Image;
@@ -17,12 +18,11 @@ crate::params! {
 }
 
 pub fn spec() -> OpSpec {
-    OpSpec::new("FlipVertical", "image", 1, "Flip an image upside down")
-        .output_like("image", |p: FlipVerticalParams<Check>| p.image, "the flipped image")
-        .size(|_, p: FlipVerticalParams<Check>| p.image.size)
+    Op::new("FlipVertical", 1, "Flip an image upside down", eval)
+        .output_like("image", |p| p.image, "the flipped image")
+        .size(|_, p| p.image.size)
         .persist(Persist::IfSmall)
-        .code_hash(crate::op_code_hash!())
-        .eval(eval)
+        .into()
 }
 
 fn eval(_: &mut OpContext, p: FlipVerticalParams) -> Result<Value, OpError> {

@@ -9,7 +9,8 @@
 //! pixel.
 
 use crate::engine::fields::{Check, Input};
-use crate::engine::op::{check_same_shape, CheckContext, CheckProblem, OpContext, OpError, OpSpec, OutputType};
+use crate::engine::op::{check_same_shape, CheckContext, CheckProblem, OpContext, OpError, OpSpec};
+use crate::engine::typed_op::Op;
 use crate::engine::value::Value;
 use crate::values::ty::*;
 use crate::values::Image;
@@ -36,21 +37,20 @@ crate::params! {
 }
 
 pub fn spec() -> OpSpec {
-    OpSpec::new(
+    Op::new(
         "ImageError",
-        "image",
         1,
         "Error metrics (RMSE, relative RMSE, mean/max abs, bias, PSNR) of an image against a reference",
+        eval,
     )
-    .output("metrics", OutputType::Fixed(METRICS_T), "the error metrics")
+    .output("metrics", METRICS_T, "the error metrics")
     .check(check)
-    .code_hash(crate::op_code_hash!())
-    .eval(eval)
+    .into()
 }
 
 /// The image and the reference, when both sizes are known before running, must be equal.
 fn check(_: &CheckContext, p: ImageErrorParams<Check>) -> Result<(), CheckProblem> {
-    check_same_shape("image", p.image, "reference", p.reference)
+    check_same_shape(p.image, p.reference)
 }
 
 /// The inscribed-disc mask of a `size` x `size` image: true where `SphereView::normal_at` is

@@ -5,8 +5,9 @@
 
 use rayon::prelude::*;
 
-use crate::engine::fields::{Check, Input};
-use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Persist};
+use crate::engine::fields::Input;
+use crate::engine::op::{OpContext, OpError, OpSpec, Persist};
+use crate::engine::typed_op::Op;
 use crate::engine::value::Value;
 use crate::values::ty::*;
 use crate::values::Image;
@@ -27,12 +28,11 @@ crate::params! {
 }
 
 pub fn spec() -> OpSpec {
-    OpSpec::new("Luminance", "image", 1, "Per-pixel luminance of an RGB image (a scalar field)")
-        .output("luminance", OutputType::Fixed(SCALAR_T), "the luminance")
-        .size(|_, p: LuminanceParams<Check>| p.image.size)
+    Op::new("Luminance", 1, "Per-pixel luminance of an RGB image (a scalar field)", eval)
+        .output("luminance", SCALAR_T, "the luminance")
+        .size(|_, p| p.image.size)
         .persist(Persist::IfSmall)
-        .code_hash(crate::op_code_hash!())
-        .eval(eval)
+        .into()
 }
 
 /// Luminance of an RGB triple under the named weights.

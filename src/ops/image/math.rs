@@ -36,6 +36,7 @@ use rayon::prelude::*;
 
 use crate::engine::fields::{Check, Input};
 use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec, Persist};
+use crate::engine::typed_op::Op;
 use crate::engine::value::Value;
 use crate::values::ty::*;
 use crate::values::Image;
@@ -62,23 +63,20 @@ crate::params! {
 }
 
 pub fn spec() -> OpSpec {
-    OpSpec::new(
-        "Math",
-        "image",
-        1,
-        "Per-sample a (op) b: Add Sub Mul Div Min Max Pow; b an image, a scalar field or a number",
-    )
-    .output_computed("image", "the type of `a`", |_, p: MathParams<Check>| Ok(p.a.ty), "a (op) b")
-    .size(|_, p: MathParams<Check>| p.a.size)
-    .persist(Persist::IfSmall)
-    .code_hash(crate::op_code_hash!())
-    .eval(eval)
-    .check(check)
+    Op::new("Math", 1, "Per-sample a (op) b: Add Sub Mul Div Min Max Pow; b an image, a scalar field or a number", eval)
+        .output_computed("image", "the type of `a`", |_, p| Ok(p.a.ty), "a (op) b")
+        .size(|_, p| p.a.size)
+        .persist(Persist::IfSmall)
+        .check(check)
+        .into()
 }
 
 fn check(_: &CheckContext, p: MathParams<Check>) -> Result<(), CheckProblem> {
     if p.b.is_some() && p.value != 0.0 {
-        return Err(CheckProblem::at("value", "`value` is used only when `b` is not wired: remove one of them"));
+        return Err(CheckProblem::at(
+            MathParams::value,
+            "`value` is used only when `b` is not wired: remove one of them",
+        ));
     }
     Ok(())
 }

@@ -19,7 +19,8 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::engine::fields::Input;
-use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
+use crate::engine::op::{OpContext, OpError, OpSpec};
+use crate::engine::typed_op::Op;
 use crate::engine::value::Value;
 use crate::geometry::latlong;
 use crate::ops::latlong_input::warn_unless_latlong;
@@ -36,15 +37,14 @@ crate::params! {
 }
 
 pub fn spec() -> OpSpec {
-    OpSpec::new(
+    Op::new(
         "MeanLightVector",
-        "image",
         1,
         "The luminance-weighted mean light direction of a lat-long map (x, y, z) and its length in [0, 1]",
+        eval,
     )
-    .output("metrics", OutputType::Fixed(METRICS_T), "x, y, z, length")
-    .code_hash(crate::op_code_hash!())
-    .eval(eval)
+    .output("metrics", METRICS_T, "x, y, z, length")
+    .into()
 }
 
 /// `(sum Y dOmega d, sum Y dOmega)` (rows in parallel, summed in order: deterministic).
@@ -83,7 +83,7 @@ pub fn mean_light_vector(img: &Image) -> Result<[f64; 3], String> {
 }
 
 fn eval(ctx: &mut OpContext, p: MeanLightVectorParams) -> Result<Value, OpError> {
-    warn_unless_latlong(ctx, "image", p.image.width, p.image.height);
+    warn_unless_latlong(ctx, MeanLightVectorParams::image, p.image.width, p.image.height);
     check_finite(&p.image)?;
     let [x, y, z] = mean_light_vector(&p.image).map_err(OpError::Invalid)?;
     let length = DVec3::new(x, y, z).length();

@@ -27,6 +27,7 @@ use rayon::prelude::*;
 
 use crate::engine::fields::{Check, Input, Shape};
 use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec, Persist};
+use crate::engine::typed_op::Op;
 use crate::engine::value::{Value, ValueType};
 use crate::values::ty::*;
 use crate::values::Image;
@@ -46,23 +47,17 @@ crate::params! {
 }
 
 pub fn spec() -> OpSpec {
-    OpSpec::new(
-        "MergeChannels",
-        "image",
-        1,
-        "One image from images and scalar fields of the same size, channels in order",
-    )
-    .output_computed(
-        "image",
-        "depends on inputs and parameters",
-        output_type,
-        "one channel in all: a scalar field; else an image",
-    )
-    .size(|_, p: MergeChannelsParams<Check>| p.channels.first().and_then(|s| s.size))
-    .persist(Persist::IfSmall)
-    .code_hash(crate::op_code_hash!())
-    .eval(eval)
-    .check(check)
+    Op::new("MergeChannels", 1, "One image from images and scalar fields of the same size, channels in order", eval)
+        .output_computed(
+            "image",
+            "depends on inputs and parameters",
+            output_type,
+            "one channel in all: a scalar field; else an image",
+        )
+        .size(|_, p| p.channels.first().and_then(|s| s.size))
+        .persist(Persist::IfSmall)
+        .check(check)
+        .into()
 }
 
 /// Channels of the inputs as validation knows them: (at least, exactly when every input is a
@@ -85,10 +80,10 @@ fn check(_: &CheckContext, p: MergeChannelsParams<Check>) -> Result<(), CheckPro
     let mut seen = BTreeSet::new();
     for n in &p.names {
         if n.is_empty() {
-            return Err(CheckProblem::at("names", "a channel name may not be empty"));
+            return Err(CheckProblem::at(MergeChannelsParams::names, "a channel name may not be empty"));
         }
         if !seen.insert(n.as_str()) {
-            return Err(CheckProblem::at("names", format!("channel name {n:?} appears twice")));
+            return Err(CheckProblem::at(MergeChannelsParams::names, format!("channel name {n:?} appears twice")));
         }
     }
     let inputs = &p.channels;

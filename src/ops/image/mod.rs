@@ -22,28 +22,29 @@ pub mod split_channels;
 pub mod statistics;
 pub mod tonemap;
 
-use crate::engine::registry::Registry;
+use crate::engine::registry::{Registry, RegistryError};
 
-pub fn register(r: &mut Registry) {
-    r.register(luminance::spec());
-    r.register(flip_vertical::spec());
-    r.register(resize::spec());
-    r.register(exposure::spec());
-    r.register(constant::spec());
-    r.register(overlay::spec());
-    r.register(image_error::spec());
-    r.register(split_channels::spec());
-    r.register(merge_channels::spec());
-    r.register(math::spec());
-    r.register(crop::spec());
-    r.register(blur::spec());
-    r.register(tonemap::spec());
-    r.register(difference::spec());
-    r.register(rotate::spec());
-    r.register(statistics::spec());
-    r.register(solid_angle::spec());
-    r.register(mean_light_vector::spec());
-    r.register(project::spec());
-    r.register(embed::spec());
-    r.register(sanitize::spec());
+pub fn register(r: &mut Registry) -> Result<(), RegistryError> {
+    r.register(luminance::spec())?;
+    r.register(flip_vertical::spec())?;
+    r.register(resize::spec())?;
+    r.register(exposure::spec())?;
+    r.register(constant::spec())?;
+    r.register(overlay::spec())?;
+    r.register(image_error::spec())?;
+    r.register(split_channels::spec())?;
+    r.register(merge_channels::spec())?;
+    r.register(math::spec())?;
+    r.register(crop::spec())?;
+    r.register(blur::spec())?;
+    r.register(tonemap::spec())?;
+    r.register(difference::spec())?;
+    r.register(rotate::spec())?;
+    r.register(statistics::spec())?;
+    r.register(solid_angle::spec())?;
+    r.register(mean_light_vector::spec())?;
+    r.register(project::spec())?;
+    r.register(embed::spec())?;
+    r.register(sanitize::spec())?;
+    Ok(())
 }

@@ -4,9 +4,10 @@
 //! centred on each sample's texel. The texel is found from the sample's direction, so samples
 //! drawn for one resolution can be drawn on a canvas of any other.
 
-use crate::engine::fields::{Check, Input};
-use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Persist};
+use crate::engine::fields::Input;
+use crate::engine::op::{OpContext, OpError, OpSpec, Persist};
 use crate::engine::params::Rgb;
+use crate::engine::typed_op::Op;
 use crate::engine::value::Value;
 use crate::geometry::latlong;
 use crate::values::ty::*;
@@ -33,17 +34,11 @@ crate::params! {
 }
 
 pub fn spec() -> OpSpec {
-    OpSpec::new(
-        "Overlay",
-        "image",
-        1,
-        "Draw samples as coloured squares on a lat-long image (the seed's green squares)",
-    )
-    .output("image", OutputType::Fixed(IMAGE_T), "the image with the samples drawn (RGB)")
-    .size(|_, p: OverlayParams<Check>| p.image.size)
-    .persist(Persist::IfSmall)
-    .code_hash(crate::op_code_hash!())
-    .eval(eval)
+    Op::new("Overlay", 1, "Draw samples as coloured squares on a lat-long image (the seed's green squares)", eval)
+        .output("image", IMAGE_T, "the image with the samples drawn (RGB)")
+        .size(|_, p| p.image.size)
+        .persist(Persist::IfSmall)
+        .into()
 }
 
 fn eval(_: &mut OpContext, p: OverlayParams) -> Result<Value, OpError> {

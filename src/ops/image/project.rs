@@ -18,8 +18,8 @@
 //! fields that cut the crop and cannot drift from them.
 
 use crate::engine::fields::{Check, Input};
-use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec, OutputType, Outputs};
-use crate::engine::value::Value;
+use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec, Outputs};
+use crate::engine::typed_op::{Op, Port};
 use crate::geometry::lens::{fov_problem, Lens, Model};
 use crate::maths::camera::view::{project, Filter};
 use crate::ops::latlong_input::warn_unless_latlong;
@@ -55,26 +55,25 @@ crate::params! {
     }
 }
 
+/// The output ports, declared once: the spec and `eval` name them through these.
+const IMAGE: Port<Image> = Port::new("image");
+const CAMERA: Port<Camera> = Port::new("camera");
+
 pub fn spec() -> OpSpec {
-    OpSpec::new("Project", "image", 2, "A perspective, fisheye or orthographic camera view of a lat-long map")
-        .output_like("image", |p: ProjectParams<Check>| p.env, "the view, width x height, env's channels")
-        .output(
-            "camera",
-            OutputType::Fixed(CAMERA_T),
-            "the view's camera (model, fov, size, angles, world-to-camera matrix)",
-        )
-        .size(|_, p: ProjectParams<Check>| Some((p.width as u64, p.height as u64)))
+    Op::new("Project", 2, "A perspective, fisheye or orthographic camera view of a lat-long map", eval)
+        .output_like(IMAGE, |p| p.env, "the view, width x height, env's channels")
+        .port(CAMERA, CAMERA_T, "the view's camera (model, fov, size, angles, world-to-camera matrix)")
+        .size(|_, p| Some((p.width as u64, p.height as u64)))
         .check(check)
-        .code_hash(crate::op_code_hash!())
-        .eval(eval)
+        .into()
 }
 
 fn check(_: &CheckContext, p: ProjectParams<Check>) -> Result<(), CheckProblem> {
-    fov_problem(p.model, p.fov).map_or(Ok(()), |e| Err(CheckProblem::at("fov", e)))
+    fov_problem(p.model, p.fov).map_or(Ok(()), |e| Err(CheckProblem::at(ProjectParams::fov, e)))
 }
 
 fn eval(ctx: &mut OpContext, p: ProjectParams) -> Result<Outputs, OpError> {
-    warn_unless_latlong(ctx, "env", p.env.width, p.env.height);
+    warn_unless_latlong(ctx, ProjectParams::env, p.env.width, p.env.height);
     let lens = Lens::new(p.model, p.fov, p.width, p.height).map_err(OpError::Invalid)?;
     let camera = Camera {
         model: p.model,
@@ -86,5 +85,5 @@ fn eval(ctx: &mut OpContext, p: ProjectParams) -> Result<Outputs, OpError> {
         roll: p.roll,
     };
     let view = project(&p.env, &lens, camera.rotation(), p.filter);
-    Ok(Outputs::new().with("image", Value::new(view)).with("camera", Value::new(camera)))
+    Ok(Outputs::new().port(IMAGE, view).port(CAMERA, camera))
 }

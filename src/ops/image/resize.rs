@@ -3,8 +3,9 @@
 //! unchanged, for shrinking and enlarging alike). Every channel is averaged alike, alpha
 //! included, and the channel names are kept.
 
-use crate::engine::fields::{Check, Input};
+use crate::engine::fields::Input;
 use crate::engine::op::{OpContext, OpError, OpSpec};
+use crate::engine::typed_op::Op;
 use crate::engine::value::Value;
 use crate::maths::resample::area_resize;
 use crate::values::ty::*;
@@ -25,11 +26,10 @@ crate::params! {
 }
 
 pub fn spec() -> OpSpec {
-    OpSpec::new("Resize", "image", 1, "Area-averaging, energy-preserving resize")
-        .output_like("image", |p: ResizeParams<Check>| p.image, "the resized image")
-        .size(|_, p: ResizeParams<Check>| Some((p.width as u64, p.height as u64)))
-        .code_hash(crate::op_code_hash!())
-        .eval(eval)
+    Op::new("Resize", 1, "Area-averaging, energy-preserving resize", eval)
+        .output_like("image", |p| p.image, "the resized image")
+        .size(|_, p| Some((p.width as u64, p.height as u64)))
+        .into()
 }
 
 fn eval(_: &mut OpContext, p: ResizeParams) -> Result<Value, OpError> {

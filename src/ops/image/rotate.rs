@@ -8,6 +8,7 @@
 
 use crate::engine::fields::{AnyValue, Check, Input};
 use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec};
+use crate::engine::typed_op::Op;
 use crate::engine::value::Value;
 use crate::geometry::rotation::Rotation;
 use crate::maths::resample::layouts::{to_cube, CubeSource};
@@ -36,12 +37,11 @@ crate::params! {
 }
 
 pub fn spec() -> OpSpec {
-    OpSpec::new("Rotate", "image", 1, "Rotate a lat-long or cube map on the sphere (energy-preserving)")
-        .output_like("image", |p: RotateParams<Check>| p.image, "the rotated map")
-        .size(|_, p: RotateParams<Check>| p.image.size)
+    Op::new("Rotate", 1, "Rotate a lat-long or cube map on the sphere (energy-preserving)", eval)
+        .output_like("image", |p| p.image, "the rotated map")
+        .size(|_, p| p.image.size)
         .check(check)
-        .code_hash(crate::op_code_hash!())
-        .eval(eval)
+        .into()
 }
 
 impl<S: crate::engine::fields::Stage> RotateParams<S> {
@@ -49,9 +49,9 @@ impl<S: crate::engine::fields::Stage> RotateParams<S> {
         match self.matrix {
             None => Ok(Rotation::from_yaw_pitch_roll(self.yaw, self.pitch, self.roll)),
             Some(_) if [self.yaw, self.pitch, self.roll] != [0.0; 3] => {
-                Err(CheckProblem::at("matrix", "give either yaw/pitch/roll or a matrix, not both"))
+                Err(CheckProblem::at(RotateParams::matrix, "give either yaw/pitch/roll or a matrix, not both"))
             }
-            Some(m) => Rotation::from_row_major(m).map_err(|e| CheckProblem::at("matrix", e)),
+            Some(m) => Rotation::from_row_major(m).map_err(|e| CheckProblem::at(RotateParams::matrix, e)),
         }
     }
 }
@@ -64,14 +64,14 @@ fn eval(ctx: &mut OpContext, p: RotateParams) -> Result<Value, OpError> {
     let r = p.rotation().map_err(|e| OpError::Invalid(e.message))?;
     if p.matrix.is_none() && [p.yaw, p.pitch, p.roll] == [0.0; 3] {
         if let Some(img) = p.image.value().get::<Image>() {
-            warn_unless_latlong(ctx, "image", img.width, img.height);
+            warn_unless_latlong(ctx, RotateParams::image, img.width, img.height);
         }
         // No turn: the map itself (a bake's `turned` node without --yaw).
         return Ok(p.image.into_value());
     }
     let v = p.image.value();
     if let Some(img) = v.get::<Image>() {
-        warn_unless_latlong(ctx, "image", img.width, img.height);
+        warn_unless_latlong(ctx, RotateParams::image, img.width, img.height);
         if let Some(k) = r.whole_column_shift(img.width) {
             // An exact roll of whole columns, in place when no other node reads the map.
             let mut img = p.image.into_value().take::<Image>().expect("the value is an image");

@@ -9,8 +9,9 @@
 //! Meant in front of a bake (`hdrflow bake --sanitize` sets `replace`): the image operators fail
 //! on the first non-finite texel without a count.
 
-use crate::engine::fields::{Check, Input};
+use crate::engine::fields::Input;
 use crate::engine::op::{OpContext, OpError, OpSpec, Persist};
+use crate::engine::typed_op::Op;
 use crate::engine::value::Value;
 use crate::values::ty::*;
 use crate::values::Image;
@@ -26,12 +27,11 @@ crate::params! {
 }
 
 pub fn spec() -> OpSpec {
-    OpSpec::new("Sanitize", "image", 1, "Count NaN and infinite texels: an error naming the count, or replace them")
-        .output_like("image", |p: SanitizeParams<Check>| p.image, "the image with finite values only")
-        .size(|_, p: SanitizeParams<Check>| p.image.size)
+    Op::new("Sanitize", 1, "Count NaN and infinite texels: an error naming the count, or replace them", eval)
+        .output_like("image", |p| p.image, "the image with finite values only")
+        .size(|_, p| p.image.size)
         .persist(Persist::IfSmall)
-        .code_hash(crate::op_code_hash!())
-        .eval(eval)
+        .into()
 }
 
 /// The number of texels with a non-finite value and the first of them (x, y, value).

@@ -12,8 +12,8 @@
 
 use rayon::prelude::*;
 
-use crate::engine::fields::Check;
-use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Persist};
+use crate::engine::op::{OpContext, OpError, OpSpec, Persist};
+use crate::engine::typed_op::Op;
 use crate::engine::value::Value;
 use crate::geometry::latlong;
 use crate::values::ty::*;
@@ -31,12 +31,11 @@ crate::params! {
 }
 
 pub fn spec() -> OpSpec {
-    OpSpec::new("SolidAngle", "image", 1, "The per-texel solid angle (sr) of a lat-long grid, one channel")
-        .output("solid_angle", OutputType::Fixed(SCALAR_T), "the solid angle of each texel")
-        .size(|_, p: SolidAngleParams<Check>| Some((p.width as u64, p.height as u64)))
+    Op::new("SolidAngle", 1, "The per-texel solid angle (sr) of a lat-long grid, one channel", eval)
+        .output("solid_angle", SCALAR_T, "the solid angle of each texel")
+        .size(|_, p| Some((p.width as u64, p.height as u64)))
         .persist(Persist::IfSmall)
-        .code_hash(crate::op_code_hash!())
-        .eval(eval)
+        .into()
 }
 
 /// The solid-angle map of a `width x height` lat-long grid.

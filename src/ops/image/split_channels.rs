@@ -12,8 +12,9 @@
 //! A channel whose name contains a dot (an EXR layer such as `diffuse.R`) cannot be named in a
 //! pipeline, because `"node.port"` splits at the last dot.
 
-use crate::engine::fields::{Check, Input};
+use crate::engine::fields::Input;
 use crate::engine::op::{OpContext, OpError, OpSpec, Outputs, Persist};
+use crate::engine::typed_op::Op;
 use crate::engine::value::Value;
 use crate::values::ty::*;
 use crate::values::Image;
@@ -27,12 +28,11 @@ crate::params! {
 }
 
 pub fn spec() -> OpSpec {
-    OpSpec::new("SplitChannels", "image", 1, "Each channel of an image as a scalar field, on a port named like it")
+    Op::new("SplitChannels", 1, "Each channel of an image as a scalar field, on a port named like it", eval)
         .open_ports(SCALAR_T, "one port per channel, named like it: \"split.R\", \"split.A\" (no default port)")
-        .size(|_, p: SplitChannelsParams<Check>| p.image.size)
+        .size(|_, p| p.image.size)
         .persist(Persist::IfSmall)
-        .code_hash(crate::op_code_hash!())
-        .eval(eval)
+        .into()
 }
 
 /// The channels named `wanted`, in that order, each as a one-channel image named like it; an

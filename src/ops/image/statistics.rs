@@ -21,7 +21,8 @@
 //! the closed form `(1 - cos theta) / 2` (within one row).
 
 use crate::engine::fields::Input;
-use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec, OutputType};
+use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec};
+use crate::engine::typed_op::Op;
 use crate::engine::value::Value;
 use crate::maths::stats::statistics::LuminanceSamples;
 use crate::values::ty::*;
@@ -41,16 +42,10 @@ crate::params! {
 }
 
 pub fn spec() -> OpSpec {
-    OpSpec::new(
-        "Statistics",
-        "image",
-        1,
-        "Luminance mean, percentiles and dynamic range (solid-angle weighted), and counts of NaN, Inf and negative texels",
-    )
-    .output("metrics", OutputType::Fixed(METRICS_T), "the statistics")
+    Op::new("Statistics", 1, "Luminance mean, percentiles and dynamic range (solid-angle weighted), and counts of NaN, Inf and negative texels", eval)
+    .output("metrics", METRICS_T, "the statistics")
     .check(check)
-    .code_hash(crate::op_code_hash!())
-    .eval(eval)
+        .into()
 }
 
 /// The metric name of percentile `p`: `p1`, `p99.9`.
@@ -61,7 +56,10 @@ pub fn percentile_name(p: f64) -> String {
 fn check(_: &CheckContext, p: StatisticsParams<crate::engine::fields::Check>) -> Result<(), CheckProblem> {
     for (i, a) in p.percentiles.iter().enumerate() {
         if p.percentiles[..i].iter().any(|b| percentile_name(*b) == percentile_name(*a)) {
-            return Err(CheckProblem::at("percentiles", format!("percentile {a} is listed twice in percentiles")));
+            return Err(CheckProblem::at(
+                StatisticsParams::percentiles,
+                format!("percentile {a} is listed twice in percentiles"),
+            ));
         }
     }
     Ok(())

@@ -33,8 +33,9 @@
 
 use rayon::prelude::*;
 
-use crate::engine::fields::{Check, Input};
+use crate::engine::fields::Input;
 use crate::engine::op::{OpContext, OpError, OpSpec, Persist};
+use crate::engine::typed_op::Op;
 use crate::engine::value::Value;
 use crate::values::ty::*;
 use crate::values::Image;
@@ -58,16 +59,11 @@ crate::params! {
 }
 
 pub fn spec() -> OpSpec {
-    OpSpec::new("Tonemap", "image", 1, "Exposure then a tone curve (Reinhard, ACES, AgX) to display-linear [0, 1]")
-        .output_like(
-            "image",
-            |p: TonemapParams<Check>| p.image,
-            "display-referred linear values in [0, 1]; alpha unchanged",
-        )
-        .size(|_, p: TonemapParams<Check>| p.image.size)
+    Op::new("Tonemap", 1, "Exposure then a tone curve (Reinhard, ACES, AgX) to display-linear [0, 1]", eval)
+        .output_like("image", |p| p.image, "display-referred linear values in [0, 1]; alpha unchanged")
+        .size(|_, p| p.image.size)
         .persist(Persist::IfSmall)
-        .code_hash(crate::op_code_hash!())
-        .eval(eval)
+        .into()
 }
 
 /// NaN and negatives -> 0, huge values -> 1e30.

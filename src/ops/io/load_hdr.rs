@@ -5,10 +5,11 @@
 //! moving a file keeps its key, editing it in place (even with its mtime restored) changes it.
 
 use crate::engine::op::{CheckContext, Size};
+use crate::engine::typed_op::Op;
 use std::path::Path;
 
 use crate::engine::fields::{Check, Stage};
-use crate::engine::op::{resolve_path, OpContext, OpError, OpSpec, OutputType};
+use crate::engine::op::{resolve_path, OpContext, OpError, OpSpec};
 use crate::engine::params::InputPath;
 use crate::engine::value::Value;
 use crate::formats;
@@ -44,17 +45,16 @@ impl<S: Stage> LoadHdrParams<S> {
 }
 
 pub fn spec() -> OpSpec {
-    OpSpec::new(
+    Op::new(
         "LoadHdr",
-        "io",
         1,
         "Load an HDR image (.hdr RGBE, .exr, .pfm) or a built-in procedural map (builtin:sky, ...)",
+        eval,
     )
-    .output("image", OutputType::Fixed(IMAGE_T), "the image (RGB, or RGBA for an EXR with alpha)")
+    .output("image", IMAGE_T, "the image (RGB, or RGBA for an EXR with alpha)")
     .size(size)
-    .code_hash(crate::op_code_hash!())
     .content_key(content_key)
-    .eval(eval)
+    .into()
 }
 
 /// Bump when a built-in map's generator changes.

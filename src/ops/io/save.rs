@@ -20,8 +20,9 @@
 //! paths that are absolute or leave that folder. Encoding is cached like any result.
 
 use crate::engine::fields::{AnyValue, Check, Input};
-use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec, OutputType};
+use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec};
 use crate::engine::params::OutputPath;
+use crate::engine::typed_op::Op;
 use crate::engine::value::{FileBlob, SaveOptions, Value, ValueType, FILE};
 use crate::formats::ktx1::{self, Ktx1Format};
 use crate::formats::ktx2::{Compression, KtxFormat, KtxSupercompression};
@@ -69,11 +70,10 @@ crate::params! {
 }
 
 pub fn spec() -> OpSpec {
-    OpSpec::new("Save", "io", 2, "Write a value to a file in the output folder; the format follows the extension")
-        .output("file", OutputType::Fixed(ValueType(&FILE)), "the encoded file (the engine writes it into --out)")
-        .code_hash(crate::op_code_hash!())
-        .eval(eval)
+    Op::new("Save", 2, "Write a value to a file in the output folder; the format follows the extension", eval)
+        .output("file", ValueType(&FILE), "the encoded file (the engine writes it into --out)")
         .check(check)
+        .into()
 }
 
 fn check(_: &CheckContext, p: SaveParams<Check>) -> Result<(), CheckProblem> {
@@ -85,25 +85,31 @@ fn check(_: &CheckContext, p: SaveParams<Check>) -> Result<(), CheckProblem> {
     }
     let ext = p.path.extension();
     if p.ktx_format != KtxFormat::Rgba16f && ext != "ktx2" {
-        return Err(CheckProblem::at("ktx_format", "ktx_format applies to .ktx2 files only"));
+        return Err(CheckProblem::at(SaveParams::ktx_format, "ktx_format applies to .ktx2 files only"));
     }
     if p.ktx_supercompression != KtxSupercompression::None && ext != "ktx2" {
-        return Err(CheckProblem::at("ktx_supercompression", "ktx_supercompression applies to .ktx2 files only"));
+        return Err(CheckProblem::at(
+            SaveParams::ktx_supercompression,
+            "ktx_supercompression applies to .ktx2 files only",
+        ));
     }
     if p.zstd_level != crate::formats::ktx2::DEFAULT_ZSTD_LEVEL as usize
         && p.ktx_supercompression != KtxSupercompression::Zstd
     {
-        return Err(CheckProblem::at("zstd_level", "zstd_level applies to ktx_supercompression: Zstd only"));
+        return Err(CheckProblem::at(SaveParams::zstd_level, "zstd_level applies to ktx_supercompression: Zstd only"));
     }
     if p.ktx1_format != Ktx1Format::Rg11b10f && ext != "ktx" {
-        return Err(CheckProblem::at("ktx1_format", "ktx1_format applies to .ktx files only"));
+        return Err(CheckProblem::at(SaveParams::ktx1_format, "ktx1_format applies to .ktx files only"));
     }
     if p.sh.is_some() && ext != "ktx" {
-        return Err(CheckProblem::at("sh", "sh applies to .ktx files only (Filament's key \"sh\")"));
+        return Err(CheckProblem::at(SaveParams::sh, "sh applies to .ktx files only (Filament's key \"sh\")"));
     }
     let t = p.input.ty;
     if p.png_format != PngFormat::Srgb8 && (ext != "png" || t == crate::values::ty::CURVES_T) {
-        return Err(CheckProblem::at("png_format", "png_format applies to .png files of images and cube maps only"));
+        return Err(CheckProblem::at(
+            SaveParams::png_format,
+            "png_format applies to .png files of images and cube maps only",
+        ));
     }
     if t == crate::values::ty::MIP_CHAIN_T && ext != "ktx2" && ext != "ktx" && !p.path.0.contains("{level}") {
         return Err(CheckProblem::at(
@@ -113,7 +119,7 @@ fn check(_: &CheckContext, p: SaveParams<Check>) -> Result<(), CheckProblem> {
     }
     let ok = t.spec().save_extensions;
     if ok.is_empty() {
-        return Err(CheckProblem::at("input", format!("a value of type {t} cannot be saved")));
+        return Err(CheckProblem::at(SaveParams::input, format!("a value of type {t} cannot be saved")));
     }
     if !ok.contains(&ext.as_str()) {
         return Err(CheckProblem::at(

@@ -10,8 +10,9 @@
 //! bilinear lookup at its centre direction, taps outside the disc having weight 0
 //! (`maths::resample::disc_image::disc_to_latlong`). `LatLongToAngular` is the inverse.
 
-use crate::engine::fields::{Check, Input};
+use crate::engine::fields::Input;
 use crate::engine::op::{OpContext, OpError, OpSpec};
+use crate::engine::typed_op::Op;
 use crate::engine::value::Value;
 use crate::geometry::azimuthal::DiscMap;
 use crate::maths::resample::disc_image::disc_to_latlong;
@@ -33,16 +34,15 @@ crate::params! {
 }
 
 pub fn spec() -> OpSpec {
-    OpSpec::new(
+    Op::new(
         "AngularToLatLong",
-        "layouts",
         1,
         "Convert a Debevec angular light probe to a lat-long map (outside the disc masked)",
+        eval,
     )
-    .output_like("image", |p: AngularParams<Check>| p.image, "the lat-long map")
-    .size(|_, p: AngularParams<Check>| Some((p.width as u64, p.height as u64)))
-    .code_hash(crate::op_code_hash!())
-    .eval(eval)
+    .output_like("image", |p| p.image, "the lat-long map")
+    .size(|_, p| Some((p.width as u64, p.height as u64)))
+    .into()
 }
 
 /// Converts an angular probe to a `width` x `height` lat-long map (channel names kept).

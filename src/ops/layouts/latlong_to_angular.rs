@@ -7,8 +7,9 @@
 //! `dOmega/dA = pi sin(pi r) / r`); outside the disc 0. The tests check the round trip
 //! lat-long -> angular -> lat-long and that the integral is kept (1e-3 on the sky).
 
-use crate::engine::fields::{Check, Input};
+use crate::engine::fields::Input;
 use crate::engine::op::{OpContext, OpError, OpSpec};
+use crate::engine::typed_op::Op;
 use crate::engine::value::Value;
 use crate::geometry::azimuthal::DiscMap;
 use crate::maths::resample::disc_image::latlong_to_disc;
@@ -28,19 +29,18 @@ crate::params! {
 }
 
 pub fn spec() -> OpSpec {
-    OpSpec::new(
+    Op::new(
         "LatLongToAngular",
-        "layouts",
         1,
         "A lat-long map as a Debevec angular probe (footprint-averaged; outside the disc 0)",
+        eval,
     )
-    .output_like("image", |p: LatLongToAngularParams<Check>| p.env, "the size x size angular probe")
-    .size(|_, p: LatLongToAngularParams<Check>| Some((p.size as u64, p.size as u64)))
-    .code_hash(crate::op_code_hash!())
-    .eval(eval)
+    .output_like("image", |p| p.env, "the size x size angular probe")
+    .size(|_, p| Some((p.size as u64, p.size as u64)))
+    .into()
 }
 
 fn eval(ctx: &mut OpContext, p: LatLongToAngularParams) -> Result<Value, OpError> {
-    warn_unless_latlong(ctx, "env", p.env.width, p.env.height);
+    warn_unless_latlong(ctx, LatLongToAngularParams::env, p.env.width, p.env.height);
     Ok(Value::new(latlong_to_disc(&p.env, &DiscMap::ANGULAR, p.size)))
 }

@@ -12,6 +12,7 @@
 
 use crate::engine::fields::{Check, Input};
 use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec};
+use crate::engine::typed_op::Op;
 use crate::engine::value::Value;
 use crate::maths::resample::disc_image::latlong_to_disc;
 use crate::ops::latlong_input::warn_unless_latlong;
@@ -34,25 +35,25 @@ ball_params! {
 }
 
 pub fn spec() -> OpSpec {
-    OpSpec::new(
+    Op::new(
         "LatLongToMirrorBall",
-        "layouts",
         1,
         "The orthographic chrome-ball image of a lat-long map (footprint-averaged; outside the disc 0)",
+        eval,
     )
-    .output_like("image", |p: LatLongToMirrorBallParams<Check>| p.env, "the size x size mirror-ball image")
-    .size(|_, p: LatLongToMirrorBallParams<Check>| Some((p.size as u64, p.size as u64)))
+    .output_like("image", |p| p.env, "the size x size mirror-ball image")
+    .size(|_, p| Some((p.size as u64, p.size as u64)))
     .check(check)
-    .code_hash(crate::op_code_hash!())
-    .eval(eval)
+    .into()
 }
 
 fn check(_: &CheckContext, p: LatLongToMirrorBallParams<Check>) -> Result<(), CheckProblem> {
-    ball_map(p.yaw, p.pitch, p.roll, p.look).map(|_| ())
+    ball_map(p.yaw, p.pitch, p.roll, p.look, LatLongToMirrorBallParams::look).map(|_| ())
 }
 
 fn eval(ctx: &mut OpContext, p: LatLongToMirrorBallParams) -> Result<Value, OpError> {
-    warn_unless_latlong(ctx, "env", p.env.width, p.env.height);
-    let map = ball_map(p.yaw, p.pitch, p.roll, p.look).map_err(|e| OpError::Invalid(e.message))?;
+    warn_unless_latlong(ctx, LatLongToMirrorBallParams::env, p.env.width, p.env.height);
+    let map = ball_map(p.yaw, p.pitch, p.roll, p.look, LatLongToMirrorBallParams::look)
+        .map_err(|e| OpError::Invalid(e.message))?;
     Ok(Value::new(latlong_to_disc(&p.env, &map, p.size)))
 }

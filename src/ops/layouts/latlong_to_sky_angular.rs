@@ -9,8 +9,9 @@
 //! `dOmega/dA = (pi / 2) sin(pi r / 2) / r`); outside the disc 0. `SkyAngularToLatLong` is the
 //! inverse on the upper hemisphere.
 
-use crate::engine::fields::{Check, Input};
+use crate::engine::fields::Input;
 use crate::engine::op::{OpContext, OpError, OpSpec};
+use crate::engine::typed_op::Op;
 use crate::engine::value::Value;
 use crate::geometry::azimuthal::DiscMap;
 use crate::maths::resample::disc_image::latlong_to_disc;
@@ -30,19 +31,18 @@ crate::params! {
 }
 
 pub fn spec() -> OpSpec {
-    OpSpec::new(
+    Op::new(
         "LatLongToSkyAngular",
-        "layouts",
         1,
         "The upper hemisphere as a disc seen from below (zenith at the centre, -Z at the bottom, r = theta / 90 deg)",
+        eval,
     )
-    .output_like("image", |p: LatLongToSkyAngularParams<Check>| p.env, "the size x size sky-angular disc")
-    .size(|_, p: LatLongToSkyAngularParams<Check>| Some((p.size as u64, p.size as u64)))
-    .code_hash(crate::op_code_hash!())
-    .eval(eval)
+    .output_like("image", |p| p.env, "the size x size sky-angular disc")
+    .size(|_, p| Some((p.size as u64, p.size as u64)))
+    .into()
 }
 
 fn eval(ctx: &mut OpContext, p: LatLongToSkyAngularParams) -> Result<Value, OpError> {
-    warn_unless_latlong(ctx, "env", p.env.width, p.env.height);
+    warn_unless_latlong(ctx, LatLongToSkyAngularParams::env, p.env.width, p.env.height);
     Ok(Value::new(latlong_to_disc(&p.env, &DiscMap::SKY_ANGULAR, p.size)))
 }

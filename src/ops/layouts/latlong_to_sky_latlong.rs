@@ -7,6 +7,7 @@
 
 use crate::engine::fields::{Check, Input};
 use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec};
+use crate::engine::typed_op::Op;
 use crate::engine::value::Value;
 use crate::ops::latlong_input::warn_unless_latlong;
 use crate::values::ty::*;
@@ -23,17 +24,11 @@ crate::params! {
 }
 
 pub fn spec() -> OpSpec {
-    OpSpec::new(
-        "LatLongToSkyLatLong",
-        "layouts",
-        1,
-        "The upper hemisphere of a lat-long map: its upper half rows, exactly",
-    )
-    .output_like("image", |p: LatLongToSkyLatLongParams<Check>| p.env, "the W x H/2 sky lat-long map")
-    .size(|_, p: LatLongToSkyLatLongParams<Check>| p.env.size.map(|(w, h)| (w, h / 2)))
-    .check(check)
-    .code_hash(crate::op_code_hash!())
-    .eval(eval)
+    Op::new("LatLongToSkyLatLong", 1, "The upper hemisphere of a lat-long map: its upper half rows, exactly", eval)
+        .output_like("image", |p| p.env, "the W x H/2 sky lat-long map")
+        .size(|_, p| p.env.size.map(|(w, h)| (w, h / 2)))
+        .check(check)
+        .into()
 }
 
 fn check(_: &CheckContext, p: LatLongToSkyLatLongParams<Check>) -> Result<(), CheckProblem> {
@@ -50,6 +45,6 @@ pub fn sky_half(env: &Image) -> Result<Image, OpError> {
 }
 
 fn eval(ctx: &mut OpContext, p: LatLongToSkyLatLongParams) -> Result<Value, OpError> {
-    warn_unless_latlong(ctx, "env", p.env.width, p.env.height);
+    warn_unless_latlong(ctx, LatLongToSkyLatLongParams::env, p.env.width, p.env.height);
     Ok(Value::new(sky_half(&p.env)?))
 }

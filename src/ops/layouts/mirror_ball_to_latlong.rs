@@ -17,8 +17,8 @@
 //! the run when its size is known).
 
 use crate::engine::fields::{Check, Input};
-use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec, OutputType, Outputs};
-use crate::engine::value::Value;
+use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec, Outputs};
+use crate::engine::typed_op::{Op, Port};
 use crate::maths::resample::disc_image::disc_to_latlong;
 use crate::values::ty::*;
 use crate::values::Image;
@@ -46,32 +46,34 @@ ball_params! {
 
 const WHAT: &str = "a mirror-ball";
 
+/// The output ports, declared once: the spec and `eval` name them through these.
+const IMAGE: Port<Image> = Port::new("image");
+const MASK: Port<Image> = Port::new("mask");
+
 pub fn spec() -> OpSpec {
-    OpSpec::new(
-        "MirrorBallToLatLong",
-        "layouts",
-        1,
-        "A chrome-ball photograph (orthographic, cropped to the ball) to a lat-long map, with the mask of what the ball saw",
-    )
-    .output_like("image", |p: MirrorBallParams<Check>| p.image, "the lat-long map (0 where the mask is 0)")
-    .output("mask", OutputType::Fixed(SCALAR_T), "1 where the usable part of the ball saw the texel, else 0")
-    .size(|_, p: MirrorBallParams<Check>| Some((p.width as u64, p.height as u64)))
+    Op::new("MirrorBallToLatLong", 1, "A chrome-ball photograph (orthographic, cropped to the ball) to a lat-long map, with the mask of what the ball saw", eval)
+    .output_like(IMAGE, |p| p.image, "the lat-long map (0 where the mask is 0)")
+    .port(MASK, SCALAR_T, "1 where the usable part of the ball saw the texel, else 0")
+    .size(|_, p| Some((p.width as u64, p.height as u64)))
     .check(check)
-    .code_hash(crate::op_code_hash!())
-    .eval(eval)
+        .into()
 }
 
 fn check(_: &CheckContext, p: MirrorBallParams<Check>) -> Result<(), CheckProblem> {
     if p.ball_fraction <= 0.0 {
-        return Err(CheckProblem::at("ball_fraction", "ball_fraction must be in (0, 1]: 0 leaves no usable pixel"));
+        return Err(CheckProblem::at(
+            MirrorBallParams::ball_fraction,
+            "ball_fraction must be in (0, 1]: 0 leaves no usable pixel",
+        ));
     }
-    ball_map(p.yaw, p.pitch, p.roll, p.look)?;
+    ball_map(p.yaw, p.pitch, p.roll, p.look, MirrorBallParams::look)?;
     check_square("image", p.image, WHAT)
 }
 
 fn eval(_: &mut OpContext, p: MirrorBallParams) -> Result<Outputs, OpError> {
-    let map = ball_map(p.yaw, p.pitch, p.roll, p.look).map_err(|e| OpError::Invalid(e.message))?;
+    let map =
+        ball_map(p.yaw, p.pitch, p.roll, p.look, MirrorBallParams::look).map_err(|e| OpError::Invalid(e.message))?;
     require_square(&p.image, "image", WHAT)?;
     let out = disc_to_latlong(&p.image, &map, p.ball_fraction, p.width, p.height);
-    Ok(Outputs::new().with("image", Value::new(out.image)).with("mask", Value::new(out.mask)))
+    Ok(Outputs::new().port(IMAGE, out.image).port(MASK, out.mask))
 }

@@ -16,21 +16,22 @@ use glam::DVec3;
 
 use crate::engine::fields::Shape;
 use crate::engine::op::{CheckProblem, OpError};
-use crate::engine::registry::Registry;
+use crate::engine::registry::{Registry, RegistryError};
 use crate::geometry::azimuthal::DiscMap;
 use crate::geometry::rotation::Rotation;
 use crate::geometry::unit;
 use crate::values::Image;
 
-pub fn register(r: &mut Registry) {
-    r.register(angular_to_latlong::spec());
-    r.register(latlong_to_angular::spec());
-    r.register(mirror_ball_to_latlong::spec());
-    r.register(latlong_to_mirror_ball::spec());
-    r.register(latlong_to_sky_latlong::spec());
-    r.register(sky_latlong_to_latlong::spec());
-    r.register(latlong_to_sky_angular::spec());
-    r.register(sky_angular_to_latlong::spec());
+pub fn register(r: &mut Registry) -> Result<(), RegistryError> {
+    r.register(angular_to_latlong::spec())?;
+    r.register(latlong_to_angular::spec())?;
+    r.register(mirror_ball_to_latlong::spec())?;
+    r.register(latlong_to_mirror_ball::spec())?;
+    r.register(latlong_to_sky_latlong::spec())?;
+    r.register(sky_latlong_to_latlong::spec())?;
+    r.register(latlong_to_sky_angular::spec())?;
+    r.register(sky_angular_to_latlong::spec())?;
+    Ok(())
 }
 
 /// Declares a mirror-ball operator's parameters: its inputs, then the camera's `yaw`, `pitch`,
@@ -66,15 +67,21 @@ pub(crate) use ball_params;
 /// the default one (looking along -Z, right +X, up +Y): right `R X`, up `R Y`, towards the camera
 /// `R Z`. `look` stands for yaw and pitch: `yaw = atan2(-l_x, -l_z)`, `pitch = asin(l_y)` of the
 /// unit `l` (yaw 0 when looking straight up or down).
-pub(crate) fn ball_map(yaw: f64, pitch: f64, roll: f64, look: Option<[f64; 3]>) -> Result<DiscMap, CheckProblem> {
+pub(crate) fn ball_map(
+    yaw: f64,
+    pitch: f64,
+    roll: f64,
+    look: Option<[f64; 3]>,
+    look_field: &'static str,
+) -> Result<DiscMap, CheckProblem> {
     let (yaw, pitch) = match look {
         None => (yaw, pitch),
         Some(_) if yaw != 0.0 || pitch != 0.0 => {
-            return Err(CheckProblem::at("look", "give either yaw/pitch or look, not both"));
+            return Err(CheckProblem::at(look_field, "give either yaw/pitch or look, not both"));
         }
         Some(l) => {
             let f = unit(DVec3::from(l))
-                .ok_or_else(|| CheckProblem::at("look", "look must be a non-zero, finite direction"))?;
+                .ok_or_else(|| CheckProblem::at(look_field, "look must be a non-zero, finite direction"))?;
             let yaw = if f.x == 0.0 && f.z == 0.0 { 0.0 } else { (-f.x).atan2(-f.z).to_degrees() };
             (yaw, f.y.clamp(-1.0, 1.0).asin().to_degrees())
         }
@@ -148,17 +155,17 @@ mod tests {
     #[test]
     fn look_and_yaw_pitch_give_the_same_camera() {
         for (yaw, pitch) in [(0.0, 0.0), (90.0, 0.0), (-35.0, 20.0), (170.0, -60.0)] {
-            let a = ball_map(yaw, pitch, 0.0, None).unwrap();
+            let a = ball_map(yaw, pitch, 0.0, None, "look").unwrap();
             let f = Rotation::from_yaw_pitch_roll(yaw, pitch, 0.0).apply(DVec3::NEG_Z) * 3.0;
-            let b = ball_map(0.0, 0.0, 0.0, Some(f.to_array())).unwrap();
+            let b = ball_map(0.0, 0.0, 0.0, Some(f.to_array()), "look").unwrap();
             assert!(close(a.right, b.right) && close(a.up, b.up) && close(a.axis, b.axis), "{yaw} {pitch}");
             assert!(close(-a.axis, f / 3.0));
         }
-        let up = ball_map(0.0, 0.0, 0.0, Some([0.0, 2.0, 0.0])).unwrap();
+        let up = ball_map(0.0, 0.0, 0.0, Some([0.0, 2.0, 0.0]), "look").unwrap();
         assert!(close(up.axis, DVec3::NEG_Y) && close(up.up, DVec3::Z) && close(up.right, DVec3::X));
         let refused = |r: Result<DiscMap, CheckProblem>, why: &str| matches!(r, Err(CheckProblem { field: Some("look"), message }) if message.contains(why));
-        assert!(refused(ball_map(0.0, 0.0, 0.0, Some([0.0; 3])), "non-zero, finite direction"));
-        assert!(refused(ball_map(10.0, 0.0, 0.0, Some([0.0, 0.0, -1.0])), "either yaw/pitch or look"));
+        assert!(refused(ball_map(0.0, 0.0, 0.0, Some([0.0; 3]), "look"), "non-zero, finite direction"));
+        assert!(refused(ball_map(10.0, 0.0, 0.0, Some([0.0, 0.0, -1.0]), "look"), "either yaw/pitch or look"));
     }
 
     #[test]

@@ -10,8 +10,8 @@
 //! size is known).
 
 use crate::engine::fields::{Check, Input};
-use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec, OutputType, Outputs};
-use crate::engine::value::Value;
+use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec, Outputs};
+use crate::engine::typed_op::{Op, Port};
 use crate::geometry::azimuthal::DiscMap;
 use crate::maths::resample::disc_image::disc_to_latlong;
 use crate::values::ty::*;
@@ -37,19 +37,22 @@ crate::params! {
 
 const WHAT: &str = "a sky-angular";
 
+/// The output ports, declared once: the spec and `eval` name them through these.
+const IMAGE: Port<Image> = Port::new("image");
+const MASK: Port<Image> = Port::new("mask");
+
 pub fn spec() -> OpSpec {
-    OpSpec::new(
+    Op::new(
         "SkyAngularToLatLong",
-        "layouts",
         1,
         "A sky-angular disc (upper hemisphere seen from below) to a lat-long map, the lower hemisphere a constant fill",
+        eval,
     )
-    .output_like("image", |p: SkyAngularToLatLongParams<Check>| p.image, "the lat-long map")
-    .output("mask", OutputType::Fixed(SCALAR_T), "1 where the disc saw the texel, 0 where it was filled")
-    .size(|_, p: SkyAngularToLatLongParams<Check>| Some((p.width as u64, p.height as u64)))
+    .output_like(IMAGE, |p| p.image, "the lat-long map")
+    .port(MASK, SCALAR_T, "1 where the disc saw the texel, 0 where it was filled")
+    .size(|_, p| Some((p.width as u64, p.height as u64)))
     .check(check)
-    .code_hash(crate::op_code_hash!())
-    .eval(eval)
+    .into()
 }
 
 fn check(_: &CheckContext, p: SkyAngularToLatLongParams<Check>) -> Result<(), CheckProblem> {
@@ -61,5 +64,5 @@ fn eval(_: &mut OpContext, p: SkyAngularToLatLongParams) -> Result<Outputs, OpEr
     let fill = fill_values(&p.fill, p.image.channels)?;
     let mut out = disc_to_latlong(&p.image, &DiscMap::SKY_ANGULAR, 1.0, p.width, p.height);
     fill_unseen(&mut out.image, &out.mask, &fill);
-    Ok(Outputs::new().with("image", Value::new(out.image)).with("mask", Value::new(out.mask)))
+    Ok(Outputs::new().port(IMAGE, out.image).port(MASK, out.mask))
 }

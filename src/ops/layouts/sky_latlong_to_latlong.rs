@@ -3,9 +3,9 @@
 //! input, bit for bit; the lower hemisphere is the constant `fill` per channel (none given: 0;
 //! one number: every channel; else one per channel). Port `mask`: 1 on the sky rows, 0 below.
 
-use crate::engine::fields::{Check, Input};
-use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Outputs};
-use crate::engine::value::Value;
+use crate::engine::fields::Input;
+use crate::engine::op::{OpContext, OpError, OpSpec, Outputs};
+use crate::engine::typed_op::{Op, Port};
 use crate::values::ty::*;
 use crate::values::Image;
 
@@ -21,18 +21,21 @@ crate::params! {
     }
 }
 
+/// The output ports, declared once: the spec and `eval` name them through these.
+const IMAGE: Port<Image> = Port::new("image");
+const MASK: Port<Image> = Port::new("mask");
+
 pub fn spec() -> OpSpec {
-    OpSpec::new(
+    Op::new(
         "SkyLatLongToLatLong",
-        "layouts",
         1,
         "A sky lat-long map (upper hemisphere) to a full lat-long map, the lower hemisphere a constant fill",
+        eval,
     )
-    .output_like("image", |p: SkyLatLongToLatLongParams<Check>| p.image, "the W x 2h lat-long map")
-    .output("mask", OutputType::Fixed(SCALAR_T), "1 on the sky (upper) rows, 0 on the filled ones")
-    .size(|_, p: SkyLatLongToLatLongParams<Check>| p.image.size.map(|(w, h)| (w, 2 * h)))
-    .code_hash(crate::op_code_hash!())
-    .eval(eval)
+    .output_like(IMAGE, |p| p.image, "the W x 2h lat-long map")
+    .port(MASK, SCALAR_T, "1 on the sky (upper) rows, 0 on the filled ones")
+    .size(|_, p| p.image.size.map(|(w, h)| (w, 2 * h)))
+    .into()
 }
 
 fn eval(_: &mut OpContext, p: SkyLatLongToLatLongParams) -> Result<Outputs, OpError> {
@@ -47,5 +50,5 @@ fn eval(_: &mut OpContext, p: SkyLatLongToLatLongParams) -> Result<Outputs, OpEr
     let mut mask = vec![1.0f32; w * h];
     mask.resize(w * 2 * h, 0.0);
     let image = Image::with_names(w, 2 * h, sky.names.clone(), data);
-    Ok(Outputs::new().with("image", Value::new(image)).with("mask", Value::new(Image::from_vec(w, 2 * h, 1, mask))))
+    Ok(Outputs::new().port(IMAGE, image).port(MASK, Image::from_vec(w, 2 * h, 1, mask)))
 }

@@ -20,14 +20,15 @@
 //! synthetic maps with 0, 1, 3 and 5 blobs (one across the seam, one around the north pole).
 //! NaN or infinite texels are an error.
 
-use crate::engine::fields::{Check, Input};
-use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Outputs};
-use crate::engine::value::Value;
+use crate::engine::fields::Input;
+use crate::engine::op::{OpContext, OpError, OpSpec, Outputs};
+use crate::engine::typed_op::{Op, Port};
 use crate::maths::fit::lights::extract_lights;
 use crate::ops::latlong_input::warn_unless_latlong;
 use crate::ops::shading::reference_sphere::check_finite;
 use crate::values::ty::*;
 use crate::values::Image;
+use crate::values::Lights;
 
 crate::params! {
     pub struct ExtractLightsParams {
@@ -43,28 +44,25 @@ crate::params! {
     }
 }
 
+/// The output ports, declared once: the spec and `eval` name them through these.
+const LIGHTS: Port<Lights> = Port::new("lights");
+const RESIDUAL: Port<Image> = Port::new("residual");
+
 pub fn spec() -> OpSpec {
-    OpSpec::new(
-        "ExtractLights",
-        "lights",
-        1,
-        "Parametric lights (the brightest connected regions) plus an ambient colour, conserving the integral per channel",
-    )
-    .output("lights", OutputType::Fixed(LIGHTS_T), "the lights (direction, solid angle, RGB radiance) and the ambient")
-    .output_computed(
-        "residual",
+    Op::new("ExtractLights", 1, "Parametric lights (the brightest connected regions) plus an ambient colour, conserving the integral per channel", eval)
+    .port(LIGHTS, LIGHTS_T, "the lights (direction, solid angle, RGB radiance) and the ambient")
+    .output_computed(RESIDUAL,
         "the input's type",
-        |_, p: ExtractLightsParams<Check>| Ok(p.env.ty),
+        |_, p| Ok(p.env.ty),
         "env with the lights' regions filled with the ambient",
     )
-    .code_hash(crate::op_code_hash!())
-    .eval(eval)
+        .into()
 }
 
 fn eval(ctx: &mut OpContext, p: ExtractLightsParams) -> Result<Outputs, OpError> {
-    warn_unless_latlong(ctx, "env", p.env.width, p.env.height);
+    warn_unless_latlong(ctx, ExtractLightsParams::env, p.env.width, p.env.height);
     let env = &*p.env;
     check_finite(env)?;
     let e = extract_lights(env, p.max_lights, p.threshold_stops);
-    Ok(Outputs::new().with("lights", Value::new(e.lights)).with("residual", Value::new(e.residual)))
+    Ok(Outputs::new().port(LIGHTS, e.lights).port(RESIDUAL, e.residual))
 }

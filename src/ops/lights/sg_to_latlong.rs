@@ -9,8 +9,9 @@
 //! `pi^2 / (24 H^2)` relative (tested from lambda = 0.05 to 5000; measured in
 //! `docs/toolkit/spherical_gaussians.md`).
 
-use crate::engine::fields::{Check, Input};
-use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
+use crate::engine::fields::Input;
+use crate::engine::op::{OpContext, OpError, OpSpec};
+use crate::engine::typed_op::Op;
 use crate::engine::value::Value;
 use crate::maths::fit::spherical_gaussians::render;
 use crate::values::ty::*;
@@ -31,11 +32,10 @@ crate::params! {
 }
 
 pub fn spec() -> OpSpec {
-    OpSpec::new("SgToLatLong", "lights", 1, "Spherical Gaussian lobes rendered into an RGB lat-long map")
-        .output("image", OutputType::Fixed(IMAGE_T), "the lobes' radiance at each texel centre")
-        .size(|_, p: SgToLatLongParams<Check>| Some((p.width as u64, p.height as u64)))
-        .code_hash(crate::op_code_hash!())
-        .eval(eval)
+    Op::new("SgToLatLong", 1, "Spherical Gaussian lobes rendered into an RGB lat-long map", eval)
+        .output("image", IMAGE_T, "the lobes' radiance at each texel centre")
+        .size(|_, p| Some((p.width as u64, p.height as u64)))
+        .into()
 }
 
 fn eval(_: &mut OpContext, p: SgToLatLongParams) -> Result<Value, OpError> {

@@ -16,12 +16,13 @@
 //! texels are an error; `lobes` outside [1, 256] is refused before anything runs.
 
 use crate::engine::fields::Input;
-use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Outputs};
-use crate::engine::value::Value;
+use crate::engine::op::{OpContext, OpError, OpSpec, Outputs};
+use crate::engine::typed_op::{Op, Port};
 use crate::maths::fit::spherical_gaussians::fit;
 use crate::ops::latlong_input::warn_unless_latlong;
 use crate::ops::shading::reference_sphere::check_finite;
 use crate::values::ty::*;
+use crate::values::SphericalGaussians;
 use crate::values::{Image, Metrics};
 
 crate::params! {
@@ -40,21 +41,24 @@ crate::params! {
     }
 }
 
+/// The output ports, declared once: the spec and `eval` name them through these.
+const LOBES: Port<SphericalGaussians> = Port::new("lobes");
+const METRICS: Port<Metrics> = Port::new("metrics");
+
 pub fn spec() -> OpSpec {
-    OpSpec::new(
+    Op::new(
         "SphericalGaussians",
-        "lights",
         1,
         "Spherical Gaussian lobes fitted to a lat-long map (solid-angle-weighted least squares, NNLS amplitudes)",
+        eval,
     )
-    .output("lobes", OutputType::Fixed(SG_T), "the lobes (axis, sharpness, RGB amplitude), most energetic first")
-    .output("metrics", OutputType::Fixed(METRICS_T), "relative_rmse, iterations, fit_width, fit_height")
-    .code_hash(crate::op_code_hash!())
-    .eval(eval)
+    .port(LOBES, SG_T, "the lobes (axis, sharpness, RGB amplitude), most energetic first")
+    .port(METRICS, METRICS_T, "relative_rmse, iterations, fit_width, fit_height")
+    .into()
 }
 
 fn eval(ctx: &mut OpContext, p: SphericalGaussiansParams) -> Result<Outputs, OpError> {
-    warn_unless_latlong(ctx, "env", p.env.width, p.env.height);
+    warn_unless_latlong(ctx, SphericalGaussiansParams::env, p.env.width, p.env.height);
     let env = &*p.env;
     check_finite(env)?;
     let f = fit(env, p.lobes, p.iterations, p.seed);
@@ -66,5 +70,5 @@ fn eval(ctx: &mut OpContext, p: SphericalGaussiansParams) -> Result<Outputs, OpE
             ("fit_height".into(), f.fit_height as f64),
         ],
     };
-    Ok(Outputs::new().with("lobes", Value::new(f.sg)).with("metrics", Value::new(metrics)))
+    Ok(Outputs::new().port(LOBES, f.sg).port(METRICS, metrics))
 }

@@ -18,14 +18,15 @@
 //! synthetic ones; it holds to ~1e-12). No texel above the threshold (a uniform or black map):
 //! zero radiance and solid angle, `residual = env`. NaN or infinite texels are an error.
 
-use crate::engine::fields::{Check, Input};
-use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Outputs};
-use crate::engine::value::Value;
+use crate::engine::fields::Input;
+use crate::engine::op::{OpContext, OpError, OpSpec, Outputs};
+use crate::engine::typed_op::{Op, Port};
 use crate::maths::fit::sun::extract_sun_in_place;
 use crate::ops::latlong_input::warn_unless_latlong;
 use crate::ops::shading::reference_sphere::check_finite;
 use crate::values::ty::*;
 use crate::values::Image;
+use crate::values::Light;
 
 crate::params! {
     pub struct SunExtractParams {
@@ -38,24 +39,27 @@ crate::params! {
     }
 }
 
+/// The output ports, declared once: the spec and `eval` name them through these.
+const SUN: Port<Light> = Port::new("sun");
+const RESIDUAL: Port<Image> = Port::new("residual");
+
 pub fn spec() -> OpSpec {
-    OpSpec::new(
+    Op::new(
         "SunExtract",
-        "lights",
         1,
         "Split an environment into a sun (light) and the map without it, conserving the integral per channel",
+        eval,
     )
-    .output("sun", OutputType::Fixed(LIGHT_T), "the sun: direction, solid angle, RGB radiance (zero if none)")
-    .output_like("residual", |p: SunExtractParams<Check>| p.env, "env with the sun's texels filled from around them")
-    .code_hash(crate::op_code_hash!())
-    .eval(eval)
+    .port(SUN, LIGHT_T, "the sun: direction, solid angle, RGB radiance (zero if none)")
+    .output_like(RESIDUAL, |p| p.env, "env with the sun's texels filled from around them")
+    .into()
 }
 
 fn eval(ctx: &mut OpContext, p: SunExtractParams) -> Result<Outputs, OpError> {
-    warn_unless_latlong(ctx, "env", p.env.width, p.env.height);
+    warn_unless_latlong(ctx, SunExtractParams::env, p.env.width, p.env.height);
     check_finite(&p.env)?;
     // The residual is the map itself with the sun filled: no second copy when no other node
     // reads the map (else `take` copies it).
     let s = extract_sun_in_place(p.env.take(), p.threshold_stops);
-    Ok(Outputs::new().with("sun", Value::new(s.light)).with("residual", Value::new(s.residual)))
+    Ok(Outputs::new().port(SUN, s.light).port(RESIDUAL, s.residual))
 }

@@ -2,7 +2,8 @@
 //! and their mean from 0 to 90 degrees, with the Brewster angle atan(eta_t/eta_i) and, when
 //! eta_i > eta_t, the critical angle asin(eta_t/eta_i) in closed form (see `maths::brdf::fresnel`).
 
-use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
+use crate::engine::op::{OpContext, OpError, OpSpec};
+use crate::engine::typed_op::Op;
 use crate::engine::value::Value;
 use crate::maths::brdf::fresnel::fresnel_curves;
 use crate::values::ty::*;
@@ -22,15 +23,14 @@ crate::params! {
 }
 
 pub fn spec() -> OpSpec {
-    OpSpec::new(
+    Op::new(
         "Fresnel",
-        "plotting",
         1,
         "Dielectric Fresnel reflectance curves (Rs, Rp, R) with exact Brewster and critical angles",
+        eval,
     )
-    .output("curves", OutputType::Fixed(CURVES_T), "Rs, Rp and R against the angle of incidence")
-    .code_hash(crate::op_code_hash!())
-    .eval(eval)
+    .output("curves", CURVES_T, "Rs, Rp and R against the angle of incidence")
+    .into()
 }
 
 fn eval(_: &mut OpContext, p: FresnelParams) -> Result<Value, OpError> {

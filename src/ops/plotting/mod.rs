@@ -2,8 +2,9 @@
 
 pub mod fresnel;
 
-use crate::engine::registry::Registry;
+use crate::engine::registry::{Registry, RegistryError};
 
-pub fn register(r: &mut Registry) {
-    r.register(fresnel::spec());
+pub fn register(r: &mut Registry) -> Result<(), RegistryError> {
+    r.register(fresnel::spec())?;
+    Ok(())
 }

@@ -2,8 +2,9 @@
 //! distribution of a lat-long luminance map (see `values::distribution` for the maths and for what
 //! zero rows, black maps, NaN/Inf/negative texels and 1xN maps do).
 
-use crate::engine::fields::{Check, Input};
-use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
+use crate::engine::fields::Input;
+use crate::engine::op::{OpContext, OpError, OpSpec};
+use crate::engine::typed_op::Op;
 use crate::engine::value::Value;
 use crate::ops::latlong_input::warn_unless_latlong;
 use crate::values::ty::*;
@@ -23,20 +24,19 @@ crate::params! {
 }
 
 pub fn spec() -> OpSpec {
-    OpSpec::new(
+    Op::new(
         "BuildCdf",
-        "sampling",
         1,
         "Importance-sampling distribution of a lat-long map: marginal over rows, conditional per row (f64)",
+        eval,
     )
-    .output("cdf", OutputType::Fixed(DISTRIBUTION_T), "the distribution")
-    .size(|_, p: BuildCdfParams<Check>| p.luminance.size)
-    .code_hash(crate::op_code_hash!())
-    .eval(eval)
+    .output("cdf", DISTRIBUTION_T, "the distribution")
+    .size(|_, p| p.luminance.size)
+    .into()
 }
 
 fn eval(ctx: &mut OpContext, p: BuildCdfParams) -> Result<Value, OpError> {
-    warn_unless_latlong(ctx, "luminance", p.luminance.width, p.luminance.height);
+    warn_unless_latlong(ctx, BuildCdfParams::luminance, p.luminance.width, p.luminance.height);
     let dist =
         Distribution2D::build(&p.luminance, p.sin_theta, p.sanitize).map_err(|e| OpError::Invalid(e.to_string()))?;
     Ok(Value::new(dist))

@@ -8,7 +8,8 @@
 
 use rayon::prelude::*;
 
-use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
+use crate::engine::op::{OpContext, OpError, OpSpec};
+use crate::engine::typed_op::Op;
 use crate::engine::value::Value;
 use crate::geometry::latlong;
 use crate::maths::brdf::phong;
@@ -44,15 +45,9 @@ crate::params! {
 }
 
 pub fn spec() -> OpSpec {
-    OpSpec::new(
-        "PhongSample",
-        "sampling",
-        1,
-        "Draw directions from a modified Phong lobe cos^s around the mirror direction",
-    )
-    .output("samples", OutputType::Fixed(SAMPLES_T), "the samples")
-    .code_hash(crate::op_code_hash!())
-    .eval(eval)
+    Op::new("PhongSample", 1, "Draw directions from a modified Phong lobe cos^s around the mirror direction", eval)
+        .output("samples", SAMPLES_T, "the samples")
+        .into()
 }
 
 fn normalised(v: [f64; 3], what: &str) -> Result<[f64; 3], OpError> {

@@ -3,8 +3,9 @@
 //! (`maths::sampling::texel_samples`, where the formula and why texel centres are). Texel centres make
 //! the estimators' expectation equal the exact sum over texels that `ReferenceSphere` computes.
 
-use crate::engine::fields::{Check, Input};
-use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
+use crate::engine::fields::Input;
+use crate::engine::op::{OpContext, OpError, OpSpec};
+use crate::engine::typed_op::Op;
 use crate::engine::value::Value;
 use crate::maths::sampling::{sequences, texel_samples};
 use crate::values::ty::*;
@@ -26,11 +27,10 @@ crate::params! {
 }
 
 pub fn spec() -> OpSpec {
-    OpSpec::new("Sample", "sampling", 1, "Draw directions from an environment distribution, with their solid-angle pdf")
-        .output("samples", OutputType::Fixed(SAMPLES_T), "the samples")
-        .size(|_, p: SampleParams<Check>| p.cdf.size)
-        .code_hash(crate::op_code_hash!())
-        .eval(eval)
+    Op::new("Sample", 1, "Draw directions from an environment distribution, with their solid-angle pdf", eval)
+        .output("samples", SAMPLES_T, "the samples")
+        .size(|_, p| p.cdf.size)
+        .into()
 }
 
 fn eval(_: &mut OpContext, p: SampleParams) -> Result<Value, OpError> {

@@ -17,9 +17,10 @@
 //! pure function of `seed` (per-pixel SplitMix64 streams), whatever `--jobs`. NaN or infinite
 //! texels are an error (they would make NaN pixels).
 
-use crate::engine::fields::{Check, Input};
-use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
+use crate::engine::fields::Input;
+use crate::engine::op::{OpContext, OpError, OpSpec};
 use crate::engine::params::Rgb;
+use crate::engine::typed_op::Op;
 use crate::engine::value::Value;
 use crate::maths::render::glossy::{glossy_sphere, GlossyBrdf, GlossyStrategy, Heuristic};
 use crate::ops::latlong_input::warn_unless_latlong;
@@ -49,21 +50,20 @@ super::glossy_params! {
 }
 
 pub fn spec() -> OpSpec {
-    OpSpec::new(
+    Op::new(
         "GlossySphere",
-        "shading",
         1,
         "A modified-Phong sphere with per-pixel samples: Environment, Brdf or Mis (power or balance heuristic)",
+        eval,
     )
-    .output("image", OutputType::Fixed(IMAGE_T), "the glossy sphere")
-    .size(|_, p: GlossySphereParams<Check>| Some((p.size as u64, p.size as u64)))
-    .check(|_, p: GlossySphereParams<Check>| super::check_env_cdf_sizes(p.env, p.cdf))
-    .code_hash(crate::op_code_hash!())
-    .eval(eval)
+    .output("image", IMAGE_T, "the glossy sphere")
+    .size(|_, p| Some((p.size as u64, p.size as u64)))
+    .check(|_, p| super::check_env_cdf_sizes(p.env, p.cdf))
+    .into()
 }
 
 fn eval(ctx: &mut OpContext, p: GlossySphereParams) -> Result<Value, OpError> {
-    warn_unless_latlong(ctx, "env", p.env.width, p.env.height);
+    warn_unless_latlong(ctx, GlossySphereParams::env, p.env.width, p.env.height);
     let (env, dist) = (&*p.env, &*p.cdf);
     // A NaN or infinite texel would make NaN pixels wherever a sample lands on it.
     super::reference_sphere::check_finite(env)?;

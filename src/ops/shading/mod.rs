@@ -14,18 +14,19 @@ pub mod sh_sphere;
 
 use crate::engine::fields::Shape;
 use crate::engine::op::CheckProblem;
-use crate::engine::registry::Registry;
+use crate::engine::registry::{Registry, RegistryError};
 use crate::geometry::latlong;
 use crate::maths::render::relight::SphereView;
 
-pub fn register(r: &mut Registry) {
-    r.register(relight_sphere::spec());
-    r.register(reference_sphere::spec());
-    r.register(sh_irradiance::spec());
-    r.register(sh_sphere::spec());
-    r.register(per_pixel_sphere::spec());
-    r.register(glossy_sphere::spec());
-    r.register(reference_glossy_sphere::spec());
+pub fn register(r: &mut Registry) -> Result<(), RegistryError> {
+    r.register(relight_sphere::spec())?;
+    r.register(reference_sphere::spec())?;
+    r.register(sh_irradiance::spec())?;
+    r.register(sh_sphere::spec())?;
+    r.register(per_pixel_sphere::spec())?;
+    r.register(glossy_sphere::spec())?;
+    r.register(reference_glossy_sphere::spec())?;
+    Ok(())
 }
 
 /// Declares a sphere renderer's parameters: the operator's inputs (first, so that they are listed
@@ -100,5 +101,5 @@ pub(crate) fn sphere_view(size: usize, view: [f64; 2]) -> SphereView {
 
 /// Refuses a `cdf` of another size than `env` when both sizes are known before running.
 pub(crate) fn check_env_cdf_sizes(env: Shape, cdf: Shape) -> Result<(), CheckProblem> {
-    crate::engine::op::check_same_size("env", env, "cdf", cdf)
+    crate::engine::op::check_same_size(env, cdf)
 }

@@ -22,9 +22,10 @@
 //! whatever `--jobs`.
 
 use super::sphere_view;
-use crate::engine::fields::{Check, Input};
-use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Persist};
+use crate::engine::fields::Input;
+use crate::engine::op::{OpContext, OpError, OpSpec, Persist};
 use crate::engine::params::Rgb;
+use crate::engine::typed_op::Op;
 use crate::engine::value::Value;
 use crate::maths::render::glossy::Heuristic;
 use crate::maths::render::per_pixel::{
@@ -61,22 +62,21 @@ super::sphere_params! {
 }
 
 pub fn spec() -> OpSpec {
-    OpSpec::new(
+    Op::new(
         "PerPixelSphere",
-        "shading",
         1,
         "Relight a diffuse sphere with independent samples per pixel (Environment, Cosine, Uniform or MIS)",
+        eval,
     )
-    .output("image", OutputType::Fixed(IMAGE_T), "the relit sphere")
-    .size(|_, p: PerPixelParams<Check>| Some((p.size as u64, p.size as u64)))
-    .check(|_, p: PerPixelParams<Check>| super::check_env_cdf_sizes(p.env, p.cdf))
+    .output("image", IMAGE_T, "the relit sphere")
+    .size(|_, p| Some((p.size as u64, p.size as u64)))
+    .check(|_, p| super::check_env_cdf_sizes(p.env, p.cdf))
     .persist(Persist::Always)
-    .code_hash(crate::op_code_hash!())
-    .eval(eval)
+    .into()
 }
 
 fn eval(ctx: &mut OpContext, p: PerPixelParams) -> Result<Value, OpError> {
-    warn_unless_latlong(ctx, "env", p.env.width, p.env.height);
+    warn_unless_latlong(ctx, PerPixelParams::env, p.env.width, p.env.height);
     let (env, dist) = (&*p.env, &*p.cdf);
     if (dist.width(), dist.height()) != (env.width, env.height) {
         return Err(OpError::Invalid(format!(

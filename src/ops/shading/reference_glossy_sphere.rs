@@ -9,9 +9,10 @@
 //! Cost: O(pixels x non-zero texels), no culling (a 128 x 128 sphere under a 512 x 256 map is
 //! ~1.7e9 terms: seconds on 2 cores).
 
-use crate::engine::fields::{Check, Input};
-use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
+use crate::engine::fields::Input;
+use crate::engine::op::{OpContext, OpError, OpSpec};
 use crate::engine::params::Rgb;
+use crate::engine::typed_op::Op;
 use crate::engine::value::Value;
 use crate::maths::render::glossy::{reference_glossy_sphere, GlossyBrdf};
 use crate::ops::latlong_input::warn_unless_latlong;
@@ -28,20 +29,14 @@ super::glossy_params! {
 }
 
 pub fn spec() -> OpSpec {
-    OpSpec::new(
-        "ReferenceGlossySphere",
-        "shading",
-        1,
-        "The exact modified-Phong sphere: sum over every texel of L f cos dOmega",
-    )
-    .output("image", OutputType::Fixed(IMAGE_T), "the exact glossy sphere")
-    .size(|_, p: ReferenceGlossyParams<Check>| Some((p.size as u64, p.size as u64)))
-    .code_hash(crate::op_code_hash!())
-    .eval(eval)
+    Op::new("ReferenceGlossySphere", 1, "The exact modified-Phong sphere: sum over every texel of L f cos dOmega", eval)
+        .output("image", IMAGE_T, "the exact glossy sphere")
+        .size(|_, p| Some((p.size as u64, p.size as u64)))
+        .into()
 }
 
 fn eval(ctx: &mut OpContext, p: ReferenceGlossyParams) -> Result<Value, OpError> {
-    warn_unless_latlong(ctx, "env", p.env.width, p.env.height);
+    warn_unless_latlong(ctx, ReferenceGlossyParams::env, p.env.width, p.env.height);
     let env = &*p.env;
     check_finite(env)?;
     let brdf = GlossyBrdf { diffuse: p.diffuse.0, specular: p.specular.0, exponent: p.exponent };

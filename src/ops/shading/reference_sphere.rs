@@ -9,9 +9,10 @@
 //! BENCHMARKS.md).
 
 use super::sphere_view;
-use crate::engine::fields::{Check, Input};
-use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Persist};
+use crate::engine::fields::Input;
+use crate::engine::op::{OpContext, OpError, OpSpec, Persist};
 use crate::engine::params::Rgb;
+use crate::engine::typed_op::Op;
 use crate::engine::value::Value;
 use crate::maths::render::reference::{first_non_finite, reference_sphere};
 use crate::ops::latlong_input::warn_unless_latlong;
@@ -27,17 +28,16 @@ super::sphere_params! {
 }
 
 pub fn spec() -> OpSpec {
-    OpSpec::new(
+    Op::new(
         "ReferenceSphere",
-        "shading",
         1,
         "The exact relit diffuse sphere: (albedo/pi) * sum over every texel of L dOmega max(n.d, 0)",
+        eval,
     )
-    .output("image", OutputType::Fixed(IMAGE_T), "the exactly relit sphere")
-    .size(|_, p: ReferenceParams<Check>| Some((p.size as u64, p.size as u64)))
+    .output("image", IMAGE_T, "the exactly relit sphere")
+    .size(|_, p| Some((p.size as u64, p.size as u64)))
     .persist(Persist::Always)
-    .code_hash(crate::op_code_hash!())
-    .eval(eval)
+    .into()
 }
 
 /// An error naming the first NaN or infinite texel of `env`, if any (shared by the shading
@@ -52,7 +52,7 @@ pub(crate) fn check_finite(env: &crate::values::Image) -> Result<(), OpError> {
 }
 
 fn eval(ctx: &mut OpContext, p: ReferenceParams) -> Result<Value, OpError> {
-    warn_unless_latlong(ctx, "env", p.env.width, p.env.height);
+    warn_unless_latlong(ctx, ReferenceParams::env, p.env.width, p.env.height);
     let env = &*p.env;
     check_finite(env)?;
     Ok(Value::new(reference_sphere(env, &sphere_view(p.size, p.view), p.albedo.0)))

@@ -14,8 +14,9 @@
 use super::sphere_view;
 use crate::engine::fields::{Check, Input};
 use crate::engine::op::{CheckContext, CheckProblem};
-use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
+use crate::engine::op::{OpContext, OpError, OpSpec};
 use crate::engine::params::Rgb;
+use crate::engine::typed_op::Op;
 use crate::engine::value::Value;
 use crate::maths::render::relight::Estimator;
 use crate::maths::render::shared_relight;
@@ -39,21 +40,15 @@ super::sphere_params! {
 }
 
 pub fn spec() -> OpSpec {
-    OpSpec::new(
-        "RelightSphere",
-        "shading",
-        2,
-        "Relight a diffuse sphere with an environment through shared light samples",
-    )
-    .output("image", OutputType::Fixed(IMAGE_T), "the relit sphere")
-    .size(|_, p: RelightParams<Check>| Some((p.size as u64, p.size as u64)))
-    .check(check_grid)
-    .code_hash(crate::op_code_hash!())
-    .eval(eval)
+    Op::new("RelightSphere", 2, "Relight a diffuse sphere with an environment through shared light samples", eval)
+        .output("image", IMAGE_T, "the relit sphere")
+        .size(|_, p| Some((p.size as u64, p.size as u64)))
+        .check(check_grid)
+        .into()
 }
 
 fn eval(ctx: &mut OpContext, p: RelightParams) -> Result<Value, OpError> {
-    warn_unless_latlong(ctx, "env", p.env.width, p.env.height);
+    warn_unless_latlong(ctx, RelightParams::env, p.env.width, p.env.height);
     let estimator = p.estimator;
     let view = sphere_view(p.size, p.view);
     let image = shared_relight::relight_sphere(&p.env, &p.samples, p.size, p.albedo.0, view.view_dir(), estimator)

@@ -29,8 +29,8 @@
 
 use super::reference_sphere::check_finite;
 use crate::engine::fields::Input;
-use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Outputs};
-use crate::engine::value::Value;
+use crate::engine::op::{OpContext, OpError, OpSpec, Outputs};
+use crate::engine::typed_op::{Op, Port};
 use crate::maths::ibl::sh::{coefficient_name, project_turned, sh_lm};
 use crate::maths::ibl::sh_filament::prescaled;
 use crate::ops::latlong_input::warn_unless_latlong;
@@ -54,30 +54,26 @@ crate::params! {
     }
 }
 
+/// The output ports, declared once: the spec and `eval` name them through these.
+const COEFFICIENTS: Port<ShCoefficients> = Port::new("coefficients");
+const METRICS: Port<Metrics> = Port::new("metrics");
+const FILAMENT: Port<FilamentSh> = Port::new("filament");
+
 pub fn spec() -> OpSpec {
-    OpSpec::new(
+    Op::new(
         "ShIrradiance",
-        "shading",
         2,
         "Spherical-harmonic coefficients L_lm of a lat-long map in a stated frame (order 2: Ramamoorthi-Hanrahan's 9)",
+        eval,
     )
-    .output("coefficients", OutputType::Fixed(SH_COEFFICIENTS_T), "the coefficients, with their order and frame")
-    .output(
-        "metrics",
-        OutputType::Fixed(METRICS_T),
-        "the same numbers as flat fields L_l_m_channel (version 1's output)",
-    )
-    .output(
-        "filament",
-        OutputType::Fixed(FILAMENT_SH_T),
-        "Filament's 9 pre-scaled irradiance coefficients (cmgen's sh.txt; Save as .txt)",
-    )
-    .code_hash(crate::op_code_hash!())
-    .eval(eval)
+    .port(COEFFICIENTS, SH_COEFFICIENTS_T, "the coefficients, with their order and frame")
+    .port(METRICS, METRICS_T, "the same numbers as flat fields L_l_m_channel (version 1's output)")
+    .port(FILAMENT, FILAMENT_SH_T, "Filament's 9 pre-scaled irradiance coefficients (cmgen's sh.txt; Save as .txt)")
+    .into()
 }
 
 fn eval(ctx: &mut OpContext, p: ShIrradianceParams) -> Result<Outputs, OpError> {
-    warn_unless_latlong(ctx, "env", p.env.width, p.env.height);
+    warn_unless_latlong(ctx, ShIrradianceParams::env, p.env.width, p.env.height);
     let env = &*p.env;
     check_finite(env)?;
     let rgb = project_turned(env, p.order, p.frame, p.yaw);
@@ -90,7 +86,7 @@ fn eval(ctx: &mut OpContext, p: ShIrradianceParams) -> Result<Outputs, OpError> 
     }
     let filament = FilamentSh { rgb: prescaled(&rgb) };
     Ok(Outputs::new()
-        .with("coefficients", Value::new(ShCoefficients { order: p.order, frame: p.frame, rgb }))
-        .with("metrics", Value::new(Metrics { fields }))
-        .with("filament", Value::new(filament)))
+        .port(COEFFICIENTS, ShCoefficients { order: p.order, frame: p.frame, rgb })
+        .port(METRICS, Metrics { fields })
+        .port(FILAMENT, filament))
 }

@@ -8,9 +8,10 @@
 
 use super::reference_sphere::check_finite;
 use super::sphere_view;
-use crate::engine::fields::{Check, Input};
-use crate::engine::op::{OpContext, OpError, OpSpec, OutputType};
+use crate::engine::fields::Input;
+use crate::engine::op::{OpContext, OpError, OpSpec};
 use crate::engine::params::Rgb;
+use crate::engine::typed_op::Op;
 use crate::engine::value::Value;
 use crate::maths::ibl::sh::sh_sphere;
 use crate::ops::latlong_input::warn_unless_latlong;
@@ -30,20 +31,19 @@ super::sphere_params! {
 }
 
 pub fn spec() -> OpSpec {
-    OpSpec::new(
+    Op::new(
         "ShSphere",
-        "shading",
         1,
         "Relight a diffuse sphere with the spherical-harmonic irradiance map (Ramamoorthi-Hanrahan)",
+        eval,
     )
-    .output("image", OutputType::Fixed(IMAGE_T), "the relit sphere")
-    .size(|_, p: ShSphereParams<Check>| Some((p.size as u64, p.size as u64)))
-    .code_hash(crate::op_code_hash!())
-    .eval(eval)
+    .output("image", IMAGE_T, "the relit sphere")
+    .size(|_, p| Some((p.size as u64, p.size as u64)))
+    .into()
 }
 
 fn eval(ctx: &mut OpContext, p: ShSphereParams) -> Result<Value, OpError> {
-    warn_unless_latlong(ctx, "env", p.env.width, p.env.height);
+    warn_unless_latlong(ctx, ShSphereParams::env, p.env.width, p.env.height);
     let env = &*p.env;
     check_finite(env)?;
     Ok(Value::new(sh_sphere(env, &sphere_view(p.size, p.view), p.albedo.0, p.order)))
