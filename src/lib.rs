@@ -15,7 +15,8 @@
 //! - [`geometry`]: the lat-long and cube conventions, below all of them (it depends on nothing
 //!   but [`choice`]);
 //!   [`cpu`]: the processor features every SIMD path asks for; [`choice`]: the one way to
-//!   declare an enum that pipelines choose by name.
+//!   declare an enum that pipelines choose by name; [`colour`]: the Rec. 709 luminance weights
+//!   that maths, formats and operators share.
 //!
 //! Running a pipeline from code:
 //! ```no_run
@@ -39,6 +40,7 @@
 pub mod batch;
 pub mod choice;
 pub mod cli;
+pub mod colour;
 pub mod cpu;
 pub mod engine;
 pub mod formats;

@@ -234,7 +234,7 @@ impl Primaries {
     pub fn luminance_weights(&self) -> [f64; 3] {
         match self.rgb_to_xyz().or_else(|| Primaries::REC709.rgb_to_xyz()) {
             Some(m) => m[1],
-            None => crate::maths::stats::colour::REC709,
+            None => crate::colour::REC709,
         }
     }
 
@@ -319,10 +319,7 @@ mod tests {
     fn primaries_matrices() {
         // Rec. 709 luminance weights.
         let yw = Primaries::REC709.luminance_weights();
-        assert!(
-            yw.iter().zip(crate::maths::stats::colour::REC709).all(|(got, want)| (got - want).abs() < 1e-3),
-            "{yw:?}"
-        );
+        assert!(yw.iter().zip(crate::colour::REC709).all(|(got, want)| (got - want).abs() < 1e-3), "{yw:?}");
         assert!(Primaries::REC709.to_rec709().is_none());
         // XYZ primaries (R=X, G=Y, B=Z, white E), as OpenEXR's XYZ.exr: RGB -> XYZ is the identity.
         let xyzp = Primaries { red: [1.0, 0.0], green: [0.0, 1.0], blue: [0.0, 0.0], white: [1.0 / 3.0, 1.0 / 3.0] };
