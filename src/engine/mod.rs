@@ -12,5 +12,6 @@ pub mod normalise;
 pub mod op;
 pub mod params;
 pub mod registry;
+pub mod save;
 pub mod scheduler;
 pub mod value;

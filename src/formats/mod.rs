@@ -11,6 +11,10 @@
 //! | [`png`]     | PNG (8-bit sRGB preview, 16-bit linear) | no   | yes   | exposure + sRGB OETF, or linear 16-bit, through the `image` crate |
 //! | [`builtin`] | procedural lat-long maps         | -    | -     | so that everything runs with no data files |
 //!
+//! [`save`] holds `Save`'s encoders of every built-in value type (images through the writers
+//! above, curves through `crate::plotting`, tables through [`csv`] and JSON), registered on a
+//! registry beside the types.
+//!
 //! Every reader returns a [`crate::values::Image`]: f32 samples, row 0 at the top, 1, 3 or 4 (EXR
 //! alpha) channels. [`decode_by_extension_with`] takes [`DecodeOptions`]: the EXR part or layer,
 //! the window (display or data), and the colour space (converted to linear Rec. 709 from EXR
@@ -26,6 +30,7 @@
 //! Errors are a plain [`FormatError`] message; the caller adds the file name.
 
 pub mod builtin;
+pub mod csv;
 pub mod exr;
 pub mod ktx1;
 pub mod ktx2;
@@ -33,6 +38,7 @@ pub mod packed_float;
 pub mod pfm;
 pub mod png;
 pub mod rgbe;
+pub mod save;
 pub mod srgb8;
 pub mod yca;
 

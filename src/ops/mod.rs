@@ -32,10 +32,11 @@ pub fn register_all(registry: &mut Registry) {
     dataset::register(registry);
 }
 
-/// A registry with every built-in value type and operator.
+/// A registry with every built-in value type, how `Save` writes each, and every operator.
 pub fn builtin_registry() -> Registry {
     let mut r = Registry::empty();
     crate::values::register_all(&mut r);
+    crate::formats::save::register_all(&mut r);
     register_all(&mut r);
     r
 }

@@ -238,6 +238,7 @@ mod tests {
                 input_types: &input_types,
                 input_sizes: &BTreeMap::new(),
                 base_dir: std::path::Path::new("."),
+                savers: &Default::default(),
             };
             let p = MergeChannelsParams::<Check>::from_check(&ctx).expect("the fields are valid");
             (check(&ctx, p.clone()).map_err(|p| p.message), output_type(&ctx, p))
