@@ -7,10 +7,10 @@
 use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, Criterion, SamplingMode};
+use hdrflow::colour::rec709_luminance_f32;
 use hdrflow::geometry::latlong;
 use hdrflow::maths::render::glossy::{glossy_sphere, reference_glossy_sphere, GlossyBrdf, GlossyStrategy, Heuristic};
 use hdrflow::maths::render::relight::SphereView;
-use hdrflow::maths::stats::colour::rec709_luminance_f32;
 use hdrflow::values::{Distribution2D, Image};
 
 /// The sin(theta)-weighted distribution of the map's Rec. 709 luminance.

@@ -255,7 +255,7 @@ fn sun_split(maps: &[(String, Image)]) {
         let reference = prefilter(&whole, 5, 1, LobeSequence::Sobol, true);
         let sun_exact = prefilter(&sun, 5, 1, LobeSequence::Sobol, true);
         let total = hdrflow::maths::fit::sun::integral(img);
-        let [wr, wg, wb] = hdrflow::maths::stats::colour::REC709;
+        let [wr, wg, wb] = hdrflow::colour::REC709;
         let lum = |c: [f64; 3]| wr * c[0] + wg * c[1] + wb * c[2];
         let share = 1.0 - lum(hdrflow::maths::fit::sun::integral(&split.residual)) / lum(total);
         let mut cells = Vec::new();

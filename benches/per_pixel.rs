@@ -14,13 +14,13 @@ use std::hint::black_box;
 use std::path::PathBuf;
 
 use criterion::{criterion_group, criterion_main, Criterion, SamplingMode};
+use hdrflow::colour::rec709_luminance_f32;
 use hdrflow::geometry::latlong;
 use hdrflow::maths::render::glossy::Heuristic;
 use hdrflow::maths::render::per_pixel::{
     relight_per_pixel_with, PerPixelOptions, PerPixelSequence, PerPixelStrategy, PerPixelWarp,
 };
 use hdrflow::maths::render::relight::SphereView;
-use hdrflow::maths::stats::colour::rec709_luminance_f32;
 use hdrflow::values::{Distribution2D, Image};
 
 /// The map: `HDRFLOW_PER_PIXEL_MAP`, else Grace Cathedral, else the built-in sky.

@@ -1,5 +1,5 @@
 //! The 8-bit sRGB code of linear values: `formats::srgb8::Srgb8Table` (a binary search over the
-//! 255 steps) against the exact function it replaces (`formats::png::linear_to_srgb8`, a
+//! 255 steps) against the exact function it replaces (`formats::srgb8::linear_to_srgb8`, a
 //! `powf` above the linear segment), on the same 2^20 values, uniform in [0, 1) in random order
 //! (SplitMix64, seed 1), as an exposed image's values mostly are: almost all on the power
 //! segment, where the exact function pays its `powf`. (Spread evenly over the f32 bit patterns
@@ -12,7 +12,7 @@
 use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use hdrflow::formats::png::linear_to_srgb8;
+use hdrflow::formats::srgb8::linear_to_srgb8;
 use hdrflow::formats::srgb8::Srgb8Table;
 use hdrflow::maths::sampling::sequences::SplitMix64;
 

@@ -8,14 +8,16 @@
 //!   (`hdrflow bake`).
 //! - [`ops`]: the built-in operators, one file each, grouped by domain; `ops::builtin_registry`.
 //! - [`values`], [`maths`], [`formats`], [`plotting`]: the built-in value types (each data type
-//!   with its name in graphs, its cache codec and its file encoders, declared to the engine),
-//!   mathematics, file formats, plots.
+//!   with its name in graphs and its cache codec, declared to the engine), mathematics, file
+//!   formats (with `Save`'s encoders of every value type, `formats::save`), plots. `formats`,
+//!   `maths` and `plotting` build on `values`, which imports none of them.
 //! - [`engine`]: pipeline files, validation, the parallel demand-driven scheduler, the cache;
 //!   it knows no operator and no value type.
 //! - [`geometry`]: the lat-long and cube conventions, below all of them (it depends on nothing
 //!   but [`choice`]);
 //!   [`cpu`]: the processor features every SIMD path asks for; [`choice`]: the one way to
-//!   declare an enum that pipelines choose by name.
+//!   declare an enum that pipelines choose by name; [`colour`]: the Rec. 709 luminance weights
+//!   that maths, formats and operators share.
 //!
 //! Running a pipeline from code:
 //! ```no_run
@@ -39,6 +41,7 @@
 pub mod batch;
 pub mod choice;
 pub mod cli;
+pub mod colour;
 pub mod cpu;
 pub mod engine;
 pub mod formats;

@@ -85,6 +85,7 @@ fn keys(
                 input_types: &input_types,
                 input_sizes: &input_sizes,
                 base_dir: &p.base_dir,
+                savers: p.registry.savers(),
             };
             f(&ctx).expect("a built-in map's content key")
         });

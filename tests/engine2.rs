@@ -39,13 +39,7 @@ struct Pair(f64, f64);
 /// How many times the pair codec decoded a payload (the cache served a pair).
 static PAIR_DECODES: AtomicUsize = AtomicUsize::new(0);
 
-static PAIR: TypeSpec = TypeSpec {
-    name: "pair",
-    doc: "a test-only pair of numbers",
-    decode: decode_pair,
-    save_extensions: &[],
-    save: None,
-};
+static PAIR: TypeSpec = TypeSpec { name: "pair", doc: "a test-only pair of numbers", decode: decode_pair };
 const PAIR_T: ValueType = ValueType(&PAIR);
 
 /// The payload starts with a tag, so a pair can only come back through this codec.
@@ -99,8 +93,6 @@ static TRACKED: TypeSpec = TypeSpec {
     name: "tracked",
     doc: "a test-only value whose drop is recorded",
     decode: |_| Err("tracked values are not cached".into()),
-    save_extensions: &[],
-    save: None,
 };
 const TRACKED_T: ValueType = ValueType(&TRACKED);
 

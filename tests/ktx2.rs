@@ -6,7 +6,7 @@
 mod common;
 
 use exr::prelude::f16;
-use hdrflow::engine::value::SaveOptions;
+use hdrflow::engine::save::SaveOptions;
 use hdrflow::formats::ktx2::KtxFormat;
 use hdrflow::values::{Cubemap, Image, MipChain};
 use hdrflow::Value;
@@ -14,7 +14,7 @@ use ktx2::{dfd, ColorModel, Format, Reader, TransferFunction};
 
 fn save(value: Value, format: KtxFormat) -> Result<Vec<u8>, String> {
     let options = SaveOptions::new("ktx2").with(format);
-    (value.value_type().spec().save.unwrap())(&value, &options)
+    (hdrflow::builtin_registry().saver(value.value_type()).unwrap().save)(&value, &options)
 }
 
 /// A deterministic spread of values: signed, tiny and large.

@@ -196,7 +196,7 @@ nodes: {
     let lobes = sg(&v, "n16");
     assert_eq!(lobes.lobes.len(), 16);
     // Most energetic first (Rec. 709 luminance of each lobe's integral).
-    let energy = |l: &SgLobe| hdrflow::maths::stats::colour::rec709_luminance(l.integral().map(|x| x as f32));
+    let energy = |l: &SgLobe| hdrflow::colour::rec709_luminance(l.integral().map(|x| x as f32));
     assert!(lobes.lobes.windows(2).all(|w| energy(&w[0]) >= energy(&w[1])), "{lobes:?}");
 }
 
@@ -234,7 +234,7 @@ nodes: {
     let (mut best, mut at) = (0.0, (0, 0));
     for y in 0..park.height {
         for x in 0..park.width {
-            let l = hdrflow::maths::stats::colour::rec709_luminance(park.rgb(x, y));
+            let l = hdrflow::colour::rec709_luminance(park.rgb(x, y));
             if l > best {
                 (best, at) = (l, (x, y));
             }

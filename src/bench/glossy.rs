@@ -133,7 +133,7 @@ pub fn run(config: &GlossyBenchConfig, log: &dyn Fn(&str)) -> Result<Vec<GlossyR
             format!("{:.6}", r.relative_rmse),
         ]
     });
-    let csv = hdrflow::values::csv::text(std::iter::once(header).chain(records));
+    let csv = hdrflow::formats::csv::text(std::iter::once(header).chain(records));
     write_atomic(&config.out_dir.join("glossy.csv"), csv.as_bytes()).map_err(|e| format!("glossy.csv: {e}"))?;
     write_atomic(&config.out_dir.join("glossy.md"), markdown(config, &rows).as_bytes())
         .map_err(|e| format!("glossy.md: {e}"))?;

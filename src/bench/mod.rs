@@ -37,7 +37,7 @@ mod sweep;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use hdrflow::maths::stats::colour::rec709_luminance_f32;
+use hdrflow::colour::rec709_luminance_f32;
 use hdrflow::values::Image;
 pub use results::replot;
 pub use sweep::run;
@@ -128,6 +128,38 @@ impl BenchRow {
         };
         format!("{:<12} {:<34} {:>5}  {:>9.2} ms  rel. RMSE {err}", self.map, self.strategy, self.count, self.ms)
     }
+}
+
+/// A row from per-seed (relative RMSE, PSNR) pairs: their means and the 95% CI of the error.
+fn seeded_row(map: &str, strategy: String, family: &str, count: usize, ms: f64, errors: &[(f64, f64)]) -> BenchRow {
+    let rmse: Vec<f64> = errors.iter().map(|e| e.0).collect();
+    let (relative_rmse, rmse_ci95) = stats::mean_ci95(&rmse);
+    let psnr = errors.iter().map(|e| e.1).sum::<f64>() / errors.len().max(1) as f64;
+    BenchRow {
+        map: map.to_string(),
+        strategy,
+        family: family.into(),
+        count,
+        ms,
+        relative_rmse,
+        psnr,
+        rmse_ci95,
+        seeds: errors.len(),
+    }
+}
+
+/// A metric by name, NaN when absent.
+fn metric(m: &hdrflow::values::Metrics, name: &str) -> f64 {
+    m.get(name).unwrap_or(f64::NAN)
+}
+
+/// One measured point target (`targets`; `peak_memory` measures one of them).
+#[derive(Clone, Debug)]
+pub struct Target {
+    pub name: String,
+    pub measured: String,
+    pub goal: String,
+    pub met: Option<bool>,
 }
 
 /// Loads a map as the benchmark and `LoadHdr` see it.

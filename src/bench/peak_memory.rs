@@ -12,7 +12,7 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use super::targets::Target;
+use super::Target;
 
 /// The map's size.
 const WIDTH: usize = 8192;

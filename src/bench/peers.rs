@@ -6,8 +6,7 @@ use hdrflow::maths::stats::error_metrics::image_error;
 use hdrflow::values::Image;
 use std::path::Path;
 
-use super::sweep::{metric, seeded_row};
-use super::{seed_list, BenchConfig, BenchRow, MapSpec};
+use super::{metric, seed_list, seeded_row, BenchConfig, BenchRow, MapSpec};
 
 /// A peer's (strategy, count): the timed seed's milliseconds (NaN until seen) and every seed's
 /// (relative RMSE, PSNR).

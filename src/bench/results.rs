@@ -107,7 +107,7 @@ pub(super) fn csv_of(rows: &[BenchRow]) -> String {
             r.seeds.to_string(),
         ]
     });
-    hdrflow::values::csv::text(std::iter::once(header.map(String::from).to_vec()).chain(records))
+    hdrflow::formats::csv::text(std::iter::once(header.map(String::from).to_vec()).chain(records))
 }
 
 pub(super) fn write_csv(path: &Path, rows: &[BenchRow]) -> Result<(), String> {

@@ -15,19 +15,13 @@ use hdrflow::maths::stats::error_metrics::image_error;
 use hdrflow::values::{Distribution2D, Image};
 use std::time::Instant;
 
-use super::stats;
-
 use super::peers::run_peers;
 use super::results::{write_chart, write_csv};
 use super::summary::{expected_slope, slopes, summary};
 use super::{
-    inner_disc_mask, load_map, luminance, seed_list, time_median, BenchConfig, BenchRow, PER_PIXEL_MAX_SPP,
-    PER_PIXEL_SOBOL_MAX_SPP,
+    inner_disc_mask, load_map, luminance, metric, seed_list, seeded_row, time_median, BenchConfig, BenchRow,
+    PER_PIXEL_MAX_SPP, PER_PIXEL_SOBOL_MAX_SPP,
 };
-
-pub(super) fn metric(m: &hdrflow::values::Metrics, name: &str) -> f64 {
-    m.get(name).unwrap_or(f64::NAN)
-}
 
 /// Renders with every seed: the first timed (one warm-up run, then the median of `repeats`),
 /// the others once, untimed. Returns the median milliseconds and each seed's
@@ -44,31 +38,6 @@ pub(super) fn over_seeds(
         errors.push(score(&render(seed)?));
     }
     Ok((ms, errors))
-}
-
-/// A row from per-seed (relative RMSE, PSNR) pairs: their means and the 95% CI of the error.
-pub(super) fn seeded_row(
-    map: &str,
-    strategy: String,
-    family: &str,
-    count: usize,
-    ms: f64,
-    errors: &[(f64, f64)],
-) -> BenchRow {
-    let rmse: Vec<f64> = errors.iter().map(|e| e.0).collect();
-    let (relative_rmse, rmse_ci95) = stats::mean_ci95(&rmse);
-    let psnr = errors.iter().map(|e| e.1).sum::<f64>() / errors.len().max(1) as f64;
-    BenchRow {
-        map: map.to_string(),
-        strategy,
-        family: family.into(),
-        count,
-        ms,
-        relative_rmse,
-        psnr,
-        rmse_ci95,
-        seeds: errors.len(),
-    }
 }
 
 /// Runs the whole sweep; `log` receives one line per measurement (for progress).

@@ -30,16 +30,7 @@ use hdrflow::values::{Distribution2D, Image};
 use hdrflow::Pipeline;
 
 use super::one_pass::one_pass;
-use super::{luminance, time_median};
-
-/// One measured target.
-#[derive(Clone, Debug)]
-pub struct Target {
-    pub name: String,
-    pub measured: String,
-    pub goal: String,
-    pub met: Option<bool>,
-}
+use super::{luminance, time_median, Target};
 
 fn load(path: &Path) -> Result<Image, String> {
     super::load_map(&super::MapSpec { name: String::new(), source: path.display().to_string(), flip_vertical: false })

@@ -281,7 +281,7 @@ fn triple(v: [f64; 3]) -> String {
 /// `{sun:from_light}` and `{sun:radius_deg}` (the cone of its solid angle).
 pub(super) fn fill_sun(text: &str, sun: &Light) -> String {
     let e = sun.power();
-    let y: f64 = e.iter().zip(crate::maths::stats::colour::REC709).map(|(a, b)| a * b).sum();
+    let y: f64 = e.iter().zip(crate::colour::REC709).map(|(a, b)| a * b).sum();
     let colour = if y > 0.0 { e.map(|v| v / y) } else { [1.0; 3] };
     let d = sun.direction;
     let radius = (1.0 - sun.solid_angle / (2.0 * std::f64::consts::PI)).clamp(-1.0, 1.0).acos().to_degrees();

@@ -57,9 +57,9 @@ use clap::{Parser, Subcommand};
 use crate::engine::cache::PersistPolicy;
 use crate::engine::registry::Registry;
 use cache::CacheAction;
+use pipeline::load_or_message;
 use pipeline::{load, GraphArgs};
-use pipeline::{load_or_message, write_html};
-use run::{cache_of, write_report, RunArgs};
+use run::{cache_of, write_html, write_report, RunArgs};
 
 /// Subcommands a binary adds to the library's (`hdrflow bench`, which lives in the binary): a
 /// clap `Subcommand` (derived on an enum), listed in `--help`, completions and the manual page

@@ -49,7 +49,7 @@ pub(super) fn ops(registry: &Registry, name: Option<&str>) -> ExitCode {
     if name.is_none() {
         outln!("== value types ==");
         for t in registry.value_types() {
-            let saves = t.spec().save_extensions;
+            let saves = registry.saver(t).map_or(&[][..], |s| s.extensions);
             let saved = if saves.is_empty() {
                 String::new()
             } else {

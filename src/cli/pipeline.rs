@@ -1,15 +1,13 @@
 //! What every command that reads a pipeline file shares: its arguments (the file and `--set`),
-//! loading it with every error as the lines to print, and the HTML page of a run.
+//! and loading it with every error as the lines to print.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::Args;
 
-use super::run::RunArgs;
 use crate::engine::graph::{Override, Pipeline};
 use crate::engine::registry::Registry;
-use crate::engine::scheduler;
 
 #[derive(Args)]
 pub(super) struct GraphArgs {
@@ -46,28 +44,4 @@ pub(super) fn load_or_message(registry: &Registry, args: &GraphArgs) -> Result<P
         ));
         message
     })
-}
-
-/// Writes the HTML page of a run (`--html`); a failure to write is a warning, not the run's.
-pub(super) fn write_html(
-    path: &std::path::Path,
-    p: Option<&Pipeline>,
-    report: Option<&scheduler::RunReport>,
-    args: &RunArgs,
-    error: Option<String>,
-    refresh_seconds: Option<u32>,
-    subtitle: String,
-) {
-    let page = crate::report::html::Page {
-        title: args.graph.graph.display().to_string(),
-        pipeline: p,
-        report,
-        out_dir: &args.out,
-        error,
-        refresh_seconds,
-        subtitle,
-    };
-    if let Err(e) = crate::report::html::write(path, &page) {
-        eprintln!("warning: writing {}: {e}", path.display());
-    }
 }

@@ -1,15 +1,17 @@
-//! `hdrflow run`: validate a pipeline file, evaluate what its targets need, report, print the
-//! values asked for, and keep the cache folder within its size.
+//! `hdrflow run`: validate a pipeline file, evaluate what its targets need, report (the JSON
+//! report, and the HTML page that `watch` writes too), print the values asked for, and keep the
+//! cache folder within its size.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::Args;
 
-use super::pipeline::{load, write_html, GraphArgs};
+use super::pipeline::{load, GraphArgs};
 use super::{now_hms, progress, PersistArg};
 use crate::engine::cache::store::DEFAULT_LIMIT_BYTES;
 use crate::engine::cache::CacheStore;
+use crate::engine::graph::Pipeline;
 use crate::engine::registry::Registry;
 use crate::engine::scheduler::{self, NodeStatus, RunOptions};
 
@@ -187,6 +189,30 @@ pub(super) fn run(registry: &Registry, args: &RunArgs) -> ExitCode {
         }
     }
     ExitCode::SUCCESS
+}
+
+/// Writes the HTML page of a run (`--html`); a failure to write is a warning, not the run's.
+pub(super) fn write_html(
+    path: &std::path::Path,
+    p: Option<&Pipeline>,
+    report: Option<&scheduler::RunReport>,
+    args: &RunArgs,
+    error: Option<String>,
+    refresh_seconds: Option<u32>,
+    subtitle: String,
+) {
+    let page = crate::report::html::Page {
+        title: args.graph.graph.display().to_string(),
+        pipeline: p,
+        report,
+        out_dir: &args.out,
+        error,
+        refresh_seconds,
+        subtitle,
+    };
+    if let Err(e) = crate::report::html::write(path, &page) {
+        eprintln!("warning: writing {}: {e}", path.display());
+    }
 }
 
 /// `--report FILE`: the run report as pretty JSON, written atomically.

@@ -6,6 +6,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use crate::engine::params::Params;
+use crate::engine::save::Savers;
 use crate::engine::value::{Value, ValueType};
 
 /// A node's wired inputs as evaluation hands them to the struct: field -> values, in order.
@@ -46,6 +47,8 @@ pub struct OpContext<'a> {
     pub content_key: Option<&'a [u8]>,
     /// The names of this node's open ports that consumers use (see [`OpenPorts`]).
     pub wanted_ports: &'a [String],
+    /// How each value type is written as a file (the registry's savers: `Save` encodes with them).
+    pub savers: &'a Savers,
     /// What [`OpContext::warn`] collected; the scheduler reports each, prefixed by the node.
     pub(crate) warnings: Vec<String>,
     /// Where [`OpContext::release`] hands a value back (the scheduler; None: it is just dropped).
@@ -101,6 +104,9 @@ pub struct CheckContext<'a> {
     pub input_sizes: &'a BTreeMap<&'static str, Vec<Size>>,
     /// The pipeline file's folder (a loader reads its file's header from there).
     pub base_dir: &'a Path,
+    /// How each value type is written as a file (the registry's savers: `Save` checks its path's
+    /// extension against them).
+    pub savers: &'a Savers,
 }
 
 /// A problem found by `OpSpec::check`, optionally tied to one field (for its position).

@@ -12,6 +12,7 @@ pub mod normalise;
 pub mod op;
 pub mod params;
 pub mod registry;
+pub mod save;
 pub mod scheduler;
 pub mod typed_op;
 pub mod value;

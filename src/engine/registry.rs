@@ -1,4 +1,5 @@
-//! The registry: operator name -> spec, and value-type name -> type spec.
+//! The registry: operator name -> spec, value-type name -> type spec, and value-type name -> how
+//! `Save` writes it (its saver, registered apart from the type: see `engine::save`).
 //!
 //! The engine starts empty and knows no operator: the built-ins are registered by
 //! `hdrflow::ops::builtin_registry()`, outside the engine. A library user adds their own
@@ -9,12 +10,14 @@ use std::collections::BTreeMap;
 use std::sync::Arc;
 
 use crate::engine::op::OpSpec;
+use crate::engine::save::{SaveFn, Saver, Savers};
 use crate::engine::value::{TypeSpec, ValueType, FILE};
 
 #[derive(Clone)]
 pub struct Registry {
     ops: BTreeMap<&'static str, Arc<OpSpec>>,
     types: BTreeMap<&'static str, ValueType>,
+    savers: Savers,
     /// The code hash of an operator's source file, for specs that name their file and give no
     /// hash of their own (see [`Registry::hash_sources_with`]).
     source_hash: Option<fn(&str) -> [u8; 32]>,
@@ -42,7 +45,8 @@ impl Default for Registry {
 impl Registry {
     /// A registry with no operator, and only the engine's own `file` type.
     pub fn empty() -> Self {
-        let mut r = Registry { ops: BTreeMap::new(), types: BTreeMap::new(), source_hash: None };
+        let mut r =
+            Registry { ops: BTreeMap::new(), types: BTreeMap::new(), savers: Savers::default(), source_hash: None };
         r.register_type(&FILE);
         r
     }
@@ -78,11 +82,34 @@ impl Registry {
         self
     }
 
-    /// Adds a value type (its cache codec and how `Save` writes it). Operators' input and output
-    /// types must be registered for their values to be cached.
+    /// Adds a value type (its name and cache codec). Operators' input and output types must be
+    /// registered for their values to be cached.
     pub fn register_type(&mut self, spec: &'static TypeSpec) -> &mut Self {
         self.types.insert(spec.name, ValueType(spec));
         self
+    }
+
+    /// Sets how `Save` writes values of type `spec`: the `extensions` it accepts (lower-case,
+    /// without the dot) and the encoder `save`. A second saver of a type replaces the first; a
+    /// type without one cannot be saved.
+    pub fn register_saver(
+        &mut self,
+        spec: &'static TypeSpec,
+        extensions: &'static [&'static str],
+        save: SaveFn,
+    ) -> &mut Self {
+        self.savers.insert(spec, Saver { extensions, save });
+        self
+    }
+
+    /// How `Save` writes values of type `ty`, if it can.
+    pub fn saver(&self, ty: ValueType) -> Option<&Saver> {
+        self.savers.get(ty)
+    }
+
+    /// Every saver (what operators' contexts carry).
+    pub fn savers(&self) -> &Savers {
+        &self.savers
     }
 
     pub fn get(&self, name: &str) -> Option<&Arc<OpSpec>> {

@@ -3,9 +3,10 @@
 //! A value is an immutable `Arc` of any Rust type that implements [`ValueData`]; its type is a
 //! [`ValueType`], a pointer to a static [`TypeSpec`] declared by whoever owns the data type (the
 //! built-in ones in `crate::values`, a user's in their own crate). The spec says how the type is
-//! named in `hdrflow ops` and messages, how the cache encodes and decodes it, and how `Save`
-//! writes it, so adding a value type touches no engine file: declare a `TypeSpec`, implement
-//! `ValueData`, and register the type with `Registry::register_type`.
+//! named in `hdrflow ops` and messages and how the cache encodes and decodes it, so adding a
+//! value type touches no engine file: declare a `TypeSpec`, implement `ValueData`, and register
+//! the type with `Registry::register_type`. How `Save` writes a type as a file is registered
+//! apart, by whoever knows the format (`Registry::register_saver`, see [`super::save`]).
 //!
 //! The type of every value is known before anything runs (operators declare their output
 //! types), so a pipeline that wires an image into a sample input fails validation, not
@@ -16,63 +17,6 @@ use std::any::Any;
 use std::fmt;
 use std::sync::Arc;
 
-/// Options a `Save` node passes to a type's file encoder: the extension and the settings any
-/// encoder may read, plus format-specific settings the engine does not know. Those are a small
-/// map with one value per Rust type, set by whoever builds the options (`Save`, with the
-/// structs that `crate::formats` declares) and read by the encoder that knows the type, so a new
-/// format's options touch no engine file.
-#[derive(Clone, Debug)]
-pub struct SaveOptions {
-    /// Lower-case extension of the output path, without the dot.
-    pub ext: String,
-    /// Exposure in stops (PNG only).
-    pub exposure: f64,
-    /// Plot width and height in pixels (curve plots).
-    pub plot_size: (u32, u32),
-    /// Format-specific settings, at most one per type (see [`SaveOptions::with`]).
-    specific: Vec<SpecificOption>,
-}
-
-/// One format-specific setting: its value and, for `Debug`, its type's name.
-#[derive(Clone)]
-struct SpecificOption {
-    type_name: &'static str,
-    value: Arc<dyn Any + Send + Sync>,
-}
-
-impl fmt::Debug for SpecificOption {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.type_name)
-    }
-}
-
-impl SaveOptions {
-    /// Options for a file of extension `ext` with `Save`'s defaults: exposure 0, an 800 x 500
-    /// plot, no format-specific settings (each encoder then uses its format's defaults).
-    pub fn new(ext: impl Into<String>) -> SaveOptions {
-        SaveOptions { ext: ext.into(), exposure: 0.0, plot_size: (800, 500), specific: Vec::new() }
-    }
-
-    /// The options with the format-specific setting `value`, replacing any earlier one of its type.
-    pub fn with<T: Any + Send + Sync>(mut self, value: T) -> SaveOptions {
-        self.specific.retain(|o| !o.value.is::<T>());
-        self.specific.push(SpecificOption { type_name: std::any::type_name::<T>(), value: Arc::new(value) });
-        self
-    }
-
-    /// The format-specific setting of type `T`, if one was given.
-    pub fn get<T: Any>(&self) -> Option<&T> {
-        self.specific.iter().find_map(|o| o.value.downcast_ref::<T>())
-    }
-
-    /// The setting of type `T`, or its default when none was given.
-    pub fn get_or_default<T: Any + Clone + Default>(&self) -> T {
-        self.get::<T>().cloned().unwrap_or_default()
-    }
-}
-
-/// Encodes a value as a file's bytes (the extension is in the options).
-pub type SaveFn = fn(&Value, &SaveOptions) -> Result<Vec<u8>, String>;
 /// Decodes a cache payload into a value of this type.
 pub type DecodeFn = fn(&[u8]) -> Result<Value, String>;
 
@@ -85,10 +29,6 @@ pub struct TypeSpec {
     /// Reads a cache payload written by `ValueData::encode`; checks every length before
     /// allocating (a corrupt entry is an error, never a panic or a huge allocation).
     pub decode: DecodeFn,
-    /// Extensions `Save` accepts for this type (empty: it cannot be saved).
-    pub save_extensions: &'static [&'static str],
-    /// How `Save` writes it.
-    pub save: Option<SaveFn>,
 }
 
 impl fmt::Debug for TypeSpec {
@@ -274,8 +214,6 @@ pub static FILE: TypeSpec = TypeSpec {
     name: "file",
     doc: "an encoded file, written into the output folder by the engine",
     decode: decode_file,
-    save_extensions: &[],
-    save: None,
 };
 
 impl ValueData for FileBlob {
@@ -311,27 +249,4 @@ fn decode_file(bytes: &[u8]) -> Result<Value, String> {
     }
     r.finish()?;
     Ok(Value::new(FileBlob { rel_path, bytes: data, more }))
-}
-
-#[cfg(test)]
-mod tests {
-    use super::SaveOptions;
-
-    #[derive(Clone, Debug, Default, PartialEq)]
-    struct Level(u8);
-
-    #[derive(Clone, Debug, Default, PartialEq)]
-    struct Other(&'static str);
-
-    #[test]
-    fn save_options_hold_one_setting_per_type_and_default_the_rest() {
-        let o = SaveOptions::new("exr").with(Level(3)).with(Other("a")).with(Level(7));
-        assert_eq!(o.get::<Level>(), Some(&Level(7)), "a later setting of a type replaces the earlier one");
-        assert_eq!(o.get::<Other>(), Some(&Other("a")));
-        assert_eq!(o.get::<u32>(), None);
-        assert_eq!(SaveOptions::new("exr").get_or_default::<Level>(), Level(0));
-        assert_eq!(format!("{o:?}").matches("Level").count(), 1, "{o:?}");
-        let c = o.clone();
-        assert_eq!((c.ext.as_str(), c.get::<Level>()), ("exr", Some(&Level(7))));
-    }
 }

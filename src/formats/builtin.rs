@@ -181,7 +181,7 @@ fn studio() -> Image {
 mod tests {
     use super::*;
 
-    use crate::maths::stats::colour::rec709_luminance as luminance;
+    use crate::colour::rec709_luminance as luminance;
 
     #[test]
     fn all_builtins_exist_with_sizes_and_sane_values() {

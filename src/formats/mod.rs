@@ -11,6 +11,10 @@
 //! | [`png`]     | PNG (8-bit sRGB preview, 16-bit linear) | no   | yes   | exposure + sRGB OETF, or linear 16-bit, through the `image` crate |
 //! | [`builtin`] | procedural lat-long maps         | -    | -     | so that everything runs with no data files |
 //!
+//! [`save`] holds `Save`'s encoders of every built-in value type (images through the writers
+//! above, curves through `crate::plotting`, tables through [`csv`] and JSON), registered on a
+//! registry beside the types.
+//!
 //! Every reader returns a [`crate::values::Image`]: f32 samples, row 0 at the top, 1, 3 or 4 (EXR
 //! alpha) channels. [`decode_by_extension_with`] takes [`DecodeOptions`]: the EXR part or layer,
 //! the window (display or data), and the colour space (converted to linear Rec. 709 from EXR
@@ -26,6 +30,7 @@
 //! Errors are a plain [`FormatError`] message; the caller adds the file name.
 
 pub mod builtin;
+pub mod csv;
 pub mod exr;
 pub mod ktx1;
 pub mod ktx2;
@@ -33,6 +38,7 @@ pub mod packed_float;
 pub mod pfm;
 pub mod png;
 pub mod rgbe;
+pub mod save;
 pub mod srgb8;
 pub mod yca;
 
@@ -234,7 +240,7 @@ impl Primaries {
     pub fn luminance_weights(&self) -> [f64; 3] {
         match self.rgb_to_xyz().or_else(|| Primaries::REC709.rgb_to_xyz()) {
             Some(m) => m[1],
-            None => crate::maths::stats::colour::REC709,
+            None => crate::colour::REC709,
         }
     }
 
@@ -319,10 +325,7 @@ mod tests {
     fn primaries_matrices() {
         // Rec. 709 luminance weights.
         let yw = Primaries::REC709.luminance_weights();
-        assert!(
-            yw.iter().zip(crate::maths::stats::colour::REC709).all(|(got, want)| (got - want).abs() < 1e-3),
-            "{yw:?}"
-        );
+        assert!(yw.iter().zip(crate::colour::REC709).all(|(got, want)| (got - want).abs() < 1e-3), "{yw:?}");
         assert!(Primaries::REC709.to_rec709().is_none());
         // XYZ primaries (R=X, G=Y, B=Z, white E), as OpenEXR's XYZ.exr: RGB -> XYZ is the identity.
         let xyzp = Primaries { red: [1.0, 0.0], green: [0.0, 1.0], blue: [0.0, 0.0], white: [1.0 / 3.0, 1.0 / 3.0] };

@@ -9,9 +9,10 @@
 //! ```
 //!
 //! then clamp to [0, 1], NaN and negatives -> 0, and round to the nearest of 0..=255
-//! (so linear 0.5 -> 0.7354 -> 188, linear 1 -> 255). No tone mapping beyond the clamp: a preview
-//! should show what is stored, and the exposure is the one knob. Encoded as RGB8 (3 channels) or
-//! L8 (1 channel) by the `image` crate's `PngEncoder`; the transfer runs in parallel over rows.
+//! (so linear 0.5 -> 0.7354 -> 188, linear 1 -> 255): `srgb8::linear_to_srgb8`, here by its
+//! table. No tone mapping beyond the clamp: a preview should show what is stored, and the
+//! exposure is the one knob. Encoded as RGB8 (3 channels) or L8 (1 channel) by the `image`
+//! crate's `PngEncoder`; the transfer runs in parallel over rows.
 //!
 //! `Linear16`: `c * 2^stops` clamped to [0, 1] (NaN -> 0) and rounded to the nearest of 0..=65535,
 //! no transfer function (so 0.5 -> 32768). Channels as the 8-bit path, except that two colour
@@ -24,6 +25,7 @@ use image::codecs::png::PngEncoder;
 use image::{ExtendedColorType, ImageEncoder};
 use rayon::prelude::*;
 
+use super::srgb8::Srgb8Table;
 use super::FormatError;
 use crate::values::Image;
 
@@ -37,19 +39,6 @@ crate::choice! {
         /// 16-bit linear values clamped to [0, 1], no transfer (data such as a BRDF LUT; two channels as R, G, B = 0)
         Linear16,
     }
-}
-
-/// Linear value -> 8-bit sRGB code (IEC 61966-2-1 OETF, clamped, NaN -> 0).
-#[inline]
-pub fn linear_to_srgb8(c: f64) -> u8 {
-    if !(c > 0.0) {
-        return 0; // negative, zero, NaN
-    }
-    if c >= 1.0 {
-        return 255; // includes +Inf
-    }
-    let v = if c <= 0.0031308 { 12.92 * c } else { 1.055 * c.powf(1.0 / 2.4) - 0.055 };
-    (v.clamp(0.0, 1.0) * 255.0).round() as u8
 }
 
 /// Encodes `image` as an 8-bit sRGB PNG after multiplying by `2^exposure_stops`.
@@ -91,7 +80,7 @@ pub fn to_srgb8(image: &Image, exposure_stops: f64) -> Result<Srgb8, FormatError
         )));
     }
     let gain = exposure_stops.exp2();
-    let table = super::srgb8::Srgb8Table::new();
+    let table = Srgb8Table::new();
     let mut bytes = vec![0u8; image.data.len()];
     let row = w * c;
     bytes.par_chunks_mut(row).zip(image.data.par_chunks(row)).for_each(|(dst, src)| {
@@ -170,18 +159,6 @@ pub fn encode_linear16(image: &Image, exposure_stops: f64) -> Result<Vec<u8>, Fo
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn known_values() {
-        assert_eq!(linear_to_srgb8(0.5), 188);
-        assert_eq!(linear_to_srgb8(0.0), 0);
-        assert_eq!(linear_to_srgb8(1.0), 255);
-        assert_eq!(linear_to_srgb8(7.0), 255);
-        assert_eq!(linear_to_srgb8(f64::NAN), 0);
-        assert_eq!(linear_to_srgb8(f64::INFINITY), 255);
-        assert_eq!(linear_to_srgb8(-3.0), 0);
-        assert_eq!(linear_to_srgb8(0.001), 3); // linear segment: 12.92 * 0.001 * 255 = 3.29
-    }
 
     #[test]
     fn encodes_and_decodes_back() {

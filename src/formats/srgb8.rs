@@ -1,5 +1,6 @@
-//! The 8-bit sRGB code of a linear value by table: the same code as
-//! [`linear_to_srgb8`](super::png::linear_to_srgb8), without its `powf` for most values.
+//! The 8-bit sRGB code of a linear value: [`linear_to_srgb8`], the exact function (the OETF
+//! of IEC 61966-2-1, formula in `super::png`), and [`Srgb8Table`], the same code by table,
+//! without its `powf` for most values.
 //!
 //! The code is a non-decreasing step function of `c`, so it is the number of steps at or below
 //! `c`: `T[k - 1]`, k = 1..=255, is the smallest f64 whose code is at least k, found once by
@@ -17,7 +18,18 @@
 
 use std::sync::OnceLock;
 
-use super::png::linear_to_srgb8;
+/// Linear value -> 8-bit sRGB code (IEC 61966-2-1 OETF, clamped, NaN -> 0).
+#[inline]
+pub fn linear_to_srgb8(c: f64) -> u8 {
+    if !(c > 0.0) {
+        return 0; // negative, zero, NaN
+    }
+    if c >= 1.0 {
+        return 255; // includes +Inf
+    }
+    let v = if c <= 0.0031308 { 12.92 * c } else { 1.055 * c.powf(1.0 / 2.4) - 0.055 };
+    (v.clamp(0.0, 1.0) * 255.0).round() as u8
+}
 
 /// Relative distance to a step below which the exact function decides.
 const GUARD: f64 = 1.0 / (1u64 << 40) as f64;
@@ -83,6 +95,18 @@ impl Default for Srgb8Table {
 mod tests {
     use super::*;
     use rayon::prelude::*;
+
+    #[test]
+    fn known_values() {
+        assert_eq!(linear_to_srgb8(0.5), 188);
+        assert_eq!(linear_to_srgb8(0.0), 0);
+        assert_eq!(linear_to_srgb8(1.0), 255);
+        assert_eq!(linear_to_srgb8(7.0), 255);
+        assert_eq!(linear_to_srgb8(f64::NAN), 0);
+        assert_eq!(linear_to_srgb8(f64::INFINITY), 255);
+        assert_eq!(linear_to_srgb8(-3.0), 0);
+        assert_eq!(linear_to_srgb8(0.001), 3); // linear segment: 12.92 * 0.001 * 255 = 3.29
+    }
 
     #[test]
     fn the_steps_are_where_the_exact_code_steps() {

@@ -272,7 +272,7 @@ mod tests {
     fn rec709_luminance_weights() {
         // ITU-R BT.709's Y row (f32 arithmetic: within 1e-4).
         let yw = luminance_weights_f32(&Primaries::REC709);
-        for (got, want) in yw.iter().zip(crate::maths::stats::colour::REC709_F32) {
+        for (got, want) in yw.iter().zip(crate::colour::REC709_F32) {
             assert!((got - want).abs() < 1e-4, "{yw:?}");
         }
         assert!((yw.iter().sum::<f32>() - 1.0).abs() < 1e-6);

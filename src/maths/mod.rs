@@ -2,7 +2,7 @@
 //! holds and what it may import; the domains form no cycle (checked by
 //! `scripts/module_cycles.py`), in this order from the bottom up:
 //!
-//! - [`stats`]: statistics, error metrics, colour weights;
+//! - [`stats`]: statistics, error metrics (the colour weights are `crate::colour`);
 //! - [`sampling`]: point sequences, warps of a distribution, and the tests that samplers are right;
 //! - [`brdf`]: lobes and Fresnel (evaluate, sample, pdf);
 //! - [`resample`]: footprint means, rotations, projections between spherical layouts;
@@ -48,7 +48,7 @@ pub(crate) mod test_maps {
         let lum: Vec<f32> = (0..env.height)
             .flat_map(|y| (0..env.width).map(move |x| (x, y)))
             .map(|(x, y)| {
-                let ([r, g, b], [wr, wg, wb]) = (env.rgb(x, y), crate::maths::stats::colour::REC709_F32);
+                let ([r, g, b], [wr, wg, wb]) = (env.rgb(x, y), crate::colour::REC709_F32);
                 wr * r + wg * g + wb * b
             })
             .collect();

@@ -35,10 +35,11 @@ pub fn register_all(registry: &mut Registry) -> Result<(), RegistryError> {
     Ok(())
 }
 
-/// A registry with every built-in value type and operator.
+/// A registry with every built-in value type, how `Save` writes each, and every operator.
 pub fn builtin_registry() -> Registry {
     let mut r = Registry::empty();
     crate::values::register_all(&mut r);
+    crate::formats::save::register_all(&mut r);
     // The built-in names are distinct: `every_builtin_operator_registers_once` checks it.
     register_all(&mut r).expect("built-in operator names are unique");
     r

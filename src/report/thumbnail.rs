@@ -65,7 +65,7 @@ pub fn of_hdr(img: &Image) -> Option<Vec<u8>> {
         image::Rgb(p.map(|c| {
             let l = c * gain;
             let mapped = l * (1.0 + l / (WHITE * WHITE)) / (1.0 + l);
-            formats::png::linear_to_srgb8(mapped as f64)
+            formats::srgb8::linear_to_srgb8(mapped as f64)
         }))
     });
     encode_png(&image::DynamicImage::ImageRgb8(out))
@@ -81,7 +81,7 @@ fn fit(w: u32, h: u32) -> (u32, u32) {
 }
 
 fn luminance(rgb: [f32; 3]) -> f32 {
-    let [wr, wg, wb] = crate::maths::stats::colour::REC709_F32;
+    let [wr, wg, wb] = crate::colour::REC709_F32;
     wr * rgb[0] + wg * rgb[1] + wb * rgb[2]
 }
 

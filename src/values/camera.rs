@@ -11,7 +11,7 @@ use glam::DVec3;
 
 use super::json::num;
 use crate::engine::cache::codec::{Reader, Writer};
-use crate::engine::value::{SaveOptions, TypeSpec, Value, ValueData, ValueType};
+use crate::engine::value::{TypeSpec, Value, ValueData, ValueType};
 use crate::geometry::lens::Model;
 use crate::geometry::rotation::Rotation;
 
@@ -56,8 +56,6 @@ pub static CAMERA: TypeSpec = TypeSpec {
     name: "camera",
     doc: "a view's camera: lens model, horizontal fov, size, yaw/pitch/roll and the world-to-camera matrix",
     decode,
-    save_extensions: &["json"],
-    save: Some(save),
 };
 
 impl ValueData for Camera {
@@ -123,11 +121,6 @@ pub fn to_json_value(c: &Camera) -> serde_json::Value {
     let rows = c.world_to_camera().map(|row| serde_json::Value::Array(row.iter().map(|&v| num(v)).collect()));
     map.insert("world_to_camera".into(), serde_json::Value::Array(rows.to_vec()));
     serde_json::Value::Object(map)
-}
-
-fn save(value: &Value, _: &SaveOptions) -> Result<Vec<u8>, String> {
-    let c = value.get::<Camera>().ok_or("not a camera")?;
-    Ok(super::json::text(&to_json_value(c)).into_bytes())
 }
 
 #[cfg(test)]

@@ -4,20 +4,14 @@
 //! each level was filtered for.
 //!
 //! Cache payloads: a cube map is its face size then its 18 S^2 f32 values; a chain is its level
-//! count, then per level its roughness (f64) and its cube map. Saved as `.exr`, `.pfm`, `.hdr` or
-//! `.png` (exposure, sRGB, 8-bit: to look at):
-//! a cube map as ONE horizontal strip of its six faces in storage order (6S x S, +X at the left);
-//! a chain as one such strip per level, `Save(path: "spec_{level}.exr")` writing `spec_0.exr`,
-//! `spec_1.exr`, ... (the path must contain `{level}`). As `.ktx2` (any `KtxFormat`, alpha 1): a
-//! cube map is one cube texture (faceCount 6) of one level, and a chain ONE cube texture whose
-//! levelCount is the chain's length (`{level}` not needed); `formats::ktx2`. As `.ktx` (KTX 1.1 for
-//! Filament, `formats::ktx1`): the same cube texture.
+//! count, then per level its roughness (f64) and its cube map. How `Save` writes them (strips of
+//! the six faces, or KTX cube textures) is `crate::formats::save::cubemap`.
 
 use glam::DVec3;
 
-use super::image::{encode_image, Image};
+use super::image::Image;
 use crate::engine::cache::codec::{Reader, Writer};
-use crate::engine::value::{SaveOptions, TypeSpec, Value, ValueData, ValueType};
+use crate::engine::value::{TypeSpec, Value, ValueData, ValueType};
 use crate::geometry::cube_layout::CubeLayout;
 use crate::geometry::cubemap as cube;
 
@@ -155,16 +149,12 @@ pub static CUBEMAP: TypeSpec = TypeSpec {
     name: "cube map",
     doc: "six square RGB faces +X, -X, +Y, -Y, +Z, -Z (OpenGL/KTX order, hdrflow's axes); saved as a 6S x S strip or a .ktx2 cube",
     decode,
-    save_extensions: &["exr", "pfm", "hdr", "png", "ktx2", "ktx"],
-    save: Some(save),
 };
 
 pub static MIP_CHAIN: TypeSpec = TypeSpec {
     name: "mip chain",
     doc: "cube maps, level k of face size max(1, size >> k), each with its roughness; saved one strip per level (`{level}` in the path), or as one .ktx2",
     decode: decode_chain,
-    save_extensions: &["exr", "pfm", "hdr", "png", "ktx2", "ktx"],
-    save: Some(save_chain_level0),
 };
 
 /// The largest face size a cache entry may claim (2^14: 6 x 2^28 texels is above the engine's
@@ -213,14 +203,6 @@ fn decode(bytes: &[u8]) -> Result<Value, String> {
     Ok(Value::new(c))
 }
 
-fn save(value: &Value, o: &SaveOptions) -> Result<Vec<u8>, String> {
-    let c = value.get::<Cubemap>().ok_or("not a cube map")?;
-    if o.ext == "ktx2" || o.ext == "ktx" {
-        return encode_ktx(std::slice::from_ref(c), o);
-    }
-    encode_image(&c.to_strip(), o)
-}
-
 impl ValueData for MipChain {
     fn value_type(&self) -> ValueType {
         ValueType(&MIP_CHAIN)
@@ -254,47 +236,6 @@ fn decode_chain(bytes: &[u8]) -> Result<Value, String> {
     }
     r.finish()?;
     Ok(Value::new(chain))
-}
-
-/// Only used when a chain reaches a type's encoder directly: `Save` writes every level itself
-/// (see [`save_levels`]).
-fn save_chain_level0(value: &Value, o: &SaveOptions) -> Result<Vec<u8>, String> {
-    let c = value.get::<MipChain>().ok_or("not a mip chain")?;
-    if o.ext == "ktx2" || o.ext == "ktx" {
-        return encode_ktx(&c.levels, o);
-    }
-    let first = c.levels.first().ok_or("an empty mip chain")?;
-    encode_image(&first.to_strip(), o)
-}
-
-/// Cube maps as the levels of one `.ktx2` (or, for `o.ext == "ktx"`, KTX 1.1 `.ktx`) cube texture
-/// (faceCount 6, +X -X +Y -Y +Z -Z, alpha 1); level k must be of size max(1, size >> k), else an
-/// error.
-pub fn encode_ktx(levels: &[Cubemap], o: &SaveOptions) -> Result<Vec<u8>, String> {
-    if o.ext == "ktx" {
-        let rgba: Vec<Vec<f32>> = levels.iter().map(|c| crate::formats::ktx2::rgb_to_rgba(&c.data)).collect();
-        let levels: Vec<_> = levels
-            .iter()
-            .zip(&rgba)
-            .map(|(c, rgba)| crate::formats::ktx2::Level { width: c.size, height: c.size, rgba })
-            .collect();
-        return crate::formats::ktx1::encode(&levels, 6, o.get_or_default(), &o.get_or_default())
-            .map_err(|e| e.to_string());
-    }
-    // Straight from the RGB levels: a 4096 chain's RGBA copy would be 2.1 GB.
-    let levels: Vec<_> =
-        levels.iter().map(|c| crate::formats::ktx2::RgbLevel { width: c.size, height: c.size, rgb: &c.data }).collect();
-    crate::formats::ktx2::encode_rgb_with(&levels, 6, o.get_or_default(), o.get_or_default()).map_err(|e| e.to_string())
-}
-
-/// Every level's strip, at `template` with `{level}` replaced by the level number.
-pub fn save_levels(chain: &MipChain, template: &str, o: &SaveOptions) -> Result<Vec<(String, Vec<u8>)>, String> {
-    chain
-        .levels
-        .iter()
-        .enumerate()
-        .map(|(k, c)| Ok((template.replace("{level}", &k.to_string()), encode_image(&c.to_strip(), o)?)))
-        .collect()
 }
 
 #[cfg(test)]

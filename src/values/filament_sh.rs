@@ -1,5 +1,6 @@
 //! `filament sh`: Filament's 9 pre-scaled irradiance coefficients ([`FilamentSh`],
-//! `maths::ibl::sh_filament`), the type, its cache codec and its files in one module. Saved as:
+//! `maths::ibl::sh_filament`), the type, its cache codec, and cmgen's `sh.txt` text, which the
+//! value displays and `Save` writes as `.txt` (`crate::formats::save::sh`, also `.json`):
 //!
 //! - `.txt`: cmgen's `sh.txt`, byte for byte in layout (tools/cmgen/src/cmgen.cpp, `outputSh`):
 //!   one line per coefficient, l = 0..2, m = -l..l,
@@ -7,11 +8,9 @@
 //!   `std::fixed << std::setprecision(15) << std::setw(18)` (15 decimals, right-aligned in 18),
 //!   e.g. `( 0.712845027446747,  0.752190291881561,  0.811474263668060); // L00, irradiance, pre-scaled base`.
 //!   Filament's samples read it with `IndirectLight::Builder::irradiance(3, sh)`.
-//! - `.json`: `{"form": "...", "coefficients": [[r, g, b] x 9]}`, shortest round-trip numbers.
 
-use super::json::num;
 use crate::engine::cache::codec::{Reader, Writer};
-use crate::engine::value::{SaveOptions, TypeSpec, Value, ValueData, ValueType};
+use crate::engine::value::{TypeSpec, Value, ValueData, ValueType};
 
 /// Filament's irradiance SH: `E(n) / pi = sh[0] + sh[1] y + sh[2] z + sh[3] x + ...` in
 /// Filament's world (`maths::ibl::sh_filament`), one `[r, g, b]` per coefficient.
@@ -25,13 +24,7 @@ pub static FILAMENT_SH: TypeSpec = TypeSpec {
     doc:
         "Filament's 9 pre-scaled irradiance SH coefficients (cmgen's sh.txt): E/pi = sh0 + sh1 y + sh2 z + sh3 x + ...",
     decode,
-    save_extensions: &["txt", "json"],
-    save: Some(save),
 };
-
-/// One line of the JSON and of the summary: what the numbers are.
-const FORM: &str = "Filament pre-scaled irradiance / pi: sh0 + sh1 y + sh2 z + sh3 x + sh4 yx + sh5 yz + \
-                    sh6 (3z^2 - 1) + sh7 zx + sh8 (x^2 - y^2), world normal (x, y, z)";
 
 impl ValueData for FilamentSh {
     fn value_type(&self) -> ValueType {
@@ -82,21 +75,6 @@ pub fn sh_txt(sh: &FilamentSh) -> String {
     out
 }
 
-fn save(value: &Value, o: &SaveOptions) -> Result<Vec<u8>, String> {
-    let sh = value.get::<FilamentSh>().ok_or("not Filament SH")?;
-    Ok(match o.ext.as_str() {
-        "txt" => sh_txt(sh),
-        _ => {
-            let mut map = serde_json::Map::new();
-            map.insert("form".into(), FORM.into());
-            let rows = sh.rgb.iter().map(|v| serde_json::Value::Array(v.iter().map(|&x| num(x)).collect())).collect();
-            map.insert("coefficients".into(), serde_json::Value::Array(rows));
-            super::json::text(&serde_json::Value::Object(map))
-        }
-    }
-    .into_bytes())
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -128,15 +106,11 @@ mod tests {
     }
 
     #[test]
-    fn cache_round_trip_and_json() {
+    fn cache_round_trip() {
         let sh = sample();
         let mut bytes = Vec::new();
         sh.encode(&mut bytes);
         assert_eq!(decode(&bytes).unwrap().get::<FilamentSh>(), Some(&sh));
         assert!(decode(&bytes[..bytes.len() - 1]).unwrap_err().starts_with("truncated: need"));
-        let json = save(&Value::new(sh.clone()), &SaveOptions::new("json")).unwrap();
-        let v: serde_json::Value = serde_json::from_slice(&json).unwrap();
-        assert_eq!(v["coefficients"].as_array().unwrap().len(), 9);
-        assert_eq!(v["coefficients"][2][2].as_f64(), Some(12.5 / 3.0));
     }
 }

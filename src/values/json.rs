@@ -1,7 +1,7 @@
-//! JSON text for saved values: indented like `serde_json`'s pretty printer (two spaces, keys in
-//! insertion order), except that an array of numbers, strings, booleans or nulls stays on one
-//! line (`[0.25, 0.5, 1]`), so a colour, a direction or a matrix row reads as one. Numbers are
-//! `serde_json`'s: the shortest decimal that reads back to the same f64.
+//! JSON text for displayed and saved values: indented like `serde_json`'s pretty printer (two
+//! spaces, keys in insertion order), except that an array of numbers, strings, booleans or nulls
+//! stays on one line (`[0.25, 0.5, 1]`), so a colour, a direction or a matrix row reads as one.
+//! Numbers are `serde_json`'s: the shortest decimal that reads back to the same f64.
 
 use std::fmt::Write as _;
 

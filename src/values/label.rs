@@ -16,7 +16,7 @@
 use super::{camera, lights, sg, sh};
 use super::{Camera, Lights, ShCoefficients, SphericalGaussians};
 use crate::engine::cache::codec::{Reader, Writer};
-use crate::engine::value::{SaveOptions, TypeSpec, Value, ValueData, ValueType};
+use crate::engine::value::{TypeSpec, Value, ValueData, ValueType};
 
 /// One crop's label. The lighting parts are in the frame of the map the crop was cut from
 /// (hdrflow's world axes); `camera.world_to_camera()` takes a direction into the crop's camera
@@ -34,8 +34,6 @@ pub static LABEL: TypeSpec = TypeSpec {
     name: "label",
     doc: "a crop's label: its camera, and the map's SH coefficients, spherical Gaussians and lights when given",
     decode,
-    save_extensions: &["json"],
-    save: Some(save),
 };
 
 impl ValueData for Label {
@@ -124,11 +122,6 @@ pub fn to_json(l: &Label) -> String {
     super::json::text(&to_json_value(l))
 }
 
-fn save(value: &Value, _: &SaveOptions) -> Result<Vec<u8>, String> {
-    let l = value.get::<Label>().ok_or("not a label")?;
-    Ok(to_json(l).into_bytes())
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -186,20 +179,5 @@ mod tests {
         camera::write_camera(&mut Writer(&mut bytes), &f.camera);
         bytes.push(7);
         assert!(decode(&bytes).unwrap_err().contains("flag 7"));
-    }
-
-    #[test]
-    fn each_part_is_the_json_its_own_type_saves() {
-        let l = full();
-        let json: serde_json::Value = serde_json::from_str(&to_json(&l)).unwrap();
-        let own = |text: &str| serde_json::from_str::<serde_json::Value>(text).unwrap();
-        let opts = SaveOptions::new("json");
-        let saved =
-            |v: Value| own(&String::from_utf8((v.value_type().spec().save.unwrap())(&v, &opts).unwrap()).unwrap());
-        assert_eq!(json["camera"], saved(Value::new(l.camera)));
-        assert_eq!(json["sh"], saved(Value::new(l.sh.clone().unwrap())));
-        assert_eq!(json["spherical_gaussians"], saved(Value::new(l.sgs.clone().unwrap())));
-        assert_eq!(json["lights"], saved(Value::new(l.lights.clone().unwrap())));
-        assert_eq!(json["sh"]["coefficients"].as_array().map(Vec::len), Some(4));
     }
 }

@@ -5,7 +5,7 @@
 
 use super::json::num;
 use crate::engine::cache::codec::{Reader, Writer};
-use crate::engine::value::{SaveOptions, TypeSpec, Value, ValueData, ValueType};
+use crate::engine::value::{TypeSpec, Value, ValueData, ValueType};
 
 /// A distant light: every direction within `solid_angle` steradians around `direction` carries
 /// radiance `radiance` (RGB, the map's units). Its irradiance on a surface facing it is
@@ -34,13 +34,8 @@ impl Light {
     }
 }
 
-pub static LIGHT: TypeSpec = TypeSpec {
-    name: "light",
-    doc: "a distant light: unit direction, solid angle (sr), RGB radiance",
-    decode,
-    save_extensions: &["json"],
-    save: Some(save),
-};
+pub static LIGHT: TypeSpec =
+    TypeSpec { name: "light", doc: "a distant light: unit direction, solid angle (sr), RGB radiance", decode };
 
 impl ValueData for Light {
     fn value_type(&self) -> ValueType {
@@ -106,11 +101,6 @@ pub(crate) fn to_json_value(l: &Light) -> serde_json::Value {
 /// The JSON text of a light (keys `direction`, `solid_angle`, `radiance`).
 pub fn to_json(l: &Light) -> String {
     serde_json::to_string_pretty(&to_json_value(l)).expect("JSON of plain values") + "\n"
-}
-
-fn save(value: &Value, _: &SaveOptions) -> Result<Vec<u8>, String> {
-    let l = value.get::<Light>().ok_or("not a light")?;
-    Ok(to_json(l).into_bytes())
 }
 
 #[cfg(test)]

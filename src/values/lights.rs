@@ -10,7 +10,7 @@ use std::f64::consts::PI;
 use super::light::{json_triple, read_light, to_json_value as light_json_value, write_light, LIGHT_BYTES};
 use super::Light;
 use crate::engine::cache::codec::{Reader, Writer};
-use crate::engine::value::{SaveOptions, TypeSpec, Value, ValueData, ValueType};
+use crate::engine::value::{TypeSpec, Value, ValueData, ValueType};
 
 /// An environment approximated as a constant `ambient` radiance over the whole sphere plus
 /// `lights`, each adding its `radiance` over its `solid_angle` around its `direction`. Its
@@ -43,8 +43,6 @@ pub static LIGHTS: TypeSpec = TypeSpec {
     name: "lights",
     doc: "parametric lights (each a direction, solid angle, RGB radiance) plus an ambient RGB radiance",
     decode,
-    save_extensions: &["json"],
-    save: Some(save),
 };
 
 impl ValueData for Lights {
@@ -106,11 +104,6 @@ pub fn to_json_value(l: &Lights) -> serde_json::Value {
     map.insert("lights".into(), serde_json::Value::Array(l.lights.iter().map(light_json_value).collect()));
     map.insert("ambient".into(), json_triple(l.ambient));
     serde_json::Value::Object(map)
-}
-
-fn save(value: &Value, _: &SaveOptions) -> Result<Vec<u8>, String> {
-    let l = value.get::<Lights>().ok_or("not lights")?;
-    Ok(to_json(l).into_bytes())
 }
 
 #[cfg(test)]

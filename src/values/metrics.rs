@@ -1,9 +1,8 @@
 //! `Metrics` (`metrics` in graphs): a flat record of named numbers (error metrics, statistics),
-//! saved as `.json` or `.csv`.
+//! saved as `.json` or `.csv` (`crate::formats::save::metrics`).
 
-use super::json::num;
 use crate::engine::cache::codec::{Reader, Writer};
-use crate::engine::value::{SaveOptions, TypeSpec, Value, ValueData, ValueType};
+use crate::engine::value::{TypeSpec, Value, ValueData, ValueType};
 
 /// A flat record of named numbers, in the order they were added. Plain data, its field public:
 /// each measuring operator pushes its own names.
@@ -18,13 +17,8 @@ impl Metrics {
     }
 }
 
-pub static METRICS: TypeSpec = TypeSpec {
-    name: "metrics",
-    doc: "a record of named numbers (errors, statistics)",
-    decode,
-    save_extensions: &["json", "csv"],
-    save: Some(save),
-};
+pub static METRICS: TypeSpec =
+    TypeSpec { name: "metrics", doc: "a record of named numbers (errors, statistics)", decode };
 
 impl ValueData for Metrics {
     fn value_type(&self) -> ValueType {
@@ -57,45 +51,4 @@ fn decode(bytes: &[u8]) -> Result<Value, String> {
     }
     r.finish()?;
     Ok(Value::new(Metrics { fields }))
-}
-
-fn save(value: &Value, o: &SaveOptions) -> Result<Vec<u8>, String> {
-    let m = value.get::<Metrics>().ok_or("not metrics")?;
-    Ok(match o.ext.as_str() {
-        "csv" => csv(m),
-        _ => {
-            let mut map = serde_json::Map::new();
-            for (name, v) in &m.fields {
-                map.insert(name.clone(), num(*v));
-            }
-            serde_json::to_string_pretty(&serde_json::Value::Object(map)).expect("JSON of plain values") + "\n"
-        }
-    }
-    .into_bytes())
-}
-
-/// One header line of the names, one line of the values (quoted where a name holds a comma, a
-/// quote or a line break). No field gives two empty lines, as before the `csv` crate (which
-/// would write `""`, a column of one empty name).
-fn csv(m: &Metrics) -> String {
-    if m.fields.is_empty() {
-        return "\n\n".into();
-    }
-    let names = m.fields.iter().map(|(n, _)| n.clone()).collect::<Vec<_>>();
-    let values = m.fields.iter().map(|(_, v)| v.to_string()).collect::<Vec<_>>();
-    super::csv::text([names, values])
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn csv_is_a_header_of_names_and_one_row_of_values() {
-        let m = Metrics { fields: vec![("rmse".into(), 0.25), ("psnr".into(), f64::INFINITY)] };
-        assert_eq!(csv(&m), "rmse,psnr\n0.25,inf\n");
-        let m = Metrics { fields: vec![("a,b".into(), 1.0)] };
-        assert_eq!(csv(&m), "\"a,b\"\n1\n");
-        assert_eq!(csv(&Metrics { fields: vec![] }), "\n\n");
-    }
 }

@@ -1,23 +1,25 @@
 //! The built-in values: the data that flows between operators, one module per type.
 //!
 //! A value is an immutable Rust value on a graph edge (`engine::value::Value`). Each module here
-//! holds one data type and everything about it: the type and its methods, the `TypeSpec` that
-//! names it in pipelines, messages and cache entries, its `ValueData` impl (the cache payload,
-//! `encode` and `decode`, every length checked before allocating) and `Save`'s file encoders.
-//! The codec sits beside the type, so a type's fields are private unless they are its API. The
-//! engine knows none of these types; [`register_all`] adds them to a registry.
+//! holds one data type and everything about it but its files: the type and its methods, the
+//! `TypeSpec` that names it in pipelines, messages and cache entries, and its `ValueData` impl
+//! (the cache payload, `encode` and `decode`, every length checked before allocating; what it
+//! displays after a run, with `json` for the types shown as JSON). The codec sits beside the
+//! type, so a type's fields are private unless they are its API. How `Save` writes a type as a
+//! file belongs to the file formats (`crate::formats::save`), so this layer imports neither
+//! `formats`, `plotting` nor `maths`. The engine knows none of these types; [`register_all`]
+//! adds them to a registry.
 //!
 //! A type from outside the crate is declared the same way: a `static` [`TypeSpec`] (name, doc,
-//! decode, the extensions `Save` accepts and its encoder) plus `impl ValueData` for the Rust
-//! type, registered with `Registry::register_type(&SPEC)` on the registry that
-//! `hdrflow::builtin_registry()` returns, the one `examples/custom_operator.rs` hands to
-//! `hdrflow::cli::main_with` (`tests/engine2.rs` declares two such types; [`metrics`] is the
-//! smallest built-in one).
+//! decode) plus `impl ValueData` for the Rust type, registered with
+//! `Registry::register_type(&SPEC)` on the registry that `hdrflow::builtin_registry()` returns,
+//! the one `examples/custom_operator.rs` hands to `hdrflow::cli::main_with`, and, to be saved,
+//! its extensions and encoder with `Registry::register_saver(&SPEC, extensions, save)`
+//! (`tests/engine2.rs` declares two such types; [`metrics`] is the smallest built-in one).
 //!
 //! [`TypeSpec`]: crate::engine::value::TypeSpec
 
 pub mod camera;
-pub mod csv;
 pub mod cubemap;
 pub mod curves;
 pub mod distribution;

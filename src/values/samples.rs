@@ -1,12 +1,12 @@
 //! `SampleSet` (`sample set` in graphs): directions drawn on the sphere, each with its
-//! solid-angle pdf. Saved as `.csv` (`index,x,y,theta,phi,dx,dy,dz,pdf`) or `.json`.
+//! solid-angle pdf. Saved as `.csv` (`index,x,y,theta,phi,dx,dy,dz,pdf`) or `.json`
+//! (`crate::formats::save::samples`).
 //!
 //! Direction convention (see `geometry::latlong`): +Y up; a lat-long texel (x, y) of a W x H map has
 //! theta = pi*(y+0.5)/H (polar angle from +Y) and phi = 2*pi*(x+0.5)/W.
 
-use super::json::num;
 use crate::engine::cache::codec::{Reader, Writer};
-use crate::engine::value::{SaveOptions, TypeSpec, Value, ValueData, ValueType};
+use crate::engine::value::{TypeSpec, Value, ValueData, ValueType};
 
 /// One sampled direction.
 /// Plain data, its fields public: the samplers write them, the shading operators read them.
@@ -52,13 +52,8 @@ pub struct SampleSet {
     pub luminance_integral: Option<f64>,
 }
 
-pub static SAMPLES: TypeSpec = TypeSpec {
-    name: "sample set",
-    doc: "directions with their solid-angle pdfs, on a lat-long grid",
-    decode,
-    save_extensions: &["csv", "json"],
-    save: Some(save),
-};
+pub static SAMPLES: TypeSpec =
+    TypeSpec { name: "sample set", doc: "directions with their solid-angle pdfs, on a lat-long grid", decode };
 
 impl ValueData for SampleSet {
     fn value_type(&self) -> ValueType {
@@ -106,39 +101,4 @@ fn decode(bytes: &[u8]) -> Result<Value, String> {
     }
     r.finish()?;
     Ok(Value::new(SampleSet { width, height, samples, luminance_integral }))
-}
-
-fn save(value: &Value, o: &SaveOptions) -> Result<Vec<u8>, String> {
-    let s = value.get::<SampleSet>().ok_or("not a sample set")?;
-    Ok(match o.ext.as_str() {
-        "csv" => samples_csv(s).into_bytes(),
-        _ => samples_json(s).into_bytes(),
-    })
-}
-
-fn samples_csv(s: &SampleSet) -> String {
-    let header = ["index", "x", "y", "theta", "phi", "dx", "dy", "dz", "pdf"].map(String::from);
-    let rows = s.samples.iter().enumerate().map(|(i, p)| {
-        [i.to_string(), p.x.to_string(), p.y.to_string()]
-            .into_iter()
-            .chain([p.theta, p.phi, p.dir[0], p.dir[1], p.dir[2], p.pdf].map(|v| v.to_string()))
-            .collect::<Vec<_>>()
-    });
-    super::csv::text(std::iter::once(header.to_vec()).chain(rows))
-}
-
-fn samples_json(s: &SampleSet) -> String {
-    let samples: Vec<serde_json::Value> = s
-        .samples
-        .iter()
-        .map(|p| {
-            serde_json::json!({
-                "x": p.x, "y": p.y, "theta": num(p.theta as f64), "phi": num(p.phi as f64),
-                "dx": num(p.dir[0] as f64), "dy": num(p.dir[1] as f64), "dz": num(p.dir[2] as f64),
-                "pdf": num(p.pdf as f64),
-            })
-        })
-        .collect();
-    let v = serde_json::json!({ "width": s.width, "height": s.height, "count": s.samples.len(), "samples": samples });
-    serde_json::to_string_pretty(&v).expect("JSON of plain values") + "\n"
 }

@@ -15,7 +15,7 @@ use glam::DVec3;
 use super::json::num;
 use super::light::json_triple;
 use crate::engine::cache::codec::{Reader, Writer};
-use crate::engine::value::{SaveOptions, TypeSpec, Value, ValueData, ValueType};
+use crate::engine::value::{TypeSpec, Value, ValueData, ValueType};
 
 /// One lobe, `L(d) = amplitude exp(sharpness (axis . d - 1))`: its peak `amplitude` (RGB, the
 /// map's units) is at `axis`, and it falls to `1/e` at the angle `acos(1 - 1/sharpness)`
@@ -85,13 +85,8 @@ fn sum_of(items: impl Iterator<Item = [f64; 3]>) -> [f64; 3] {
     items.fold([0.0; 3], |s, v| [s[0] + v[0], s[1] + v[1], s[2] + v[2]])
 }
 
-pub static SG: TypeSpec = TypeSpec {
-    name: "sg",
-    doc: "spherical Gaussian lobes (each a unit axis, a sharpness, an RGB amplitude)",
-    decode,
-    save_extensions: &["json"],
-    save: Some(save),
-};
+pub static SG: TypeSpec =
+    TypeSpec { name: "sg", doc: "spherical Gaussian lobes (each a unit axis, a sharpness, an RGB amplitude)", decode };
 
 /// The bytes of one lobe in a cache payload: axis, sharpness, amplitude (7 f64).
 const LOBE_BYTES: usize = 7 * 8;
@@ -166,11 +161,6 @@ pub fn to_json_value(sg: &SphericalGaussians) -> serde_json::Value {
     let mut map = serde_json::Map::new();
     map.insert("lobes".into(), serde_json::Value::Array(lobes));
     serde_json::Value::Object(map)
-}
-
-fn save(value: &Value, _: &SaveOptions) -> Result<Vec<u8>, String> {
-    let sg = value.get::<SphericalGaussians>().ok_or("not spherical Gaussians")?;
-    Ok(to_json(sg).into_bytes())
 }
 
 #[cfg(test)]

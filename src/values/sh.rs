@@ -1,21 +1,15 @@
 //! `ShCoefficients` (`sh coefficients` in graphs): real spherical-harmonic coefficients of an
 //! environment, per RGB channel, with their order and the frame their basis was evaluated in. The
-//! basis, the frames and the projection are documented in `maths::ibl::sh`. Saved as:
-//!
-//! - `.json`: `{"frame": "World", "order": 2, "basis": "<the convention and axes, one line>",
-//!   "coefficients": [[r, g, b], ...]}`, `(order + 1)^2` rows in `(l, m)` order (l = 0..=order,
-//!   m = -l..=l), one row per line. Numbers are written as the shortest decimal that reads back
-//!   to the same f64 (an exact parser, such as Python's, gets the bits back); NaN and Inf become
-//!   `null`.
-//! - `.csv`: the header `l,m,r,g,b,frame`, then one row per coefficient. The frame is a column
-//!   (the same on every row) rather than a comment line, so that the file stays plain CSV and a
-//!   copy that travels without its JSON still says which axes its numbers belong to.
+//! basis, the frames and the projection are documented in `maths::ibl::sh`. Displayed as an
+//! aligned table; its JSON object ([`to_json_value`]: frame, order, basis, coefficients) is what
+//! `Save` writes as `.json` and a label's `sh`; `Save` also writes `.csv`
+//! (`crate::formats::save::sh`, where both files are described).
 
 use std::fmt::Write as _;
 
 use super::json::num;
 use crate::engine::cache::codec::{Reader, Writer};
-use crate::engine::value::{SaveOptions, TypeSpec, Value, ValueData, ValueType};
+use crate::engine::value::{TypeSpec, Value, ValueData, ValueType};
 
 crate::choice! {
     /// The axes `(x, y, z)` the real SH basis is evaluated in, as functions of a unit direction
@@ -104,8 +98,6 @@ pub static SH_COEFFICIENTS: TypeSpec = TypeSpec {
     name: "sh coefficients",
     doc: "real spherical-harmonic coefficients L_lm per RGB channel, with their order and frame",
     decode,
-    save_extensions: &["json", "csv"],
-    save: Some(save),
 };
 
 /// The highest order a cache entry may claim (far above `ShIrradiance`'s 32; it only bounds
@@ -159,15 +151,6 @@ fn decode(bytes: &[u8]) -> Result<Value, String> {
     Ok(Value::new(ShCoefficients { order, frame, rgb }))
 }
 
-fn save(value: &Value, o: &SaveOptions) -> Result<Vec<u8>, String> {
-    let c = value.get::<ShCoefficients>().ok_or("not SH coefficients")?;
-    Ok(match o.ext.as_str() {
-        "csv" => csv(c),
-        _ => json(c),
-    }
-    .into_bytes())
-}
-
 /// The JSON object: `frame`, `order`, `basis` (one line naming the convention and the axes) and
 /// `coefficients`, `(order + 1)^2` rows `[r, g, b]` in `(l, m)` order (as in a label's `sh`).
 pub fn to_json_value(c: &ShCoefficients) -> serde_json::Value {
@@ -178,19 +161,6 @@ pub fn to_json_value(c: &ShCoefficients) -> serde_json::Value {
     let rows = c.rgb.iter().map(|v| serde_json::Value::Array(v.iter().map(|&x| num(x)).collect())).collect();
     map.insert("coefficients".into(), serde_json::Value::Array(rows));
     serde_json::Value::Object(map)
-}
-
-/// The JSON text, one coefficient row per line.
-fn json(c: &ShCoefficients) -> String {
-    super::json::text(&to_json_value(c))
-}
-
-fn csv(c: &ShCoefficients) -> String {
-    let header = ["l", "m", "r", "g", "b", "frame"].map(String::from);
-    let rows = c.iter().map(|(l, m, v)| {
-        [l.to_string(), m.to_string(), v[0].to_string(), v[1].to_string(), v[2].to_string(), c.frame.name().into()]
-    });
-    super::csv::text(std::iter::once(header).chain(rows))
 }
 
 /// A number for the table: fixed with 6 decimals in [1e-3, 1e7), else scientific.
@@ -255,32 +225,8 @@ mod tests {
     }
 
     #[test]
-    fn json_csv_and_table() {
+    fn display_is_an_aligned_table() {
         let c = sample();
-        let json: serde_json::Value = serde_json::from_str(&super::json(&c)).unwrap();
-        assert_eq!(json["frame"], "World");
-        assert_eq!(json["order"], 2);
-        assert_eq!(json["basis"], ShFrame::World.basis());
-        assert_eq!(json["coefficients"].as_array().unwrap().len(), 9);
-        // Shortest round-trip numbers, one row per line: an exact parser reads them back bit for
-        // bit (serde_json's default float parser is not one, so parse the text here).
-        let text = super::json(&c);
-        let rows: Vec<Vec<f64>> = text
-            .lines()
-            .filter_map(|l| l.trim().strip_prefix('['))
-            .map(|l| l.trim_end_matches(',').trim_end_matches(']').split(", ").map(|v| v.parse().unwrap()).collect())
-            .collect();
-        assert_eq!(rows, c.rgb.iter().map(|v| v.to_vec()).collect::<Vec<_>>());
-        let keys: Vec<&String> = json.as_object().unwrap().keys().collect();
-        assert_eq!(keys, ["frame", "order", "basis", "coefficients"]);
-
-        let csv = super::csv(&c);
-        let lines: Vec<&str> = csv.lines().collect();
-        assert_eq!(lines[0], "l,m,r,g,b,frame");
-        assert_eq!(lines.len(), 10);
-        assert_eq!(lines[2], format!("1,-1,{},{},{},World", c.rgb[1][0], c.rgb[1][1], c.rgb[1][2]));
-        assert!(lines[9].starts_with("2,2,"));
-
         let table = c.display().unwrap();
         let lines: Vec<&str> = table.lines().collect();
         assert_eq!(lines[0], "order 2, frame World");
@@ -289,9 +235,5 @@ mod tests {
         assert!(lines[2..].iter().all(|l| l.len() == lines[2].len()), "{table}");
         assert!(lines[4].starts_with(" 1   -1"), "{table}");
         assert!(table.contains("1.00000e-9"), "{table}");
-
-        // An empty set of coefficients (never produced, but valid JSON all the same).
-        let empty = ShCoefficients { order: 0, frame: ShFrame::Paper, rgb: vec![] };
-        assert!(serde_json::from_str::<serde_json::Value>(&super::json(&empty)).is_ok());
     }
 }

@@ -156,6 +156,7 @@ fn evaluate(s: &State, i: usize, release: &(dyn Fn(Value) + Sync)) -> Result<Mat
         base_dir: &s.p.base_dir,
         content_key: s.content[i].as_deref(),
         wanted_ports: &open_ports,
+        savers: s.p.registry.savers(),
         warnings: Vec::new(),
         release_to: Some(release),
     };

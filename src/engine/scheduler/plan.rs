@@ -101,6 +101,7 @@ pub(super) fn compute_keys_and_content(
                         input_types: &input_types,
                         input_sizes: &input_sizes,
                         base_dir: &p.base_dir,
+                        savers: p.registry.savers(),
                     };
                     f(&ctx).map(Some).map_err(|source| RunError::Op {
                         node: node.name.clone(),

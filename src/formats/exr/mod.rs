@@ -298,7 +298,7 @@ mod tests {
         for y in 0..img.height {
             for x in 0..img.width {
                 let p = img.rgb(x, y);
-                let l = crate::maths::stats::colour::rec709_luminance(p);
+                let l = crate::colour::rec709_luminance(p);
                 if l > best.0 {
                     best = (l, y, x);
                 }

@@ -51,10 +51,10 @@ use std::ops::Range;
 use glam::DVec3;
 use rayon::prelude::*;
 
+use crate::colour::rec709_luminance;
 use crate::geometry::latlong;
 use crate::maths::fit::least_squares::nnls;
 use crate::maths::resample::layouts::{to_latlong, LatLongSource};
-use crate::maths::stats::colour::rec709_luminance;
 use crate::values::sg::value_of;
 use crate::values::{Image, SgLobe, SphericalGaussians};
 

@@ -3,7 +3,7 @@
 //!
 //! For a W x H lat-long map with texel radiance `L_i` (RGB: the first three channels; a map of
 //! fewer channels is grey, its first channel), luminance `Y_i = 0.2126 R + 0.7152 G + 0.0722 B`
-//! (Rec. 709, [`crate::maths::stats::colour::REC709`]) and midpoint solid angle `dOmega_i`
+//! (Rec. 709, [`crate::colour::REC709`]) and midpoint solid angle `dOmega_i`
 //! ([`latlong::texel_solid_angle`], the measure of every integral in hdrflow, so "integral"
 //! below means `sum_i L_i dOmega_i`):
 //!
@@ -41,8 +41,8 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
+pub(crate) use crate::colour::rec709_luminance as luminance;
 use crate::geometry::{latlong, unit};
-pub(crate) use crate::maths::stats::colour::rec709_luminance as luminance;
 use crate::values::{Image, Light};
 
 /// What [`extract_sun`] found, with the quantities of the module documentation.

@@ -16,9 +16,9 @@
 //! pixel sees the same direction), pixels off the disc cost nothing, and samples behind a
 //! pixel's surface add nothing (max(cos, 0)).
 
+use crate::colour::rec709_luminance as rec709;
 use crate::geometry::latlong;
 use crate::maths::render::relight::{merge_duplicates, relight, Estimator, LightSample, SphereView};
-use crate::maths::stats::colour::rec709_luminance as rec709;
 use crate::values::Image;
 use crate::values::SampleSet;
 

@@ -2,7 +2,7 @@
 //! texels (`Statistics`, and `Exposure(match_percentile)`).
 //!
 //! **Luminance.** A texel's luminance is `Y = 0.2126 R + 0.7152 G + 0.0722 B` (Rec. 709,
-//! [`crate::maths::stats::colour::REC709`], in f64)
+//! [`crate::colour::REC709`], in f64)
 //! of its first three channels, or its first channel itself in an image of fewer than three
 //! channels (a scalar field, grey + alpha). Other channels (alpha) are ignored.
 //!
@@ -44,7 +44,7 @@ fn texel(px: &[f32]) -> (f64, Option<bool>) {
         return (0.0, Some(true));
     }
     let y = match c {
-        [r, g, b] => crate::maths::stats::colour::rec709_luminance([*r, *g, *b]),
+        [r, g, b] => crate::colour::rec709_luminance([*r, *g, *b]),
         [v] => *v as f64,
         _ => 0.0,
     };
@@ -316,7 +316,7 @@ mod tests {
         let img = Image::with_names(6, 1, names, data);
         let s = LuminanceSamples::new(&img, false);
         assert_eq!((s.nan, s.inf, s.negative, s.len()), (2, 1, 1, 3));
-        let [wr, wg, wb] = crate::maths::stats::colour::REC709;
+        let [wr, wg, wb] = crate::colour::REC709;
         let y_neg = -wr + wg * 2.0 + wb * 2.0;
         assert!((s.mean - (1.0 + y_neg + 4.0) / 3.0).abs() < 1e-12);
         assert!(s.percentiles(&[0.0, 50.0, 100.0]).iter().all(|v| v.is_some_and(f64::is_finite)));

@@ -58,7 +58,7 @@ pub fn spec() -> OpSpec {
 fn check(_: &CheckContext, p: BrdfLutParams<Check>) -> Result<(), CheckProblem> {
     if p.multiscatter && p.brdf != SpecularBrdf::Ggx {
         return Err(CheckProblem::at(
-            "multiscatter",
+            BrdfLutParams::multiscatter,
             format!("multiscatter is read only with brdf: Ggx (this node has {})", p.brdf),
         ));
     }

@@ -82,12 +82,12 @@ fn check(_: &CheckContext, p: PrefilterSpecularParams<Check>) -> Result<(), Chec
             "roughness_map: List needs roughness_list, one roughness per level",
         )),
         (RoughnessMap::List, Some(list)) if list.len() != p.levels => Err(CheckProblem::at(
-            "roughness_list",
+            PrefilterSpecularParams::roughness_list,
             format!("roughness_list has {} values for {} levels: give one per level", list.len(), p.levels),
         )),
         (RoughnessMap::List, Some(_)) => Ok(()),
         (map, Some(_)) => Err(CheckProblem::at(
-            "roughness_list",
+            PrefilterSpecularParams::roughness_list,
             format!("roughness_list is read only with roughness_map: List (this node has {map})"),
         )),
         (_, None) => Ok(()),

@@ -367,7 +367,7 @@ mod tests {
         assert_eq!(heat.pixel(0, 2 + 5), lin(0.0));
         assert_eq!(heat.pixel(2, 2 + 5), lin(1.0));
         // Through the PNG encoder the colours come back as the table's 8-bit values.
-        let code = crate::formats::png::linear_to_srgb8(heat.pixel(2, 0)[0] as f64);
+        let code = crate::formats::srgb8::linear_to_srgb8(heat.pixel(2, 0)[0] as f64);
         assert_eq!(code, (VIRIDIS[51][0] * 255.0).round() as u8);
     }
 

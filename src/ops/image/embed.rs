@@ -91,7 +91,7 @@ fn check(_: &CheckContext, p: EmbedParams<Check>) -> Result<(), CheckProblem> {
     }
     if env.ty != p.view.ty {
         return Err(CheckProblem::at(
-            "view",
+            EmbedParams::view,
             format!("view is a {} but env is a {}: they must be alike", p.view.ty, env.ty),
         ));
     }

@@ -39,7 +39,7 @@ pub fn spec() -> OpSpec {
 pub fn luminance(rgb: [f32; 3], weights: Weights) -> f32 {
     let [r, g, b] = rgb;
     match weights {
-        Weights::Rec709 => crate::maths::stats::colour::rec709_luminance_f32(rgb),
+        Weights::Rec709 => crate::colour::rec709_luminance_f32(rgb),
         Weights::Rec2020 => 0.2627 * r + 0.6780 * g + 0.0593 * b,
         Weights::Mean => (r + g + b) / 3.0,
         Weights::Max => r.max(g).max(b),

@@ -58,11 +58,7 @@ fn moments(img: &Image) -> (DVec3, f64) {
                 return (v, s);
             }
             for (x, px) in img.row(y).chunks_exact(c).enumerate() {
-                let lum = if c >= 3 {
-                    crate::maths::stats::colour::rec709_luminance([px[0], px[1], px[2]])
-                } else {
-                    px[0] as f64
-                };
+                let lum = if c >= 3 { crate::colour::rec709_luminance([px[0], px[1], px[2]]) } else { px[0] as f64 };
                 v += lum * DVec3::from(latlong::texel_direction(x, y, w, h));
                 s += lum;
             }

@@ -94,13 +94,13 @@ fn check(_: &CheckContext, p: MergeChannelsParams<Check>) -> Result<(), CheckPro
     };
     if exact && p.names.len() != min {
         return Err(CheckProblem::at(
-            "names",
+            MergeChannelsParams::names,
             format!("{} names for {min} channels ({}): give one name per channel", p.names.len(), describe()),
         ));
     }
     if p.names.len() < min {
         return Err(CheckProblem::at(
-            "names",
+            MergeChannelsParams::names,
             format!(
                 "{} names, but the inputs have at least {min} channels ({}: an image has 2 or more)",
                 p.names.len(),
@@ -233,6 +233,7 @@ mod tests {
                 input_types: &input_types,
                 input_sizes: &BTreeMap::new(),
                 base_dir: std::path::Path::new("."),
+                savers: &Default::default(),
             };
             let p = MergeChannelsParams::<Check>::from_check(&ctx).expect("the fields are valid");
             (check(&ctx, p.clone()).map_err(|p| p.message), output_type(&ctx, p))

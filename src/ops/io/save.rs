@@ -22,12 +22,13 @@
 use crate::engine::fields::{AnyValue, Check, Input};
 use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec};
 use crate::engine::params::OutputPath;
+use crate::engine::save::SaveOptions;
 use crate::engine::typed_op::Op;
-use crate::engine::value::{FileBlob, SaveOptions, Value, ValueType, FILE};
+use crate::engine::value::{FileBlob, Value, ValueType, FILE};
 use crate::formats::ktx1::{self, Ktx1Format};
 use crate::formats::ktx2::{Compression, KtxFormat, KtxSupercompression};
 use crate::formats::png::PngFormat;
-use crate::values::image::{channels_not_kept, channels_not_kept_in};
+use crate::formats::save::image::{channels_not_kept, channels_not_kept_in};
 use crate::values::Image;
 use crate::values::{FilamentSh, ShCoefficients};
 
@@ -76,10 +77,10 @@ pub fn spec() -> OpSpec {
         .into()
 }
 
-fn check(_: &CheckContext, p: SaveParams<Check>) -> Result<(), CheckProblem> {
+fn check(ctx: &CheckContext, p: SaveParams<Check>) -> Result<(), CheckProblem> {
     if p.auto_exposure && p.exposure_from.is_some() {
         return Err(CheckProblem::at(
-            "auto_exposure",
+            SaveParams::auto_exposure,
             "give either auto_exposure (each PNG its own exposure) or exposure_from (one shared exposure), not both",
         ));
     }
@@ -113,17 +114,17 @@ fn check(_: &CheckContext, p: SaveParams<Check>) -> Result<(), CheckProblem> {
     }
     if t == crate::values::ty::MIP_CHAIN_T && ext != "ktx2" && ext != "ktx" && !p.path.0.contains("{level}") {
         return Err(CheckProblem::at(
-            "path",
+            SaveParams::path,
             "a mip chain is saved one file per level: put {level} in the path (e.g. \"spec_{level}.exr\"), or save it as one .ktx2",
         ));
     }
-    let ok = t.spec().save_extensions;
+    let ok = ctx.savers.get(t).map_or(&[][..], |s| s.extensions);
     if ok.is_empty() {
         return Err(CheckProblem::at(SaveParams::input, format!("a value of type {t} cannot be saved")));
     }
     if !ok.contains(&ext.as_str()) {
         return Err(CheckProblem::at(
-            "path",
+            SaveParams::path,
             format!(
                 "cannot save a value of type {t} as {:?}: use one of {}",
                 if ext.is_empty() { "(no extension)".to_string() } else { format!(".{ext}") },
@@ -187,8 +188,11 @@ fn eval(ctx: &mut OpContext, p: SaveParams) -> Result<Value, OpError> {
         }
     }
     let fail = |m: String| OpError::Invalid(format!("encoding {rel_path}: {m}"));
-    let save =
-        value.value_type().spec().save.ok_or_else(|| fail(format!("a {} cannot be saved", value.value_type())))?;
+    let save = ctx
+        .savers
+        .get(value.value_type())
+        .map(|s| s.save)
+        .ok_or_else(|| fail(format!("a {} cannot be saved", value.value_type())))?;
     let mut exposure = p.exposure;
     if let Some(reference) = p.exposure_from.as_deref() {
         exposure += auto_exposure(reference);
@@ -224,12 +228,13 @@ fn eval(ctx: &mut OpContext, p: SaveParams) -> Result<Value, OpError> {
     if let Some(chain) =
         value.get::<crate::values::MipChain>().filter(|_| options.ext != "ktx2" && options.ext != "ktx")
     {
-        let mut files = crate::values::cubemap::save_levels(chain, &rel_path, &options).map_err(fail)?.into_iter();
+        let mut files =
+            crate::formats::save::cubemap::save_levels(chain, &rel_path, &options).map_err(fail)?.into_iter();
         let (first_path, first) = files.next().ok_or_else(|| fail("an empty mip chain".into()))?;
         return Ok(Value::new(FileBlob { rel_path: first_path, bytes: first, more: files.collect() }));
     }
     if let (Some(img), "png", PngFormat::Srgb8) = (value.get::<Image>(), options.ext.as_str(), p.png_format) {
-        // An image as PNG (the bytes of `values::image`'s encoder): the 8-bit copy first, then the
+        // An image as PNG (the bytes of `formats::save::image`'s encoder): the 8-bit copy first, then the
         // float image is handed back before the deflate, which takes most of the time, so that a
         // run drawing several large overlays need not hold two at once (`scheduler::admission`).
         let srgb = crate::formats::png::to_srgb8(img, options.exposure).map_err(|e| fail(e.to_string()))?;

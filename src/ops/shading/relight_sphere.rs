@@ -63,7 +63,7 @@ fn check_grid(_: &CheckContext, p: RelightParams<Check>) -> Result<(), CheckProb
     if let (Some((ew, eh)), Some((sw, sh))) = (p.env.size, p.samples.size) {
         if (ew, eh) != (sw, sh) && (sw == 0 || sh == 0 || ew % sw != 0 || eh % sh != 0) {
             return Err(CheckProblem::at(
-                "samples",
+                RelightParams::samples,
                 format!(
                     "the samples come from a distribution over a {sw}x{sh} map but env is {ew}x{eh}: build the \
                      distribution from env, or from a Resize of it by an integer factor"

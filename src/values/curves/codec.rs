@@ -2,7 +2,6 @@
 //! values, then each series (name, values), each scalar (name, present flag, value) and each
 //! marker (label, x).
 
-use super::save::save;
 use super::Curves;
 use crate::engine::cache::codec::{Reader, Writer};
 use crate::engine::value::{TypeSpec, Value, ValueData, ValueType};
@@ -11,8 +10,6 @@ pub static CURVES: TypeSpec = TypeSpec {
     name: "curves",
     doc: "named series over a shared x axis, with named scalars and marked abscissae",
     decode,
-    save_extensions: &["json", "csv", "png", "svg"],
-    save: Some(save),
 };
 
 impl ValueData for Curves {

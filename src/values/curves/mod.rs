@@ -1,13 +1,11 @@
 //! `Curves` (`curves` in graphs): named series over one shared abscissa, plus named scalars and
 //! marked abscissae (e.g. Fresnel reflectance against angle, with its Brewster and critical
-//! angles). Saved as `.json`, `.csv`, or a plot (`.png`, `.svg`).
+//! angles). Saved as `.json`, `.csv`, or a plot (`.png`, `.svg`): `crate::formats::save::curves`.
 //!
 //! A folder so that the type stays below the plots drawn of it: this file holds the type
-//! (`crate::plotting::curves_plot` builds on it), [`codec`] its `TypeSpec` and cache payload,
-//! [`save`] how `Save` writes it (the plots through `crate::plotting`).
+//! (`crate::plotting::curves_plot` builds on it), [`codec`] its `TypeSpec` and cache payload.
 
 pub mod codec;
-pub mod save;
 
 pub use codec::CURVES;
 

@@ -67,7 +67,7 @@ use rayon::prelude::*;
 
 use super::image::Image;
 use crate::engine::cache::codec::{Reader, Writer};
-use crate::engine::value::{SaveOptions, TypeSpec, Value, ValueData, ValueType};
+use crate::engine::value::{TypeSpec, Value, ValueData, ValueType};
 use crate::geometry::latlong::{texel_of_direction, texel_solid_angle, theta_of_row};
 use crate::values::distribution::row_kernels::RowKernel;
 
@@ -416,8 +416,6 @@ pub static DISTRIBUTION: TypeSpec = TypeSpec {
     name: "distribution",
     doc: "a piecewise-constant 2D sampling distribution over a lat-long map (f64)",
     decode,
-    save_extensions: &["png", "exr", "hdr", "pfm"],
-    save: Some(save),
 };
 
 impl ValueData for Distribution2D {
@@ -507,11 +505,6 @@ fn decode(bytes: &[u8]) -> Result<Value, String> {
         luminance_integral,
         carries_light,
     }))
-}
-
-fn save(value: &Value, o: &SaveOptions) -> Result<Vec<u8>, String> {
-    let d = value.get::<Distribution2D>().ok_or("not a distribution")?;
-    super::image::encode_image(&pdf_image(d), o)
 }
 
 /// The distribution's solid-angle pdf per texel, as a scalar field.

@@ -1,7 +1,6 @@
 //! The `image` and `scalar field` types of an [`Image`], and its cache payload: width, height,
 //! channel names, then the f32 samples.
 
-use super::save::save;
 use super::Image;
 use crate::engine::cache::codec::{Reader, Writer};
 use crate::engine::value::{TypeSpec, Value, ValueData, ValueType};
@@ -10,16 +9,12 @@ pub static IMAGE: TypeSpec = TypeSpec {
     name: "image",
     doc: "a float raster of 2 or more named channels (RGB, RGBA, ...), linear radiance",
     decode,
-    save_extensions: &["png", "exr", "hdr", "pfm", "ktx2", "ktx"],
-    save: Some(save),
 };
 
 pub static SCALAR_FIELD: TypeSpec = TypeSpec {
     name: "scalar field",
     doc: "a one-channel float raster (luminance, weights, masks, one channel of an image)",
     decode,
-    save_extensions: &["png", "exr", "hdr", "pfm", "ktx2", "ktx"],
-    save: Some(save),
 };
 
 impl ValueData for Image {

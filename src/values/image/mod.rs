@@ -9,13 +9,11 @@
 //!
 //! A folder so that the type stays below the file formats that read and write it: this file
 //! holds the type and its methods (`crate::formats` builds on it), [`codec`] its `TypeSpec`s and
-//! cache payload, [`save`] how `Save` writes it (through `crate::formats`).
+//! cache payload. How `Save` writes it is `crate::formats::save::image`.
 
 pub mod codec;
-pub mod save;
 
 pub use codec::{IMAGE, SCALAR_FIELD};
-pub use save::{channels_not_kept, channels_not_kept_in, encode_image};
 
 /// A float raster. `data.len() == width * height * channels`, rows top to bottom.
 /// The fields are public: the samples are the type's API, which operators and file formats read

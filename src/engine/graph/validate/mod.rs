@@ -111,7 +111,7 @@ pub(super) fn validate(
     let mut resolved = fields::resolve_fields(&raw, &all_names, source, &mut errs);
     let dag = dag::build_dag(&resolved.nodes, &mut errs);
     if let Some((_, topo_order)) = &dag {
-        types::infer_types(&mut resolved, &raw, topo_order, base_dir, &mut errs);
+        types::infer_types(&mut resolved, &raw, topo_order, base_dir, registry.savers(), &mut errs);
     }
     outputs::check_outputs(&resolved.nodes, &raw, &mut errs);
     let Some((graph, topo_order)) = dag.filter(|_| errs.errors.is_empty()) else {

@@ -10,6 +10,7 @@ use crate::engine::graph::syntax::Pos;
 use crate::engine::graph::Port;
 use crate::engine::op::{check_pixels, CheckContext, OutputType};
 use crate::engine::params::FieldKind;
+use crate::engine::save::Savers;
 use crate::engine::value::ValueType;
 
 /// Phase 6: types in topological order.
@@ -20,6 +21,7 @@ pub(super) fn infer_types(
     raw: &[RawNode],
     topo_order: &[usize],
     base_dir: &Path,
+    savers: &Savers,
     errs: &mut Collector,
 ) {
     let Resolved { nodes, refs, port_names, broken } = resolved;
@@ -79,8 +81,13 @@ pub(super) fn infer_types(
             .iter()
             .map(|w| (w.field, w.sources.iter().map(|s| nodes[s.node].port_size(s.port)).collect()))
             .collect();
-        let ctx =
-            CheckContext { params: &nodes[i].params, input_types: &input_types, input_sizes: &input_sizes, base_dir };
+        let ctx = CheckContext {
+            params: &nodes[i].params,
+            input_types: &input_types,
+            input_sizes: &input_sizes,
+            base_dir,
+            savers,
+        };
         let field_pos = |field: Option<&'static str>| -> (Pos, String) {
             field
                 .and_then(|f| {

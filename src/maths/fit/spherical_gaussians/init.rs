@@ -22,9 +22,9 @@
 use glam::DVec3;
 
 use super::{Target, MIN_SHARPNESS};
+use crate::colour::rec709_luminance;
 use crate::geometry::fibonacci_sphere;
 use crate::maths::sampling::sequences::SplitMix64;
-use crate::maths::stats::colour::rec709_luminance;
 use crate::values::SgLobe;
 
 /// The largest angle (rad) around a placed lobe where the pursuit places no other.

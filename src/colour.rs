@@ -1,5 +1,7 @@
 //! Rec. 709 luminance, the one definition every operator that weighs light by brightness uses
-//! (ITU-R BT.709 primaries, the same weights as `Luminance(weights: Rec709)`).
+//! (ITU-R BT.709 primaries, the same weights as `Luminance(weights: Rec709)`). A leaf below
+//! `maths`, `formats` and the operators, like [`crate::cpu`], so that a file format can weigh
+//! channels without depending on the mathematics.
 
 /// The Rec. 709 luminance weights of R, G, B: the Y row of BT.709's RGB -> XYZ matrix, to the
 /// 4 decimals ITU-R BT.709-6 (item 3.2) and sRGB (IEC 61966-2-1) give. Every luminance in the

@@ -1,11 +1,18 @@
 //! How `Save` writes [`Curves`]: `.json` (the scalars, then each column), `.csv` (one header,
 //! one row per x, the scalars as columns) or a plot (`.png`, `.svg`, `crate::plotting`).
 
-use super::Curves;
-use crate::engine::value::{SaveOptions, Value};
+use crate::engine::registry::Registry;
+use crate::engine::save::SaveOptions;
+use crate::engine::value::Value;
 use crate::values::json::num;
+use crate::values::{Curves, CURVES};
 
-pub(super) fn save(value: &Value, o: &SaveOptions) -> Result<Vec<u8>, String> {
+/// Registers the saver of curves.
+pub fn register(r: &mut Registry) {
+    r.register_saver(&CURVES, &["json", "csv", "png", "svg"], save);
+}
+
+fn save(value: &Value, o: &SaveOptions) -> Result<Vec<u8>, String> {
     let c = value.get::<Curves>().ok_or("not curves")?;
     let (w, h) = o.plot_size;
     Ok(match o.ext.as_str() {
@@ -44,7 +51,7 @@ fn curves_csv(c: &Curves) -> String {
             .chain(scalars.iter().cloned())
             .collect::<Vec<_>>()
     });
-    crate::values::csv::text(std::iter::once(header).chain(rows))
+    crate::formats::csv::text(std::iter::once(header).chain(rows))
 }
 
 #[cfg(test)]

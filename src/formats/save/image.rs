@@ -1,14 +1,26 @@
-//! How `Save` writes an [`Image`]: `.png` (exposure then sRGB, 8-bit; RGBA keeps alpha), `.exr`
-//! (f32, every channel under its name), `.hdr` (RGB) or `.pfm` (RGB or grey), `.ktx2` (a 2D
-//! texture of one level in any `KtxFormat`: RGB gets alpha 1, grey is replicated to RGB;
-//! `formats::ktx2`), `.ktx` (the same as KTX 1.1, `formats::ktx1`); PNG may be 16-bit linear
-//! (`PngFormat::Linear16`).
+//! How `Save` writes an [`Image`] (an `image` or a `scalar field`): `.png` (exposure then sRGB,
+//! 8-bit; RGBA keeps alpha), `.exr` (f32, every channel under its name), `.hdr` (RGB) or `.pfm`
+//! (RGB or grey), `.ktx2` (a 2D texture of one level in any `KtxFormat`: RGB gets alpha 1, grey is
+//! replicated to RGB; `formats::ktx2`), `.ktx` (the same as KTX 1.1, `formats::ktx1`); PNG may be
+//! 16-bit linear (`PngFormat::Linear16`). A `distribution` is written as the scalar field of its
+//! solid-angle pdf per texel (`values::distribution::pdf_image`), in the same formats but KTX.
+//! Also what a file does not keep of an image's channels, for `Save`'s warnings.
 
-use super::Image;
-use crate::engine::value::{SaveOptions, Value};
+use crate::engine::registry::Registry;
+use crate::engine::save::SaveOptions;
+use crate::engine::value::Value;
 use crate::formats;
+use crate::values::distribution::{pdf_image, Distribution2D};
+use crate::values::{Image, DISTRIBUTION, IMAGE, SCALAR_FIELD};
 
-pub(super) fn save(value: &Value, o: &SaveOptions) -> Result<Vec<u8>, String> {
+/// Registers the savers of images, scalar fields and distributions.
+pub fn register(r: &mut Registry) {
+    r.register_saver(&IMAGE, &["png", "exr", "hdr", "pfm", "ktx2", "ktx"], save);
+    r.register_saver(&SCALAR_FIELD, &["png", "exr", "hdr", "pfm", "ktx2", "ktx"], save);
+    r.register_saver(&DISTRIBUTION, &["png", "exr", "hdr", "pfm"], save_distribution);
+}
+
+fn save(value: &Value, o: &SaveOptions) -> Result<Vec<u8>, String> {
     let img = value.get::<Image>().ok_or("not an image")?;
     if o.ext == "ktx2" || o.ext == "ktx" {
         let rgba = formats::ktx2::image_rgba(img);
@@ -21,6 +33,11 @@ pub(super) fn save(value: &Value, o: &SaveOptions) -> Result<Vec<u8>, String> {
         return bytes.map_err(|e| e.to_string());
     }
     encode_image(img, o)
+}
+
+fn save_distribution(value: &Value, o: &SaveOptions) -> Result<Vec<u8>, String> {
+    let d = value.get::<Distribution2D>().ok_or("not a distribution")?;
+    encode_image(&pdf_image(d), o)
 }
 
 /// Encodes an image as a file of the given extension.
