@@ -14,8 +14,8 @@
 //!   it knows no operator and no value type.
 //! - [`geometry`]: the lat-long and cube conventions, below all of them (it depends on nothing
 //!   but [`choice`]);
-//!   [`cpu`]: the processor features every SIMD path asks for; [`choice`]: the one way to
-//!   declare an enum that pipelines choose by name.
+//!   [`cpu`]: the instruction-set level every SIMD path runs at (`HDRFLOW_CPU`); [`choice`]: the
+//!   one way to declare an enum that pipelines choose by name.
 //!
 //! Running a pipeline from code:
 //! ```no_run
