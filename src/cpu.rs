@@ -1,5 +1,5 @@
 //! Instruction sets, below every other layer: the one place the crate detects the processor's
-//! features, the level every SIMD path runs at, and [`dispatch!`], the macro that compiles a
+//! features, the level every SIMD path runs at, and `dispatch!`, the macro that compiles a
 //! kernel once per level.
 //!
 //! # Levels
@@ -40,7 +40,7 @@
 //! reached only through a dispatcher that asked [`usable`] right before the call.
 //!
 //! - A loop the compiler vectorises is written once, as an `#[inline(always)]` function, and
-//!   [`dispatch!`] compiles it for each level inside a `#[target_feature]` wrapper (the IBL
+//!   `dispatch!` compiles it for each level inside a `#[target_feature]` wrapper (the IBL
 //!   loops of `maths::ibl`, the per-pixel batches of `maths::render::per_pixel::lanes`). A generic
 //!   helper taking a closure (`widest(|| ...)`) was tried and made a bake 12% slower: the
 //!   closure's body was not inlined into the wrapper, so it ran as baseline code.

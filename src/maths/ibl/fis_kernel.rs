@@ -119,7 +119,7 @@ impl PaddedPyramid {
     }
 
     /// The lobe's weighted mean around the unit direction `n` (tangents `t`, `b`): the batched
-    /// loop, compiled for AVX-512 or AVX2 and FMA at those levels ([`lobe_mean_at`], at
+    /// loop, compiled for AVX-512 or AVX2 and FMA at those levels (`lobe_mean_at`, at
     /// [`crate::cpu::level`]).
     pub fn lobe_mean(&self, n: DVec3, t: DVec3, b: DVec3, lobe: &Lobe) -> [f32; 3] {
         lobe_mean_at(crate::cpu::level(), self, [t.as_vec3(), b.as_vec3(), n.as_vec3()], lobe)

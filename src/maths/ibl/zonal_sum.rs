@@ -53,7 +53,7 @@ impl ZonalSource {
     }
 
     /// The filter `f(c)` (zero or negative: the texel is left out) averaged around unit `n`, at
-    /// [`crate::cpu::level`] ([`mean_at`]).
+    /// [`crate::cpu::level`] (`mean_at`).
     #[inline]
     pub fn mean(&self, n: DVec3, f: impl Fn(f64) -> f64 + Copy) -> [f32; 3] {
         mean_at(crate::cpu::level(), self, n, f)

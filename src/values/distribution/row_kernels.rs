@@ -173,7 +173,7 @@ mod x86 {
         _mm512_add_pd(v, _mm512_maskz_permutexvar_pd(0b1111_0000, _mm512_set1_epi64(3), v))
     }
 
-    /// `RowKernel::write_row` in two passes over the row's CDF, which stays in the L1 cache
+    /// `write_row` (level `avx512`) in two passes over the row's CDF, which stays in the L1 cache
     /// between them (16 KiB at 2048 texels): the running sums, with the row's minimum, and then,
     /// when the row is good, their normalisation (`finish_row`). Unlike the portable kernel it
     /// reads the texels once and has one dependency chain (the carry's f64 add per block)
