@@ -7,9 +7,9 @@
 //! - `convert_and_write`: the floor of the distribution's layout, each luminance texel converted
 //!   to f64 and written once into a fresh buffer of the conditional CDFs' size, `h (w + 1)` f64.
 //!
-//! Throughput in texels per second. The build runs the fastest row kernel this processor has
-//! (`cpu::fastest`): the kernels are crate-private, and the distribution's tests check that each
-//! gives the portable kernel's bits.
+//! Throughput in texels per second. The build runs the row kernel of `cpu::level` (the widest
+//! this processor has, or `HDRFLOW_CPU`'s): the kernels are crate-private, and the distribution's
+//! tests check that each gives the portable kernel's bits.
 //!
 //!     cargo bench --bench distribution
 

@@ -30,18 +30,11 @@ fn relight_sphere(c: &mut Criterion) {
     group.finish();
 }
 
-/// The kernels this CPU runs as themselves (`accumulate_wide`'s AVX kernel also needs FMA).
+/// The scalar loop and the kernel of every level above `portable` this CPU has (`portable`'s,
+/// SSE2, runs the scalar loop in `accumulate_wide`).
 fn kernels() -> Vec<Kernel> {
     let mut ks = vec![Kernel::Scalar];
-    #[cfg(target_arch = "x86_64")]
-    {
-        if hdrflow::cpu::has_avx_fma() {
-            ks.push(Kernel::Avx);
-        }
-        if hdrflow::cpu::has_avx512() {
-            ks.push(Kernel::Avx512);
-        }
-    }
+    ks.extend(hdrflow::cpu::available_levels().into_iter().skip(1).map(Kernel::at));
     ks
 }
 

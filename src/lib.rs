@@ -15,9 +15,9 @@
 //!   it knows no operator and no value type.
 //! - [`geometry`]: the lat-long and cube conventions, below all of them (it depends on nothing
 //!   but [`choice`]);
-//!   [`cpu`]: the processor features every SIMD path asks for; [`choice`]: the one way to
-//!   declare an enum that pipelines choose by name; [`colour`]: the Rec. 709 luminance weights
-//!   that maths, formats and operators share.
+//!   [`cpu`]: the instruction-set level every SIMD path runs at (`HDRFLOW_CPU`); [`choice`]: the
+//!   one way to declare an enum that pipelines choose by name; [`colour`]: the Rec. 709 luminance
+//!   weights that maths, formats and operators share.
 //!
 //! Running a pipeline from code:
 //! ```no_run

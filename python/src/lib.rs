@@ -519,6 +519,8 @@ fn cli_main(py: Python<'_>, args: Vec<String>) -> u8 {
 
 #[pymodule]
 fn _hdrflow(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    // A bad HDRFLOW_CPU fails the import, before any work (the kernels would ignore it).
+    hdrflow::cpu::init().map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
     let py = m.py();
     m.add("PipelineError", py.get_type::<PipelineError>())?;
     m.add("RunError", py.get_type::<RunError>())?;

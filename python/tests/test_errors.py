@@ -1,4 +1,9 @@
-"""Errors: PipelineError (a ValueError) with the command line's file:line:col messages, RunError."""
+"""Errors: PipelineError (a ValueError) with the command line's file:line:col messages, RunError;
+a bad HDRFLOW_CPU fails the import."""
+
+import os
+import subprocess
+import sys
 
 import pytest
 
@@ -36,3 +41,12 @@ def test_a_missing_file_and_run_errors():
     with pytest.raises(ValueError, match="writes a file: pass out="):
         hdrflow.run('(nodes: {"env": LoadHdr(path: "builtin:sky"), "s": Save(input: "env", path: "a.exr")})',
                     targets=["s"], no_cache=True)
+
+
+def test_a_bad_hdrflow_cpu_fails_the_import_naming_the_variable():
+    env = dict(os.environ, HDRFLOW_CPU="bogus")
+    r = subprocess.run([sys.executable, "-c", "import hdrflow"], env=env, capture_output=True, text=True)
+    assert r.returncode != 0
+    assert 'RuntimeError: HDRFLOW_CPU="bogus" is not an instruction set' in r.stderr, r.stderr
+    ok = subprocess.run([sys.executable, "-c", "import hdrflow"], env=dict(env, HDRFLOW_CPU="portable"))
+    assert ok.returncode == 0

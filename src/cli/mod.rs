@@ -185,6 +185,11 @@ where
     I: IntoIterator<Item = T>,
     T: Into<std::ffi::OsString> + Clone,
 {
+    // A bad HDRFLOW_CPU is reported before any work (the kernels would ignore it).
+    if let Err(e) = crate::cpu::init() {
+        eprintln!("error: {e}");
+        return ExitCode::from(2);
+    }
     let args: Vec<std::ffi::OsString> = args.into_iter().map(Into::into).collect();
     if let (Some(file), rest) = python::take_python_flag(args.clone()) {
         return python::hand_over(file, rest);

@@ -119,33 +119,10 @@ impl PaddedPyramid {
     }
 
     /// The lobe's weighted mean around the unit direction `n` (tangents `t`, `b`): the batched
-    /// loop, compiled for AVX-512 or AVX2 and FMA when the processor has them.
+    /// loop, compiled for AVX-512 or AVX2 and FMA at those levels (`lobe_mean_at`, at
+    /// [`crate::cpu::level`]).
     pub fn lobe_mean(&self, n: DVec3, t: DVec3, b: DVec3, lobe: &Lobe) -> [f32; 3] {
-        let frame = [t.as_vec3(), b.as_vec3(), n.as_vec3()];
-        #[cfg(target_arch = "x86_64")]
-        {
-            if crate::cpu::has_avx512() {
-                // SAFETY: the processor has AVX-512F and DQ (checked just above).
-                return unsafe { self.lobe_mean_avx512(frame, lobe) };
-            }
-            if crate::cpu::has_avx2() && crate::cpu::has_avx_fma() {
-                // SAFETY: the processor has AVX2 and FMA (checked just above).
-                return unsafe { self.lobe_mean_avx2(frame, lobe) };
-            }
-        }
-        self.lobe_mean_lanes(frame, lobe)
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f,avx512dq")]
-    unsafe fn lobe_mean_avx512(&self, frame: [Vec3; 3], lobe: &Lobe) -> [f32; 3] {
-        self.lobe_mean_lanes(frame, lobe)
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma")]
-    unsafe fn lobe_mean_avx2(&self, frame: [Vec3; 3], lobe: &Lobe) -> [f32; 3] {
-        self.lobe_mean_lanes(frame, lobe)
+        lobe_mean_at(crate::cpu::level(), self, [t.as_vec3(), b.as_vec3(), n.as_vec3()], lobe)
     }
 
     /// The batched loop: per batch, the lanes' face points and levels as arithmetic over
@@ -227,6 +204,15 @@ impl PaddedPyramid {
     }
 }
 
+crate::cpu::dispatch! {
+    #[levels(Avx512, Avx2)]
+    /// [`PaddedPyramid::lobe_mean_lanes`] of `pyramid` in the frame `[t, b, n]`, compiled for
+    /// AVX-512, for AVX2 and FMA, and for the baseline: the same bits at every level.
+    #[inline]
+    fn lobe_mean_at(pyramid: &PaddedPyramid, frame: [Vec3; 3], lobe: &Lobe) -> [f32; 3] =
+        PaddedPyramid::lobe_mean_lanes;
+}
+
 /// `geometry::cubemap::direction_to_face` in f32 with selects instead of branches, for the lane
 /// loops (the same faces, ties and coordinates; tested against it).
 #[inline(always)]
@@ -259,6 +245,7 @@ fn log2_1_to_3(x: f32) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::cpu::Level;
 
     /// The f64 lookup the kernel replaces: bilinear lookup of a cube map at face point (face, a,
     /// b), seamless (`geometry::cubemap::seamless_texel_index`), so lookups are continuous across
@@ -332,6 +319,41 @@ mod tests {
         // difference between two levels' reads.
         eprintln!("kernel vs f64 lookup: worst relative difference {worst:.2e}");
         assert!(worst < 4e-3, "{worst}");
+    }
+
+    /// Every level the processor has gives the portable bits (the same loop, compiled for each).
+    #[test]
+    fn every_level_gives_the_portable_bits() {
+        let levels = crate::cpu::tested_levels();
+        let mut state = 5u64;
+        let mut next = || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut c = Cubemap::new(8);
+        for v in c.data.iter_mut() {
+            *v = (0.1 + 10.0 * next()) as f32;
+        }
+        let pyr = crate::maths::ibl::prefilter::pyramid(&c);
+        let padded = PaddedPyramid::new(&pyr.iter().collect::<Vec<_>>());
+        // 37 samples: two full batches and a padded one.
+        let samples: Vec<LobeSample> = (0..37)
+            .map(|_| {
+                let l = DVec3::new(2.0 * next() - 1.0, 2.0 * next() - 1.0, next()).normalize().as_vec3();
+                LobeSample { l, weight: l.z, lod: (5.0 * next() - 0.5) as f32 }
+            })
+            .collect();
+        let lobe = Lobe::new(&samples);
+        for _ in 0..500 {
+            let n = DVec3::new(2.0 * next() - 1.0, 2.0 * next() - 1.0, 2.0 * next() - 1.0).normalize();
+            let (t, b) = crate::maths::brdf::ggx::basis(n);
+            let frame = [t.as_vec3(), b.as_vec3(), n.as_vec3()];
+            let portable = lobe_mean_at(Level::Portable, &padded, frame, &lobe);
+            for &level in &levels {
+                let got = lobe_mean_at(level, &padded, frame, &lobe);
+                assert_eq!(got.map(f32::to_bits), portable.map(f32::to_bits), "{level} at {n}");
+            }
+        }
     }
 
     #[test]

@@ -6,9 +6,10 @@
 //! enters), with every factor that depends on the sample alone (Charlie's `D`). Each texel is
 //! then a sum over the samples of a few products, one square root and one division (GGX) or a
 //! reciprocal (Charlie), in lanes of 8 that the compiler vectorises, compiled for AVX-512 and AVX2
-//! and dispatched through `crate::cpu`. The per-texel formulas are those of `ggx::dfg` and
-//! `charlie::charlie_lut_texel`, which stay the scalar references: the rows agree with them to
-//! the output's f32 rounding (summation order apart; tested at 1e-6 relative).
+//! and dispatched through `crate::cpu` (the same bits at every level, test). The per-texel
+//! formulas are those of `ggx::dfg` and `charlie::charlie_lut_texel`, which stay the scalar
+//! references: the rows agree with them to the output's f32 rounding (summation order apart;
+//! tested at 1e-6 relative).
 //!
 //! Why by hand: the texel functions draw each half vector again for every texel (two square roots
 //! and a sine and cosine per sample), which made a 4096 x 4096 LUT of 1024 samples, the size
@@ -16,6 +17,7 @@
 
 use rayon::prelude::*;
 
+use crate::cpu::Level;
 use crate::maths::brdf::charlie::v_ashikhmin;
 use crate::maths::brdf::ggx::{points, sample_h, LobeSequence};
 use crate::maths::brdf::specular_lobe::SpecularBrdf;
@@ -87,60 +89,55 @@ fn charlie_samples(roughness: f64, pts: &[[f64; 2]]) -> RowSamples {
 }
 
 /// One row of the DFG texture ([`brdf_lut`]): `out` holds (R, G) per column, n.v = (x + 0.5) /
-/// width, from `pts` (unpadded count `n`).
+/// width, from `pts` (unpadded count `n`); at [`crate::cpu::level`].
 pub fn dfg_row(roughness: f64, pts: &[[f64; 2]], multiscatter: bool, out: &mut [f32]) {
+    dfg_row_at(crate::cpu::level(), roughness, pts, multiscatter, out)
+}
+
+/// [`dfg_row`] at `level`.
+fn dfg_row_at(level: Level, roughness: f64, pts: &[[f64; 2]], multiscatter: bool, out: &mut [f32]) {
     let s = ggx_samples(roughness, pts);
     let a2 = roughness.powi(4);
     let width = out.len() / 2;
     let n = pts.len().max(1) as f64;
     for x in 0..width {
         let nov = (x as f64 + 0.5) / width as f64;
-        let [a, b] = dispatch(|| dfg_texel(&s, nov, a2, multiscatter));
+        let [a, b] = dfg_sums(level, &s, nov, a2, multiscatter);
         out[2 * x] = (a / n) as f32;
         out[2 * x + 1] = (b / n) as f32;
     }
 }
 
 /// One row of the Charlie LUT ([`charlie_lut`]): `out` holds (R, G, B) = (0, 0, LUT) per
-/// column.
+/// column; at [`crate::cpu::level`].
 pub fn charlie_row(roughness: f64, pts: &[[f64; 2]], out: &mut [f32]) {
+    charlie_row_at(crate::cpu::level(), roughness, pts, out)
+}
+
+/// [`charlie_row`] at `level`.
+fn charlie_row_at(level: Level, roughness: f64, pts: &[[f64; 2]], out: &mut [f32]) {
     let s = charlie_samples(roughness, pts);
     let width = out.len() / 3;
     let scale = 8.0 * std::f64::consts::PI / pts.len().max(1) as f64;
     for x in 0..width {
         let nov = (x as f64 + 0.5) / width as f64;
-        let [c, _] = dispatch(|| charlie_texel(&s, nov));
+        let c = charlie_sum(level, &s, nov);
         out[3 * x + 2] = (scale * c) as f32;
     }
 }
 
-/// Runs `f` compiled for the widest instruction set the processor has.
-#[inline]
-fn dispatch(f: impl Fn() -> [f64; 2]) -> [f64; 2] {
-    #[cfg(target_arch = "x86_64")]
-    {
-        if crate::cpu::has_avx512() {
-            // SAFETY: the processor has AVX-512F and DQ (checked just above).
-            return unsafe { avx512(f) };
-        }
-        if crate::cpu::has_avx2() && crate::cpu::has_avx_fma() {
-            // SAFETY: the processor has AVX2 and FMA (checked just above).
-            return unsafe { avx2(f) };
-        }
-    }
-    f()
+crate::cpu::dispatch! {
+    #[levels(Avx512, Avx2)]
+    /// [`dfg_texel`], compiled for AVX-512, for AVX2 and FMA, and for the baseline.
+    #[inline]
+    fn dfg_sums(s: &RowSamples, nov: f64, a2: f64, multiscatter: bool) -> [f64; 2] = dfg_texel;
 }
 
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512dq")]
-unsafe fn avx512(f: impl Fn() -> [f64; 2]) -> [f64; 2] {
-    f()
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-unsafe fn avx2(f: impl Fn() -> [f64; 2]) -> [f64; 2] {
-    f()
+crate::cpu::dispatch! {
+    #[levels(Avx512, Avx2)]
+    /// [`charlie_texel`], compiled for AVX-512, for AVX2 and FMA, and for the baseline.
+    #[inline]
+    fn charlie_sum(s: &RowSamples, nov: f64) -> f64 = charlie_texel;
 }
 
 /// `ggx::dfg`'s sums (not yet divided by the sample count) at `n.v`, `a2` = alpha^2.
@@ -171,9 +168,9 @@ fn dfg_texel(s: &RowSamples, nov: f64, a2: f64, multiscatter: bool) -> [f64; 2] 
     [x.iter().sum(), y.iter().sum()]
 }
 
-/// `charlie::charlie_lut_texel`'s sum (not yet scaled) at `n.v`; the second value is unused.
+/// `charlie::charlie_lut_texel`'s sum (not yet scaled) at `n.v`.
 #[inline(always)]
-fn charlie_texel(s: &RowSamples, nov: f64) -> [f64; 2] {
+fn charlie_texel(s: &RowSamples, nov: f64) -> f64 {
     let sv = (1.0 - nov * nov).max(0.0).sqrt();
     let mut c = [0.0f64; LANES];
     for ((hx, hz), d) in s.hx.chunks_exact(LANES).zip(s.hz.chunks_exact(LANES)).zip(s.d.chunks_exact(LANES)) {
@@ -184,7 +181,7 @@ fn charlie_texel(s: &RowSamples, nov: f64) -> [f64; 2] {
             c[i] += if nol > 0.0 { term } else { 0.0 };
         }
     }
-    [c.iter().sum(), 0.0]
+    c.iter().sum()
 }
 
 #[cfg(test)]
@@ -241,6 +238,37 @@ mod tests {
                     );
                     assert_eq!((row[3 * x], row[3 * x + 1]), (0.0, 0.0));
                 }
+            }
+        }
+    }
+
+    /// Every level the processor has gives the portable rows' bits (the same loops, compiled for
+    /// each).
+    #[test]
+    fn every_level_gives_the_portable_bits() {
+        let levels = crate::cpu::tested_levels();
+        let width = 37;
+        let pts = points(LobeSequence::Sobol, 100);
+        for rough in [0.0005, 0.2, 0.77, 1.0] {
+            for multiscatter in [false, true] {
+                let mut portable = vec![0.0f32; 2 * width];
+                dfg_row_at(Level::Portable, rough, &pts, multiscatter, &mut portable);
+                for &level in &levels {
+                    let mut row = vec![0.0f32; 2 * width];
+                    dfg_row_at(level, rough, &pts, multiscatter, &mut row);
+                    let bits = |r: &[f32]| r.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+                    assert_eq!(bits(&row), bits(&portable), "dfg {level} r {rough} {multiscatter}");
+                }
+            }
+            let mut portable = vec![0.0f32; 3 * width];
+            charlie_row_at(Level::Portable, rough, &pts, &mut portable);
+            for &level in &levels {
+                let mut row = vec![0.0f32; 3 * width];
+                charlie_row_at(level, rough, &pts, &mut row);
+                assert!(
+                    row.iter().zip(&portable).all(|(a, b)| a.to_bits() == b.to_bits()),
+                    "charlie {level} r {rough}"
+                );
             }
         }
     }

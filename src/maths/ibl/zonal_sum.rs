@@ -7,9 +7,9 @@
 //! Why a kernel of its own: `Texels::weighted_mean` visits texel by texel through a closure of
 //! a direction, which the compiler cannot vectorise (and the GGX filter normalises `n + l` per
 //! pair). Here the texels are arrays of f64 per component (structure of arrays), each sum
-//! runs over [`LANES`] independent accumulators, and the loop is compiled for AVX-512 or AVX2
-//! and FMA when the processor has them: the same sums as `weighted_mean` but for the order of
-//! the additions (test: to f32 rounding).
+//! runs over [`LANES`] independent accumulators, and the loop is compiled for AVX-512 and for
+//! AVX2 and FMA (`crate::cpu::dispatch!`; the same bits at every level, test): the same sums as
+//! `weighted_mean` but for the order of the additions (test: to f32 rounding).
 
 use glam::DVec3;
 
@@ -52,33 +52,11 @@ impl ZonalSource {
         src
     }
 
-    /// The filter `f(c)` (zero or negative: the texel is left out) averaged around unit `n`.
+    /// The filter `f(c)` (zero or negative: the texel is left out) averaged around unit `n`, at
+    /// [`crate::cpu::level`] (`mean_at`).
     #[inline]
     pub fn mean(&self, n: DVec3, f: impl Fn(f64) -> f64 + Copy) -> [f32; 3] {
-        #[cfg(target_arch = "x86_64")]
-        {
-            if crate::cpu::has_avx512() {
-                // SAFETY: the processor has AVX-512F and DQ (checked just above).
-                return unsafe { self.mean_avx512(n, f) };
-            }
-            if crate::cpu::has_avx2() && crate::cpu::has_avx_fma() {
-                // SAFETY: the processor has AVX2 and FMA (checked just above).
-                return unsafe { self.mean_avx2(n, f) };
-            }
-        }
-        self.mean_lanes(n, f)
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f,avx512dq")]
-    unsafe fn mean_avx512(&self, n: DVec3, f: impl Fn(f64) -> f64 + Copy) -> [f32; 3] {
-        self.mean_lanes(n, f)
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma")]
-    unsafe fn mean_avx2(&self, n: DVec3, f: impl Fn(f64) -> f64 + Copy) -> [f32; 3] {
-        self.mean_lanes(n, f)
+        mean_at(crate::cpu::level(), self, n, f)
     }
 
     #[inline(always)]
@@ -107,9 +85,19 @@ impl ZonalSource {
     }
 }
 
+crate::cpu::dispatch! {
+    #[levels(Avx512, Avx2)]
+    /// [`ZonalSource::mean_lanes`] of `source`, compiled for AVX-512, for AVX2 and FMA, and for the
+    /// baseline: the same bits at every level.
+    #[inline]
+    fn mean_at(source: &ZonalSource, n: DVec3, f: impl Fn(f64) -> f64 + Copy) -> [f32; 3] =
+        ZonalSource::mean_lanes;
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::cpu::Level;
     use crate::maths::ibl::irradiance_cube::Texels;
 
     #[test]
@@ -127,6 +115,32 @@ mod tests {
             let got = zonal.mean(n, |c| c);
             for k in 0..3 {
                 assert!(((got[k] - want[k]) / want[k]).abs() < 1e-6, "{n}: {got:?} vs {want:?}");
+            }
+        }
+    }
+
+    /// Every level the processor has gives the portable bits, for both filters of a bake (the
+    /// cosine, and a GGX-like lobe with a square root and a division).
+    #[test]
+    fn every_level_gives_the_portable_bits() {
+        let levels = crate::cpu::tested_levels();
+        let mut c = Cubemap::new(5);
+        let mut state = 11u64;
+        for v in c.data.iter_mut() {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            *v = ((state >> 40) as f32 / (1u64 << 24) as f32) * 5.0;
+        }
+        let zonal = ZonalSource::from_cube(&c);
+        let lobe = |c: f64| {
+            let nh = ((1.0 + c) / 2.0).max(0.0).sqrt();
+            let d = nh * nh * (0.09 - 1.0) + 1.0;
+            0.09 / (d * d) * c
+        };
+        for n in [DVec3::Y, DVec3::new(0.3, -0.5, 0.8).normalize(), DVec3::new(-1.0, 1.0, 1.0).normalize()] {
+            let (cosine, ggx) = (mean_at(Level::Portable, &zonal, n, |c| c), mean_at(Level::Portable, &zonal, n, lobe));
+            for &level in &levels {
+                assert_eq!(mean_at(level, &zonal, n, |c| c).map(f32::to_bits), cosine.map(f32::to_bits), "{level}");
+                assert_eq!(mean_at(level, &zonal, n, lobe).map(f32::to_bits), ggx.map(f32::to_bits), "{level}");
             }
         }
     }

@@ -22,10 +22,10 @@
 //! - `acc += c * w` per channel, a product then a sum (no FMA contraction);
 //!
 //! and after the last block sums the 8 lanes in one fixed pairwise order (`hsum`). The
-//! kernels are chosen at run time (`crate::cpu::fastest`): AVX-512 when the CPU has it (four normals
-//! per pass, two per register, each light block broadcast to both halves), AVX otherwise (two
-//! normals per pass, sharing the light loads), SSE2 otherwise on x86_64 (the baseline), and one portable
-//! scalar loop elsewhere (also the reference the tests compare the others with). Results are
+//! kernel is chosen at run time by the `crate::cpu` level ([`Kernel::at`]): AVX-512 (four normals
+//! per pass, two per register, each light block broadcast to both halves), AVX at `avx2` (two
+//! normals per pass, sharing the light loads), SSE2 at `portable` on x86_64 (the baseline), and one
+//! portable scalar loop elsewhere (also the reference the tests compare the others with). Results are
 //! therefore bit-identical on every CPU, whatever the kernel, the number of threads and the
 //! order in which normals are passed.
 //!
@@ -82,7 +82,7 @@
 
 use glam::DVec3;
 
-use crate::cpu;
+use crate::cpu::{self, Level};
 use crate::geometry::unit;
 
 /// Lights per [`Block`]: one AVX register, or two SSE registers, of f32.
@@ -403,39 +403,32 @@ mod x86 {
 pub enum Kernel {
     /// The portable loop: the only one off x86_64, and the reference in tests.
     Scalar,
-    /// x86_64 without AVX (SSE2 is part of the x86_64 baseline).
+    /// Level `portable` on x86_64 (SSE2 is part of the x86_64 baseline).
     #[cfg(target_arch = "x86_64")]
     Sse2,
-    /// The fastest when the CPU has AVX (and not AVX-512).
+    /// Level `avx2`: AVX (with FMA in `accumulate_wide`).
     #[cfg(target_arch = "x86_64")]
     Avx,
-    /// The fastest when the CPU has AVX-512 F and DQ: four normals per pass.
+    /// Level `avx512` (AVX-512 F and DQ): four normals per pass.
     #[cfg(target_arch = "x86_64")]
     Avx512,
 }
 
-impl cpu::Kernels for Kernel {
-    const FASTEST_FIRST: &'static [Kernel] = &[
+impl Kernel {
+    /// The kernel `level` runs (`cpu::level` for the relighting sums and the exact reference):
+    /// SSE2 for `portable` on x86_64 (the scalar loop elsewhere), AVX for `avx2` (with FMA in
+    /// [`Kernel::accumulate_wide`]), AVX-512 for `avx512`.
+    pub fn at(level: Level) -> Kernel {
         #[cfg(target_arch = "x86_64")]
-        Kernel::Avx512,
-        #[cfg(target_arch = "x86_64")]
-        Kernel::Avx,
-        #[cfg(target_arch = "x86_64")]
-        Kernel::Sse2,
-        Kernel::Scalar,
-    ];
-
-    /// What `for_each_sum` needs for the kernel (`accumulate_wide`'s AVX kernel also needs FMA,
-    /// and falls back to the portable loop without it).
-    fn needs(self) -> cpu::Features {
-        match self {
-            Kernel::Scalar => cpu::Features::BASELINE,
-            #[cfg(target_arch = "x86_64")]
-            Kernel::Sse2 => cpu::Features::BASELINE,
-            #[cfg(target_arch = "x86_64")]
-            Kernel::Avx => cpu::Features { avx: true, ..cpu::Features::BASELINE },
-            #[cfg(target_arch = "x86_64")]
-            Kernel::Avx512 => cpu::Features { avx512: true, ..cpu::Features::BASELINE },
+        return match level {
+            Level::Portable => Kernel::Sse2,
+            Level::Avx2 => Kernel::Avx,
+            Level::Avx512 => Kernel::Avx512,
+        };
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            let _ = level;
+            Kernel::Scalar
         }
     }
 }
@@ -444,8 +437,8 @@ impl Kernel {
     /// Calls `out(i, s(normals[i]))` for every normal, in order, with
     /// `s(n) = sum_j max(n . d_j, 0) w_j` over the lights of `blocks` (summed in f32 as the module
     /// documentation says). The AVX kernel takes the normals two at a time. Asked for on a CPU
-    /// without AVX, it runs the SSE2 kernel instead (the same bits; checked on every call, a
-    /// cached atomic load), so any `Kernel` value is safe to pass.
+    /// without its level (`cpu::supports`), a kernel runs the SSE2 one instead (the same bits;
+    /// checked on every call, a cached atomic load), so any `Kernel` value is safe to pass.
     #[inline]
     pub fn for_each_sum(self, blocks: &[Block], normals: &[[f32; 3]], mut out: impl FnMut(usize, [f32; 3])) {
         match self {
@@ -455,7 +448,7 @@ impl Kernel {
                 }
             }
             #[cfg(target_arch = "x86_64")]
-            Kernel::Avx512 if cpu::has_avx512() => {
+            Kernel::Avx512 if cpu::supports(Level::Avx512) => {
                 let mut quads = normals.chunks_exact(4);
                 for (k, q) in quads.by_ref().enumerate() {
                     // SAFETY: the CPU has AVX-512 F and DQ (the match guard).
@@ -476,10 +469,10 @@ impl Kernel {
                 }
             }
             #[cfg(target_arch = "x86_64")]
-            Kernel::Avx | Kernel::Avx512 if cpu::has_avx() => {
+            Kernel::Avx | Kernel::Avx512 if cpu::supports(Level::Avx2) => {
                 let mut pairs = normals.chunks_exact(2);
                 for (k, pair) in pairs.by_ref().enumerate() {
-                    // SAFETY: the CPU has AVX (the match guard).
+                    // SAFETY: the CPU has AVX (the match guard: level `avx2` includes it).
                     let s = unsafe { x86::sum2_avx(blocks, pair[0], pair[1]) };
                     out(2 * k, s[0]);
                     out(2 * k + 1, s[1]);
@@ -508,12 +501,13 @@ impl Kernel {
     /// the end ([`wide_total`]) costs two vector operations per tile and channel instead of a
     /// horizontal sum per tile, and is more accurate. The terms use fused multiply-adds (see
     /// `wide_scalar`). Bit-identical across kernels: AVX-512 takes two normals per pass, AVX with
-    /// FMA one (two registers per component), other CPUs the portable loop.
+    /// FMA one (two registers per component), `Sse2` and `Scalar` (and a kernel whose level the
+    /// CPU lacks) the portable loop.
     pub fn accumulate_wide(self, blocks: &[WideBlock], normals: &[[f32; 3]], acc: &mut [WideSums]) {
         assert_eq!(normals.len(), acc.len(), "one accumulator per normal");
         #[cfg(target_arch = "x86_64")]
         {
-            if self == Kernel::Avx512 && cpu::has_avx512() {
+            if self == Kernel::Avx512 && cpu::supports(Level::Avx512) {
                 let mut pairs = normals.chunks_exact(2).zip(acc.chunks_exact_mut(2));
                 for (p, a) in pairs.by_ref() {
                     let [a0, a1] = a else { unreachable!("chunks of 2") };
@@ -529,9 +523,9 @@ impl Kernel {
                 }
                 return;
             }
-            if matches!(self, Kernel::Avx | Kernel::Avx512) && cpu::has_avx_fma() {
+            if matches!(self, Kernel::Avx | Kernel::Avx512) && cpu::supports(Level::Avx2) {
                 for (n, a) in normals.iter().zip(acc.iter_mut()) {
-                    // SAFETY: the CPU has AVX and FMA (checked above).
+                    // SAFETY: the CPU has AVX and FMA (level `avx2`, checked above).
                     unsafe { x86::wide1_avx(blocks, *n, a) };
                 }
                 return;
@@ -613,9 +607,11 @@ mod tests {
         v.as_vec3().to_array()
     }
 
-    /// Kernels the CPU can run, the portable one first.
+    /// The scalar loop, then the kernel of every level the CPU has.
     fn kernels() -> Vec<Kernel> {
-        cpu::available()
+        let mut all = vec![Kernel::Scalar];
+        all.extend(cpu::tested_levels().into_iter().map(Kernel::at));
+        all
     }
 
     fn sums(kernel: Kernel, blocks: &[Block], normals: &[[f32; 3]]) -> Vec<[f32; 3]> {
@@ -690,6 +686,7 @@ mod tests {
     /// which is why one is needed. Half-angles from 0 to ~80 degrees, many orientations.
     #[test]
     fn culled_pairs_contribute_exactly_zero() {
+        let kernels = kernels();
         for (margin, must_be_safe) in [(CULL_MARGIN, true), (4e-7, true), (0.0, false)] {
             let mut rng = SplitMix64::new(7);
             let (mut culled, mut leaked) = (0usize, 0usize);
@@ -720,7 +717,7 @@ mod tests {
                     let d = a * b.cos() + q * b.sin();
                     let mut blocks = Vec::new();
                     pack_blocks([(f32x3(d), [1.0; 3])], &mut blocks);
-                    for kernel in kernels() {
+                    for &kernel in &kernels {
                         let s = sums(kernel, &blocks, &[f32x3(n)]);
                         if s[0] != [0.0; 3] || s[0][0].is_sign_negative() {
                             leaked += 1;

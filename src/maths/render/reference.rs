@@ -30,9 +30,9 @@
 //!   of the chunk ([`Cone::hides`], with the margin derived in [`crate::maths::render::kernels`]), the
 //!   tile's terms are all exactly `+0`, so skipping it changes no bit of the result;
 //! - the inner loop of [`Kernel::accumulate_wide`], without branches (`fma(max(dot, 0), w, acc)`,
-//!   16 lanes, 7 vector operations a term): AVX-512 (two normals per pass, one register per
-//!   component) when the CPU has it, AVX with FMA (two registers per component) otherwise, the
-//!   portable loop elsewhere. Every lane performs the same f32 operations in the same order
+//!   16 lanes, 7 vector operations a term), at the `crate::cpu` level: AVX-512 (two normals per
+//!   pass, one register per component), AVX with FMA at `avx2` (two registers per component), the
+//!   portable loop at `portable`. Every lane performs the same f32 operations in the same order
 //!   (fused multiply-adds, rounded once, on every CPU), so the result is identical on every CPU
 //!   and whatever the number of threads. Each tile adds its 16 lane sums into f64 lane
 //!   accumulators (two vector operations per channel); the lanes are summed once at the end;
@@ -167,7 +167,7 @@ fn sum_tiles(kernel: Kernel, packed: &Packed, active: &[usize], normals: &[[f32;
 /// other (e.g. pixels in tile order, as [`reference_sphere`] passes them); the result does not
 /// depend on the order, the chunking or the number of threads.
 pub fn irradiance_exact(env: &Image, normals: &[[f64; 3]]) -> Vec<[f64; 3]> {
-    irradiance_exact_with(env, normals, crate::cpu::fastest(), true)
+    irradiance_exact_with(env, normals, Kernel::at(crate::cpu::level()), true)
 }
 
 fn irradiance_exact_with(env: &Image, normals: &[[f64; 3]], kernel: Kernel, cull: bool) -> Vec<[f64; 3]> {
@@ -457,22 +457,14 @@ pub(crate) mod tests {
         };
         let plain = irradiance_exact_with(&env, &ns, Kernel::Scalar, false);
         assert!(same(&plain, &irradiance_exact_with(&env, &ns, Kernel::Scalar, true)));
-        #[cfg(target_arch = "x86_64")]
-        {
-            assert!(same(&plain, &irradiance_exact_with(&env, &ns, Kernel::Sse2, true)));
-            assert!(same(&plain, &irradiance_exact_with(&env, &ns, Kernel::Sse2, false)));
-            if crate::cpu::has_avx() {
-                assert!(same(&plain, &irradiance_exact_with(&env, &ns, Kernel::Avx, true)));
-                // An odd count exercises the unpaired last normal.
-                let odd = &ns[..ns.len() - 1 + ns.len() % 2];
-                assert!(same(&plain[..odd.len()], &irradiance_exact_with(&env, odd, Kernel::Avx, true)));
-            }
-            if crate::cpu::has_avx512() {
-                // Counts 4k + 0..3 exercise the quads and the leftover normals.
-                for cut in 0..4 {
-                    let part = &ns[..ns.len() - cut];
-                    assert!(same(&plain[..part.len()], &irradiance_exact_with(&env, part, Kernel::Avx512, true)));
-                }
+        for level in crate::cpu::tested_levels() {
+            let kernel = Kernel::at(level);
+            assert!(same(&plain, &irradiance_exact_with(&env, &ns, kernel, true)), "{level}");
+            assert!(same(&plain, &irradiance_exact_with(&env, &ns, kernel, false)), "{level}");
+            // Odd and even counts: AVX-512 takes the normals in pairs (an odd count leaves one).
+            for cut in 1..4 {
+                let part = &ns[..ns.len() - cut];
+                assert!(same(&plain[..part.len()], &irradiance_exact_with(&env, part, kernel, true)), "{level}");
             }
         }
         let fast = irradiance_exact(&env, &ns);

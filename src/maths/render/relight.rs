@@ -266,13 +266,13 @@ impl LiveLights {
 /// Speed: bands of 16 rows run in parallel (rayon); within a band, each 16 x 16 tile first drops
 /// the lights that are behind all its normals (they would add exactly 0; see `pack_visible`),
 /// then runs the inner loop of [`crate::maths::render::kernels`] over the remaining lights in f32, laid
-/// out as structure of arrays in blocks of 8, with AVX when the CPU has it (two pixels per pass)
-/// and SSE2 otherwise. The result is deterministic and the same on every CPU (no FMA, fixed
+/// out as structure of arrays in blocks of 8, at the `crate::cpu` level ([`Kernel::at`]: AVX-512,
+/// AVX, two pixels per pass, or SSE2). The result is deterministic and the same on every CPU (no FMA, fixed
 /// summation order). Sums are f32: with 1024 lights
 /// the relative rounding is ~1e-6. Lights with a non-finite weight or direction are ignored:
 /// callers must refuse them first (`RelightSphere` reports them as an error).
 pub fn relight(view: &SphereView, lights: &[LightSample], scale: [f32; 3]) -> Image {
-    relight_with(crate::cpu::fastest(), view, lights, scale)
+    relight_with(Kernel::at(crate::cpu::level()), view, lights, scale)
 }
 
 fn relight_with(kernel: Kernel, view: &SphereView, lights: &[LightSample], scale: [f32; 3]) -> Image {
@@ -632,18 +632,9 @@ mod tests {
         let scale = [0.01, 0.02, 0.03];
         let reference = relight_with(Kernel::Scalar, &view, &lights, scale);
         assert!(reference.data.iter().any(|&v| v > 0.0));
-        #[cfg(target_arch = "x86_64")]
-        {
-            let sse = relight_with(Kernel::Sse2, &view, &lights, scale);
-            assert!(sse.data.iter().zip(&reference.data).all(|(a, b)| a.to_bits() == b.to_bits()));
-            if crate::cpu::has_avx() {
-                let avx = relight_with(Kernel::Avx, &view, &lights, scale);
-                assert!(avx.data.iter().zip(&reference.data).all(|(a, b)| a.to_bits() == b.to_bits()));
-            }
-            if crate::cpu::has_avx512() {
-                let wide = relight_with(Kernel::Avx512, &view, &lights, scale);
-                assert!(wide.data.iter().zip(&reference.data).all(|(a, b)| a.to_bits() == b.to_bits()));
-            }
+        for level in crate::cpu::tested_levels() {
+            let img = relight_with(Kernel::at(level), &view, &lights, scale);
+            assert!(img.data.iter().zip(&reference.data).all(|(a, b)| a.to_bits() == b.to_bits()), "{level}");
         }
         assert_eq!(relight(&view, &lights, scale).data, reference.data);
     }

@@ -29,15 +29,15 @@
 //! Speed: a batch descends level by level, so its reads of one level are in flight together,
 //! each step prefetching the next level's block; a step chooses without branches (the choice is
 //! a coin flip a branch predictor would miss half the time) and rescales both uniforms with one
-//! division; on processors with AVX-512 the 2x2 steps run eight draws at once (gathers of the
-//! four values), with the same bits as the scalar step (a test). Grace (1024x512), one thread,
+//! division; at the AVX-512 level (`crate::cpu`) the 2x2 steps run eight draws at once (gathers
+//! of the four values), with the same bits as the scalar step (a test). Grace (1024x512), one thread,
 //! per-pixel Mis Power Sobol at 1024 spp: the descent alone took the render from 1.24 s (CDF
 //! inversion) to 3.56 s with branches and one draw at a time, to 1.40 s with the above; after
 //! the rest of the sample's arithmetic was vectorised, 0.81 s against inversion's 0.57 s.
 
 use rayon::prelude::*;
 
-use crate::cpu::has_avx512;
+use crate::cpu;
 use crate::maths::prefetch;
 use crate::values::distribution::clamp_unit;
 use crate::values::Distribution2D;
@@ -229,14 +229,21 @@ impl HierarchicalWarp {
     /// Descends every draw of a batch level by level, so the batch's reads of one level are in
     /// flight together (each step prefetches the next level's block). The draws must come
     /// fresh from [`Self::start`] (at the top: node (0, 0)); panics otherwise, since a draw
-    /// descended twice would index past the top levels.
+    /// descended twice would index past the top levels. At [`cpu::level`].
     #[inline]
     pub fn descend(&self, draws: &mut [WarpDraw]) {
+        self.descend_at(cpu::level(), draws)
+    }
+
+    /// [`Self::descend`] at `level`: eight draws at a time at [`cpu::Level::Avx512`] (if the
+    /// processor has it, [`cpu::usable`]), the scalar steps below; the same bits either way.
+    #[inline]
+    pub fn descend_at(&self, level: cpu::Level, draws: &mut [WarpDraw]) {
         assert!(draws.iter().all(|d| d.x == 0 && d.y == 0), "descend takes draws fresh from start");
         #[cfg(target_arch = "x86_64")]
-        if draws.len() >= 8 && has_avx512() {
+        if draws.len() >= 8 && cpu::usable(level) == cpu::Level::Avx512 {
             for group in draws.chunks_mut(x86::GROUP) {
-                // SAFETY: the CPU has AVX-512F and DQ (checked above), and every draw starts at
+                // SAFETY: the CPU has AVX-512F and DQ (`cpu::usable` above), and every draw starts at
                 // node (0, 0) (asserted above), so each level's gathers read the block of a node
                 // the level above chose: inside that level's values.
                 unsafe { x86::descend_group(self, group) };
@@ -290,7 +297,7 @@ impl HierarchicalWarp {
 
 /// The 2x2 step of [`HierarchicalWarp::step`] for 8 draws at once with AVX-512 (one lane per
 /// draw): the same operations in the same order, so the same bits as the scalar step (a test
-/// compares them). The scalar step is the fallback on other processors and for a batch's tail.
+/// compares them). The scalar step runs at the levels below and for a batch's tail.
 #[cfg(target_arch = "x86_64")]
 mod x86 {
     use std::arch::x86_64::*;
@@ -475,9 +482,11 @@ mod tests {
         }
     }
 
-    /// The batch descent (AVX-512 where the processor has it) gives the scalar steps' bits.
+    /// The batch descent, at every level the processor has (AVX-512: eight draws at a time),
+    /// gives the scalar steps' bits.
     #[test]
     fn batch_descent_matches_the_scalar_steps() {
+        let levels = cpu::tested_levels();
         let mut rng = SplitMix64::new(23);
         for map in maps() {
             let dist = Distribution2D::build(&map, true, false).unwrap();
@@ -488,14 +497,21 @@ mod tests {
                 batch[5] = warp.start(1.0, 0.0);
                 batch[9] = warp.start(-0.0, -0.0);
                 let mut scalar = batch.clone();
-                warp.descend(&mut batch);
                 for draw in &mut scalar {
                     for level in (0..warp.levels.len()).rev() {
                         warp.step(level, draw);
                     }
                 }
-                for (a, b) in batch.iter().zip(&scalar) {
-                    assert_eq!((a.x, a.y, a.ux.to_bits(), a.uy.to_bits()), (b.x, b.y, b.ux.to_bits(), b.uy.to_bits()));
+                for &cpu_level in &levels {
+                    let mut descended = batch.clone();
+                    warp.descend_at(cpu_level, &mut descended);
+                    for (a, b) in descended.iter().zip(&scalar) {
+                        assert_eq!(
+                            (a.x, a.y, a.ux.to_bits(), a.uy.to_bits()),
+                            (b.x, b.y, b.ux.to_bits(), b.uy.to_bits()),
+                            "{cpu_level}"
+                        );
+                    }
                 }
             }
         }

@@ -46,7 +46,7 @@
 //! a tiny positive pdf although `sample` never picks it, as before.
 //!
 //! The rows' CDFs are written by the row kernels of `crate::values::distribution::row_kernels` (portable,
-//! AVX2 and AVX-512, the same bits; the fastest the processor has), each row straight into the
+//! AVX2 and AVX-512, the same bits; at `crate::cpu::level`), each row straight into the
 //! buffer's uninitialised capacity (a zeroed allocation is cleared by `calloc` when recycled: a
 //! third of the build at 2048x1024). The buffer is asked to be backed by transparent huge pages
 //! on Linux (`crate::memory::advise_huge_pages`): a fresh buffer of hundreds of MB is otherwise
@@ -66,10 +66,11 @@ pub(crate) mod row_kernels;
 use rayon::prelude::*;
 
 use super::image::Image;
+use crate::cpu::{self, Level};
 use crate::engine::cache::codec::{Reader, Writer};
 use crate::engine::value::{TypeSpec, Value, ValueData, ValueType};
 use crate::geometry::latlong::{texel_of_direction, texel_solid_angle, theta_of_row};
-use crate::values::distribution::row_kernels::RowKernel;
+use crate::values::distribution::row_kernels::write_row;
 
 /// The largest f64 below 1: 1 - 2^-53.
 pub(crate) const ONE_MINUS_EPSILON: f64 = 1.0 - f64::EPSILON / 2.0;
@@ -172,14 +173,14 @@ impl Distribution2D {
     /// order) unless `sanitize`, which maps NaN and negatives (including -Inf) to 0 and +Inf to
     /// `f32::MAX`. See the module documentation for the weights and the all-black fallback.
     pub fn build(luminance: &Image, sin_theta: bool, sanitize: bool) -> Result<Distribution2D, DistributionError> {
-        Self::build_with(luminance, sin_theta, sanitize, crate::cpu::fastest())
+        Self::build_with(luminance, sin_theta, sanitize, cpu::level())
     }
 
     fn build_with(
         luminance: &Image,
         sin_theta: bool,
         sanitize: bool,
-        kernel: RowKernel,
+        level: Level,
     ) -> Result<Distribution2D, DistributionError> {
         if luminance.channels != 1 {
             return Err(DistributionError::Invalid(format!(
@@ -215,7 +216,7 @@ impl Distribution2D {
             .enumerate()
             .map(|(y, crow)| {
                 let src = luminance.row(y);
-                let (mut sum, min) = kernel.write_row(src, crow);
+                let (mut sum, min) = write_row(level, src, crow);
                 if !(sum.is_finite() && min >= 0.0) {
                     // A bad texel: name the first, or redo the row from its sanitised copy
                     // (which has none, so the kernel writes it all).
@@ -223,7 +224,7 @@ impl Distribution2D {
                     for (x, &v) in src.iter().enumerate() {
                         clean.push(sanitised(v, sanitize).ok_or((x, v))?);
                     }
-                    sum = kernel.write_row(&clean, crow).0;
+                    sum = write_row(level, &clean, crow).0;
                 }
                 let weight = if sin_theta { sum * theta_of_row(y, h).sin() } else { sum };
                 Ok((weight, sum * texel_solid_angle(y, w, h)))
@@ -616,16 +617,12 @@ mod tests {
         }
     }
 
-    /// The AVX-512 row kernel gives the portable kernel's bits: every row length modulo 8,
-    /// zero rows, a 1e30 sun beside 1e-3 sky, subnormals, f32::MAX, and bad texels (the same
-    /// error, or with `sanitize` the same distribution).
+    /// The row kernel of every level the processor has gives the portable kernel's bits: every
+    /// row length modulo 8, zero rows, a 1e30 sun beside 1e-3 sky, subnormals, f32::MAX, and bad
+    /// texels (the same error, or with `sanitize` the same distribution).
     #[test]
     fn row_kernels_give_the_same_bits() {
-        let kernels = crate::cpu::available::<RowKernel>();
-        if kernels.len() == 1 {
-            eprintln!("skipped: this processor has neither AVX-512 nor AVX2, so only the portable kernel runs");
-            return;
-        }
+        let levels = cpu::tested_levels();
         let mut maps = Vec::new();
         for w in (1..=41).chain([2048, 2051]) {
             maps.push(random_map(w, 5, w as u64, Some(2)));
@@ -665,7 +662,7 @@ mod tests {
         }
         // Row by row: the same (sum, min) bits, and for a good row the same entries; a map
         // without bad texels has only good rows (so `build_with` never redoes a row that the
-        // AVX-512 kernel wrongly called bad, which the comparison of whole builds would hide).
+        // SIMD kernel wrongly called bad, which the comparison of whole builds would hide).
         for (i, img) in maps.iter().enumerate() {
             let w = img.width;
             for y in 0..img.height {
@@ -673,29 +670,29 @@ mod tests {
                 let bits =
                     |r: &[MaybeUninit<f64>]| r.iter().map(|e| unsafe { e.assume_init() }.to_bits()).collect::<Vec<_>>();
                 let mut portable = vec![MaybeUninit::new(f64::NAN); w + 1];
-                let (sum, min) = RowKernel::Portable.write_row(img.row(y), &mut portable);
+                let (sum, min) = write_row(Level::Portable, img.row(y), &mut portable);
                 let good = sum.is_finite() && min >= 0.0;
                 assert!(good || i >= clean_maps, "map {i} row {y} has no bad texel");
-                for &kernel in &kernels[1..] {
+                for &level in &levels[1..] {
                     let mut row = vec![MaybeUninit::new(f64::NAN); w + 1];
-                    let (s, m) = kernel.write_row(img.row(y), &mut row);
+                    let (s, m) = write_row(level, img.row(y), &mut row);
                     assert_eq!(
                         (s.to_bits(), m.to_bits()),
                         (sum.to_bits(), min.to_bits()),
-                        "{kernel:?} {w}x{} row {y}",
+                        "{level} {w}x{} row {y}",
                         img.height
                     );
                     if good {
-                        assert_eq!(bits(&row), bits(&portable), "{kernel:?} {w}x{} row {y}", img.height);
+                        assert_eq!(bits(&row), bits(&portable), "{level} {w}x{} row {y}", img.height);
                     }
                 }
             }
         }
         for img in &maps {
             for (sin_theta, sanitize) in [(true, false), (false, false), (true, true)] {
-                for &kernel in &kernels[1..] {
-                    let portable = Distribution2D::build_with(img, sin_theta, sanitize, RowKernel::Portable);
-                    let simd = Distribution2D::build_with(img, sin_theta, sanitize, kernel);
+                for &level in &levels[1..] {
+                    let portable = Distribution2D::build_with(img, sin_theta, sanitize, Level::Portable);
+                    let simd = Distribution2D::build_with(img, sin_theta, sanitize, level);
                     match (portable, simd) {
                         (Ok(a), Ok(b)) => {
                             let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
@@ -710,7 +707,7 @@ mod tests {
                             assert_eq!(a, b);
                         }
                         (Err(a), Err(b)) => assert_eq!(a.to_string(), b.to_string()),
-                        (a, b) => panic!("{kernel:?} {}x{}: {a:?} against {b:?}", img.width, img.height),
+                        (a, b) => panic!("{level} {}x{}: {a:?} against {b:?}", img.width, img.height),
                     }
                 }
             }

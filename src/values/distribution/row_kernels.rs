@@ -3,7 +3,7 @@
 //! last non-zero texel on), and reports the row's sum and smallest texel so that the caller can
 //! tell a row with a bad texel (NaN, an infinity, a negative) and redo it from a sanitised copy.
 //!
-//! Three kernels give the same bits ([`RowKernel`], dispatched through [`crate::cpu`]). The
+//! Three kernels give the same bits ([`write_row`], one per [`crate::cpu`] level). The
 //! portable one reads each row twice (it is in cache the second time) and writes its CDF once:
 //! `row_sum` finds the row's sum (and, from the sum and the row's minimum, whether it holds a
 //! bad texel), then `write_row_cdf` writes the normalised running sums directly, multiplying by
@@ -19,7 +19,7 @@
 
 use std::mem::MaybeUninit;
 
-use crate::cpu;
+use crate::cpu::{self, Level};
 
 /// Block `b` of 8 texels' own prefix sums, as a small tree that does not depend on the blocks
 /// before it: `[v0, v0+v1, ..., v0+...+v7]` (non-decreasing for non-negative texels, and equal
@@ -112,67 +112,34 @@ fn write_uniform_cdf<S: CdfSlot>(cdf: &mut [S]) {
     }
 }
 
-/// Which code writes the rows' CDFs. All give the same bits (a test compares them on rows of
-/// every length modulo 8, zero rows, -0.0, huge dynamic ranges and bad texels);
-/// `Distribution2D::build` takes the fastest the processor has (`crate::cpu::fastest`).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub(crate) enum RowKernel {
-    /// `row_sum`, then `write_row_cdf`: scalar code, every processor (0.51 ns a texel on one
-    /// row in the L1 cache, on this project's Zen 5 machine).
-    Portable,
-    /// `x86::write_row_cdf`: the same operations on 8 lanes (AVX-512F and DQ; 0.20 ns a texel).
-    #[cfg(target_arch = "x86_64")]
-    Avx512,
-    /// `x86::write_row_cdf_avx2`: the same on two halves of 4 lanes (AVX2; 0.25 ns a texel), for
-    /// the processors without AVX-512.
-    #[cfg(target_arch = "x86_64")]
-    Avx2,
-}
-
-impl cpu::Kernels for RowKernel {
-    const FASTEST_FIRST: &'static [RowKernel] = &[
+/// Writes row `src`'s conditional CDF into `cdf` (`src.len() + 1` slots) if the row is free of
+/// bad texels, and returns `row_sum(src)`: `(sum, min)`. A row with a bad texel (`sum` not
+/// finite or `min < 0`) leaves `cdf` partly written, for the caller to redo.
+///
+/// The kernel is `level`'s ([`cpu::usable`]: a level the processor lacks runs the widest it has),
+/// and all give the same bits (a test compares them on rows of every length modulo 8, zero rows,
+/// -0.0, huge dynamic ranges and bad texels); `Distribution2D::build` runs at [`cpu::level`]:
+/// - portable: `row_sum`, then `write_row_cdf`: scalar code, every processor (0.51 ns a texel on
+///   one row in the L1 cache, on this project's Zen 5 machine);
+/// - AVX-512: `x86::write_row_cdf`, the same operations on 8 lanes (AVX-512F and DQ; 0.20 ns a
+///   texel);
+/// - AVX2: `x86::write_row_cdf_avx2`, the same on two halves of 4 lanes (0.25 ns a texel), for
+///   the processors without AVX-512.
+#[inline]
+pub(crate) fn write_row(level: Level, src: &[f32], cdf: &mut [MaybeUninit<f64>]) -> (f64, f32) {
+    match cpu::usable(level) {
+        // SAFETY (both arms): `cpu::usable` gave a level the processor has (the level alone
+        // would not: any code in the crate can name it).
         #[cfg(target_arch = "x86_64")]
-        RowKernel::Avx512,
+        Level::Avx512 => unsafe { x86::write_row_cdf(src, cdf) },
         #[cfg(target_arch = "x86_64")]
-        RowKernel::Avx2,
-        RowKernel::Portable,
-    ];
-
-    fn needs(self) -> cpu::Features {
-        match self {
-            RowKernel::Portable => cpu::Features::BASELINE,
-            #[cfg(target_arch = "x86_64")]
-            RowKernel::Avx512 => cpu::Features { avx512: true, ..cpu::Features::BASELINE },
-            #[cfg(target_arch = "x86_64")]
-            RowKernel::Avx2 => cpu::Features { avx2: true, ..cpu::Features::BASELINE },
-        }
-    }
-}
-
-impl RowKernel {
-    /// Writes row `src`'s conditional CDF into `cdf` (`src.len() + 1` slots) if the row is free
-    /// of bad texels, and returns `row_sum(src)`: `(sum, min)`. A row with a bad texel (`sum`
-    /// not finite or `min < 0`) leaves `cdf` partly written, for the caller to redo. A SIMD
-    /// kernel the processor lacks runs the portable one.
-    #[inline]
-    pub(crate) fn write_row(self, src: &[f32], cdf: &mut [MaybeUninit<f64>]) -> (f64, f32) {
-        if !cpu::runs(self) {
-            return RowKernel::Portable.write_row(src, cdf);
-        }
-        match self {
-            RowKernel::Portable => {
-                let (sum, min) = row_sum(src);
-                if sum.is_finite() && min >= 0.0 {
-                    write_row_cdf(src, sum, cdf);
-                }
-                (sum, min)
+        Level::Avx2 => unsafe { x86::write_row_cdf_avx2(src, cdf) },
+        _ => {
+            let (sum, min) = row_sum(src);
+            if sum.is_finite() && min >= 0.0 {
+                write_row_cdf(src, sum, cdf);
             }
-            // SAFETY (both arms): `cpu::runs` checked the processor has the kernel's features
-            // (the variant alone would not: any code in the crate can name it).
-            #[cfg(target_arch = "x86_64")]
-            RowKernel::Avx512 => unsafe { x86::write_row_cdf(src, cdf) },
-            #[cfg(target_arch = "x86_64")]
-            RowKernel::Avx2 => unsafe { x86::write_row_cdf_avx2(src, cdf) },
+            (sum, min)
         }
     }
 }
@@ -206,7 +173,7 @@ mod x86 {
         _mm512_add_pd(v, _mm512_maskz_permutexvar_pd(0b1111_0000, _mm512_set1_epi64(3), v))
     }
 
-    /// `RowKernel::write_row` in two passes over the row's CDF, which stays in the L1 cache
+    /// `write_row` (level `avx512`) in two passes over the row's CDF, which stays in the L1 cache
     /// between them (16 KiB at 2048 texels): the running sums, with the row's minimum, and then,
     /// when the row is good, their normalisation (`finish_row`). Unlike the portable kernel it
     /// reads the texels once and has one dependency chain (the carry's f64 add per block)

@@ -1,6 +1,8 @@
 //! The batch's lane loops: a batch of [`BATCH`] samples as structure-of-arrays loops over its
-//! lanes, each compiled for AVX-512 and for the baseline ([`avx512_batch!`]) with the same bits;
-//! the cosine and uniform directions, the points inside environment texels and `Mis`'s weights.
+//! lanes, each compiled for AVX-512 and for the baseline ([`cpu::dispatch!`]: the dispatcher takes
+//! the [`Level`](cpu::Level), and a level below AVX-512 runs the baseline compilation) with the same bits (the
+//! two run the same IEEE operations in the same order); the cosine and uniform directions, the
+//! points inside environment texels and `Mis`'s weights.
 
 use std::f64::consts::PI;
 
@@ -9,54 +11,6 @@ use glam::DVec3;
 use crate::cpu;
 use crate::geometry::latlong_grid::{point_in_band, sincos_turns, LatLongGrid};
 use crate::maths::sampling::mis::Heuristic;
-
-/// Which compilation of the batch lane loops runs (see [`avx512_batch!`]): both give the same bits.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub(super) enum BatchKernel {
-    /// Compiled for AVX-512F and DQ; asked for without them (or off x86_64), `Baseline` runs.
-    Avx512,
-    /// The baseline compilation, every processor.
-    Baseline,
-}
-
-impl cpu::Kernels for BatchKernel {
-    const FASTEST_FIRST: &'static [BatchKernel] = &[BatchKernel::Avx512, BatchKernel::Baseline];
-
-    fn needs(self) -> cpu::Features {
-        match self {
-            BatchKernel::Avx512 => cpu::Features { avx512: true, ..cpu::Features::BASELINE },
-            BatchKernel::Baseline => cpu::Features::BASELINE,
-        }
-    }
-}
-
-/// Declares `$batch(kernel, args)`: the lane loop `$lanes(args)` compiled a second time, as
-/// `$avx512`, for AVX-512F and DQ, and called for [`BatchKernel::Avx512`] when the processor has
-/// them ([`cpu::has_avx512`], checked on every call: a cached load); otherwise, and off x86_64,
-/// the baseline compilation. The two run the same IEEE operations in the same order, so they
-/// give the same bits. `$batch` has visibility `$vis`; [`BatchKernel`] must be in scope.
-macro_rules! avx512_batch {
-    ($(#[$doc:meta])* $vis:vis fn $batch:ident / $avx512:ident = $lanes:ident($($arg:ident: $ty:ty),* $(,)?)) => {
-        #[cfg(target_arch = "x86_64")]
-        #[target_feature(enable = "avx512f,avx512dq")]
-        unsafe fn $avx512($($arg: $ty),*) {
-            $lanes($($arg),*)
-        }
-
-        $(#[$doc])*
-        #[inline(always)]
-        $vis fn $batch(kernel: BatchKernel, $($arg: $ty),*) {
-            #[cfg(target_arch = "x86_64")]
-            if kernel == BatchKernel::Avx512 && $crate::cpu::has_avx512() {
-                // SAFETY: the processor has AVX-512F and DQ (checked just above).
-                return unsafe { $avx512($($arg),*) };
-            }
-            let _ = kernel;
-            $lanes($($arg),*)
-        }
-    };
-}
-pub(super) use avx512_batch;
 
 /// Samples processed per batch: the texels of a batch are found first and read second, so the
 /// processor has a batch's worth of independent memory reads in flight instead of one chain per
@@ -109,13 +63,15 @@ pub(super) struct CosineBatch<'g> {
     pub(super) grid: &'g LatLongGrid,
 }
 
-avx512_batch! {
-    /// [`cosine_batch_lanes`], with AVX-512 when asked and the processor has it.
-    pub(super) fn cosine_batch / cosine_batch_avx512 = cosine_batch_lanes(
+cpu::dispatch! {
+    #[levels(Avx512)]
+    /// [`cosine_batch_lanes`], compiled for AVX-512 and the baseline.
+    #[inline(always)]
+    pub(super) fn cosine_batch(
         batch: &CosineBatch,
         out: &mut [[f64; BATCH]; 3],
-        guess: &mut [[f64; BATCH]; 2]
-    )
+        guess: &mut [[f64; BATCH]; 2],
+    ) = cosine_batch_lanes;
 }
 
 /// A batch's environment directions, [`point_in_band`] lane by lane: `band[0..3][i]` are the
@@ -128,13 +84,12 @@ fn band_point_lanes(band: &[[f64; BATCH]; 3], v: &[f64; BATCH], out: &mut [[f64;
     }
 }
 
-avx512_batch! {
-    /// [`band_point_lanes`], with AVX-512 when asked and the processor has it.
-    pub(super) fn band_point_batch / band_point_avx512 = band_point_lanes(
-        band: &[[f64; BATCH]; 3],
-        v: &[f64; BATCH],
-        out: &mut [[f64; BATCH]; 3]
-    )
+cpu::dispatch! {
+    #[levels(Avx512)]
+    /// [`band_point_lanes`], compiled for AVX-512 and the baseline.
+    #[inline(always)]
+    pub(super) fn band_point_batch(band: &[[f64; BATCH]; 3], v: &[f64; BATCH], out: &mut [[f64; BATCH]; 3]) =
+        band_point_lanes;
 }
 
 /// A `Mis` batch's stage 2 inputs, structure of arrays, technique `t` (0 environment, 1
@@ -181,9 +136,11 @@ fn mis_lanes(batch: &MisBatch, count: usize, sums: &mut [[f64; BATCH]; 3]) {
     }
 }
 
-avx512_batch! {
-    /// [`mis_lanes`], with AVX-512 when asked and the processor has it.
-    pub(super) fn mis_batch / mis_avx512 = mis_lanes(batch: &MisBatch, count: usize, sums: &mut [[f64; BATCH]; 3])
+cpu::dispatch! {
+    #[levels(Avx512)]
+    /// [`mis_lanes`], compiled for AVX-512 and the baseline.
+    #[inline(always)]
+    pub(super) fn mis_batch(batch: &MisBatch, count: usize, sums: &mut [[f64; BATCH]; 3]) = mis_lanes;
 }
 
 /// A uniform direction on the unit sphere (pdf `1 / (4 pi)`).
@@ -219,12 +176,11 @@ mod tests {
         }
     }
 
+    /// Each level the processor has gives the scalar lanes' bits (the AVX-512 compilation where
+    /// the processor has it; below, the dispatcher's baseline one).
     #[test]
     fn batch_functions_match_their_scalar_lanes() {
-        if !cpu::runs(BatchKernel::Avx512) {
-            eprintln!("no AVX-512 here: only the scalar lanes run");
-            return;
-        }
+        let levels = cpu::tested_levels();
         let mut rng = SplitMix64::new(41);
         let grid = LatLongGrid::new(64, 32);
         for round in 0..2000 {
@@ -251,21 +207,24 @@ mod tests {
                 band[0][3] = 1.0;
                 v[4] = 0.0;
             }
-            let (mut scalar, mut wide) = ([[0.0; BATCH]; 3], [[0.0; BATCH]; 3]);
-            let (mut scalar_guess, mut wide_guess) = ([[0.0; BATCH]; 2], [[0.0; BATCH]; 2]);
+            let (mut scalar, mut scalar_guess, mut scalar_band) =
+                ([[0.0; BATCH]; 3], [[0.0; BATCH]; 2], [[0.0; BATCH]; 3]);
             cosine_batch_lanes(&cosine, &mut scalar, &mut scalar_guess);
-            cosine_batch(BatchKernel::Avx512, &cosine, &mut wide, &mut wide_guess);
-            assert_eq!(scalar.map(|a| a.map(f64::to_bits)), wide.map(|a| a.map(f64::to_bits)));
-            assert_eq!(scalar_guess.map(|a| a.map(f64::to_bits)), wide_guess.map(|a| a.map(f64::to_bits)));
-            band_point_lanes(&band, &v, &mut scalar);
-            band_point_batch(BatchKernel::Avx512, &band, &v, &mut wide);
-            assert_eq!(scalar.map(|a| a.map(f64::to_bits)), wide.map(|a| a.map(f64::to_bits)));
+            band_point_lanes(&band, &v, &mut scalar_band);
+            for &level in &levels {
+                let (mut wide, mut wide_guess) = ([[0.0; BATCH]; 3], [[0.0; BATCH]; 2]);
+                cosine_batch(level, &cosine, &mut wide, &mut wide_guess);
+                assert_eq!(scalar.map(|a| a.map(f64::to_bits)), wide.map(|a| a.map(f64::to_bits)), "{level}");
+                assert_eq!(scalar_guess.map(|a| a.map(f64::to_bits)), wide_guess.map(|a| a.map(f64::to_bits)));
+                band_point_batch(level, &band, &v, &mut wide);
+                assert_eq!(scalar_band.map(|a| a.map(f64::to_bits)), wide.map(|a| a.map(f64::to_bits)), "{level}");
+            }
             // Stage 2 of Mis on those directions, some densities 0 (as below the horizon).
             let heuristic = Heuristic::ALL[round % 2];
             let mut mis = MisBatch {
                 normal: n,
                 heuristic,
-                dir: [scalar, wide],
+                dir: [scalar_band, scalar_band],
                 radiance: [[[0.0; BATCH]; 3]; 2],
                 pdf: [[0.0; BATCH]; 2],
             };
@@ -278,11 +237,14 @@ mod tests {
                 }
             }
             let count = 1 + round % BATCH;
-            let (mut scalar_sums, mut wide_sums) = ([[0.5; BATCH]; 3], [[0.5; BATCH]; 3]);
+            let mut scalar_sums = [[0.5; BATCH]; 3];
             mis_lanes(&mis, count, &mut scalar_sums);
-            mis_batch(BatchKernel::Avx512, &mis, count, &mut wide_sums);
-            assert_eq!(scalar_sums.map(|a| a.map(f64::to_bits)), wide_sums.map(|a| a.map(f64::to_bits)));
             assert!(scalar_sums.iter().all(|lanes| lanes[count..].iter().all(|&v| v == 0.5)), "lanes past count");
+            for &level in &levels {
+                let mut wide_sums = [[0.5; BATCH]; 3];
+                mis_batch(level, &mis, count, &mut wide_sums);
+                assert_eq!(scalar_sums.map(|a| a.map(f64::to_bits)), wide_sums.map(|a| a.map(f64::to_bits)), "{level}");
+            }
         }
     }
 }

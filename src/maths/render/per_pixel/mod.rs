@@ -66,8 +66,8 @@
 //!   cosine technique's arithmetic runs between the stages (its directions while the guide
 //!   entries arrive, its texel lookups while the CDF entries do);
 //! - the batch's arithmetic runs as structure-of-arrays loops over its 16 lanes, compiled twice:
-//!   for AVX-512 (8 f64 lanes, chosen at run time when the processor has AVX-512F and DQ) and
-//!   for the baseline (the one scalar fallback). The loops are the uniforms
+//!   for AVX-512 (8 f64 lanes, run at the `crate::cpu` level `avx512`) and for the baseline (the
+//!   one scalar fallback, run at the levels below). The loops are the uniforms
 //!   ([`SplitMix64::peek`] makes a counter-based generator's draws independent of each other),
 //!   the cosine directions with their texel guesses, the environment directions, and `Mis`'s
 //!   weights and sums; the table reads between them stay scalar. Both compilations perform the
@@ -443,9 +443,8 @@ mod tests {
         }
     }
 
-    /// The AVX-512 batch functions (where this processor has them) give the scalar lanes' bits,
-    /// so an image does not depend on the machine either.
-
+    /// The same bits whatever the thread count; and since the batch functions give the scalar
+    /// lanes' bits at every level (`lanes`' and `uniforms`' tests), whatever the machine.
     #[test]
     fn identical_whatever_the_thread_count() {
         let env = small_random_map();

@@ -15,8 +15,7 @@ use crate::maths::sampling::mis::Heuristic;
 use crate::values::{Distribution2D, Image};
 
 use super::lanes::{
-    band_point_batch, cosine_batch, cosine_in_basis, mis_batch, sample_uniform, BatchKernel, CosineBatch, MisBatch,
-    BATCH,
+    band_point_batch, cosine_batch, cosine_in_basis, mis_batch, sample_uniform, CosineBatch, MisBatch, BATCH,
 };
 use super::uniforms::PixelUniforms;
 use super::{PerPixelStrategy, PerPixelWarp};
@@ -41,8 +40,8 @@ pub(super) struct Scene<'a> {
     records: Vec<TexelRecord>,
     /// How the environment technique draws its texel; `None` for `Cosine` and `Uniform`.
     texels: Option<TexelSampler<'a>>,
-    /// Which compilation of the batch functions runs (the fastest the processor has).
-    kernel: BatchKernel,
+    /// The level the batch functions and the hierarchical descent run at (`cpu::level`).
+    level: cpu::Level,
 }
 
 /// The environment technique's texel sampler, one per [`PerPixelWarp`].
@@ -67,12 +66,12 @@ impl TexelSampler<'_> {
         }
     }
 
-    /// Stage 2 for the batch's first `count` draws.
+    /// Stage 2 for the batch's first `count` draws (the hierarchical descent at `level`).
     #[inline(always)]
-    fn resume(&self, draws: &mut BatchDraws, count: usize) {
+    fn resume(&self, level: cpu::Level, draws: &mut BatchDraws, count: usize) {
         match self {
             TexelSampler::Guided(g) => draws.guided[..count].iter_mut().for_each(|d| g.resume(d)),
-            TexelSampler::Hierarchical(h) => h.descend(&mut draws.warp[..count]),
+            TexelSampler::Hierarchical(h) => h.descend_at(level, &mut draws.warp[..count]),
         }
     }
 
@@ -128,7 +127,7 @@ impl<'a> Scene<'a> {
             PerPixelWarp::Inversion => TexelSampler::Guided(GuidedDistribution::new(dist)),
             PerPixelWarp::Hierarchical => TexelSampler::Hierarchical(HierarchicalWarp::new(dist)),
         });
-        Scene { env, grid, records, texels, kernel: cpu::fastest() }
+        Scene { env, grid, records, texels, level: cpu::level() }
     }
 
     #[inline]
@@ -189,11 +188,11 @@ impl<'a> Scene<'a> {
             match strategy {
                 PerPixelStrategy::Environment => {
                     let sampler = self.texels.as_ref().expect("built for this strategy");
-                    uniforms.batch(self.kernel, start, count, 1, &mut batch_uniforms);
+                    uniforms.batch(self.level, start, count, 1, &mut batch_uniforms);
                     for i in 0..count {
                         sampler.start(&mut draws, i, batch_uniforms[0][i], batch_uniforms[1][i]);
                     }
-                    sampler.resume(&mut draws, count);
+                    sampler.resume(self.level, &mut draws, count);
                     for i in 0..count {
                         texels[i] = sampler.finish_texel(&draws, i);
                         self.prefetch_record(texels[i]);
@@ -203,7 +202,7 @@ impl<'a> Scene<'a> {
                     }
                 }
                 PerPixelStrategy::Cosine | PerPixelStrategy::Uniform => {
-                    uniforms.batch(self.kernel, start, count, 1, &mut batch_uniforms);
+                    uniforms.batch(self.level, start, count, 1, &mut batch_uniforms);
                     for i in 0..count {
                         let (u1, u2) = (batch_uniforms[0][i], batch_uniforms[1][i]);
                         dirs[i] = if strategy == PerPixelStrategy::Cosine {
@@ -219,15 +218,15 @@ impl<'a> Scene<'a> {
                     // The environment technique's texel search runs in stages between which
                     // the batch's reads are prefetched (see `GuidedDistribution::start`); the
                     // cosine technique's arithmetic fills the wait.
-                    uniforms.batch(self.kernel, start, count, 2, &mut batch_uniforms);
+                    uniforms.batch(self.level, start, count, 2, &mut batch_uniforms);
                     for i in 0..count {
                         sampler.start(&mut draws, i, batch_uniforms[0][i], batch_uniforms[1][i]);
                     }
                     cosine.u = [batch_uniforms[2], batch_uniforms[3]];
                     // Cosine technique: the directions (arithmetic only, while the guide
                     // entries arrive) ...
-                    cosine_batch(self.kernel, &cosine, &mut mis.dir[1], &mut cosine_guesses);
-                    sampler.resume(&mut draws, count);
+                    cosine_batch(self.level, &cosine, &mut mis.dir[1], &mut cosine_guesses);
+                    sampler.resume(self.level, &mut draws, count);
                     // ... and the texels containing them (while the CDF entries arrive).
                     for i in 0..count {
                         let guess = [cosine_guesses[0][i], cosine_guesses[1][i]];
@@ -245,7 +244,7 @@ impl<'a> Scene<'a> {
                         [env_band[0][i], env_band[1][i], env_band[2][i]] = [self.grid.turns_in_column(x, rx), c0, c1];
                         env_v[i] = ry;
                     }
-                    band_point_batch(self.kernel, &env_band, &env_v, &mut mis.dir[0]);
+                    band_point_batch(self.level, &env_band, &env_v, &mut mis.dir[0]);
                     // Stage 2: the records, then the weights and sums lane by lane.
                     for i in 0..count {
                         for t in 0..2 {
@@ -254,7 +253,7 @@ impl<'a> Scene<'a> {
                             mis.pdf[t][i] = r.pdf;
                         }
                     }
-                    mis_batch(self.kernel, &mis, count, &mut lane_sums);
+                    mis_batch(self.level, &mis, count, &mut lane_sums);
                 }
             }
             // Stage 2: read the texels' records and accumulate, in sample order.

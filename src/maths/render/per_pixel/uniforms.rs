@@ -3,7 +3,9 @@
 
 use crate::maths::sampling::sequences::{bits_to_unit, nested_uniform_scramble, sobol_2d_bits, unit_f64, SplitMix64};
 
-use super::lanes::{avx512_batch, BatchKernel, BATCH};
+use crate::cpu;
+
+use super::lanes::BATCH;
 use super::PerPixelSequence;
 
 /// One pixel's source of 2D uniforms (see [`PerPixelSequence`]).
@@ -37,18 +39,19 @@ impl PixelUniforms {
     /// 32 bits (2.3e-10) are far finer than any texel, so `Random` takes both from one 64-bit
     /// draw. Each sample draws its requests in order, then the next sample, and the pixel's
     /// generator advances by the `count` samples' draws. Lanes past `count` are filled too (a
-    /// fixed-length loop vectorises; they are unused). `kernel` as in [`avx512_batch!`].
+    /// fixed-length loop vectorises; they are unused). `level` chooses the compilation
+    /// ([`cpu::dispatch!`]).
     #[inline(always)]
     pub(super) fn batch(
         &mut self,
-        kernel: BatchKernel,
+        level: cpu::Level,
         start: usize,
         count: usize,
         requests: usize,
         out: &mut [[f64; BATCH]; 4],
     ) {
         let lanes = UniformLanes { rng: &self.rng, sobol: self.sobol, start, requests };
-        uniform_batch(kernel, &lanes, out);
+        uniform_batch(level, &lanes, out);
         self.rng.skip((count * lanes.draws_per_sample()) as u64);
     }
 }
@@ -109,15 +112,16 @@ fn uniform_lanes(lanes: &UniformLanes, out: &mut [[f64; BATCH]; 4]) {
     }
 }
 
-avx512_batch! {
-    /// [`uniform_lanes`], with AVX-512 when asked and the processor has it.
-    fn uniform_batch / uniform_lanes_avx512 = uniform_lanes(lanes: &UniformLanes, out: &mut [[f64; BATCH]; 4])
+cpu::dispatch! {
+    #[levels(Avx512)]
+    /// [`uniform_lanes`], compiled for AVX-512 and the baseline.
+    #[inline(always)]
+    fn uniform_batch(lanes: &UniformLanes, out: &mut [[f64; BATCH]; 4]) = uniform_lanes;
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::cpu;
     use crate::maths::render::per_pixel::pixel_seed;
 
     /// Sample `j`'s request `k`, drawn one sample at a time as the batches' documentation
@@ -142,25 +146,27 @@ mod tests {
         }
     }
 
-    /// Batches (scalar and AVX-512) give the sequential draws' bits, full and short, with one
-    /// request or two, and leave the generator where the sequential draws leave it.
+    /// Batches (at every level the processor has) give the sequential draws' bits, full and
+    /// short, with one request or two, and leave the generator where the sequential draws leave
+    /// it.
     #[test]
     #[allow(clippy::needless_range_loop)] // lane i of several arrays
     fn batches_match_the_sequential_draws() {
+        let levels = cpu::tested_levels();
         for sequence in PerPixelSequence::ALL {
             for requests in [1, 2] {
-                for kernel in cpu::available::<BatchKernel>() {
+                for &level in &levels {
                     let mut batched = PixelUniforms::new(sequence, pixel_seed(7, 3));
                     let mut sequential = PixelUniforms::new(sequence, pixel_seed(7, 3));
                     let mut start = 0;
                     for count in [16, 16, 5, 16, 1] {
                         let mut out = [[0.0; BATCH]; 4];
-                        batched.batch(kernel, start, count, requests, &mut out);
+                        batched.batch(level, start, count, requests, &mut out);
                         for i in 0..count {
                             for k in 0..requests {
                                 let want = sequential_pair(&mut sequential, start + i, k);
                                 let got = [out[2 * k][i], out[2 * k + 1][i]];
-                                assert_eq!(got.map(f64::to_bits), want.map(f64::to_bits), "{sequence:?} {k}");
+                                assert_eq!(got.map(f64::to_bits), want.map(f64::to_bits), "{sequence:?} {k} {level}");
                             }
                         }
                         assert_eq!(batched.rng, sequential.rng);
@@ -181,7 +187,7 @@ mod tests {
             for start in (0..samples).step_by(BATCH) {
                 let mut out = [[0.0; BATCH]; 4];
                 let count = BATCH.min(samples - start);
-                u.batch(cpu::fastest(), start, count, 2, &mut out);
+                u.batch(cpu::level(), start, count, 2, &mut out);
                 for i in 0..count {
                     pairs[start + i] = [[out[0][i], out[1][i]], [out[2][i], out[3][i]]];
                 }
