@@ -630,8 +630,10 @@ mod tests {
     fn row_kernels_give_the_same_bits() {
         let kernels = crate::cpu::available::<RowKernel>();
         if kernels.len() == 1 {
-            eprintln!("skipped: this processor has neither AVX-512 nor AVX2, so only the portable kernel runs");
-            return;
+            return crate::test_skip::skip(
+                "HDRFLOW_REQUIRE_AVX512",
+                "this processor has neither AVX-512 nor AVX2, so only the portable kernel runs",
+            );
         }
         let mut maps = Vec::new();
         for w in (1..=41).chain([2048, 2051]) {
