@@ -379,8 +379,15 @@ fn register_operator(
     let op_name = leak(name);
     let mut spec = OpSpec::new(op_name, leak(category), version, leak(doc));
     // The function's source and its declared version are in every key (the version is
-    // `spec.version`): editing the function recomputes, as a Rust operator's code hash does.
-    spec.code_hash = *blake3::hash(source.as_bytes()).as_bytes();
+    // `spec.version`): editing the function recomputes, as a Rust operator's code hash does. So
+    // is the glue its values pass through (this file, and the wrapper in `hdrflow/__init__.py`
+    // that calls it), which the library's engine salt does not cover.
+    let mut code = blake3::Hasher::new();
+    for part in [include_str!("lib.rs"), include_str!("../hdrflow/__init__.py"), source] {
+        code.update(&(part.len() as u64).to_le_bytes());
+        code.update(part.as_bytes());
+    }
+    spec.code_hash = *code.finalize().as_bytes();
     let mut seen = BTreeSet::new();
     for (field, kind, default, fdoc) in fields {
         if !seen.insert(field.clone()) {

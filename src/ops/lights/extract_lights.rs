@@ -24,8 +24,7 @@ use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Outputs};
 use crate::engine::value::Value;
 use crate::maths::fit::lights::extract_lights;
-use crate::ops::latlong_input::warn_unless_latlong;
-use crate::ops::shading::reference_sphere::check_finite;
+use crate::ops::latlong_input::{check_finite, warn_unless_latlong};
 use crate::values::ty::*;
 use crate::values::Image;
 

@@ -22,8 +22,7 @@ use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Outputs};
 use crate::engine::value::Value;
 use crate::maths::fit::sun::extract_sun_in_place;
-use crate::ops::latlong_input::warn_unless_latlong;
-use crate::ops::shading::reference_sphere::check_finite;
+use crate::ops::latlong_input::{check_finite, warn_unless_latlong};
 use crate::values::ty::*;
 use crate::values::Image;
 

@@ -13,8 +13,8 @@ use crate::engine::fields::{Check, Input};
 use crate::engine::op::{OpContext, OpError, OpSpec, OutputType, Persist};
 use crate::engine::params::Rgb;
 use crate::engine::value::Value;
-use crate::maths::render::reference::{first_non_finite, reference_sphere};
-use crate::ops::latlong_input::warn_unless_latlong;
+use crate::maths::render::reference::reference_sphere;
+use crate::ops::latlong_input::{check_finite, warn_unless_latlong};
 use crate::values::ty::*;
 use crate::values::Image;
 
@@ -38,17 +38,6 @@ pub fn spec() -> OpSpec {
     .persist(Persist::Always)
     .code_hash(crate::op_code_hash!())
     .eval(eval)
-}
-
-/// An error naming the first NaN or infinite texel of `env`, if any (shared by the shading
-/// operators that sum over the whole map).
-pub(crate) fn check_finite(env: &crate::values::Image) -> Result<(), OpError> {
-    match first_non_finite(env) {
-        Some((x, y, v)) => Err(OpError::Invalid(format!(
-            "texel ({x}, {y}) of the environment is {v}: an exact sum needs finite radiance"
-        ))),
-        None => Ok(()),
-    }
 }
 
 fn eval(ctx: &mut OpContext, p: ReferenceParams) -> Result<Value, OpError> {
