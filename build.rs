@@ -1,71 +1,265 @@
-//! Computes the engine's code salt: BLAKE3 of every source file that operators build on (the
-//! engine, value types, maths, formats, plotting and the operators' shared domain
-//! modules), each with comments and blank space removed. It goes into every cache key, so a
-//! shared cache never serves a result computed by different code. Each operator adds the hash
-//! of its own file (`OpSpec::code`).
+//! Computes the code hashes that go into every cache key, so that a shared cache never serves a
+//! result computed by different code:
+//!
+//! - **The engine salt** (`ENGINE_SALT`): BLAKE3 over every source an operator's result can
+//!   depend on, except operators' own files. That is every `.rs` file under `src/` but those of
+//!   the layers above the operators (`UNSALTED_LAYERS`: the command line, the benchmark, the
+//!   report, batch runs, the engine presets of `hdrflow bake`, which only build pipelines and
+//!   present results) and the operator files; the files those sources embed
+//!   (`include_bytes!`/`include_str!`, e.g. the plots' font); the vendored EXR decoder
+//!   (`vendor/exr`); the values of the `env!` variables they read (the package version, written
+//!   into KTX2 files); and the Cargo.lock version of every crate they build on
+//!   (`UNSALTED_CRATES` lists the dependencies only the layers above, the tests and the
+//!   benchmarks use). Sources are hashed with comments and blank space removed.
+//! - **Each operator's code hash** (`OP_SOURCES`): the hash of its own file (an operator file is
+//!   a file under `src/ops` that builds an operator with `Op::new(`), so that editing one operator leaves
+//!   the other operators' cache entries valid.
+//!
+//! `tests/cache_salt.rs` checks the split: every source file is salted, an operator's own file
+//! or in a layer above; no salted or operator file uses another operator's file (a helper two
+//! operators share belongs in a shared file) or a layer above; no crate left out is used below.
 
 #[path = "src/engine/normalise.rs"]
 mod normalise;
 
-use std::path::{Path, PathBuf};
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::{Component, Path, PathBuf};
 
-fn collect(dir: &Path, out: &mut Vec<PathBuf>) {
+/// Layers above the operators: they parse, schedule whole runs, build pipelines and present
+/// results, but never compute a node's value, so their code is in no key.
+const UNSALTED_LAYERS: &[&str] = &["src/cli", "src/bench", "src/report", "src/batch", "src/ibl_presets", "src/main.rs"];
+
+/// Cargo.lock packages whose versions are left out of the salt, as (package, name in code):
+/// dependencies that only the layers above (`UNSALTED_LAYERS`), the tests, the benchmarks or
+/// this build script use (the lock does not tell dev- and build-dependencies apart). Their own
+/// dependencies still count when a salted crate also depends on them.
+const UNSALTED_CRATES: &[(&str, &str)] = &[
+    ("clap", "clap"),
+    ("clap_complete", "clap_complete"),
+    ("clap_mangen", "clap_mangen"),
+    ("indicatif", "indicatif"),
+    ("notify", "notify"),
+    ("ctrlc", "ctrlc"),
+    ("layout-rs", "layout"),
+    ("base64", "base64"),
+    ("csv", "csv"),
+    ("glob", "glob"),
+    ("ron", "ron"),
+    ("proptest", "proptest"),
+    ("criterion", "criterion"),
+    ("tempfile", "tempfile"),
+    ("ktx2", "ktx2"),
+];
+
+/// Every `.rs` file under `dir`, or every file when `all`.
+fn collect(dir: &Path, all: bool, out: &mut Vec<PathBuf>) {
     let Ok(entries) = std::fs::read_dir(dir) else { return };
     for e in entries.flatten() {
         let p = e.path();
         if p.is_dir() {
-            collect(&p, out);
-        } else if p.extension().is_some_and(|e| e == "rs") {
+            collect(&p, all, out);
+        } else if all || p.extension().is_some_and(|e| e == "rs") {
             out.push(p);
         }
     }
 }
 
+fn rel(p: &Path) -> String {
+    p.to_string_lossy().replace('\\', "/")
+}
+
+/// `path` with `.` and `..` resolved lexically.
+fn lexical(path: &Path) -> PathBuf {
+    let mut out = PathBuf::new();
+    for c in path.components() {
+        match c {
+            Component::CurDir => {}
+            Component::ParentDir => {
+                out.pop();
+            }
+            c => out.push(c),
+        }
+    }
+    out
+}
+
+/// The string literals of `args`, concatenated (`concat!("a", "b")` -> `ab`).
+fn literals(args: &str) -> String {
+    args.split('"').skip(1).step_by(2).collect()
+}
+
+/// The files `text` (normalised source of `file`) embeds with `include_bytes!`/`include_str!`:
+/// a path after `env!("CARGO_MANIFEST_DIR")` is relative to the crate, any other to `file`'s
+/// folder. Generated files (`OUT_DIR`) are this script's own output.
+fn embedded(file: &Path, text: &str) -> Vec<PathBuf> {
+    let mut out = Vec::new();
+    for mac in ["include_bytes!(", "include_str!("] {
+        for (at, _) in text.match_indices(mac) {
+            let rest = &text[at + mac.len()..];
+            let mut depth = 1;
+            let end = rest
+                .char_indices()
+                .find(|&(_, c)| {
+                    depth += i32::from(c == '(') - i32::from(c == ')');
+                    depth == 0
+                })
+                .map_or(rest.len(), |(i, _)| i);
+            let args = &rest[..end];
+            if args.contains("OUT_DIR") {
+                continue;
+            }
+            let path = match args.split_once("CARGO_MANIFEST_DIR") {
+                // `after` starts with the variable name's closing quote.
+                Some((_, after)) => PathBuf::from(literals(&after[1..]).trim_start_matches('/')),
+                None => file.parent().unwrap_or(Path::new("")).join(literals(args)),
+            };
+            out.push(lexical(&path));
+        }
+    }
+    out
+}
+
+/// The variables `text` reads with `env!`/`option_env!`, but the crate folder (used for paths
+/// only) and `OUT_DIR`.
+fn env_vars(text: &str, out: &mut BTreeSet<String>) {
+    for (at, _) in text.match_indices("env!(\"") {
+        let rest = &text[at + "env!(\"".len()..];
+        let name = &rest[..rest.find('"').unwrap_or(0)];
+        if name != "CARGO_MANIFEST_DIR" && name != "OUT_DIR" {
+            out.insert(name.to_string());
+        }
+    }
+}
+
+/// `name version` of every package of `lock` (Cargo.lock's text) that `root` depends on,
+/// directly or not, through no crate of `UNSALTED_CRATES`.
+fn locked_dependencies(lock: &str, root: &str) -> Vec<String> {
+    // name -> [(version, dependencies)]
+    let mut packages: BTreeMap<&str, Vec<(&str, Vec<&str>)>> = BTreeMap::new();
+    for block in lock.split("[[package]]").skip(1) {
+        let field = |key: &str| {
+            block.lines().find_map(|l| l.strip_prefix(key)).map(|v| v.trim().trim_matches('"')).unwrap_or("")
+        };
+        let deps = match block.split_once("dependencies = [") {
+            Some((_, list)) => list[..list.find(']').unwrap_or(0)]
+                .split(',')
+                .map(|d| d.trim().trim_matches('"'))
+                .filter(|d| !d.is_empty())
+                .collect(),
+            None => Vec::new(),
+        };
+        packages.entry(field("name = ")).or_default().push((field("version = "), deps));
+    }
+    let mut seen = BTreeSet::new();
+    let mut todo = vec![root.to_string()];
+    while let Some(dep) = todo.pop() {
+        // "name", or "name version" (or "name version (source)") when several versions are locked.
+        let mut words = dep.split(' ');
+        let name = words.next().unwrap_or("");
+        let version = words.next();
+        if UNSALTED_CRATES.iter().any(|(p, _)| *p == name) {
+            continue;
+        }
+        let Some(versions) = packages.get(name) else { continue };
+        for (v, deps) in versions.iter().filter(|(v, _)| version.is_none_or(|w| w == *v)) {
+            if seen.insert(format!("{name} {v}")) {
+                todo.extend(deps.iter().map(|d| d.to_string()));
+            }
+        }
+    }
+    seen.remove(&format!("{root} {}", std::env::var("CARGO_PKG_VERSION").unwrap_or_default()));
+    seen.into_iter().collect()
+}
+
 fn main() {
     println!("cargo:rerun-if-changed=src");
-    let mut files = Vec::new();
-    for dir in ["src/engine", "src/values", "src/maths", "src/formats", "src/plotting", "src/geometry"] {
-        collect(Path::new(dir), &mut files);
+    println!("cargo:rerun-if-changed=vendor/exr");
+    println!("cargo:rerun-if-changed=Cargo.lock");
+
+    let mut sources = Vec::new();
+    collect(Path::new("src"), false, &mut sources);
+    sources.sort();
+    let mut salted = BTreeSet::new();
+    let mut op_files = Vec::new();
+    let mut vars = BTreeSet::new();
+    for f in sources {
+        let name = rel(&f);
+        if UNSALTED_LAYERS.iter().any(|l| name == *l || name.starts_with(&format!("{l}/"))) {
+            continue;
+        }
+        let text = normalise::normalise_source(&std::fs::read_to_string(&f).unwrap_or_default());
+        env_vars(&text, &mut vars);
+        for e in embedded(&f, &text) {
+            println!("cargo:rerun-if-changed={}", rel(&e));
+            salted.insert(e);
+        }
+        if name.starts_with("src/ops/") && text.contains("Op::new(") {
+            op_files.push((name, text));
+        } else {
+            salted.insert(f);
+        }
     }
-    // The operators' shared domain modules (field helpers, common code), not the operators.
-    let mut ops = Vec::new();
-    collect(Path::new("src/ops"), &mut ops);
-    files.extend(ops.into_iter().filter(|p| p.file_name().is_some_and(|n| n == "mod.rs")));
-    files.sort();
+    let mut vendored = Vec::new();
+    collect(Path::new("vendor/exr/src"), false, &mut vendored);
+    salted.extend(vendored);
+    salted.insert(PathBuf::from("vendor/exr/Cargo.toml"));
+
     let mut h = blake3::Hasher::new();
-    for f in &files {
-        let text = std::fs::read_to_string(f).unwrap_or_default();
-        let rel = f.to_string_lossy().replace('\\', "/");
-        h.update(rel.as_bytes());
+    for f in &salted {
+        h.update(rel(f).as_bytes());
         h.update(&[0]);
-        h.update(normalise::normalise_source(&text).as_bytes());
+        let bytes = std::fs::read(f).unwrap_or_default();
+        if f.extension().is_some_and(|e| e == "rs") {
+            h.update(normalise::normalise_source(&String::from_utf8_lossy(&bytes)).as_bytes());
+        } else {
+            h.update(&bytes);
+        }
         h.update(&[0]);
+    }
+    for v in &vars {
+        println!("cargo:rerun-if-env-changed={v}");
+        h.update(format!("env {v}={:?}\0", std::env::var(v).ok()).as_bytes());
+    }
+    let lock = std::fs::read_to_string("Cargo.lock").unwrap_or_default();
+    let crates = locked_dependencies(&lock, &std::env::var("CARGO_PKG_NAME").unwrap_or_default());
+    for c in &crates {
+        h.update(format!("crate {c}\0").as_bytes());
     }
     let hash = h.finalize();
+
     let out_dir = PathBuf::from(std::env::var_os("OUT_DIR").expect("cargo sets OUT_DIR"));
     let bytes = |hash: &blake3::Hash| hash.as_bytes().iter().map(|b| b.to_string()).collect::<Vec<_>>().join(", ");
+    let strs = |items: &mut dyn Iterator<Item = String>| items.map(|s| format!("{s:?}")).collect::<Vec<_>>().join(", ");
+    let salted_names = strs(&mut salted.iter().map(|f| rel(f)));
     std::fs::write(
         out_dir.join("engine_salt.rs"),
         format!(
-            "/// BLAKE3 of the engine's and shared layers' normalised sources ({} files).\npub const ENGINE_SALT: [u8; 32] = [{}];\n",
-            files.len(),
-            bytes(&hash)
+            "/// BLAKE3 of every source operators build on ({} files, {} variables, {} locked crates; see `build.rs`).\n\
+             pub const ENGINE_SALT: [u8; 32] = [{}];\n\
+             /// The files [`ENGINE_SALT`] covers, relative to the crate.\n\
+             pub const SALTED_SOURCES: &[&str] = &[{salted_names}];\n\
+             /// The folders and files of `src` above the operators, in no key.\n\
+             pub const UNSALTED_LAYERS: &[&str] = &[{}];\n\
+             /// The Cargo.lock packages left out of [`ENGINE_SALT`], as (package, name in code).\n\
+             pub const UNSALTED_CRATES: &[(&str, &str)] = &{UNSALTED_CRATES:?};\n\
+             /// `name version` of the Cargo.lock packages [`ENGINE_SALT`] covers.\n\
+             pub const SALTED_CRATES: &[&str] = &[{}];\n",
+            salted.len(),
+            vars.len(),
+            crates.len(),
+            bytes(&hash),
+            strs(&mut UNSALTED_LAYERS.iter().map(|s| s.to_string())),
+            strs(&mut crates.iter().cloned()),
         ),
     )
     .expect("writing engine_salt.rs");
 
-    // Each built-in operator file's own hash (`OpSpec::code_hash(op_code_hash!())`), looked up by
+    // Each built-in operator file's own hash (stamped by the registry, `Registry::hash_sources_with`), looked up by
     // the file's path: computed here because `file!()` is relative or absolute depending on how
     // the crate is built, so an operator cannot reliably `include_str!` itself by that path.
     let mut table = String::from("/// (operator source path relative to the crate, BLAKE3 of its normalised text).\npub const OP_SOURCES: &[(&str, [u8; 32])] = &[\n");
-    let mut op_files = Vec::new();
-    collect(Path::new("src/ops"), &mut op_files);
-    op_files.sort();
-    for f in &op_files {
-        let text = std::fs::read_to_string(f).unwrap_or_default();
-        let rel = f.to_string_lossy().replace('\\', "/");
-        let hash = blake3::hash(normalise::normalise_source(&text).as_bytes());
-        table.push_str(&format!("    ({rel:?}, [{}]),\n", bytes(&hash)));
+    for (name, text) in &op_files {
+        table.push_str(&format!("    ({name:?}, [{}]),\n", bytes(&blake3::hash(text.as_bytes()))));
     }
     table.push_str("];\n");
     std::fs::write(out_dir.join("op_sources.rs"), table).expect("writing op_sources.rs");

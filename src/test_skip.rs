@@ -1,7 +1,9 @@
 //! A test whose subject is missing (a data folder, a service, a browser) skips visibly: a banner
 //! written straight to the process's stderr, past the test harness's capture (which swallows
 //! `eprintln!` of passing tests, so a skip used to look like a pass), and a failure when the
-//! named `HDRFLOW_REQUIRE_*` variable is `1`, as `.ci/run` sets every one of them.
+//! named `HDRFLOW_REQUIRE_*` variable is `1`, as `.ci/run` sets every one of them (but
+//! `HDRFLOW_REQUIRE_AVX512`, for the SIMD tests that need a processor with AVX-512: set it on a
+//! machine that has one).
 //!
 //! One file for the unit tests (`crate::test_skip`) and the integration tests
 //! (`tests/common` includes it with `#[path]`).

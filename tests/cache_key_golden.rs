@@ -4,7 +4,8 @@
 //! fails here, where it would otherwise silently make every cache miss, or worse, hit.
 //!
 //! What is fixed, so that the golden does not move with every edit:
-//! - the **engine salt** (`ENGINE_SALT`, a hash of the engine's and shared layers' source) is
+//! - the **engine salt** (`ENGINE_SALT`, a hash of every source but the operators' own files
+//!   and the layers above them: `build.rs`, `tests/cache_salt.rs`) is
 //!   replaced by `SALT`, and every operator's **code hash** (a hash of its own file) by
 //!   `CODE_HASH`, through `node_key_with` / `provided_key_with`. The real ones change on every
 //!   source edit by design (so that a shared cache never serves a value computed by other

@@ -177,14 +177,14 @@ def run(
     arrays = [(name, _image_array(a, f"inputs[{name!r}]")) for name, a in (inputs or {}).items()]
     values, report, channels = _hdrflow.run_pipeline(
         text,
-        is_path,
-        overrides,
-        list(targets) if targets is not None else None,
-        os.fspath(out) if out is not None else None,
-        os.fspath(cache_dir) if cache_dir is not None else None,
-        bool(no_cache),
-        jobs,
-        arrays,
+        is_path=is_path,
+        overrides=overrides,
+        targets=list(targets) if targets is not None else None,
+        out=os.fspath(out) if out is not None else None,
+        cache_dir=os.fspath(cache_dir) if cache_dir is not None else None,
+        no_cache=bool(no_cache),
+        jobs=jobs,
+        inputs=arrays,
     )
     return Result(values, json.loads(report), channels)
 
@@ -231,13 +231,13 @@ def batch(
     """
     rows = _hdrflow.run_batch(
         os.fspath(graph),
-        _axes(over, True) + _axes(sweep, False),
-        bool(zip),
-        item_dir,
-        os.fspath(out),
-        os.fspath(cache_dir) if cache_dir is not None else None,
-        jobs,
-        bool(keep_going),
+        axes=_axes(over, True) + _axes(sweep, False),
+        zip=bool(zip),
+        item_dir=item_dir,
+        out=os.fspath(out),
+        cache_dir=os.fspath(cache_dir) if cache_dir is not None else None,
+        jobs=jobs,
+        keep_going=bool(keep_going),
     )
     return json.loads(rows)
 
@@ -274,6 +274,22 @@ def _near_type_name(spec: str, types: Mapping[str, str]) -> Optional[str]:
     return lower[close[0]] if close else None
 
 
+def _op_error(name: str, problems: list) -> PipelineError:
+    """A ``PipelineError`` of ``op(name, ...)``: each problem, (keyword argument or ``None``,
+    message), under the call as the caller wrote it (``hdrflow.op("Rotate", yaw=...)``), never
+    under the one-node pipeline ``op`` writes for them. ``errors`` holds them as dicts with the
+    keys of ``run``'s, plus ``argument``."""
+    texts, errors = [], []
+    for argument, message in problems:
+        call = f'hdrflow.op("{name}", {argument}=...)' if argument else f'hdrflow.op("{name}", ...)'
+        texts.append(f"{call}: {message}")
+        errors.append({"source": call, "line": None, "col": None, "node": None, "argument": argument,
+                       "message": message, "text": texts[-1]})
+    err = PipelineError("\n".join(texts))
+    err.errors = errors
+    return err
+
+
 def op(
     name: str,
     /,
@@ -289,7 +305,8 @@ def op(
     every other field is a parameter, converted as ``run(set=...)`` converts values. Returns the
     value of the operator's first output port (an array for images; the other ports of a node
     come back from ``run``). It builds and runs a one-node pipeline, validated and cached as any
-    run is (the arrays' contents are in the key).
+    run is (the arrays' contents are in the key). A ``PipelineError`` names the keyword argument
+    at fault: ``hdrflow.op("Rotate", yaww=...): unknown parameter 'yaww' (did you mean 'yaw'?)``.
     """
     every = ops()
     spec = next((o for o in every if o["name"] == name), None)
@@ -298,26 +315,44 @@ def op(
         close = difflib.get_close_matches(name, names, n=1)
         hint = f"; did you mean {close[0]!r}?" if close else f" (operators: {', '.join(names)})"
         raise ValueError(f"unknown operator {name!r}{hint}")
+    known = [f["name"] for f in spec["fields"]]
+    unknown = []
+    for field in fields:
+        if field not in known:
+            close = difflib.get_close_matches(field, known, n=1)
+            hint = f"did you mean {close[0]!r}?" if close else f"{name} takes {', '.join(known)}"
+            unknown.append((field, f"unknown parameter {field!r} ({hint})"))
+    if unknown:
+        raise _op_error(name, unknown)
     inputs_of = {f["name"] for f in spec["fields"] if f["input"]}
-    nodes: list = []
+    # The pipeline's text, one keyword argument per line, so that a validation error's line
+    # names the argument it comes from.
+    lines = ["(nodes: {"]
+    argument_of: dict = {}  # line -> keyword argument
+    argument_of_node: dict = {}  # a placeholder node (an input's array or file) -> its argument
     arrays: dict = {}
+
+    def emit(line: str, argument: str) -> None:
+        lines.append(line)
+        argument_of[len(lines)] = argument
 
     def source(field: str, k: int, value: Any) -> str:
         node = f"{field}_{k}"
+        argument_of_node[node] = field
         if isinstance(value, (str, os.PathLike)):
             path = os.fspath(value)
             path = path if path.startswith("builtin:") else os.path.abspath(path)
-            nodes.append(f'"{node}": LoadHdr(path: {_ron_string(path)})')
+            emit(f'    "{node}": LoadHdr(path: {_ron_string(path)}),', field)
             return node
-        arr = _image_array(value, f"{name}({field}=...)")
+        arr = _image_array(value, f'hdrflow.op("{name}", {field}=...)')
         # A placeholder of the array's type and size (operators check sizes before running);
         # the array is its value, so the placeholder is not run.
         h, w = arr.shape[:2]
         if arr.shape[2] == 1:
-            nodes.append(f'"{node}_src": Constant(width: {w}, height: {h})')
-            nodes.append(f'"{node}": Luminance(image: "{node}_src")')
+            emit(f'    "{node}_src": Constant(width: {w}, height: {h}),', field)
+            emit(f'    "{node}": Luminance(image: "{node}_src"),', field)
         else:
-            nodes.append(f'"{node}": Constant(width: {w}, height: {h})')
+            emit(f'    "{node}": Constant(width: {w}, height: {h}),', field)
         arrays[node] = arr
         return node
 
@@ -331,9 +366,23 @@ def op(
                 written.append(f"{field}: {_ron_string(source(field, 0, value))}")
         else:
             written.append(f"{field}: {_to_ron(value)}")
-    nodes.append(f'"op": {name}({", ".join(written)})')
-    text = "(nodes: {\n    " + ",\n    ".join(nodes) + ",\n})"
-    r = run(text, targets=["op"], inputs=arrays, cache_dir=cache_dir, no_cache=no_cache)
+    lines.append(f'    "op": {name}(')
+    for field, line in zip(fields, written):
+        emit(f"        {line},", field)
+    lines += ["    ),", "})"]
+    try:
+        r = run("\n".join(lines), targets=["op"], inputs=arrays, cache_dir=cache_dir, no_cache=no_cache)
+    except PipelineError as e:
+        problems = [(argument_of.get(x.get("line")), x["message"]) for x in getattr(e, "errors", [])]
+        raise _op_error(name, problems or [(None, str(e))]) from None
+    except RunError as e:
+        # `node "image_0" (LoadHdr): message`: the node is one op wrote, so name the argument.
+        m = re.match(r'node "([^"]*)" \([^)]*\): (.*)', str(e), re.DOTALL)
+        if m is None:
+            raise
+        argument = argument_of_node.get(m.group(1))
+        call = f'hdrflow.op("{name}", {argument}=...)' if argument else f'hdrflow.op("{name}", ...)'
+        raise RunError(f"{call}: {m.group(2)}") from None
     return r["op"]
 
 
@@ -390,7 +439,14 @@ def operator(
             return _image_array(fn(**kwargs), f"the result of {name}")
 
         _hdrflow.register_operator(
-            name, category, text.strip().splitlines()[0], int(version), decl, out_type, call, source
+            name,
+            category=category,
+            doc=text.strip().splitlines()[0],
+            version=int(version),
+            fields=decl,
+            output=out_type,
+            func=call,
+            source=source,
         )
         return fn
 

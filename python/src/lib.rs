@@ -10,6 +10,9 @@
 //!   declared from Python with `OpSpec::field_spec`, an untyped evaluation, `OpSpec::eval_raw`,
 //!   that takes the GIL).
 //!
+//! Every function takes its arguments by keyword (all but the first keyword-only, so that a call
+//! cannot pass them in the wrong order); `hdrflow/_hdrflow.pyi` is the module's type stub.
+//!
 //! Values come back as NumPy arrays without copying where the engine holds the only reference:
 //! an image's `Vec<f32>` is moved into the array (`PyArray::from_owned_array`).
 
@@ -197,8 +200,21 @@ fn value_to_py<'py>(py: Python<'py>, value: Value, out: Option<&Path>) -> PyResu
 
 /// Loads, provides, runs and converts; see `hdrflow.run` in `__init__.py` for the arguments.
 /// Returns (values by `node` / `node.port`, the report as JSON text, channel names by key).
+/// Every argument but the pipeline is keyword-only, with `hdrflow.run`'s defaults (the stub is
+/// `hdrflow/_hdrflow.pyi`).
 #[pyfunction]
-#[pyo3(signature = (pipeline, is_path, overrides, targets, out, cache_dir, no_cache, jobs, inputs))]
+#[pyo3(signature = (
+    pipeline,
+    *,
+    is_path = false,
+    overrides = Vec::new(),
+    targets = None,
+    out = None,
+    cache_dir = None,
+    no_cache = false,
+    jobs = None,
+    inputs = Vec::new(),
+))]
 #[allow(clippy::too_many_arguments)]
 fn run_pipeline<'py>(
     py: Python<'py>,
@@ -353,7 +369,7 @@ fn leak(s: &str) -> &'static str {
 /// field as a keyword argument (inputs as float32 (H, W, C) arrays) and must return a float32
 /// C-contiguous (H, W, C) array (the Python wrapper makes sure).
 #[pyfunction]
-#[pyo3(signature = (name, category, doc, version, fields, output, func, source))]
+#[pyo3(signature = (name, *, category, doc, version, fields, output, func, source))]
 #[allow(clippy::too_many_arguments)]
 fn register_operator(
     name: &str,
@@ -379,8 +395,15 @@ fn register_operator(
     let op_name = leak(name);
     let mut spec = OpSpec::new(op_name, leak(category), version, leak(doc));
     // The function's source and its declared version are in every key (the version is
-    // `spec.version`): editing the function recomputes, as a Rust operator's code hash does.
-    spec.code_hash = *blake3::hash(source.as_bytes()).as_bytes();
+    // `spec.version`): editing the function recomputes, as a Rust operator's code hash does. So
+    // is the glue its values pass through (this file, and the wrapper in `hdrflow/__init__.py`
+    // that calls it), which the library's engine salt does not cover.
+    let mut code = blake3::Hasher::new();
+    for part in [include_str!("lib.rs"), include_str!("../hdrflow/__init__.py"), source] {
+        code.update(&(part.len() as u64).to_le_bytes());
+        code.update(part.as_bytes());
+    }
+    spec.code_hash = *code.finalize().as_bytes();
     let mut seen = BTreeSet::new();
     for (field, kind, default, fdoc) in fields {
         if !seen.insert(field.clone()) {
@@ -458,8 +481,19 @@ impl hdrflow::batch::BatchObserver for QuietBatch {}
 
 /// `hdrflow batch` over a pipeline file: `axes` are (`NODE.FIELD=GLOB_OR_LIST` or `NODE.FIELD`,
 /// explicit values or None, `over`). Returns the report rows as JSON text (`--report`'s rows).
+/// Every argument but the graph is keyword-only, with `hdrflow.batch`'s defaults.
 #[pyfunction]
-#[pyo3(signature = (graph, axes, zip, item_dir, out, cache_dir, jobs, keep_going))]
+#[pyo3(signature = (
+    graph,
+    *,
+    axes = Vec::new(),
+    zip = false,
+    item_dir = None,
+    out = PathBuf::from("out"),
+    cache_dir = None,
+    jobs = None,
+    keep_going = false,
+))]
 #[allow(clippy::too_many_arguments)]
 fn run_batch(
     py: Python<'_>,
@@ -510,6 +544,7 @@ fn run_batch(
 /// with the program name. The GIL is released while it runs, so that Python operators can
 /// take it on the worker threads. Returns the exit code.
 #[pyfunction]
+#[pyo3(signature = (args))]
 fn cli_main(py: Python<'_>, args: Vec<String>) -> u8 {
     let registry = with_registry(|r| r.clone());
     let code = py.detach(|| hdrflow::cli::main_from(registry, args));

@@ -1,11 +1,14 @@
 //! Node keys: `BLAKE3(domain, engine salt, op name, op version, op code hash, canonical params,
 //! inputs, content)`.
 //!
-//! - The **engine salt** is a hash of the engine's and the shared layers' source (computed by
-//!   `build.rs`) and the **op code hash** one of the operator's own file (`OpSpec::code`), both
-//!   with comments and blank space removed: a code change that may alter results changes every
-//!   key it could affect, even when nobody bumped a version, so a cache shared between machines
-//!   and builds never serves a stale value.
+//! - The **engine salt** is a hash of every source a result can depend on but the operators'
+//!   own files (computed by `build.rs`: all of `src/` below the command line, the files it
+//!   embeds, the vendored EXR decoder, the locked versions of the crates it uses; listed in
+//!   `SALTED_SOURCES` and `SALTED_CRATES`) and the **op code hash** one of the operator's own
+//!   file (`OpSpec::code`), both with comments and blank space removed: a code change that may
+//!   alter results changes every key it could affect, even when nobody bumped a version, so a
+//!   cache shared between machines and builds never serves a stale value
+//!   (`tests/cache_salt.rs` checks that no source escapes both).
 //! - **Parameters**: each field in the operator's declared order, as its name (length-prefixed)
 //!   then a tag byte and the value: floats as the 8 bytes of `f64::to_bits` (integers given to
 //!   float fields were converted to f64 by validation, so `1` and `1.0` hash alike), integers as

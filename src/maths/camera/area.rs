@@ -30,8 +30,8 @@
 //!
 //! Why not `maths::resample::layouts`: it integrates footprints by bisecting towards texel edges until
 //! a tolerance is met, and for a view finer than the map (every dataset crop) that resolves
-//! each edge crossing a pixel with hundreds of leaves (measured: 12 s for a 512 x 512 crop of
-//! the 1k park at a per-pixel tolerance of 1e-4, 34 s at 1e-5), where one octagon is exact.
+//! each edge crossing a pixel with hundreds of leaves (docs/toolkit/camera.md has the times),
+//! where one octagon is exact.
 //!
 //! The tests check the result against the exact means of a map of four constant quadrants
 //! (spherical polygons, Van Oosterom and Strackee's triangle formula) to 5e-4 (values 1 to 4),

@@ -29,11 +29,10 @@
 //! Speed: a batch descends level by level, so its reads of one level are in flight together,
 //! each step prefetching the next level's block; a step chooses without branches (the choice is
 //! a coin flip a branch predictor would miss half the time) and rescales both uniforms with one
-//! division; at the AVX-512 level (`crate::cpu`) the 2x2 steps run eight draws at once (gathers
-//! of the four values), with the same bits as the scalar step (a test). Grace (1024x512), one thread,
-//! per-pixel Mis Power Sobol at 1024 spp: the descent alone took the render from 1.24 s (CDF
-//! inversion) to 3.56 s with branches and one draw at a time, to 1.40 s with the above; after
-//! the rest of the sample's arithmetic was vectorised, 0.81 s against inversion's 0.57 s.
+//! division; at the AVX-512 level (`crate::cpu`) the 2x2 steps run eight draws at once (gathers of the
+//! four values), with the same bits as the scalar step (a test). Each of these steps was timed
+//! against CDF inversion (BENCHMARKS.md, "Per-pixel sampling against Mitsuba 3", `warp:
+//! Hierarchical`); the descent stays slower per sample than inversion.
 
 use rayon::prelude::*;
 

@@ -75,7 +75,7 @@ fn eval(ctx: &mut OpContext, p: IrradianceCubemapParams) -> Result<Outputs, OpEr
         (Texels::from_cube(c), coeffs)
     } else {
         let img = super::env_image(ctx, &p.env)?;
-        crate::ops::shading::reference_sphere::check_finite(img)?;
+        crate::ops::latlong_input::check_finite(img)?;
         let coeffs = (p.method == IrradianceMethod::Sh).then(|| project_latlong(img, p.order));
         (Texels::from_latlong(img), coeffs)
     };

@@ -40,6 +40,6 @@ pub fn spec() -> OpSpec {
 fn eval(ctx: &mut OpContext, p: LatLongToOctahedralParams) -> Result<Value, OpError> {
     warn_unless_latlong(ctx, LatLongToOctahedralParams::image, p.image.width, p.image.height);
     let img = &*p.image;
-    crate::ops::shading::reference_sphere::check_finite(img)?;
+    crate::ops::latlong_input::check_finite(img)?;
     Ok(Value::new(to_octahedral(&LatLongSource::new(img), p.size)))
 }

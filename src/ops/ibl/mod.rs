@@ -96,7 +96,7 @@ pub(crate) fn env_cube(ctx: &mut OpContext, env: &Input<AnyValue>, size: usize) 
         });
     }
     let img = env_image(ctx, env)?;
-    crate::ops::shading::reference_sphere::check_finite(img)?;
+    crate::ops::latlong_input::check_finite(img)?;
     Ok(latlong_to_cube(&LatLongSource::new(img), size))
 }
 

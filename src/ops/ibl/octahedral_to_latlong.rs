@@ -38,6 +38,6 @@ fn eval(_: &mut OpContext, p: OctahedralToLatLongParams) -> Result<Value, OpErro
     if img.width != img.height || img.width == 0 {
         return Err(OpError::Invalid(format!("an octahedral map is square, not {}x{}", img.width, img.height)));
     }
-    crate::ops::shading::reference_sphere::check_finite(img)?;
+    crate::ops::latlong_input::check_finite(img)?;
     Ok(Value::new(to_latlong(&OctahedralSource::new(img), p.width, p.height)))
 }

@@ -23,8 +23,7 @@ use crate::engine::op::{OpContext, OpError, OpSpec};
 use crate::engine::typed_op::Op;
 use crate::engine::value::Value;
 use crate::geometry::latlong;
-use crate::ops::latlong_input::warn_unless_latlong;
-use crate::ops::shading::reference_sphere::check_finite;
+use crate::ops::latlong_input::{check_finite, warn_unless_latlong};
 use crate::values::ty::*;
 use crate::values::{Image, Metrics};
 

@@ -66,7 +66,7 @@ fn eval(ctx: &mut OpContext, p: GlossySphereParams) -> Result<Value, OpError> {
     warn_unless_latlong(ctx, GlossySphereParams::env, p.env.width, p.env.height);
     let (env, dist) = (&*p.env, &*p.cdf);
     // A NaN or infinite texel would make NaN pixels wherever a sample lands on it.
-    super::reference_sphere::check_finite(env)?;
+    crate::ops::latlong_input::check_finite(env)?;
     if (dist.width(), dist.height()) != (env.width, env.height) {
         return Err(OpError::Invalid(format!(
             "the distribution is over a {}x{} map but env is {}x{}: build it from this env",

@@ -15,8 +15,7 @@ use crate::engine::params::Rgb;
 use crate::engine::typed_op::Op;
 use crate::engine::value::Value;
 use crate::maths::render::glossy::{reference_glossy_sphere, GlossyBrdf};
-use crate::ops::latlong_input::warn_unless_latlong;
-use crate::ops::shading::reference_sphere::check_finite;
+use crate::ops::latlong_input::{check_finite, warn_unless_latlong};
 use crate::values::ty::*;
 use crate::values::Image;
 

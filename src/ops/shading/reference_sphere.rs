@@ -14,8 +14,8 @@ use crate::engine::op::{OpContext, OpError, OpSpec, Persist};
 use crate::engine::params::Rgb;
 use crate::engine::typed_op::Op;
 use crate::engine::value::Value;
-use crate::maths::render::reference::{first_non_finite, reference_sphere};
-use crate::ops::latlong_input::warn_unless_latlong;
+use crate::maths::render::reference::reference_sphere;
+use crate::ops::latlong_input::{check_finite, warn_unless_latlong};
 use crate::values::ty::*;
 use crate::values::Image;
 
@@ -38,17 +38,6 @@ pub fn spec() -> OpSpec {
     .size(|_, p| Some((p.size as u64, p.size as u64)))
     .persist(Persist::Always)
     .into()
-}
-
-/// An error naming the first NaN or infinite texel of `env`, if any (shared by the shading
-/// operators that sum over the whole map).
-pub(crate) fn check_finite(env: &crate::values::Image) -> Result<(), OpError> {
-    match first_non_finite(env) {
-        Some((x, y, v)) => Err(OpError::Invalid(format!(
-            "texel ({x}, {y}) of the environment is {v}: an exact sum needs finite radiance"
-        ))),
-        None => Ok(()),
-    }
 }
 
 fn eval(ctx: &mut OpContext, p: ReferenceParams) -> Result<Value, OpError> {

@@ -27,13 +27,12 @@
 //! Version 2: the `frame` field (version 1 always used `LatLong`), the `sh coefficients` type on
 //! the default port, and the `metrics` port.
 
-use super::reference_sphere::check_finite;
 use crate::engine::fields::Input;
 use crate::engine::op::{OpContext, OpError, OpSpec, Outputs};
 use crate::engine::typed_op::{Op, Port};
 use crate::maths::ibl::sh::{coefficient_name, project_turned, sh_lm};
 use crate::maths::ibl::sh_filament::prescaled;
-use crate::ops::latlong_input::warn_unless_latlong;
+use crate::ops::latlong_input::{check_finite, warn_unless_latlong};
 use crate::values::ty::*;
 use crate::values::FilamentSh;
 use crate::values::{Image, Metrics, ShCoefficients, ShFrame};

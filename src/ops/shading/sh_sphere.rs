@@ -6,7 +6,6 @@
 //! with `ReferenceSphere`. Accurate (~1%) for smooth lighting at order 2; a small sun gives large
 //! errors and rings, even negative values, which are kept (not clamped) so they can be measured.
 
-use super::reference_sphere::check_finite;
 use super::sphere_view;
 use crate::engine::fields::Input;
 use crate::engine::op::{OpContext, OpError, OpSpec};
@@ -14,7 +13,7 @@ use crate::engine::params::Rgb;
 use crate::engine::typed_op::Op;
 use crate::engine::value::Value;
 use crate::maths::ibl::sh::sh_sphere;
-use crate::ops::latlong_input::warn_unless_latlong;
+use crate::ops::latlong_input::{check_finite, warn_unless_latlong};
 use crate::values::ty::*;
 use crate::values::Image;
 

@@ -46,7 +46,8 @@ fn block_prefix(b: &[f32; 8]) -> [f64; 8] {
 /// `min >= 0` (no negative and no -Inf; -0.0 passes and adds nothing).
 fn row_sum(src: &[f32]) -> (f64, f32) {
     let mut carry = 0.0f64;
-    // One minimum per lane, by compare-and-select (`f32::min`'s NaN rule made this loop 3x slower).
+    // One minimum per lane, by compare-and-select: `f32::min`'s NaN rule made this loop much
+    // slower (BENCHMARKS.md, "BuildCdf at scale").
     let mut mins = [f32::INFINITY; 8];
     let mut blocks = src.chunks_exact(8);
     for b in &mut blocks {
@@ -119,12 +120,11 @@ fn write_uniform_cdf<S: CdfSlot>(cdf: &mut [S]) {
 /// The kernel is `level`'s ([`cpu::usable`]: a level the processor lacks runs the widest it has),
 /// and all give the same bits (a test compares them on rows of every length modulo 8, zero rows,
 /// -0.0, huge dynamic ranges and bad texels); `Distribution2D::build` runs at [`cpu::level`]:
-/// - portable: `row_sum`, then `write_row_cdf`: scalar code, every processor (0.51 ns a texel on
-///   one row in the L1 cache, on this project's Zen 5 machine);
-/// - AVX-512: `x86::write_row_cdf`, the same operations on 8 lanes (AVX-512F and DQ; 0.20 ns a
-///   texel);
-/// - AVX2: `x86::write_row_cdf_avx2`, the same on two halves of 4 lanes (0.25 ns a texel), for
-///   the processors without AVX-512.
+/// - portable: `row_sum`, then `write_row_cdf`: scalar code, every processor, the slowest (each
+///   kernel's cost per texel: BENCHMARKS.md, "BuildCdf at scale");
+/// - AVX-512: `x86::write_row_cdf`, the same operations on 8 lanes (AVX-512F and DQ), the fastest;
+/// - AVX2: `x86::write_row_cdf_avx2`, the same on two halves of 4 lanes, for the
+///   processors without AVX-512.
 #[inline]
 pub(crate) fn write_row(level: Level, src: &[f32], cdf: &mut [MaybeUninit<f64>]) -> (f64, f32) {
     match cpu::usable(level) {
@@ -145,13 +145,14 @@ pub(crate) fn write_row(level: Level, src: &[f32], cdf: &mut [MaybeUninit<f64>])
 }
 
 /// The rows' CDFs with AVX-512 or AVX2, written by hand because no crate does a scan with these
-/// bits. `row_sum` and `write_row_cdf` are compiler-scheduled scalar code (0.51 ns, 2.2 cycles, a
-/// texel on one row in the L1 cache); compiling them for AVX-512 made them slower, as the
+/// bits. `row_sum` and `write_row_cdf` are compiler-scheduled scalar code, bound by arithmetic
+/// even on one row in the L1 cache; compiling them for AVX-512 made them slower, as the
 /// compiler does not see that `block_prefix`'s tree is a scan. Here it is one: three shuffles and
 /// adds per block of 8 texels, the same adds on the same values as the tree, so the bits are the
-/// portable kernel's (0.20 ns a texel with AVX-512, 0.25 with AVX2). The loop is bound by the
-/// shuffle unit (cross-lane shuffles: one a cycle), so it spends as few as it can: zero-masked
-/// shuffles (AVX2: blends with zero) instead of merges, the carry kept in every lane.
+/// portable kernel's. The loop is bound by the shuffle unit (cross-lane shuffles: one a cycle),
+/// so it spends as few as it can: zero-masked shuffles (AVX2: blends with zero) instead of
+/// merges, the carry kept in every lane. BENCHMARKS.md ("BuildCdf at scale") has each kernel's
+/// cost per texel and the variants tried.
 #[cfg(target_arch = "x86_64")]
 mod x86 {
     use std::arch::x86_64::*;
@@ -161,7 +162,7 @@ mod x86 {
     /// Sklansky scan). Lane by lane the adds are the tree's: `[v0, v0+v1, (v0+v1)+v2,
     /// (v0+v1)+(v2+v3), p03+v4, p03+(v4+v5), p03+((v4+v5)+v6), p03+((v4+v5)+(v6+v7))]`.
     /// Each level adds a zero-masked shuffle to every lane (a merge-masked add made the compiler
-    /// blend with a cross-lane shuffle, the scarce unit here: 20% slower). The lanes that add
+    /// blend with a cross-lane shuffle, the scarce unit here, and was slower). The lanes that add
     /// +0.0 keep their value, except that -0.0 becomes +0.0, which changes no running sum: the
     /// carry a block's lanes are added to is never -0.0 (it starts at +0.0 and +0.0 + -0.0 is
     /// +0.0), so `carry + lane` is the same either way; lane 7, the block's total, is made of
@@ -177,7 +178,7 @@ mod x86 {
     /// between them (16 KiB at 2048 texels): the running sums, with the row's minimum, and then,
     /// when the row is good, their normalisation (`finish_row`). Unlike the portable kernel it
     /// reads the texels once and has one dependency chain (the carry's f64 add per block)
-    /// instead of two. Two rows interleaved, for two independent chains, gained 4% at most (the
+    /// instead of two. Two rows interleaved, for two independent chains, gained little (the
     /// chain is not what bounds it) and were not kept.
     ///
     /// # Safety

@@ -74,7 +74,8 @@
 //!   same IEEE operations in the same order (Rust never contracts `a * b + c` into a fused
 //!   multiply-add), so an image has the same bits on any x86_64 processor: a test compares the
 //!   two for every loop. The hierarchical warp's 2x2 steps use AVX-512 intrinsics (gathers) the
-//!   same way. Single thread `Mis Power` at 1024 spp on Grace: 0.97 s scalar, 0.47 s now.
+//!   same way. The single-thread times before and after are in BENCHMARKS.md ("Per-pixel
+//!   sampling against Mitsuba 3").
 //!
 //! Not done: the guided search and the texel corrections stay scalar (their loops end at a
 //! data-dependent step; with gathers they would need a masked retry loop).
