@@ -6,13 +6,19 @@
 //! Shared helpers live in files like this one, not in an operator's file: an operator file's
 //! hash goes into its own operator's cache keys only (see `build.rs`).
 
+use crate::engine::fields::Input;
 use crate::engine::op::{OpContext, OpError};
 use crate::maths::render::reference::first_non_finite;
 use crate::values::Image;
 
-/// Warns once per node when `field`'s `width` x `height` map is not 2:1 (the lat-long shape),
-/// naming the operators that convert the layouts hdrflow reads.
-pub fn warn_unless_latlong(ctx: &mut OpContext, field: &str, width: usize, height: usize) {
+/// Warns once per node when the map wired to `input` is not 2:1 (the lat-long shape), naming
+/// its field and the operators that convert the layouts hdrflow reads.
+pub fn warn_unless_latlong(ctx: &mut OpContext, input: &Input<Image>) {
+    warn_unless_latlong_size(ctx, input.field(), input.width, input.height);
+}
+
+/// [`warn_unless_latlong`] for a map derived from the input wired to `field` (`Input::field`).
+pub fn warn_unless_latlong_size(ctx: &mut OpContext, field: &str, width: usize, height: usize) {
     if width != 2 * height {
         ctx.warn(format!(
             "field {field:?} is {width} x {height}, not 2:1, but is read as a lat-long map \

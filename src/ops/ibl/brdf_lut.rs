@@ -48,11 +48,16 @@ crate::params! {
 }
 
 pub fn spec() -> OpSpec {
-    Op::new("BrdfLut", 1, "Split-sum LUT, x = n.v, y = roughness: GGX's DFG (R, G) = (scale, bias) with Smith height-correlated visibility, or the Charlie sheen LUT in B", eval)
+    Op::new(
+        "BrdfLut",
+        1,
+        "Split-sum LUT, x = n.v, y = roughness: GGX's DFG (R, G) = (scale, bias) with Smith height-correlated visibility, or the Charlie sheen LUT in B",
+        eval,
+    )
     .output("image", IMAGE_T, "the size x size texture: (R, G) for Ggx, (R, G, B) = (0, 0, LUT) for Charlie")
     .size(|_, p| Some((p.size as u64, p.size as u64)))
     .check(check)
-        .into()
+    .into()
 }
 
 fn check(_: &CheckContext, p: BrdfLutParams<Check>) -> Result<(), CheckProblem> {

@@ -47,7 +47,7 @@ pub fn spec() -> OpSpec {
 }
 
 fn eval(ctx: &mut OpContext, p: LatLongToCubemapParams) -> Result<Value, OpError> {
-    warn_unless_latlong(ctx, LatLongToCubemapParams::image, p.image.width, p.image.height);
+    warn_unless_latlong(ctx, &p.image);
     let img = &*p.image;
     crate::ops::latlong_input::check_finite(img)?;
     Ok(Value::new(in_frame(&latlong_to_cube(&LatLongSource::new(img), p.size), p.frame)))

@@ -38,7 +38,7 @@ pub fn spec() -> OpSpec {
 }
 
 fn eval(ctx: &mut OpContext, p: LatLongToOctahedralParams) -> Result<Value, OpError> {
-    warn_unless_latlong(ctx, LatLongToOctahedralParams::image, p.image.width, p.image.height);
+    warn_unless_latlong(ctx, &p.image);
     let img = &*p.image;
     crate::ops::latlong_input::check_finite(img)?;
     Ok(Value::new(to_octahedral(&LatLongSource::new(img), p.size)))

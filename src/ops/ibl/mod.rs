@@ -22,7 +22,7 @@ use crate::engine::op::{OpContext, OpError};
 use crate::engine::registry::{Registry, RegistryError};
 use crate::maths::resample::latlong_cube::latlong_to_cube;
 use crate::maths::resample::layouts::{downsample, to_cube, CubeSource, LatLongSource};
-use crate::ops::latlong_input::warn_unless_latlong;
+use crate::ops::latlong_input::warn_unless_latlong_size;
 use crate::values::{Cubemap, Image};
 
 /// Declares the parameters of an operator that makes a lat-long map (`CubemapToLatLong`,
@@ -110,6 +110,6 @@ pub(crate) fn env_image<'v>(ctx: &mut OpContext, env: &'v Input<AnyValue>) -> Re
             env.value_type()
         ))
     })?;
-    warn_unless_latlong(ctx, env.field(), img.width, img.height);
+    warn_unless_latlong_size(ctx, env.field(), img.width, img.height);
     Ok(img)
 }

@@ -68,11 +68,16 @@ crate::params! {
 }
 
 pub fn spec() -> OpSpec {
-    Op::new("PrefilterSpecular", 1, "GGX (or Charlie) prefiltered cube-map chain, level k at the roughness roughness_map gives it, by filtered importance sampling, or exactly", eval)
+    Op::new(
+        "PrefilterSpecular",
+        1,
+        "GGX (or Charlie) prefiltered cube-map chain, level k at the roughness roughness_map gives it, by filtered importance sampling, or exactly",
+        eval,
+    )
     .output("chain", MIP_CHAIN_T, "the chain; Save it with {level} in the path")
     .size(|_, p| Some((6 * p.size as u64, p.size as u64)))
     .check(check)
-        .into()
+    .into()
 }
 
 fn check(_: &CheckContext, p: PrefilterSpecularParams<Check>) -> Result<(), CheckProblem> {

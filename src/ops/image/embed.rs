@@ -16,7 +16,7 @@ use crate::engine::typed_op::{Op, Port};
 use crate::geometry::lens::{fov_problem, Lens, Model};
 use crate::geometry::rotation::Rotation;
 use crate::maths::camera::view::embed;
-use crate::ops::latlong_input::warn_unless_latlong;
+use crate::ops::latlong_input::warn_unless_latlong_size;
 use crate::values::ty::*;
 use crate::values::Image;
 
@@ -100,7 +100,7 @@ fn check(_: &CheckContext, p: EmbedParams<Check>) -> Result<(), CheckProblem> {
 
 fn eval(ctx: &mut OpContext, p: EmbedParams) -> Result<Outputs, OpError> {
     if let Some(env) = &p.env {
-        warn_unless_latlong(ctx, EmbedParams::env, env.width, env.height);
+        warn_unless_latlong_size(ctx, EmbedParams::env, env.width, env.height);
     }
     let view = &*p.view;
     let lens = Lens::new(p.model, p.fov, view.width, view.height).map_err(OpError::Invalid)?;

@@ -78,7 +78,7 @@ pub fn mean_light_vector(img: &Image) -> Result<[f64; 3], String> {
 }
 
 fn eval(ctx: &mut OpContext, p: MeanLightVectorParams) -> Result<Value, OpError> {
-    warn_unless_latlong(ctx, MeanLightVectorParams::image, p.image.width, p.image.height);
+    warn_unless_latlong(ctx, &p.image);
     check_finite(&p.image)?;
     let [x, y, z] = mean_light_vector(&p.image).map_err(OpError::Invalid)?;
     let length = DVec3::new(x, y, z).length();

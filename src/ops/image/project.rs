@@ -73,7 +73,7 @@ fn check(_: &CheckContext, p: ProjectParams<Check>) -> Result<(), CheckProblem> 
 }
 
 fn eval(ctx: &mut OpContext, p: ProjectParams) -> Result<Outputs, OpError> {
-    warn_unless_latlong(ctx, ProjectParams::env, p.env.width, p.env.height);
+    warn_unless_latlong(ctx, &p.env);
     let lens = Lens::new(p.model, p.fov, p.width, p.height).map_err(OpError::Invalid)?;
     let camera = Camera {
         model: p.model,

@@ -13,7 +13,7 @@ use crate::engine::value::Value;
 use crate::geometry::rotation::Rotation;
 use crate::maths::resample::layouts::{to_cube, CubeSource};
 use crate::maths::resample::rotation::{roll_columns, rotate_latlong, Rotated};
-use crate::ops::latlong_input::warn_unless_latlong;
+use crate::ops::latlong_input::warn_unless_latlong_size;
 use crate::values::ty::*;
 use crate::values::{Cubemap, Image};
 
@@ -64,14 +64,14 @@ fn eval(ctx: &mut OpContext, p: RotateParams) -> Result<Value, OpError> {
     let r = p.rotation().map_err(|e| OpError::Invalid(e.message))?;
     if p.matrix.is_none() && [p.yaw, p.pitch, p.roll] == [0.0; 3] {
         if let Some(img) = p.image.value().get::<Image>() {
-            warn_unless_latlong(ctx, RotateParams::image, img.width, img.height);
+            warn_unless_latlong_size(ctx, RotateParams::image, img.width, img.height);
         }
         // No turn: the map itself (a bake's `turned` node without --yaw).
         return Ok(p.image.into_value());
     }
     let v = p.image.value();
     if let Some(img) = v.get::<Image>() {
-        warn_unless_latlong(ctx, RotateParams::image, img.width, img.height);
+        warn_unless_latlong_size(ctx, RotateParams::image, img.width, img.height);
         if let Some(k) = r.whole_column_shift(img.width) {
             // An exact roll of whole columns, in place when no other node reads the map.
             let mut img = p.image.into_value().take::<Image>().expect("the value is an image");

@@ -42,10 +42,15 @@ crate::params! {
 }
 
 pub fn spec() -> OpSpec {
-    Op::new("Statistics", 1, "Luminance mean, percentiles and dynamic range (solid-angle weighted), and counts of NaN, Inf and negative texels", eval)
+    Op::new(
+        "Statistics",
+        1,
+        "Luminance mean, percentiles and dynamic range (solid-angle weighted), and counts of NaN, Inf and negative texels",
+        eval,
+    )
     .output("metrics", METRICS_T, "the statistics")
     .check(check)
-        .into()
+    .into()
 }
 
 /// The metric name of percentile `p`: `p1`, `p99.9`.

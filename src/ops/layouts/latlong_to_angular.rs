@@ -41,6 +41,6 @@ pub fn spec() -> OpSpec {
 }
 
 fn eval(ctx: &mut OpContext, p: LatLongToAngularParams) -> Result<Value, OpError> {
-    warn_unless_latlong(ctx, LatLongToAngularParams::env, p.env.width, p.env.height);
+    warn_unless_latlong(ctx, &p.env);
     Ok(Value::new(latlong_to_disc(&p.env, &DiscMap::ANGULAR, p.size)))
 }

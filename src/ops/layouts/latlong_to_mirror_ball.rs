@@ -52,7 +52,7 @@ fn check(_: &CheckContext, p: LatLongToMirrorBallParams<Check>) -> Result<(), Ch
 }
 
 fn eval(ctx: &mut OpContext, p: LatLongToMirrorBallParams) -> Result<Value, OpError> {
-    warn_unless_latlong(ctx, LatLongToMirrorBallParams::env, p.env.width, p.env.height);
+    warn_unless_latlong(ctx, &p.env);
     let map = ball_map(p.yaw, p.pitch, p.roll, p.look, LatLongToMirrorBallParams::look)
         .map_err(|e| OpError::Invalid(e.message))?;
     Ok(Value::new(latlong_to_disc(&p.env, &map, p.size)))

@@ -43,6 +43,6 @@ pub fn spec() -> OpSpec {
 }
 
 fn eval(ctx: &mut OpContext, p: LatLongToSkyAngularParams) -> Result<Value, OpError> {
-    warn_unless_latlong(ctx, LatLongToSkyAngularParams::env, p.env.width, p.env.height);
+    warn_unless_latlong(ctx, &p.env);
     Ok(Value::new(latlong_to_disc(&p.env, &DiscMap::SKY_ANGULAR, p.size)))
 }

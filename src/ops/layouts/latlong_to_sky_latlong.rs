@@ -45,6 +45,6 @@ pub fn sky_half(env: &Image) -> Result<Image, OpError> {
 }
 
 fn eval(ctx: &mut OpContext, p: LatLongToSkyLatLongParams) -> Result<Value, OpError> {
-    warn_unless_latlong(ctx, LatLongToSkyLatLongParams::env, p.env.width, p.env.height);
+    warn_unless_latlong(ctx, &p.env);
     Ok(Value::new(sky_half(&p.env)?))
 }

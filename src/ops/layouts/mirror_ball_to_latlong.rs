@@ -51,12 +51,17 @@ const IMAGE: Port<Image> = Port::new("image");
 const MASK: Port<Image> = Port::new("mask");
 
 pub fn spec() -> OpSpec {
-    Op::new("MirrorBallToLatLong", 1, "A chrome-ball photograph (orthographic, cropped to the ball) to a lat-long map, with the mask of what the ball saw", eval)
+    Op::new(
+        "MirrorBallToLatLong",
+        1,
+        "A chrome-ball photograph (orthographic, cropped to the ball) to a lat-long map, with the mask of what the ball saw",
+        eval,
+    )
     .output_like(IMAGE, |p| p.image, "the lat-long map (0 where the mask is 0)")
     .port(MASK, SCALAR_T, "1 where the usable part of the ball saw the texel, else 0")
     .size(|_, p| Some((p.width as u64, p.height as u64)))
     .check(check)
-        .into()
+    .into()
 }
 
 fn check(_: &CheckContext, p: MirrorBallParams<Check>) -> Result<(), CheckProblem> {

@@ -48,18 +48,24 @@ const LIGHTS: Port<Lights> = Port::new("lights");
 const RESIDUAL: Port<Image> = Port::new("residual");
 
 pub fn spec() -> OpSpec {
-    Op::new("ExtractLights", 1, "Parametric lights (the brightest connected regions) plus an ambient colour, conserving the integral per channel", eval)
+    Op::new(
+        "ExtractLights",
+        1,
+        "Parametric lights (the brightest connected regions) plus an ambient colour, conserving the integral per channel",
+        eval,
+    )
     .port(LIGHTS, LIGHTS_T, "the lights (direction, solid angle, RGB radiance) and the ambient")
-    .output_computed(RESIDUAL,
+    .output_computed(
+        RESIDUAL,
         "the input's type",
         |_, p| Ok(p.env.ty),
         "env with the lights' regions filled with the ambient",
     )
-        .into()
+    .into()
 }
 
 fn eval(ctx: &mut OpContext, p: ExtractLightsParams) -> Result<Outputs, OpError> {
-    warn_unless_latlong(ctx, ExtractLightsParams::env, p.env.width, p.env.height);
+    warn_unless_latlong(ctx, &p.env);
     let env = &*p.env;
     check_finite(env)?;
     let e = extract_lights(env, p.max_lights, p.threshold_stops);

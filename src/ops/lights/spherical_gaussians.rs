@@ -57,7 +57,7 @@ pub fn spec() -> OpSpec {
 }
 
 fn eval(ctx: &mut OpContext, p: SphericalGaussiansParams) -> Result<Outputs, OpError> {
-    warn_unless_latlong(ctx, SphericalGaussiansParams::env, p.env.width, p.env.height);
+    warn_unless_latlong(ctx, &p.env);
     let env = &*p.env;
     check_finite(env)?;
     let f = fit(env, p.lobes, p.iterations, p.seed);

@@ -55,7 +55,7 @@ pub fn spec() -> OpSpec {
 }
 
 fn eval(ctx: &mut OpContext, p: SunExtractParams) -> Result<Outputs, OpError> {
-    warn_unless_latlong(ctx, SunExtractParams::env, p.env.width, p.env.height);
+    warn_unless_latlong(ctx, &p.env);
     check_finite(&p.env)?;
     // The residual is the map itself with the sun filled: no second copy when no other node
     // reads the map (else `take` copies it).

@@ -36,7 +36,7 @@ pub fn spec() -> OpSpec {
 }
 
 fn eval(ctx: &mut OpContext, p: BuildCdfParams) -> Result<Value, OpError> {
-    warn_unless_latlong(ctx, BuildCdfParams::luminance, p.luminance.width, p.luminance.height);
+    warn_unless_latlong(ctx, &p.luminance);
     let dist =
         Distribution2D::build(&p.luminance, p.sin_theta, p.sanitize).map_err(|e| OpError::Invalid(e.to_string()))?;
     Ok(Value::new(dist))

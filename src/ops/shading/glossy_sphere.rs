@@ -63,7 +63,7 @@ pub fn spec() -> OpSpec {
 }
 
 fn eval(ctx: &mut OpContext, p: GlossySphereParams) -> Result<Value, OpError> {
-    warn_unless_latlong(ctx, GlossySphereParams::env, p.env.width, p.env.height);
+    warn_unless_latlong(ctx, &p.env);
     let (env, dist) = (&*p.env, &*p.cdf);
     // A NaN or infinite texel would make NaN pixels wherever a sample lands on it.
     crate::ops::latlong_input::check_finite(env)?;

@@ -76,7 +76,7 @@ pub fn spec() -> OpSpec {
 }
 
 fn eval(ctx: &mut OpContext, p: PerPixelParams) -> Result<Value, OpError> {
-    warn_unless_latlong(ctx, PerPixelParams::env, p.env.width, p.env.height);
+    warn_unless_latlong(ctx, &p.env);
     let (env, dist) = (&*p.env, &*p.cdf);
     if (dist.width(), dist.height()) != (env.width, env.height) {
         return Err(OpError::Invalid(format!(

@@ -35,7 +35,7 @@ pub fn spec() -> OpSpec {
 }
 
 fn eval(ctx: &mut OpContext, p: ReferenceGlossyParams) -> Result<Value, OpError> {
-    warn_unless_latlong(ctx, ReferenceGlossyParams::env, p.env.width, p.env.height);
+    warn_unless_latlong(ctx, &p.env);
     let env = &*p.env;
     check_finite(env)?;
     let brdf = GlossyBrdf { diffuse: p.diffuse.0, specular: p.specular.0, exponent: p.exponent };

@@ -41,7 +41,7 @@ pub fn spec() -> OpSpec {
 }
 
 fn eval(ctx: &mut OpContext, p: ReferenceParams) -> Result<Value, OpError> {
-    warn_unless_latlong(ctx, ReferenceParams::env, p.env.width, p.env.height);
+    warn_unless_latlong(ctx, &p.env);
     let env = &*p.env;
     check_finite(env)?;
     Ok(Value::new(reference_sphere(env, &sphere_view(p.size, p.view), p.albedo.0)))

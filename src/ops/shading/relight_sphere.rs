@@ -48,7 +48,7 @@ pub fn spec() -> OpSpec {
 }
 
 fn eval(ctx: &mut OpContext, p: RelightParams) -> Result<Value, OpError> {
-    warn_unless_latlong(ctx, RelightParams::env, p.env.width, p.env.height);
+    warn_unless_latlong(ctx, &p.env);
     let estimator = p.estimator;
     let view = sphere_view(p.size, p.view);
     let image = shared_relight::relight_sphere(&p.env, &p.samples, p.size, p.albedo.0, view.view_dir(), estimator)

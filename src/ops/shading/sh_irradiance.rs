@@ -72,7 +72,7 @@ pub fn spec() -> OpSpec {
 }
 
 fn eval(ctx: &mut OpContext, p: ShIrradianceParams) -> Result<Outputs, OpError> {
-    warn_unless_latlong(ctx, ShIrradianceParams::env, p.env.width, p.env.height);
+    warn_unless_latlong(ctx, &p.env);
     let env = &*p.env;
     check_finite(env)?;
     let rgb = project_turned(env, p.order, p.frame, p.yaw);

@@ -42,7 +42,7 @@ pub fn spec() -> OpSpec {
 }
 
 fn eval(ctx: &mut OpContext, p: ShSphereParams) -> Result<Value, OpError> {
-    warn_unless_latlong(ctx, ShSphereParams::env, p.env.width, p.env.height);
+    warn_unless_latlong(ctx, &p.env);
     let env = &*p.env;
     check_finite(env)?;
     Ok(Value::new(sh_sphere(env, &sphere_view(p.size, p.view), p.albedo.0, p.order)))
