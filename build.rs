@@ -217,7 +217,12 @@ fn main() {
         h.update(&[0]);
     }
     for v in &vars {
-        println!("cargo:rerun-if-env-changed={v}");
+        // Cargo's own `CARGO_*` values change only with Cargo.toml, which reruns this script
+        // anyway; asking to rerun on them would rebuild the crate whenever a process that cargo
+        // started (a test running `cargo run --example`) calls cargo again with them set.
+        if !v.starts_with("CARGO_") {
+            println!("cargo:rerun-if-env-changed={v}");
+        }
         h.update(format!("env {v}={:?}\0", std::env::var(v).ok()).as_bytes());
     }
     let lock = std::fs::read_to_string("Cargo.lock").unwrap_or_default();
