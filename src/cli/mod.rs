@@ -31,6 +31,7 @@ mod bake;
 mod batch;
 mod batch_progress;
 mod cache;
+mod op_text;
 mod ops;
 mod ops_markdown;
 mod pipeline;

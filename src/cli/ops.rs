@@ -6,7 +6,7 @@
 use std::path::Path;
 use std::process::ExitCode;
 
-use crate::engine::cache::Persist;
+use super::op_text::{persist_text, save_extensions};
 use crate::engine::graph::suggest;
 use crate::engine::registry::Registry;
 
@@ -64,21 +64,6 @@ pub(super) fn ops(registry: &Registry, name: Option<&str>, markdown: Option<&Pat
         }
     }
     ExitCode::SUCCESS
-}
-
-/// What the cache keeps of an operator's results, in words.
-pub(super) fn persist_text(persist: Persist) -> &'static str {
-    match persist {
-        Persist::Measured => "a large result is stored when slower to recompute than to read back",
-        Persist::Always => "every result is stored",
-        Persist::IfSmall => "a large result is stored only as a target (one cheap pass per byte)",
-    }
-}
-
-/// `.exr .png`: the extensions `Save` writes a value type as ("" when it writes none).
-pub(super) fn save_extensions(registry: &Registry, t: crate::engine::value::ValueType) -> String {
-    let saves = registry.saver(t).map_or(&[][..], |s| s.extensions);
-    saves.iter().map(|e| format!(".{e}")).collect::<Vec<_>>().join(" ")
 }
 
 /// The message for an operator name that is not registered: the closest names when some are

@@ -42,7 +42,7 @@ fn page(spec: &OpSpec) -> String {
     let _ = writeln!(s, "{}\n", cell(spec.doc));
     let _ = writeln!(s, "- **Category**: [{0}](index.md#{0})", spec.category);
     let _ = writeln!(s, "- **Version**: {} (in the cache key: bumped whenever results may change)", spec.version);
-    let _ = writeln!(s, "- **Cache**: {}\n", super::ops::persist_text(spec.persist));
+    let _ = writeln!(s, "- **Cache**: {}\n", super::op_text::persist_text(spec.persist));
 
     let _ = writeln!(s, "## Fields\n");
     if spec.fields.is_empty() {
@@ -134,7 +134,7 @@ fn index(registry: &Registry, specs: &[&Arc<OpSpec>]) -> String {
     let _ = writeln!(s, "| type | what it is | Save writes it as |");
     let _ = writeln!(s, "|---|---|---|");
     for t in registry.value_types() {
-        let saves = super::ops::save_extensions(registry, t);
+        let saves = super::op_text::save_extensions(registry, t);
         let _ = writeln!(s, "| `{}` | {} | {} |", t.name(), cell(t.spec().doc), cell(&saves));
     }
     s
