@@ -122,37 +122,31 @@ pub fn to_json(l: &Label) -> String {
     super::json::text(&to_json_value(l))
 }
 
+/// A label with every part, for the tests of its codec and of how `Save` writes it.
+#[cfg(test)]
+pub(crate) fn full_label_for_tests() -> Label {
+    use crate::geometry::lens::Model;
+    use crate::values::{Light, SgLobe, ShFrame};
+    Label {
+        camera: Camera { model: Model::Perspective, fov: 60.0, width: 4, height: 3, yaw: 45.0, pitch: 5.0, roll: 0.0 },
+        sh: Some(ShCoefficients { order: 1, frame: ShFrame::World, rgb: vec![[1.0, 2.0, 3.0]; 4] }),
+        sgs: Some(SphericalGaussians {
+            lobes: vec![SgLobe { axis: [0.0, 1.0, 0.0], sharpness: 3.5, amplitude: [0.5, 0.25, 0.125] }],
+        }),
+        lights: Some(Lights {
+            lights: vec![Light { direction: [0.0, 0.6, -0.8], solid_angle: 1e-3, radiance: [5e4, 4e4, 3e4] }],
+            ambient: [0.1, 0.2, 0.3],
+        }),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::lens::Model;
-    use crate::values::{Light, SgLobe, ShFrame};
-
-    fn full() -> Label {
-        Label {
-            camera: Camera {
-                model: Model::Perspective,
-                fov: 60.0,
-                width: 4,
-                height: 3,
-                yaw: 45.0,
-                pitch: 5.0,
-                roll: 0.0,
-            },
-            sh: Some(ShCoefficients { order: 1, frame: ShFrame::World, rgb: vec![[1.0, 2.0, 3.0]; 4] }),
-            sgs: Some(SphericalGaussians {
-                lobes: vec![SgLobe { axis: [0.0, 1.0, 0.0], sharpness: 3.5, amplitude: [0.5, 0.25, 0.125] }],
-            }),
-            lights: Some(Lights {
-                lights: vec![Light { direction: [0.0, 0.6, -0.8], solid_angle: 1e-3, radiance: [5e4, 4e4, 3e4] }],
-                ambient: [0.1, 0.2, 0.3],
-            }),
-        }
-    }
 
     #[test]
     fn every_combination_of_parts_round_trips_through_the_cache_payload() {
-        let f = full();
+        let f = full_label_for_tests();
         for mask in 0..8u8 {
             let l = Label {
                 camera: f.camera,

@@ -46,35 +46,11 @@ fn save_label(value: &Value, _: &SaveOptions) -> Result<Vec<u8>, String> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::lens::Model;
     use crate::values::label::to_json;
-    use crate::values::{SgLobe, ShCoefficients, ShFrame};
-
-    fn full() -> Label {
-        Label {
-            camera: Camera {
-                model: Model::Perspective,
-                fov: 60.0,
-                width: 4,
-                height: 3,
-                yaw: 45.0,
-                pitch: 5.0,
-                roll: 0.0,
-            },
-            sh: Some(ShCoefficients { order: 1, frame: ShFrame::World, rgb: vec![[1.0, 2.0, 3.0]; 4] }),
-            sgs: Some(SphericalGaussians {
-                lobes: vec![SgLobe { axis: [0.0, 1.0, 0.0], sharpness: 3.5, amplitude: [0.5, 0.25, 0.125] }],
-            }),
-            lights: Some(Lights {
-                lights: vec![Light { direction: [0.0, 0.6, -0.8], solid_angle: 1e-3, radiance: [5e4, 4e4, 3e4] }],
-                ambient: [0.1, 0.2, 0.3],
-            }),
-        }
-    }
 
     #[test]
     fn each_part_is_the_json_its_own_type_saves() {
-        let l = full();
+        let l = crate::values::label::full_label_for_tests();
         let json: serde_json::Value = serde_json::from_str(&to_json(&l)).unwrap();
         let own = |text: &str| serde_json::from_str::<serde_json::Value>(text).unwrap();
         let opts = SaveOptions::new("json");
