@@ -533,8 +533,13 @@ fn hostile_input_files_fail_fast_with_an_error_naming_the_file() {
     assert_load_fails_cleanly(&sb, "wrong_magic.pfm", &["magic"]);
     sb.write("pfm_named.exr", pfm::encode(&gradient(8, 4, 0.0)));
     assert_load_fails_cleanly(&sb, "pfm_named.exr", &[]);
-    // A missing file.
-    assert_load_fails_cleanly(&sb, "does_not_exist.pfm", &[]);
+    // A missing file: found by validation (exit 2), at its field, before anything runs.
+    let graph = sb.write("load_missing.ron", load_and_save("does_not_exist.pfm"));
+    let out = sb.join("out_missing");
+    let (o, _) = sb.run_in(&graph, &out, &sb.cache(), &[]);
+    o.assert_code(2)
+        .assert_stderr_contains(r#"load_missing.ron:3:31: node "env": field "path": input file "does_not_exist.pfm""#);
+    assert!(files_under(&out).is_empty(), "outputs written");
 }
 
 #[test]
@@ -746,11 +751,18 @@ fn exit_codes_distinguish_usage_errors_from_run_errors() {
     assert!(files_under(&sb.out()).is_empty(), "a refused run wrote outputs");
     assert!(files_under(&sb.cache()).is_empty(), "a refused run wrote to the cache");
 
-    // A run error: the input file is missing.
+    // A missing input file is a pipeline error, at the field that names it.
     let missing = sb.write("missing.ron", load_and_save("missing.pfm"));
     let (o, _) = sb.run(&missing, &[]);
-    o.assert_code(1).assert_stderr_contains("missing.pfm");
+    o.assert_code(2).assert_stderr_contains(r#"missing.ron:3:31: node "env": field "path": input file "missing.pfm""#);
     let mut plan = hdrflow_command([OsStr::new("plan"), missing.as_os_str()]);
     plan.arg("--cache-dir").arg(sb.cache());
-    run_command(plan, RUN_TIMEOUT).assert_code(1).assert_stderr_contains("missing.pfm");
+    run_command(plan, RUN_TIMEOUT).assert_code(2).assert_stderr_contains("missing.pfm");
+    assert!(files_under(&sb.out()).is_empty() && files_under(&sb.cache()).is_empty());
+
+    // A run error: the input file is there, but is not what its extension says.
+    let corrupt = sb.write("corrupt.ron", load_and_save("corrupt.pfm"));
+    sb.write("corrupt.pfm", b"not a PFM file");
+    let (o, _) = sb.run(&corrupt, &[]);
+    o.assert_code(1).assert_stderr_contains("corrupt.pfm");
 }
