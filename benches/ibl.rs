@@ -58,7 +58,9 @@ fn main() {
         vec![("builtin:sky".into(), hdrflow::formats::builtin::builtin("sky").expect("built-in"))];
     for name in ["rooitou_park_1k.hdr", "st_fagans_interior_1k.hdr", "studio_small_03_1k.hdr", "grace-new_256x128.hdr"]
     {
-        if let Some(img) = load(&shared.join(name)) {
+        // The maps that ship in assets/maps/ are read from there, the others from ../shared/data.
+        let shipped = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/maps").join(name);
+        if let Some(img) = load(&if shipped.is_file() { shipped } else { shared.join(name) }) {
             maps.push((name.into(), img));
         }
     }

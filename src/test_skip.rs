@@ -6,7 +6,8 @@
 //! machine that has one).
 //!
 //! One file for the unit tests (`crate::test_skip`) and the integration tests
-//! (`tests/common` includes it with `#[path]`).
+//! (`tests/common` includes it with `#[path]`), with [`real_map`], where those tests find a real
+//! map by name.
 
 use std::io::Write;
 
@@ -30,4 +31,19 @@ pub fn skip(require_var: &str, what: &str) {
 #[allow(dead_code)]
 pub fn skip_missing_data(what: &str) {
     skip("HDRFLOW_REQUIRE_DATA", what)
+}
+
+/// A real environment map by file name: the copy that ships in `assets/maps/` when there is one
+/// (the park, the interior and the studio), else `../shared/data/envmaps/NAME` beside the
+/// repository (Grace Cathedral's maps), which may be missing: callers then skip with
+/// [`skip_missing_data`].
+#[allow(dead_code)]
+pub fn real_map(name: &str) -> std::path::PathBuf {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let shipped = root.join("assets/maps").join(name);
+    if shipped.is_file() {
+        shipped
+    } else {
+        root.join("../shared/data/envmaps").join(name)
+    }
 }

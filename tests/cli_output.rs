@@ -115,6 +115,14 @@ fn completions_and_the_manual_are_generated() {
     let man = run_hdrflow(["man"]);
     man.assert_success();
     assert!(man.stdout.starts_with(".ie") || man.stdout.contains(".TH hdrflow"), "{}", &man.stdout[..200]);
+    // `-o FILE` writes the same text, creating the folders a fresh account does not have yet.
+    let sb = Sandbox::new();
+    let completions = sb.join("share/bash-completion/completions/hdrflow");
+    run_hdrflow(["completions", "bash", "-o", &arg(&completions)]).assert_success();
+    assert_eq!(std::fs::read_to_string(&completions).unwrap(), bash.stdout);
+    let page = sb.join("share/man/man1/hdrflow.1");
+    run_hdrflow(["man", "--output", &arg(&page)]).assert_success();
+    assert_eq!(std::fs::read_to_string(&page).unwrap(), man.stdout);
 }
 
 /// `--print` and `--target` take `node.port`, the same form as fields (issue 25).

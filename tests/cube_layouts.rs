@@ -234,7 +234,8 @@ fn sizes_known_only_when_running_are_the_nodes_errors() {
     })"#;
     let registry = hdrflow::builtin_registry();
     let run = |target: &str, img: Image| {
-        let mut p = hdrflow::Pipeline::parse(text, "test.ron", Path::new("."), &registry, &[]).expect("validates");
+        let mut p = hdrflow::Pipeline::parse_providing(text, "test.ron", Path::new("."), &registry, &[], &["img"])
+            .expect("validates");
         p.provide("img", Value::new(img)).expect("an image node");
         let dir = std::env::temp_dir().join(format!("hdrflow-cube-layouts-{}-{target}", std::process::id()));
         let options =

@@ -1190,3 +1190,42 @@ fn a_written_file_is_kept_as_its_path() {
         assert_eq!(written.len(), 64 * 32 * 12 + "PF\n64 32\n-1.0\n".len(), "{pass}");
     }
 }
+
+/// A node in error does not hide the problems of the nodes after it that do not depend on it:
+/// an unknown field (phase 4) or a wrong input type (phase 6) leaves the node's fixed output
+/// type in place, so its saver's extension is still checked, in the same run.
+#[test]
+fn a_node_in_error_does_not_hide_the_independent_errors_after_it() {
+    let registry = registry();
+    for cdf in [r#"BuildCdf(luminance: "lum", bogus: 1)"#, r#"BuildCdf(luminance: "env")"#] {
+        let text = format!(
+            "(nodes: {{\n    \"env\": LoadHdr(path: \"builtin:sky\"),\n    \"lum\": Luminance(image: \"env\"),\n    \
+             \"cdf\": {cdf},\n    \"save\": Save(input: \"cdf\", path: \"c.jpg\"),\n}})"
+        );
+        let errors = parse_errors(&text, &registry);
+        assert_eq!(errors.len(), 2, "{errors:#?}");
+        assert!(errors[0].starts_with("test.ron:4:") && errors[0].contains("node \"cdf\""), "{errors:#?}");
+        assert!(errors[1].contains("test.ron:5:") && errors[1].contains("as \".jpg\""), "{errors:#?}");
+    }
+}
+
+/// Validation finds a missing input file at its field; a file that vanishes after validation
+/// still fails the run, at its loader, naming the file.
+#[test]
+fn a_missing_input_file_fails_validation_and_one_that_vanishes_later_fails_the_run() {
+    let sb = Sandbox::new();
+    let registry = registry();
+    let text = r#"(nodes: { "env": LoadHdr(path: "m.pfm"), "e": Exposure(image: "env", stops: 1) })"#;
+    let errors = Pipeline::parse(text, "t.ron", sb.path(), &registry, &[]).unwrap_err().to_string();
+    assert!(
+        errors.starts_with(r#"t.ron:1:32: node "env": field "path": input file "m.pfm" does not exist"#),
+        "{errors}"
+    );
+
+    let map = sb.write("m.pfm", common::small_pfm(4, 2, 1.0));
+    let p = Pipeline::parse(text, "t.ron", sb.path(), &registry, &[]).expect("the file is there");
+    std::fs::remove_file(&map).unwrap();
+    let Err(err) = run(&p, &["e"], &sb.out(), None, 2) else { panic!("the run succeeded without its file") };
+    let err = err.to_string();
+    assert!(err.contains("node \"env\"") && err.contains("m.pfm"), "{err}");
+}

@@ -533,8 +533,13 @@ fn hostile_input_files_fail_fast_with_an_error_naming_the_file() {
     assert_load_fails_cleanly(&sb, "wrong_magic.pfm", &["magic"]);
     sb.write("pfm_named.exr", pfm::encode(&gradient(8, 4, 0.0)));
     assert_load_fails_cleanly(&sb, "pfm_named.exr", &[]);
-    // A missing file.
-    assert_load_fails_cleanly(&sb, "does_not_exist.pfm", &[]);
+    // A missing file: found by validation (exit 2), at its field, before anything runs.
+    let graph = sb.write("load_missing.ron", load_and_save("does_not_exist.pfm"));
+    let out = sb.join("out_missing");
+    let (o, _) = sb.run_in(&graph, &out, &sb.cache(), &[]);
+    o.assert_code(2)
+        .assert_stderr_contains(r#"load_missing.ron:3:31: node "env": field "path": input file "does_not_exist.pfm""#);
+    assert!(files_under(&out).is_empty(), "outputs written");
 }
 
 #[test]
@@ -625,7 +630,8 @@ fn loadhdr_round_trips_exr_exactly() {
     assert_eq!(got, img, "an f32 EXR does not round-trip exactly");
 }
 
-/// Per-channel maxima and means from ../shared/data/envmaps/SOURCES.md.
+/// Per-channel maxima and means from ../shared/data/envmaps/SOURCES.md (the park, the interior
+/// and the studio also ship in assets/maps/).
 struct RealMap {
     file: &'static str,
     size: (usize, usize),
@@ -671,24 +677,31 @@ const REAL_MAPS: &[RealMap] = &[
 
 #[test]
 fn loadhdr_reads_the_real_environment_maps() {
-    let dir = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data/envmaps"));
-    if !dir.is_dir() {
-        common::skip_missing_data("../shared/data/envmaps not found; real-data loader tests did not run");
-        return;
-    }
+    // The maps found, each from assets/maps/ when it ships there, else from ../shared/data.
+    let found: Vec<(usize, &RealMap)> = REAL_MAPS
+        .iter()
+        .enumerate()
+        .filter(|(_, m)| {
+            let there = common::real_map(m.file).is_file();
+            if !there {
+                common::skip_missing_data(&format!("{} not found; LoadHdr was not checked on it", m.file));
+            }
+            there
+        })
+        .collect();
     let sb = Sandbox::new();
     let mut nodes = String::new();
-    for (i, m) in REAL_MAPS.iter().enumerate() {
-        nodes.push_str(&format!("        \"map{i}\": LoadHdr(path: {}),\n", ron_path(&dir.join(m.file))));
+    for &(i, m) in &found {
+        nodes.push_str(&format!("        \"map{i}\": LoadHdr(path: {}),\n", ron_path(&common::real_map(m.file))));
         nodes.push_str(&format!("        \"save{i}\": Save(input: \"map{i}\", path: \"map{i}.pfm\"),\n"));
     }
     let graph = sb.write("real.ron", format!("(\n    nodes: {{\n{nodes}    }},\n)\n"));
     let (o, r) = sb.run(&graph, &["--no-cache"]);
     o.assert_success();
-    assert_eq!(r.expect("report").with_status("computed").len(), 2 * REAL_MAPS.len());
+    assert_eq!(r.expect("report").with_status("computed").len(), 2 * found.len());
 
     let mut problems = Vec::new();
-    for (i, m) in REAL_MAPS.iter().enumerate() {
+    for &(i, m) in &found {
         let img = decode_pfm(&sb.out().join(format!("map{i}.pfm")));
         if (img.width, img.height) != m.size {
             problems.push(format!("{}: {}x{}, expected {}x{}", m.file, img.width, img.height, m.size.0, m.size.1));
@@ -746,11 +759,18 @@ fn exit_codes_distinguish_usage_errors_from_run_errors() {
     assert!(files_under(&sb.out()).is_empty(), "a refused run wrote outputs");
     assert!(files_under(&sb.cache()).is_empty(), "a refused run wrote to the cache");
 
-    // A run error: the input file is missing.
+    // A missing input file is a pipeline error, at the field that names it.
     let missing = sb.write("missing.ron", load_and_save("missing.pfm"));
     let (o, _) = sb.run(&missing, &[]);
-    o.assert_code(1).assert_stderr_contains("missing.pfm");
+    o.assert_code(2).assert_stderr_contains(r#"missing.ron:3:31: node "env": field "path": input file "missing.pfm""#);
     let mut plan = hdrflow_command([OsStr::new("plan"), missing.as_os_str()]);
     plan.arg("--cache-dir").arg(sb.cache());
-    run_command(plan, RUN_TIMEOUT).assert_code(1).assert_stderr_contains("missing.pfm");
+    run_command(plan, RUN_TIMEOUT).assert_code(2).assert_stderr_contains("missing.pfm");
+    assert!(files_under(&sb.out()).is_empty() && files_under(&sb.cache()).is_empty());
+
+    // A run error: the input file is there, but is not what its extension says.
+    let corrupt = sb.write("corrupt.ron", load_and_save("corrupt.pfm"));
+    sb.write("corrupt.pfm", b"not a PFM file");
+    let (o, _) = sb.run(&corrupt, &[]);
+    o.assert_code(1).assert_stderr_contains("corrupt.pfm");
 }

@@ -6,7 +6,6 @@
 mod common;
 
 use std::collections::BTreeMap;
-use std::path::Path;
 
 use hdrflow::values::{Image, Light, Metrics};
 use hdrflow::Value;
@@ -89,7 +88,6 @@ fn sun_extract_conserves_the_integral_on_synthetic_maps() {
 
 #[test]
 fn sun_extract_conserves_the_integral_on_the_shared_real_maps() {
-    let dir = Path::new(common::MANIFEST_DIR).join("../shared/data/envmaps");
     let maps = [
         ("grace-new_256x128.hdr", false),
         ("grace_latlong.exr", true),
@@ -99,7 +97,7 @@ fn sun_extract_conserves_the_integral_on_the_shared_real_maps() {
     ];
     let mut ran = 0;
     for (name, flip) in maps {
-        let path = dir.join(name);
+        let path = common::real_map(name);
         if !path.is_file() {
             common::skip_missing_data(&format!("{} not found; SunExtract was not checked on it", path.display()));
             continue;

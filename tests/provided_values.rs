@@ -17,7 +17,8 @@ const GRAPH: &str = r#"(nodes: {
 
 fn pipeline_with(env: Image) -> Pipeline {
     let registry = hdrflow::builtin_registry();
-    let mut p = Pipeline::parse(GRAPH, "test.ron", Path::new("."), &registry, &[]).expect("validates");
+    let mut p =
+        Pipeline::parse_providing(GRAPH, "test.ron", Path::new("."), &registry, &[], &["env"]).expect("validates");
     p.provide("env", Value::new(env)).expect("an image for an image node");
     p
 }
@@ -64,9 +65,23 @@ fn a_provided_value_replaces_the_node_and_keys_its_consumers_by_content() {
 #[test]
 fn a_provided_value_must_have_the_node_s_output_type() {
     let registry = hdrflow::builtin_registry();
-    let mut p = Pipeline::parse(GRAPH, "test.ron", Path::new("."), &registry, &[]).unwrap();
+    let mut p = Pipeline::parse_providing(GRAPH, "test.ron", Path::new("."), &registry, &[], &["env"]).unwrap();
     let err = p.provide("env", Value::new(Image::new(2, 2, 1))).unwrap_err();
     assert!(err.contains("outputs `image`, but the value provided is `scalar field`"), "{err}");
     let err = p.provide("nope", Value::new(image(1.0))).unwrap_err();
     assert!(err.starts_with("no node \"nope\""), "{err}");
+}
+
+/// Validation looks for the loader's file unless the caller says it will provide the node's
+/// value: then the file is never read, and need not exist.
+#[test]
+fn a_missing_file_is_a_pipeline_error_unless_its_node_is_provided() {
+    let registry = hdrflow::builtin_registry();
+    let err = Pipeline::parse(GRAPH, "test.ron", Path::new("."), &registry, &[]).unwrap_err().to_string();
+    assert!(
+        err.contains(r#"test.ron:2:26: node "env": field "path": input file "does-not-exist.hdr" does not exist"#),
+        "{err}"
+    );
+    assert!(Pipeline::parse_providing(GRAPH, "test.ron", Path::new("."), &registry, &[], &["exp"]).is_err());
+    assert!(Pipeline::parse_providing(GRAPH, "test.ron", Path::new("."), &registry, &[], &["env"]).is_ok());
 }

@@ -233,10 +233,12 @@ fn run_pipeline<'py>(
         parsed.push(Override::parse(s).map_err(PipelineError::new_err)?);
     }
     let registry = with_registry(|r| r.clone());
+    // The nodes given in `inputs` are not run: their files need not exist.
+    let provided: Vec<&str> = inputs.iter().map(|(name, _)| name.as_str()).collect();
     let loaded = if is_path {
-        py.detach(|| Pipeline::load(Path::new(&pipeline), &registry, &parsed))
+        py.detach(|| Pipeline::load_providing(Path::new(&pipeline), &registry, &parsed, &provided))
     } else {
-        py.detach(|| Pipeline::parse(&pipeline, "<string>", Path::new(""), &registry, &parsed))
+        py.detach(|| Pipeline::parse_providing(&pipeline, "<string>", Path::new(""), &registry, &parsed, &provided))
     };
     let mut p = loaded.map_err(|e| pipeline_error(py, &e))?;
     for (name, array) in &inputs {

@@ -104,7 +104,7 @@ def test_ops_describes_built_ins_and_python_operators():
     mine = ops["PyDocTest"]
     assert (mine["category"], mine["version"], mine["doc"]) == ("python", 7, "Multiplies by a gain.")
     assert [(f["name"], f["kind"], f["default"]) for f in mine["fields"]] == [
-        ("image", "input<image>", None), ("gain", "float in [-1.7976931348623157e308, 1.7976931348623157e308]", 1.5)
+        ("image", "input<image>", None), ("gain", "float", 1.5)
     ]
 
 

@@ -91,6 +91,7 @@ def test_set_writes_python_values_as_ron(root, cache):
     flipped = hdrflow.run(root / "graphs/seed.ron", targets=["env"], cache_dir=cache,
                           set={"env.path": "builtin:sky", "env.flip_vertical": True})["env"]
     assert np.array_equal(flipped, upright[::-1])
-    # A str arrives as written, control characters and quotes included (a missing file: RunError).
-    with pytest.raises(hdrflow.RunError, match='nope\t"q: No such file'):
+    # A str arrives as written, control characters and quotes included (a missing file: a
+    # PipelineError at validation, the path printed escaped).
+    with pytest.raises(hdrflow.PipelineError, match=r'nope\\t\\"q" does not exist'):
         hdrflow.run(root / "graphs/seed.ron", targets=["env"], cache_dir=cache, set={"env.path": 'nope\t"q'})

@@ -107,7 +107,13 @@ def test_op_errors_name_the_keyword_argument_the_caller_wrote(cache, tmp_path):
     # A problem of no one argument (a required input left out) names the call.
     with pytest.raises(hdrflow.PipelineError, match=r'^hdrflow\.op\("Rotate", \.\.\.\): '):
         hdrflow.op("Rotate", yaw=90, cache_dir=cache)
-    # A run error of the node an input's file is loaded by names that input.
-    with pytest.raises(hdrflow.RunError) as info:
+    # An input's file that does not exist is a validation error of that input.
+    with pytest.raises(hdrflow.PipelineError) as info:
         hdrflow.op("Rotate", image=str(tmp_path / "missing.hdr"), cache_dir=cache)
+    assert str(info.value).startswith('hdrflow.op("Rotate", image=...): ') and "image_0" not in str(info.value)
+    assert "missing.hdr" in str(info.value) and [e["argument"] for e in info.value.errors] == ["image"]
+    # A run error of the node an input's file is loaded by names that input.
+    (tmp_path / "corrupt.hdr").write_bytes(b"not a Radiance file")
+    with pytest.raises(hdrflow.RunError) as info:
+        hdrflow.op("Rotate", image=str(tmp_path / "corrupt.hdr"), cache_dir=cache)
     assert str(info.value).startswith('hdrflow.op("Rotate", image=...): ') and "image_0" not in str(info.value)

@@ -42,8 +42,9 @@ pub struct BenchArgs {
     /// Output folder for results.csv, summary.md and the charts.
     #[arg(long, default_value = "bench/out")]
     out: PathBuf,
-    /// Folder of real environment maps (Grace Cathedral, the park, the two interiors); maps
-    /// that are missing are skipped with a message.
+    /// Folder of the real environment maps that do not ship in assets/maps/ (Grace Cathedral;
+    /// the park and the two interiors are read from assets/maps/); maps that are missing are
+    /// skipped with a message.
     #[arg(long, default_value = "../shared/data/envmaps")]
     data: PathBuf,
     /// Sample counts (per image for shared samples, per pixel for per-pixel strategies).
@@ -114,7 +115,7 @@ pub struct BenchArgs {
 }
 
 fn bench(args: &BenchArgs) -> ExitCode {
-    use crate::bench::{BenchConfig, MapSpec};
+    use crate::bench::{map_path, BenchConfig, MapSpec};
     if args.bake {
         let config = crate::bench::bake::BakeBenchConfig {
             source: args.bake_map.clone(),
@@ -132,10 +133,10 @@ fn bench(args: &BenchArgs) -> ExitCode {
     }
     let candidates = [
         ("sky", "builtin:sky".to_string(), false),
-        ("grace", args.data.join("grace_latlong.exr").display().to_string(), true),
-        ("park", args.data.join("rooitou_park_1k.hdr").display().to_string(), false),
-        ("fagans", args.data.join("st_fagans_interior_1k.hdr").display().to_string(), false),
-        ("studio", args.data.join("studio_small_03_1k.hdr").display().to_string(), false),
+        ("grace", map_path(&args.data, "grace_latlong.exr").display().to_string(), true),
+        ("park", map_path(&args.data, "rooitou_park_1k.hdr").display().to_string(), false),
+        ("fagans", map_path(&args.data, "st_fagans_interior_1k.hdr").display().to_string(), false),
+        ("studio", map_path(&args.data, "studio_small_03_1k.hdr").display().to_string(), false),
     ];
     let mut maps = Vec::new();
     for (name, source, flip) in candidates {

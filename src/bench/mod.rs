@@ -162,6 +162,18 @@ pub struct Target {
     pub met: Option<bool>,
 }
 
+/// Where the real map `file` is read from: the copy that ships in `assets/maps/` (the park, the
+/// interior and the studio), else `data/file` (`--data`: Grace Cathedral's maps, beside the
+/// repository), which may be missing.
+pub fn map_path(data: &Path, file: &str) -> PathBuf {
+    let shipped = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/maps").join(file);
+    if shipped.is_file() {
+        shipped
+    } else {
+        data.join(file)
+    }
+}
+
 /// Loads a map as the benchmark and `LoadHdr` see it.
 pub fn load_map(spec: &MapSpec) -> Result<Image, String> {
     let mut img = if let Some(name) = spec.source.strip_prefix("builtin:") {

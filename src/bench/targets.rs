@@ -140,7 +140,7 @@ pub fn measure(data: &Path, peers: Option<&Path>, repeats: usize, log: &dyn Fn(&
     }
 
     // 3. Decoding a 1024x512 RLE .hdr.
-    let hdr_path = data.join("rooitou_park_1k.hdr");
+    let hdr_path = super::map_path(data, "rooitou_park_1k.hdr");
     let hdr_bytes = if hdr_path.is_file() {
         std::fs::read(&hdr_path).map_err(|e| e.to_string())?
     } else {

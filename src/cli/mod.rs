@@ -152,10 +152,41 @@ enum Command<E: ExtraCommands> {
         #[arg(long, global = true)]
         cache_dir: Option<PathBuf>,
     },
-    /// Print a shell completion script (bash, zsh, fish, elvish, powershell) to stdout.
-    Completions { shell: clap_complete::Shell },
-    /// Print the manual page (roff) to stdout: `hdrflow man > hdrflow.1`.
-    Man,
+    /// Print a shell completion script (bash, zsh, fish, elvish, powershell) to stdout, or
+    /// write it with `-o FILE`: `hdrflow completions bash -o
+    /// ~/.local/share/bash-completion/completions/hdrflow`.
+    Completions {
+        shell: clap_complete::Shell,
+        /// Write the script to FILE instead of stdout, creating its folder.
+        #[arg(long, short, value_name = "FILE")]
+        output: Option<PathBuf>,
+    },
+    /// Print the manual page (roff) to stdout, or write it with `-o FILE`: `hdrflow man -o
+    /// ~/.local/share/man/man1/hdrflow.1`.
+    Man {
+        /// Write the page to FILE instead of stdout, creating its folder.
+        #[arg(long, short, value_name = "FILE")]
+        output: Option<PathBuf>,
+    },
+}
+
+/// A generated file (completions, the manual) to stdout, or to `output` with its folder created
+/// (a shell's completion folder or `man1` often does not exist yet, and `>` would not make it).
+fn emit(bytes: &[u8], output: Option<&std::path::Path>) -> ExitCode {
+    let Some(path) = output else {
+        use std::io::Write as _;
+        if let Err(e) = std::io::stdout().lock().write_all(bytes) {
+            stdout_failed(e);
+        }
+        return ExitCode::SUCCESS;
+    };
+    match crate::engine::cache::store::write_atomic(path, bytes) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: writing {}: {e}", path.display());
+            ExitCode::from(1)
+        }
+    }
 }
 
 /// The library's `hdrflow` command line over the built-in operators (the `hdrflow` binary adds
@@ -218,20 +249,20 @@ where
         },
         Command::Plan(args) => plan::plan(&registry, &args),
         Command::Cache { action, cache_dir } => cache::cache_command(action, cache_dir),
-        Command::Completions { shell } => {
+        Command::Completions { shell, output } => {
             let mut cmd = <Cli<E> as clap::CommandFactory>::command();
-            clap_complete::generate(shell, &mut cmd, "hdrflow", &mut std::io::stdout());
-            ExitCode::SUCCESS
+            let mut out = Vec::new();
+            clap_complete::generate(shell, &mut cmd, "hdrflow", &mut out);
+            emit(&out, output.as_deref())
         }
-        Command::Man => {
+        Command::Man { output } => {
             let cmd = <Cli<E> as clap::CommandFactory>::command();
             let mut out = Vec::new();
             if let Err(e) = clap_mangen::Man::new(cmd).render(&mut out) {
                 eprintln!("error: rendering the manual: {e}");
                 return ExitCode::from(1);
             }
-            out!("{}", String::from_utf8_lossy(&out));
-            ExitCode::SUCCESS
+            emit(&out, output.as_deref())
         }
         Command::Extra(extra) => extra.run(&registry),
         Command::Run(args) => run::run(&registry, &args),

@@ -110,8 +110,8 @@ impl FieldKind {
                     Arity::List { min, max } => format!("list of {min}..{max} {one}"),
                 }
             }
-            FieldKind::Float { .. } => format!("float in {}", self.range().unwrap_or_default()),
-            FieldKind::Int { .. } => format!("integer in {}", self.range().unwrap_or_default()),
+            FieldKind::Float { min, max } => with_range("float", fmt_range(*min, *max)),
+            FieldKind::Int { min, max } => with_range("integer", int_range(*min, *max)),
             FieldKind::Bool => "bool".into(),
             FieldKind::Text => "string".into(),
             FieldKind::TextList { .. } => "list of strings".into(),
@@ -120,20 +120,20 @@ impl FieldKind {
             FieldKind::Choice(options) => options.join(" | "),
             FieldKind::Tuple { len, .. } => format!("({})", vec!["float"; *len].join(", ")),
             FieldKind::Color { .. } => "(r, g, b) or grey".into(),
-            FieldKind::NumberList { .. } => format!("list of numbers in {}", self.range().unwrap_or_default()),
+            FieldKind::NumberList { min, max, .. } => with_range("list of numbers", fmt_range(*min, *max)),
         }
     }
 
     /// The inclusive range of a number, or of each number of a tuple, colour or number list,
-    /// as [`describe`](Self::describe) prints it (`[0, 1]`, `[-inf, inf]`); `None` for the
-    /// kinds that are not numbers.
+    /// as [`describe`](Self::describe) prints it (`[0, 1]`, `>= 0`); `None` for the
+    /// kinds that are not numbers or have no bound.
     pub fn range(&self) -> Option<String> {
         match self {
             FieldKind::Float { min, max }
             | FieldKind::Tuple { min, max, .. }
             | FieldKind::Color { min, max }
-            | FieldKind::NumberList { min, max, .. } => Some(format!("[{}, {}]", fmt_bound(*min), fmt_bound(*max))),
-            FieldKind::Int { min, max } => Some(format!("[{min}, {max}]")),
+            | FieldKind::NumberList { min, max, .. } => fmt_range(*min, *max),
+            FieldKind::Int { min, max } => int_range(*min, *max),
             _ => None,
         }
     }
@@ -152,6 +152,38 @@ impl FieldKind {
 
     pub fn is_input(&self) -> bool {
         matches!(self, FieldKind::Input { .. })
+    }
+}
+
+/// A number's range as messages print it: `[min, max]`, or `<= max` / `>= min` when it is open
+/// on one side (a bound of -f64::MAX or f64::MAX, what a field without `#[range]` gets, or an
+/// infinite one), or `None` when it is open on both sides.
+pub fn fmt_range(min: f64, max: f64) -> Option<String> {
+    let open = |v: f64| v.is_infinite() || v.abs() == f64::MAX;
+    match (open(min), open(max)) {
+        (false, false) => Some(format!("[{}, {}]", fmt_bound(min), fmt_bound(max))),
+        (true, false) => Some(format!("<= {}", fmt_bound(max))),
+        (false, true) => Some(format!(">= {}", fmt_bound(min))),
+        (true, true) => None,
+    }
+}
+
+/// An integer's range as [`fmt_range`] prints a number's (`i64::MIN`/`i64::MAX` open it).
+fn int_range(min: i64, max: i64) -> Option<String> {
+    match (min == i64::MIN, max == i64::MAX) {
+        (false, false) => Some(format!("[{min}, {max}]")),
+        (true, false) => Some(format!("<= {max}")),
+        (false, true) => Some(format!(">= {min}")),
+        (true, true) => None,
+    }
+}
+
+/// `kind in [min, max]`, `kind <= max`, `kind >= min` or `kind`, from [`fmt_range`]'s range.
+fn with_range(kind: &str, range: Option<String>) -> String {
+    match range {
+        Some(r) if r.starts_with('[') => format!("{kind} in {r}"),
+        Some(r) => format!("{kind} {r}"),
+        None => kind.to_string(),
     }
 }
 
@@ -555,5 +587,20 @@ mod tests {
         assert!(
             matches!(<u32 as Param>::kind(Some((-5.0, 1e30))), FieldKind::Int { min: 0, max } if max == u32::MAX as i64)
         );
+    }
+
+    #[test]
+    fn ranges_open_on_a_side_read_as_a_bound_not_as_f64_max() {
+        let float = |min, max| FieldKind::Float { min, max }.describe();
+        assert_eq!(float(-2.0, 2.0), "float in [-2, 2]");
+        assert_eq!(float(f64::MIN, 180.0), "float <= 180");
+        assert_eq!(float(0.0, f64::MAX), "float >= 0");
+        assert_eq!(float(0.0, f64::INFINITY), "float >= 0");
+        assert_eq!(float(f64::MIN, f64::MAX), "float");
+        assert_eq!(<f64 as Param>::kind(None).describe(), "float");
+        assert_eq!(FieldKind::Int { min: 0, max: i64::MAX }.describe(), "integer >= 0");
+        assert_eq!(FieldKind::Int { min: 1, max: 10 }.describe(), "integer in [1, 10]");
+        let list = FieldKind::NumberList { min_len: 0, max_len: 4, min: 0.0, max: f64::MAX };
+        assert_eq!(list.describe(), "list of numbers >= 0");
     }
 }

@@ -70,14 +70,25 @@ pub struct Lens {
     scale: f64,
 }
 
-/// Why `fov` (degrees) does not suit `model`, or `None` when it does.
+/// Why `fov` (degrees) does not suit `model`, or `None` when it does: one sentence with the
+/// model's range, the value given and, for a view too wide for its model, the model that has it.
 pub fn fov_problem(model: Model, fov: f64) -> Option<String> {
     let (ok, range) = match model {
-        Model::Perspective => (fov > 0.0 && fov < 180.0, "(0, 180): 180 degrees and more has no perspective image"),
+        Model::Perspective => (fov > 0.0 && fov < 180.0, "(0, 180)"),
         Model::Fisheye => (fov > 0.0 && fov <= 360.0, "(0, 360]"),
-        Model::Orthographic => (fov > 0.0 && fov <= 180.0, "(0, 180]: the orthographic view holds one hemisphere"),
+        Model::Orthographic => (fov > 0.0 && fov <= 180.0, "(0, 180]"),
     };
-    (!ok).then(|| format!("fov {fov} is out of range for a {model} view: it must be in {range} degrees"))
+    if ok {
+        return None;
+    }
+    let article = if model == Model::Orthographic { "an" } else { "a" };
+    let wider = match model {
+        // A plane holds less than a hemisphere; a disc projected along the axis one hemisphere.
+        Model::Perspective if fov >= 180.0 => "; use model: Fisheye for views of 180 degrees or more",
+        Model::Orthographic if fov > 180.0 => "; use model: Fisheye for views wider than a hemisphere",
+        _ => "",
+    };
+    Some(format!("{article} {model} view's fov must be in {range} degrees (got {fov}){wider}"))
 }
 
 impl Lens {
@@ -326,6 +337,34 @@ mod tests {
                 assert!(Lens::new(model, fov, 8, 8).is_ok());
             }
         }
+    }
+
+    #[test]
+    fn a_fov_too_wide_is_one_sentence_naming_the_model_that_has_it() {
+        assert_eq!(
+            fov_problem(Model::Perspective, 200.0).unwrap(),
+            "a Perspective view's fov must be in (0, 180) degrees (got 200); \
+             use model: Fisheye for views of 180 degrees or more"
+        );
+        assert_eq!(
+            fov_problem(Model::Perspective, 180.0).unwrap(),
+            "a Perspective view's fov must be in (0, 180) degrees (got 180); \
+             use model: Fisheye for views of 180 degrees or more"
+        );
+        assert_eq!(
+            fov_problem(Model::Orthographic, 200.0).unwrap(),
+            "an Orthographic view's fov must be in (0, 180] degrees (got 200); \
+             use model: Fisheye for views wider than a hemisphere"
+        );
+        assert_eq!(
+            fov_problem(Model::Fisheye, 400.0).unwrap(),
+            "a Fisheye view's fov must be in (0, 360] degrees (got 400)"
+        );
+        assert_eq!(
+            fov_problem(Model::Perspective, 0.0).unwrap(),
+            "a Perspective view's fov must be in (0, 180) degrees (got 0)"
+        );
+        assert_eq!(fov_problem(Model::Fisheye, 360.0), None);
     }
 
     /// Midpoint sum of the Jacobian over a rectangle, n x n cells.

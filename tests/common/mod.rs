@@ -384,7 +384,7 @@ pub fn assert_statuses(map: &BTreeMap<String, String>, want: &[(&str, &str)], co
 #[path = "../../src/test_skip.rs"]
 mod test_skip;
 #[allow(unused_imports)]
-pub use test_skip::{skip, skip_missing_data};
+pub use test_skip::{real_map, skip, skip_missing_data};
 
 /// A small RGB PFM map (little-endian) whose values grow with x, y and the channel, times
 /// `scale`: a library of distinct maps for the batch tests.

@@ -174,6 +174,17 @@ impl Pipeline {
 
     /// Reads and validates a pipeline file.
     pub fn load(path: &Path, registry: &Registry, overrides: &[Override]) -> Result<Pipeline, PipelineErrors> {
+        Pipeline::load_providing(path, registry, overrides, &[])
+    }
+
+    /// [`load`](Self::load) for a caller that will [`provide`](Self::provide) the values of the
+    /// nodes named in `provided`: their input files are never read, so they need not exist.
+    pub fn load_providing(
+        path: &Path,
+        registry: &Registry,
+        overrides: &[Override],
+        provided: &[&str],
+    ) -> Result<Pipeline, PipelineErrors> {
         let source = path.display().to_string();
         let text = std::fs::read_to_string(path).map_err(|e| {
             PipelineErrors(vec![PipelineError {
@@ -184,10 +195,11 @@ impl Pipeline {
             }])
         })?;
         let base_dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
-        Pipeline::parse(&text, &source, &base_dir, registry, overrides)
+        Pipeline::parse_providing(&text, &source, &base_dir, registry, overrides, provided)
     }
 
-    /// Validates pipeline text. `source` names it in messages; paths resolve against `base_dir`.
+    /// Validates pipeline text. `source` names it in messages; paths resolve against `base_dir`
+    /// (and the files nodes read must exist).
     pub fn parse(
         text: &str,
         source: &str,
@@ -195,7 +207,20 @@ impl Pipeline {
         registry: &Registry,
         overrides: &[Override],
     ) -> Result<Pipeline, PipelineErrors> {
-        validate::validate(text, source, base_dir, registry, overrides)
+        validate::validate(text, source, base_dir, registry, overrides, &[])
+    }
+
+    /// [`parse`](Self::parse) for a caller that will [`provide`](Self::provide) the values of the
+    /// nodes named in `provided`: their input files are never read, so they need not exist.
+    pub fn parse_providing(
+        text: &str,
+        source: &str,
+        base_dir: &Path,
+        registry: &Registry,
+        overrides: &[Override],
+        provided: &[&str],
+    ) -> Result<Pipeline, PipelineErrors> {
+        validate::validate(text, source, base_dir, registry, overrides, provided)
     }
 
     /// Supplies node `name`'s value before running: the scheduler does not evaluate that node
@@ -203,7 +228,8 @@ impl Pipeline {
     /// (`cache::provided_key`), so the cache serves its consumers whenever the same value is
     /// supplied again. The value must have the type validation gave the node's output, and the
     /// node must have that one output port (consumers were checked against it). Used by the
-    /// Python bindings to feed a NumPy array in place of a loader.
+    /// Python bindings to feed a NumPy array in place of a loader (validated with
+    /// [`parse_providing`](Self::parse_providing), so that the loader's file need not exist).
     pub fn provide(&mut self, name: &str, value: Value) -> Result<(), String> {
         let i = self.index_of(name).ok_or_else(|| {
             let names: Vec<&str> = self.nodes.iter().map(|n| n.name.as_str()).collect();

@@ -3,7 +3,7 @@
 use super::outputs::check_output_path;
 use super::suggest::suggest_close;
 use crate::engine::graph::syntax::{Ron, Spanned};
-use crate::engine::params::{FieldKind, FieldSpec, ParamValue};
+use crate::engine::params::{fmt_range, FieldKind, FieldSpec, ParamValue};
 
 /// Converts a literal to the field's parameter type, checking its range.
 pub(super) fn convert(field: &FieldSpec, value: &Ron) -> Result<ParamValue, String> {
@@ -74,7 +74,7 @@ pub(super) fn convert(field: &FieldSpec, value: &Ron) -> Result<ParamValue, Stri
             Ron::Int(_) | Ron::Float(_) => {
                 let v = number(value).expect("a number");
                 if v.is_nan() || v < *min || v > *max {
-                    return Err(format!("{v} is out of range [{min}, {max}]"));
+                    return Err(out_of_range(&v.to_string(), *min, *max));
                 }
                 Ok(ParamValue::Tuple(vec![v; 3]))
             }
@@ -92,6 +92,14 @@ pub(super) fn convert(field: &FieldSpec, value: &Ron) -> Result<ParamValue, Stri
     }
 }
 
+/// "`what` is out of range [min, max]" (or `<= max`, `>= min`; a NaN is out of any range).
+fn out_of_range(what: &str, min: f64, max: f64) -> String {
+    match fmt_range(min, max) {
+        Some(range) => format!("{what} is out of range {range}"),
+        None => format!("{what} is not a number"),
+    }
+}
+
 fn tuple(items: &[Spanned<Ron>], min: f64, max: f64, found: impl Fn() -> String) -> Result<ParamValue, String> {
     let mut out = Vec::with_capacity(items.len());
     for item in items {
@@ -101,7 +109,7 @@ fn tuple(items: &[Spanned<Ron>], min: f64, max: f64, found: impl Fn() -> String)
             _ => return Err(found()),
         };
         if v.is_nan() || v < min || v > max {
-            return Err(format!("component {v} is out of range [{min}, {max}]"));
+            return Err(out_of_range(&format!("component {v}"), min, max));
         }
         out.push(v);
     }

@@ -4,7 +4,7 @@
 use std::collections::{BTreeMap, HashMap};
 
 use super::convert::convert;
-use super::suggest::{did_you_mean, suggest};
+use super::suggest::{did_you_mean, suggest, suggest_field};
 use super::{Collector, PortName, RawNode, WrittenRef};
 use crate::engine::graph::syntax::{Pos, Ron, Spanned};
 use crate::engine::graph::{InputWire, Node, PortRef};
@@ -12,8 +12,8 @@ use crate::engine::params::{Arity, FieldKind, Params};
 
 /// What phase 4 produces: every node that phase 2 accepted, with its parameters and wiring (port
 /// indices into `port_names`), the written position of every reference, each node's port names,
-/// and which nodes are in error (reported here; the later phases leave them out, so that one
-/// bad node neither hides the other nodes' problems nor cascades into more errors).
+/// and which nodes are in error (reported here; the later phases skip their own checks, so that
+/// one bad node neither hides the other nodes' problems nor cascades into more errors).
 pub(super) struct Resolved {
     pub nodes: Vec<Node>,
     pub refs: Vec<BTreeMap<&'static str, Vec<WrittenRef>>>,
@@ -49,12 +49,7 @@ pub(super) fn resolve_fields(
                     origin,
                     Some(fname.pos),
                     Some(&n.name),
-                    format!(
-                        "{} has no field {:?}{}",
-                        n.spec.name,
-                        fname.value,
-                        suggest(&fname.value, &fields, "fields")
-                    ),
+                    format!("{} has no field {:?}{}", n.spec.name, fname.value, suggest_field(&fname.value, &fields)),
                 );
                 ok = false;
                 continue;

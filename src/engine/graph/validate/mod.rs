@@ -10,12 +10,15 @@
 //! 6. `infer_types`: in topological order, each input receives a type its field accepts, the
 //!    operator's own check runs, and each output port gets its type.
 //! 7. `check_outputs`: no two nodes write the same output path.
+//! 8. `check_input_files`: every file a node reads exists and is a file (but for nodes whose
+//!    values the caller provides).
 //!
 //! No phase recurses over the graph, so a 100000-node chain validates in linear time.
 
 mod convert;
 mod dag;
 mod fields;
+mod inputs;
 mod nodes;
 mod outputs;
 mod suggest;
@@ -93,6 +96,7 @@ pub(super) fn validate(
     base_dir: &Path,
     registry: &Registry,
     overrides: &[Override],
+    provided: &[&str],
 ) -> Result<Pipeline, PipelineErrors> {
     let mut errs = Collector { source, errors: Vec::new() };
     let root = syntax::parse(text).map_err(|e| {
@@ -114,6 +118,7 @@ pub(super) fn validate(
         types::infer_types(&mut resolved, &raw, topo_order, base_dir, registry.savers(), &mut errs);
     }
     outputs::check_outputs(&resolved.nodes, &raw, &mut errs);
+    inputs::check_input_files(&resolved.nodes, &raw, base_dir, provided, &mut errs);
     let Some((graph, topo_order)) = dag.filter(|_| errs.errors.is_empty()) else {
         return Err(errs.fail());
     };

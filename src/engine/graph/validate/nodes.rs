@@ -3,7 +3,7 @@
 use std::collections::HashMap;
 use std::path::Path;
 
-use super::suggest::suggest;
+use super::suggest::{suggest, suggest_field};
 use super::{Collector, Origin, RawNode};
 use crate::engine::graph::syntax::{self, Pos, Ron, Spanned};
 use crate::engine::graph::Override;
@@ -136,7 +136,7 @@ pub(super) fn apply_overrides(
                 &origin,
                 None,
                 Some(&o.node),
-                format!("{} has no field {:?}{}", node.spec.name, o.field, suggest(&o.field, &fields, "fields")),
+                format!("{} has no field {:?}{}", node.spec.name, o.field, suggest_field(&o.field, &fields)),
             );
             continue;
         };

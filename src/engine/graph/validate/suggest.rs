@@ -1,4 +1,5 @@
-//! "Did you mean" hints for names that are close to a known one.
+//! "Did you mean" hints for names that are close to a known one (by edit distance), and for a
+//! field named by a common alias of one of the operator's fields (`image` for Project's `env`).
 
 /// "; did you mean X?" for close candidates (case-insensitive, edit distance at most 2, or
 /// a third of the name), else " (WHAT: ...)" listing them all, or "" when there are none.
@@ -27,18 +28,47 @@ pub fn suggest_close(name: &str, candidates: &[&str]) -> String {
         .filter(|(d, _)| *d <= limit)
         .collect();
     close.sort();
-    if let Some(&(_, best)) = close.first() {
-        let more: Vec<&str> = close.iter().skip(1).take(2).map(|(_, c)| *c).collect();
-        if more.is_empty() {
-            format!("; did you mean {best:?}?")
-        } else {
-            format!(
-                "; did you mean {best:?} (or {})?",
-                more.iter().map(|c| format!("{c:?}")).collect::<Vec<_>>().join(", ")
-            )
-        }
+    did_you_mean_one_of(&close.iter().map(|&(_, c)| c).collect::<Vec<_>>())
+}
+
+/// Names a newcomer writes for the same field: the first group holds what an operator calls
+/// the image it reads (`image`, `env`, `input`, ...), the second what a saver calls its file.
+const FIELD_ALIASES: &[&[&str]] = &[
+    &["image", "env", "input", "map", "envmap", "environment", "img", "src", "source", "in"],
+    &["path", "file", "filename", "output", "out"],
+];
+
+/// [`suggest`] for an unknown field of an operator with `fields`: fields close by edit distance,
+/// else fields that are a common alias of `name` ([`FIELD_ALIASES`]: `image` for `env`, however
+/// far apart the spellings), else the list of fields.
+pub fn suggest_field(name: &str, fields: &[&str]) -> String {
+    let close = suggest_close(name, fields);
+    if !close.is_empty() {
+        return close;
+    }
+    let lower = name.to_lowercase();
+    let aliases: Vec<&str> = FIELD_ALIASES
+        .iter()
+        .filter(|group| group.contains(&lower.as_str()))
+        .flat_map(|group| fields.iter().copied().filter(|f| group.contains(f)))
+        .collect();
+    if aliases.is_empty() {
+        suggest(name, fields, "fields")
     } else {
-        String::new()
+        did_you_mean_one_of(&aliases)
+    }
+}
+
+/// `"; did you mean "a"?"` or `"; did you mean "a" (or "b", "c")?"` for the first three of
+/// `names`, best first; "" when there are none.
+fn did_you_mean_one_of(names: &[&str]) -> String {
+    match names {
+        [] => String::new(),
+        [best] => format!("; did you mean {best:?}?"),
+        [best, more @ ..] => format!(
+            "; did you mean {best:?} (or {})?",
+            more.iter().take(2).map(|c| format!("{c:?}")).collect::<Vec<_>>().join(", ")
+        ),
     }
 }
 
@@ -59,7 +89,7 @@ fn edit_distance(a: &str, b: &str) -> usize {
 
 #[cfg(test)]
 mod tests {
-    use super::{edit_distance, suggest, suggest_close};
+    use super::{edit_distance, suggest, suggest_close, suggest_field};
 
     #[test]
     fn edit_distance_counts_edits() {
@@ -75,5 +105,18 @@ mod tests {
         // A message that lists the choices itself does not list them twice.
         assert_eq!(suggest_close("Filmic", &["Reinhard", "Aces", "Agx"]), "");
         assert_eq!(suggest_close("Acse", &["Reinhard", "Aces", "Agx"]), "; did you mean \"Aces\"?");
+    }
+
+    #[test]
+    fn an_unknown_field_suggests_a_common_alias_however_far_its_spelling() {
+        let project = ["env", "width", "height", "fov", "yaw", "pitch", "roll", "model", "filter"];
+        assert_eq!(suggest_field("image", &project), "; did you mean \"env\"?");
+        assert_eq!(suggest_field("Image", &project), "; did you mean \"env\"?");
+        assert_eq!(suggest_field("file", &["input", "path", "half"]), "; did you mean \"path\"?");
+        assert_eq!(suggest_field("image", &["input", "path", "half"]), "; did you mean \"input\"?");
+        // Edit distance first: a close field wins over an alias.
+        assert_eq!(suggest_field("envv", &["env", "image"]), "; did you mean \"env\"?");
+        // Neither close nor an alias: the fields are listed.
+        assert_eq!(suggest_field("zzzzzz", &["path"]), " (fields: path)");
     }
 }

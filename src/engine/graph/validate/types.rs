@@ -5,17 +5,20 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 use super::fields::Resolved;
-use super::{Collector, RawNode};
+use super::{Collector, PortName, RawNode};
 use crate::engine::graph::syntax::Pos;
 use crate::engine::graph::Port;
-use crate::engine::op::{check_pixels, CheckContext, OutputType};
+use crate::engine::op::{check_pixels, CheckContext, OpSpec, OutputType};
 use crate::engine::params::FieldKind;
 use crate::engine::save::Savers;
 use crate::engine::value::ValueType;
 
 /// Phase 6: types in topological order.
-/// Nodes in error (`broken`) are skipped and keep no ports: the inputs they feed are then
-/// skipped as "reported already".
+/// A node whose own checks cannot run (in error in phase 4, `broken`, or with an input of a
+/// wrong or unknown type) gets only the ports whose type is fixed ([`fixed_ports`]): its
+/// consumers are then checked as usual, since their own problems (a saver's extension) do not
+/// depend on it. When a port's type depends on the node's fields or inputs, the node keeps no
+/// ports, and the inputs it feeds are skipped as "reported already".
 pub(super) fn infer_types(
     resolved: &mut Resolved,
     raw: &[RawNode],
@@ -27,10 +30,11 @@ pub(super) fn infer_types(
     let Resolved { nodes, refs, port_names, broken } = resolved;
     let source = errs.source;
     for &i in topo_order {
+        let spec = nodes[i].spec.clone();
         if broken[i] {
+            nodes[i].ports = fixed_ports(&spec, &port_names[i]);
             continue;
         }
-        let spec = nodes[i].spec.clone();
         let mut input_types: BTreeMap<&'static str, Vec<ValueType>> = BTreeMap::new();
         let mut types_ok = true;
         for w in &nodes[i].inputs {
@@ -74,6 +78,7 @@ pub(super) fn infer_types(
             input_types.insert(w.field, got_types);
         }
         if !types_ok {
+            nodes[i].ports = fixed_ports(&spec, &port_names[i]);
             continue;
         }
         let input_sizes: BTreeMap<&'static str, Vec<Option<(u64, u64)>>> = nodes[i]
@@ -133,4 +138,23 @@ pub(super) fn infer_types(
             nodes[i].size = size;
         }
     }
+}
+
+/// The ports of a node whose checks could not run, when every one of them has a type that does
+/// not depend on the node's fields or inputs (declared `Fixed`, or an open port); else none.
+fn fixed_ports(spec: &OpSpec, names: &[PortName]) -> Vec<Port> {
+    names
+        .iter()
+        .map(|name| {
+            let ty = match spec.port(name) {
+                Some(p) => match &p.ty {
+                    OutputType::Fixed(t) => Some(*t),
+                    OutputType::Computed(..) => None,
+                },
+                None => spec.open_ports.as_ref().map(|o| o.ty),
+            };
+            ty.map(|ty| Port { name: name.clone(), ty })
+        })
+        .collect::<Option<Vec<Port>>>()
+        .unwrap_or_default()
 }
