@@ -1,14 +1,16 @@
 //! `hdrflow bake MAP --for ENGINE` end to end: what it writes on a tiny map (the files, named as
 //! the engine names them, a white furnace in the KTX2 read back by the `ktx2` crate, the Khronos
-//! LUTs read back by the `image` crate, the README.txt), `--print-pipeline`, `--sun keep`, and the bad inputs it refuses with a message
-//! that says what to do: an unknown engine, a map that is not 2:1, a size the engine refuses,
-//! NaN and infinite texels (and `--sanitize`).
+//! LUTs read back by the `image` crate, the README.txt and its engine code: Bevy's intensity, the
+//! Khronos sun's colour, three.js's lines those of the render test's page), `--print-pipeline`,
+//! `--sun keep`, where it writes without `--out` (`out/bake/ENGINE`), and the bad inputs it refuses
+//! with a message that says what to do: an unknown engine, a map that is not 2:1, a size the engine
+//! refuses, NaN and infinite texels (and `--sanitize`), a folder holding another engine's bake.
 
 mod common;
 
 use std::path::Path;
 
-use common::{run_hdrflow, Sandbox};
+use common::{run_hdrflow, Sandbox, MANIFEST_DIR};
 use hdrflow::formats::packed_float::decode_rgb9e5;
 use hdrflow::values::Image;
 
@@ -102,6 +104,16 @@ fn a_bevy_bake_writes_what_bevy_loads() {
     let readme = std::fs::read_to_string(out.join("README.txt")).unwrap();
     assert!(readme.contains("asset_server.load(\"environment_maps/constant_specular_rgb9e5_zstd.ktx2\")"), "{readme}");
     assert!(readme.contains("No sun was found"), "a constant map has no sun:\n{readme}");
+    // Bevy shows exposure x intensity x the map; the default camera's exposure is 2^-9.7 / 1.2
+    // (bevy_camera's Exposure::BLENDER). The render test renders with exposure x intensity = 1
+    // (clients/bevy: intensity 1, ev100 = -log2(1.2)): the README's intensity gives the same 1.
+    let intensity: f64 = readme
+        .lines()
+        .find_map(|l| l.trim().strip_prefix("intensity: "))
+        .and_then(|v| v.trim_end_matches(',').parse().ok())
+        .unwrap_or_else(|| panic!("no intensity:\n{readme}"));
+    let default_exposure = (-9.7f64).exp2() / 1.2;
+    assert!((intensity * default_exposure - 1.0).abs() < 1e-6, "{intensity}");
 
     let sb = Sandbox::new();
     bake(&sb, &["builtin:constant", "--for", "bevy", "--quality", "draft", "--sun", "keep"]).assert_success();
@@ -149,6 +161,79 @@ fn a_khronos_bake_writes_both_luts_as_the_viewer_reads_them() {
         readme.contains("lut_charlie.png  Charlie LUT: sheen = prefiltered sheen * sheenColor * lut.b"),
         "{readme}"
     );
+    // The sky's sun as a KHR_lights_punctual light: each channel of its colour in [0, 1] (the
+    // schema's range), the largest 1, the magnitude in the intensity.
+    let light = readme.lines().find(|l| l.contains("\"type\": \"directional\"")).expect("the sky has a sun");
+    // "color": [R, G, B], "intensity": I }]
+    let after = |key: &str| &light[light.find(key).unwrap_or_else(|| panic!("{key} in {light}")) + key.len()..];
+    let color: Vec<f64> =
+        after("\"color\": [").split(']').next().unwrap().split(", ").map(|v| v.parse().expect(light)).collect();
+    let intensity: f64 = after("\"intensity\": ").split(' ').next().unwrap().parse().expect(light);
+    assert_eq!(color.len(), 3, "{light}");
+    assert!(color.iter().all(|c| (0.0..=1.0).contains(c)), "{light}");
+    assert_eq!(color.iter().copied().fold(0.0, f64::max), 1.0, "{light}");
+    assert!(intensity > 1.0, "{light}");
+}
+
+/// The README's three.js code is the code of the render test's page (tests/three_render.rs loads
+/// the files with clients/three-web/render.js): every code line but the two naming the files is a
+/// line of that page, and those two name the files the bake wrote.
+#[test]
+fn the_three_readme_code_is_the_render_pages_code() {
+    let sb = Sandbox::new();
+    bake(&sb, &["builtin:constant", "--for", "three", "--sun", "keep", "-q"]).assert_success();
+    let readme = std::fs::read_to_string(sb.out().join("README.txt")).unwrap();
+    let page = std::fs::read_to_string(Path::new(MANIFEST_DIR).join("clients/three-web/render.js")).unwrap();
+    let page_lines: Vec<&str> = page.lines().map(str::trim).collect();
+    let code = &readme[readme.find("// three.js r180").expect("the loading code")..];
+    let mut checked = 0;
+    for line in code.lines().map(str::trim).filter(|l| !l.is_empty() && !l.starts_with("//")) {
+        if let Some((_, file)) = line.strip_prefix("const ").and_then(|l| l.split_once("Url = '")) {
+            let file = file.trim_end_matches("';");
+            assert!(sb.out().join(file).is_file(), "{line}: no such file written");
+        } else {
+            assert!(page_lines.contains(&line), "not a line of clients/three-web/render.js: {line}");
+            checked += 1;
+        }
+    }
+    assert_eq!(checked, 8, "{code}");
+}
+
+/// Without `--out`, each engine's bake goes to `out/bake/ENGINE` (and says so), so two engines
+/// never mix; a folder holding another engine's bake, or a README.txt no bake wrote, is refused
+/// before anything runs, and baking the same engine again into its folder is fine.
+#[test]
+fn each_engine_bakes_into_its_own_folder_and_never_into_anothers() {
+    let sb = Sandbox::new();
+    let cache = sb.cache();
+    let in_sandbox = |args: &[&str]| {
+        let mut cmd =
+            common::hdrflow_command(["bake"].iter().chain(args).chain(&["--cache-dir", cache.to_str().unwrap()]));
+        cmd.current_dir(sb.path());
+        common::run_command(cmd, common::RUN_TIMEOUT)
+    };
+    let three = sb.join("out/bake/three");
+    in_sandbox(&["builtin:constant", "--for", "three", "--sun", "keep"])
+        .assert_success()
+        .assert_stdout_contains("files and README.txt written to out/bake/three");
+    assert_eq!(
+        common::files_under(&three).iter().map(|f| f.display().to_string()).collect::<Vec<_>>(),
+        ["README.txt", "constant_sh.json", "constant_three.hdr"]
+    );
+    let o = in_sandbox(&["builtin:constant", "--for", "bevy", "--out", "out/bake/three"]);
+    o.assert_code(2).assert_stderr_contains(
+        "out/bake/three holds a bake for three (its README.txt); a bake for bevy there would mix the two engines' \
+         files and replace its notes: write it elsewhere with --out (the default, out/bake/bevy, keeps each engine \
+         apart) or empty the folder first",
+    );
+    assert_eq!(common::files_under(&three).len(), 3, "nothing was written\n{}", o.describe());
+    in_sandbox(&["builtin:constant", "--for", "three", "--sun", "keep", "-q"]).assert_success();
+
+    let mine = sb.write("mine/README.txt", "My project's notes\n");
+    in_sandbox(&["builtin:constant", "--for", "three", "--out", "mine"])
+        .assert_code(2)
+        .assert_stderr_contains("mine holds a README.txt that hdrflow bake did not write");
+    assert_eq!(std::fs::read_to_string(mine).unwrap(), "My project's notes\n");
 }
 
 /// `--print-pipeline` prints the engine's pipeline and the overrides the bake applies, without

@@ -24,7 +24,9 @@
 // - probe: one sphere at the origin seen by an orthographic camera on +Z looking down -Z (view
 //   vector +Z at every pixel), lit only by `new THREE.LightProbe(new
 //   THREE.SphericalHarmonics3().fromArray(json.coefficients.flat()))` as the preset's loading
-//   code builds it; white MeshStandardMaterial (roughness 1, metalness 0) or MeshLambertMaterial.
+//   code builds it (the JSON fetched as it fetches it, without page.js's status check: a missing
+//   file fails as JSON that does not parse); white MeshStandardMaterial (roughness 1, metalness 0)
+//   or MeshLambertMaterial.
 //   `"sh": "furnace"` gives the probe of a constant radiance 1 (L00 = 2 sqrt(pi)).
 // - spheres: the same camera over a row of white MeshStandardMaterial spheres lit only by
 //   `scene.environment` = the map (three's own PMREMGenerator prefilters it).
@@ -33,8 +35,11 @@ import * as THREE from 'three';
 import { HDRLoader } from 'three/addons/loaders/HDRLoader.js';
 import { getJson, log, post, run } from '../common/page.js';
 
+// The lines that load the files are those of the README.txt hdrflow bake writes
+// (src/ibl_presets/three.rs, `loading_code`; tests/bake.rs checks that each is a line here).
 async function loadMap(path) {
-    const texture = await new HDRLoader().setDataType(THREE.FloatType).loadAsync('../work/' + path);
+    const mapUrl = '../work/' + path;
+    const texture = await new HDRLoader().setDataType(THREE.FloatType).loadAsync(mapUrl);
     texture.mapping = THREE.EquirectangularReflectionMapping;
     return texture;
 }
@@ -95,20 +100,21 @@ async function renderSky(renderer, job) {
 }
 
 async function renderProbe(renderer, job) {
-    let coefficients, frame = null;
-    if (job.sh === 'furnace') {
-        coefficients = [2 * Math.sqrt(Math.PI), 2 * Math.sqrt(Math.PI), 2 * Math.sqrt(Math.PI)].concat(new Array(24).fill(0));
-    } else {
-        const json = await getJson(job.sh);
-        frame = json.frame || null;
-        coefficients = json.coefficients.flat();
-    }
-    if (coefficients.length !== 27) {
-        throw new Error(`${job.sh}: ${coefficients.length} numbers, not 27`);
-    }
     const scene = new THREE.Scene();
-    const probe = new THREE.LightProbe(new THREE.SphericalHarmonics3().fromArray(coefficients));
-    scene.add(probe);
+    let frame = null;
+    if (job.sh === 'furnace') {
+        const coefficients = [2 * Math.sqrt(Math.PI), 2 * Math.sqrt(Math.PI), 2 * Math.sqrt(Math.PI)].concat(new Array(24).fill(0));
+        scene.add(new THREE.LightProbe(new THREE.SphericalHarmonics3().fromArray(coefficients)));
+    } else {
+        const shUrl = '../work/' + job.sh;
+        const json = await (await fetch(shUrl)).json();
+        frame = json.frame || null;
+        if (json.coefficients.flat().length !== 27) {
+            throw new Error(`${job.sh}: ${json.coefficients.flat().length} numbers, not 27`);
+        }
+        scene.add(new THREE.LightProbe(new THREE.SphericalHarmonics3().fromArray(json.coefficients.flat())));
+    }
+    const probe = scene.children[0];
     const white = new THREE.Color(1, 1, 1);
     const material = job.material === 'lambert'
         ? new THREE.MeshLambertMaterial({ color: white })

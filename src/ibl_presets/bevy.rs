@@ -6,6 +6,13 @@
 //!   left-handed"): a cube written in hdrflow's frame must be z-mirrored (`CubeFrame::MirrorZ`).
 //! - The diffuse map is multiplied by the diffuse colour (`diffuse_color * irradiance`): it holds
 //!   `E / pi`, `IrradianceCubemap`'s convention; `intensity` scales both maps to cd/m^2.
+//! - A pixel is `exposure * intensity * map` (`pbr_functions.wgsl`: `view.exposure * (... +
+//!   indirect_light)`), with the camera's `exposure = 2^-ev100 / 1.2` (`bevy_camera`'s
+//!   `Exposure::exposure`); a camera without `Exposure` has `Exposure::default()`, EV100 9.7
+//!   (`Exposure::BLENDER`): `1 / 998.0957`. So `intensity: 998.0957` (= `1.2 * 2^9.7`) renders the
+//!   map's values 1:1 under the default exposure, as the render test does with intensity 1 and
+//!   `ev100 = -log2(1.2)` (clients/bevy: `exposure * intensity = 1`). `EnvironmentMapLight`'s own
+//!   default intensity is 0.
 //! - Bevy's world: right-handed, +Y up, cameras look down -Z: hdrflow's.
 //! - Its sample assets (`assets/environment_maps/*_{diffuse,specular}_rgb9e5_zstd.ktx2`) were made
 //!   with glTF-IBL-Sampler and `bevy_mod_environment_map_tools`; its runtime
@@ -48,15 +55,17 @@ commands.spawn((
     EnvironmentMapLight {
         diffuse_map: asset_server.load("environment_maps/{file:save_irr}"),
         specular_map: asset_server.load("environment_maps/{file:save_spec}"),
-        // the maps' values times this are cd/m^2
-        intensity: 1.0,
+        // Bevy shows exposure x intensity x the maps' values; the camera's default Exposure
+        // (EV100 9.7) is 2^-9.7 / 1.2 = 1 / 998.0957, so this renders the map 1:1 (a texel of 1
+        // shows as 1). For a map in cd/m^2, use 1.0 and give the camera the Exposure you want.
+        intensity: 998.0957,
         ..default()
     },
 ));
 "#,
     sun_code: r#"// The sun taken out of the map ({file:save_sun}); multiply by the same intensity as above.
 commands.spawn((
-    DirectionalLight { illuminance: {sun:illuminance} * 1.0, color: Color::linear_rgb({sun:color}), shadows_enabled: true, ..default() },
+    DirectionalLight { illuminance: {sun:illuminance} * 998.0957, color: Color::linear_rgb({sun:color}), shadows_enabled: true, ..default() },
     // a directional light shines along its forward (-Z): towards -(direction to the sun)
     Transform::default().looking_to(Vec3::new({sun:from_light}), Vec3::Y),
 ));

@@ -18,6 +18,9 @@
 //!   hdrflow's with a yaw of -90 degrees. The viewer's default rotation turns every map, the
 //!   sampler's and hdrflow's alike, by the same 90 degrees (hdrflow's centre then faces +X, the
 //!   sampler's +Z), so the yaw that reproduces the sampler is -90 at any rotation.
+//! - The sun's light (`KHR_lights_punctual`, `schema/light.schema.json`): `color` is linear RGB with
+//!   each channel in [0, 1] and `intensity` (lux for a directional light) multiplies it, so the
+//!   notes write the sun's irradiance divided by its largest channel, and that channel.
 
 use super::{Chain, Engine, Preset, Quality, SpecSize, ToolPlacement};
 use crate::geometry::cube_frame::CubeFrame;
@@ -67,8 +70,10 @@ vec3 specular = textureLod(u_GGXEnvSampler, reflect(-v, n), roughness * float(u_
 //                         lut, sheenLUT, mipCount: <the chain's levels>, iblIntensityScale: 1 };
 //   state.renderingParameters.environmentRotation = 0;  // its default of 90 turns the map
 "#,
-    sun_code: r#"// The sun taken out of the map ({file:save_sun}) as a KHR_lights_punctual directional light:
-// "lights": [{ "type": "directional", "color": [{sun:color}], "intensity": {sun:illuminance} }]
+    sun_code: r#"// The sun taken out of the map ({file:save_sun}) as a KHR_lights_punctual directional light (its schema
+// keeps each channel of "color" in [0, 1]; the renderer multiplies it by "intensity": color x intensity is the
+// irradiance the sun gives, in the map's units, of Rec. 709 luminance {sun:illuminance}):
+// "lights": [{ "type": "directional", "color": [{sun:unit_color}], "intensity": {sun:peak} }]
 // on a node whose -Z axis points along ({sun:from_light}).
 "#,
 };

@@ -1,10 +1,12 @@
 //! What each engine's image-based lighting expects, declared once per engine (one file each):
 //! its world and the frame its cube maps are sampled in, the roughness each level of its chain
-//! stands for, how it reads irradiance, the files it loads and their names, and the sizes and
-//! sample counts its own baking tool uses. `hdrflow bake MAP --for ENGINE` runs the engine's
-//! shipped pipeline (`graphs/bake/ENGINE.ron`, embedded here) with the overrides these
-//! declarations give; a test checks that each pipeline agrees with its preset (frame,
-//! roughness map, default sizes).
+//! stands for, how it reads irradiance, the files it loads and their names, the sizes and
+//! sample counts its own baking tool uses, and the engine code of its bake's notes. `hdrflow bake
+//! MAP --for ENGINE` runs the engine's shipped pipeline (`graphs/bake/ENGINE.ron`, embedded here)
+//! with the overrides these declarations give (`bake`: [`Preset::bake`]), into the engine's own
+//! folder (`Preset::default_out`, guarded by `Preset::check_out`), and writes its notes
+//! (`notes`); a test checks that each pipeline agrees with its preset (frame, roughness map,
+//! default sizes, file names).
 //!
 //! Every preset puts the map's centre where hdrflow's lat-long convention puts it, forward (-Z),
 //! in the engine's world, never mirrored (`--yaw` turns it; the tables in the README say which
@@ -12,9 +14,11 @@
 //! hdrflow is, so a direction means the same in hdrflow and in the engine: only the cube lookup
 //! (`geometry::cube_frame`) and, for three.js, its own lat-long mapping differ.
 
+pub mod bake;
 pub mod bevy;
 pub mod filament;
 pub mod khronos;
+pub mod notes;
 pub mod three;
 
 use crate::geometry::cube_frame::CubeFrame;
@@ -132,7 +136,7 @@ pub struct Preset {
     /// node NODE writes)
     pub loading_code: &'static str,
     /// the lines that add the extracted sun as the engine's light (`{sun:...}` fields: see
-    /// `cli::bake`)
+    /// `notes::fill_sun`)
     pub sun_code: &'static str,
 }
 

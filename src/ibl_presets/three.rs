@@ -15,7 +15,9 @@
 //! `tests/three_render.rs` checks these conventions in three.js 0.187 itself (README, "three.js,
 //! rendered"): the turned map as `scene.background` shows its centre along -Z, not mirrored; the
 //! SH file in a `LightProbe` lights a white sphere as the map's exact irradiance does, to the
-//! order-2 SH's own error.
+//! order-2 SH's own error. Its page (clients/three-web/render.js) loads the files with the lines
+//! of `loading_code`: `tests/bake.rs` checks that each of them but the two naming the files is a
+//! line of that page.
 
 use super::{Chain, Engine, Preset, ToolPlacement};
 
@@ -41,15 +43,20 @@ pub const PRESET: Preset = Preset {
     chain: Chain::None,
     size_rule: None,
     pipeline: include_str!("../../graphs/bake/three.ron"),
-    loading_code: r#"// three.js (r16x): the map is written turned so that its centre faces -Z, as in hdrflow.
-import { HDRLoader } from 'three/addons/loaders/HDRLoader.js'; // RGBELoader before r180
-new HDRLoader().load('{file:save_map}', (texture) => {
-  texture.mapping = THREE.EquirectangularReflectionMapping;
-  scene.environment = texture;
-  scene.background = texture;
-});
-// Or diffuse light alone from the SH of {file:save_sh}:
-// scene.add(new THREE.LightProbe(new THREE.SphericalHarmonics3().fromArray(json.coefficients.flat())));
+    loading_code: r#"// three.js r180 or later (HDRLoader; before r180 the same calls on RGBELoader, RGBELoader.js), in a
+// module with your `scene`; the map is written turned so that its centre faces -Z, as in hdrflow. Full
+// floats: with three's default, half floats, radiance above 65504 (a sun) is clipped to 65504.
+import * as THREE from 'three';
+import { HDRLoader } from 'three/addons/loaders/HDRLoader.js';
+const mapUrl = '{file:save_map}';
+const texture = await new HDRLoader().setDataType(THREE.FloatType).loadAsync(mapUrl);
+texture.mapping = THREE.EquirectangularReflectionMapping;
+scene.environment = texture;
+scene.background = texture;
+// Or diffuse light alone, from the 9 SH of {file:save_sh}:
+const shUrl = '{file:save_sh}';
+const json = await (await fetch(shUrl)).json();
+scene.add(new THREE.LightProbe(new THREE.SphericalHarmonics3().fromArray(json.coefficients.flat())));
 "#,
     sun_code: r#"// The sun taken out of the map ({file:save_sun}); intensity in the map's units (irradiance).
 const sun = new THREE.DirectionalLight(new THREE.Color().setRGB({sun:color}, THREE.LinearSRGBColorSpace), {sun:illuminance});

@@ -1,0 +1,187 @@
+//! A bake's notes, `README.txt` in its folder: what was baked (its first line, `hdrflow bake MAP
+//! --for ENGINE (...)`, also marks the folder as that engine's bake), the preset's conventions, the
+//! files, and the engine code that loads them (the preset's `loading_code`) and, for an extracted
+//! sun, adds it as the engine's light (`sun_code`, the sun's numbers in the engine's terms).
+//!
+//! One folder holds one engine's bake: [`Preset::check_out`] refuses a folder whose notes name
+//! another engine (the files would mix and the notes of one would replace the other's), or whose
+//! `README.txt` no bake wrote.
+
+use std::path::Path;
+
+use super::bake::{save_path, Bake, BakeOptions};
+use super::Preset;
+use crate::engine::graph::Pipeline;
+use crate::values::Light;
+
+/// The notes' file name, in the bake's folder.
+pub const NOTES_FILE: &str = "README.txt";
+
+/// The engine whose bake `notes` (a `README.txt`) describes, from its first line, or `None` when
+/// no bake wrote it.
+pub fn engine_of_notes(notes: &str) -> Option<&str> {
+    let first = notes.lines().next()?.strip_prefix("hdrflow bake ")?;
+    // The last " --for ": MAP comes before it and may hold anything.
+    let (_, after) = first.rsplit_once(" --for ")?;
+    after.split(" (").next().filter(|e| !e.is_empty())
+}
+
+impl Preset {
+    /// Whether this engine's bake may write into `dir`: a missing folder, an empty one, or one
+    /// holding no `README.txt` or this engine's may; a file, another engine's bake or a
+    /// `README.txt` no bake wrote is refused (the message without `error: `).
+    pub fn check_out(&self, dir: &Path) -> Result<(), String> {
+        let default = self.default_out();
+        if dir.exists() && !dir.is_dir() {
+            return Err(format!("--out {}: is a file; --out names the folder the bake writes into", dir.display()));
+        }
+        let notes = dir.join(NOTES_FILE);
+        let Ok(text) = std::fs::read_to_string(&notes) else { return Ok(()) };
+        match engine_of_notes(&text) {
+            Some(e) if e.eq_ignore_ascii_case(self.name) => Ok(()),
+            Some(e) => Err(format!(
+                "{} holds a bake for {e} (its {NOTES_FILE}); a bake for {} there would mix the two engines' files \
+                 and replace its notes: write it elsewhere with --out (the default, {}, keeps each engine apart) \
+                 or empty the folder first",
+                dir.display(),
+                self.name,
+                default.display()
+            )),
+            None => Err(format!(
+                "{} holds a {NOTES_FILE} that hdrflow bake did not write, which the bake's notes would replace: \
+                 write it elsewhere with --out (the default is {}) or move that file",
+                dir.display(),
+                default.display()
+            )),
+        }
+    }
+}
+
+/// `text` with every `{file:NODE}` replaced by the path NODE writes.
+pub(super) fn fill_files(text: &str, p: &Pipeline) -> String {
+    let mut out = String::new();
+    let mut rest = text;
+    while let Some(start) = rest.find("{file:") {
+        out.push_str(&rest[..start]);
+        let after = &rest[start + 6..];
+        let end = after.find('}').unwrap_or(after.len());
+        out.push_str(&save_path(p, &after[..end]).unwrap_or_else(|| after[..end].to_string()));
+        rest = after.get(end + 1..).unwrap_or("");
+    }
+    out.push_str(rest);
+    out
+}
+
+fn triple(v: [f64; 3]) -> String {
+    format!("{:.6}, {:.6}, {:.6}", v[0], v[1], v[2])
+}
+
+/// The sun's numbers in `sun_code`, from the irradiance `E = radiance * solid_angle` it gives a
+/// surface facing it (per channel, in the map's units):
+/// - `{sun:illuminance}`: the Rec. 709 luminance of E, and `{sun:color}`: E divided by it
+///   (linear Rec. 709, luminance 1, a channel may exceed 1);
+/// - `{sun:peak}`: E's largest channel, and `{sun:unit_color}`: E divided by it (each channel
+///   in [0, 1], as glTF's `KHR_lights_punctual` requires; `unit_color * peak = E`);
+/// - `{sun:to_light}`, `{sun:from_light}` and `{sun:radius_deg}` (the cone of its solid angle).
+pub fn fill_sun(text: &str, sun: &Light) -> String {
+    let e = sun.power();
+    let y: f64 = e.iter().zip(crate::colour::REC709).map(|(a, b)| a * b).sum();
+    let colour = if y > 0.0 { e.map(|v| v / y) } else { [1.0; 3] };
+    let peak = e.iter().copied().fold(0.0, f64::max);
+    let unit = if peak > 0.0 { e.map(|v| v / peak) } else { [1.0; 3] };
+    let d = sun.direction;
+    let radius = (1.0 - sun.solid_angle / (2.0 * std::f64::consts::PI)).clamp(-1.0, 1.0).acos().to_degrees();
+    text.replace("{sun:illuminance}", &format!("{y:.6}"))
+        .replace("{sun:color}", &triple(colour))
+        .replace("{sun:peak}", &format!("{peak:.6}"))
+        .replace("{sun:unit_color}", &triple(unit))
+        .replace("{sun:to_light}", &triple(d))
+        .replace("{sun:from_light}", &triple(d.map(|v| -v)))
+        .replace("{sun:radius_deg}", &format!("{radius:.4}"))
+}
+
+/// `README.txt`: what was baked, the files (`written`, relative to the folder), and the engine
+/// code that loads them; `sun`: the extracted light (`None` for `Sun::Keep`).
+pub fn notes(bake: &Bake, options: &BakeOptions, written: &[String], sun: Option<&Light>) -> String {
+    let (preset, p) = (bake.preset, &bake.pipeline);
+    let mut out = format!(
+        "hdrflow bake {} --for {} (quality {:?}, yaw {}, sun {:?}{})\n\n{}\n\nConventions: {}; {}; irradiance: {}.\n\nFiles:\n",
+        options.map,
+        preset.name,
+        options.quality,
+        options.yaw,
+        options.sun,
+        if options.sanitize { ", sanitized" } else { "" },
+        preset.loads,
+        preset.world,
+        preset.lod,
+        preset.irradiance
+    );
+    for f in written {
+        out.push_str(&format!("  {f}\n"));
+    }
+    out.push('\n');
+    out.push_str(&fill_files(preset.loading_code, p));
+    match sun {
+        Some(s) if s.solid_angle > 0.0 => {
+            out.push('\n');
+            out.push_str(&fill_sun(&fill_files(preset.sun_code, p), s));
+        }
+        Some(_) => {
+            out.push_str("\n// No sun was found above the threshold (SunExtract): no directional light to add.\n")
+        }
+        None => {}
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::ibl_presets::bake::{QualityLevel, Sun};
+    use crate::ibl_presets::PRESETS;
+
+    #[test]
+    fn sun_numbers_are_the_irradiance_it_gives() {
+        let sun = Light { direction: [0.0, 0.6, -0.8], solid_angle: 6e-5, radiance: [5e4, 4e4, 3e4] };
+        let text = fill_sun(
+            "{sun:illuminance}|{sun:color}|{sun:from_light}|{sun:radius_deg}|{sun:peak}|{sun:unit_color}",
+            &sun,
+        );
+        let parts: Vec<&str> = text.split('|').collect();
+        let y = 6e-5 * (0.2126 * 5e4 + 0.7152 * 4e4 + 0.0722 * 3e4);
+        assert_eq!(parts[0], format!("{y:.6}"));
+        assert!(parts[1].starts_with(&format!("{:.6}", 3.0 / y)), "{}", parts[1]);
+        assert_eq!(parts[2], "-0.000000, -0.600000, 0.800000");
+        let r: f64 = parts[3].parse().unwrap();
+        assert!((r - 0.2502).abs() < 1e-3, "{r}");
+        // KHR_lights_punctual: colour in [0, 1], the magnitude in the intensity.
+        assert_eq!(parts[4], "3.000000");
+        assert_eq!(parts[5], "1.000000, 0.800000, 0.600000");
+    }
+
+    /// The notes' first line names their engine, read back whatever MAP is.
+    #[test]
+    fn the_notes_first_line_names_the_engine() {
+        let registry = crate::ops::builtin_registry();
+        for preset in PRESETS {
+            for map in ["builtin:sky", "maps/a --for b (c).hdr"] {
+                let options = BakeOptions {
+                    map: map.into(),
+                    quality: QualityLevel::Draft,
+                    yaw: 0.0,
+                    sun: Sun::Keep,
+                    sanitize: false,
+                    user: vec![],
+                };
+                // The pipeline is the sky's (the odd MAP is no file); the notes name the odd MAP.
+                let sized = BakeOptions { map: "builtin:sky".into(), ..options.clone() };
+                let bake = preset.bake(&registry, &sized).expect("validates");
+                let text = notes(&bake, &options, &[], None);
+                assert_eq!(engine_of_notes(&text), Some(preset.name), "{text}");
+            }
+        }
+        assert_eq!(engine_of_notes("My project\n"), None);
+        assert_eq!(engine_of_notes(""), None);
+    }
+}
