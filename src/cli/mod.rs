@@ -32,6 +32,7 @@ mod batch;
 mod batch_progress;
 mod cache;
 mod ops;
+mod ops_markdown;
 mod pipeline;
 mod plan;
 mod progress;
@@ -137,6 +138,10 @@ enum Command<E: ExtraCommands> {
     Ops {
         /// Show only this operator.
         name: Option<String>,
+        /// Write the reference as Markdown instead: DIR/<Name>.md per operator and DIR/index.md
+        /// (the book's docs/src/reference/operators/).
+        #[arg(long, value_name = "DIR", conflicts_with = "name")]
+        markdown: Option<PathBuf>,
     },
     /// Inspect or trim the cache: stats, prune, clear.
     Cache {
@@ -202,7 +207,8 @@ where
         }
     };
     match cli.command {
-        Command::Ops { name } => ops::ops(&registry, name.as_deref()),
+        Command::Ops { markdown: Some(dir), .. } => ops_markdown::markdown(&registry, &dir),
+        Command::Ops { name, markdown: None } => ops::ops(&registry, name.as_deref()),
         Command::Dot(args) => match load(&registry, &args) {
             Ok(p) => {
                 out!("{}", p.to_dot());

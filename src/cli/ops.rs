@@ -1,16 +1,19 @@
 //! `hdrflow ops [NAME]`: every operator with its ports, fields, types, defaults and docs (from
-//! its params struct), then the value types.
+//! its params struct), then the value types; an unknown NAME names the closest operators.
+//! (`hdrflow ops --markdown DIR`, the same specs as the book's operator reference, is
+//! `ops_markdown`.)
 
 use std::process::ExitCode;
 
 use crate::engine::cache::Persist;
+use crate::engine::graph::suggest;
 use crate::engine::registry::Registry;
 
 pub(super) fn ops(registry: &Registry, name: Option<&str>) -> ExitCode {
     let all = registry.all();
-    let selected: Vec<_> = all.iter().filter(|s| name.is_none_or(|n| s.name.eq_ignore_ascii_case(n))).collect();
+    let selected: Vec<_> = all.into_iter().filter(|s| name.is_none_or(|n| s.name.eq_ignore_ascii_case(n))).collect();
     if selected.is_empty() {
-        eprintln!("error: no operator {:?} (operators: {})", name.unwrap_or(""), registry.names().join(", "));
+        eprintln!("error: {}", unknown_operator(name.unwrap_or(""), &registry.names()));
         return ExitCode::from(2);
     }
     let mut category = "";
@@ -21,14 +24,7 @@ pub(super) fn ops(registry: &Registry, name: Option<&str>) -> ExitCode {
         }
         outln!("{} (v{})", spec.name, spec.version);
         outln!("    {}", spec.doc);
-        outln!(
-            "    cache: {}",
-            match spec.persist {
-                Persist::Measured => "a large result is stored when slower to recompute than to read back",
-                Persist::Always => "every result is stored",
-                Persist::IfSmall => "a large result is stored only as a target (one cheap pass per byte)",
-            }
-        );
+        outln!("    cache: {}", persist_text(spec.persist));
         for port in &spec.outputs {
             outln!("    -> {:<12} {:<40} {}", port.name, port.ty.describe(), port.doc);
         }
@@ -49,22 +45,43 @@ pub(super) fn ops(registry: &Registry, name: Option<&str>) -> ExitCode {
     if name.is_none() {
         outln!("== value types ==");
         for t in registry.value_types() {
-            let saves = registry.saver(t).map_or(&[][..], |s| s.extensions);
-            let saved = if saves.is_empty() {
-                String::new()
-            } else {
-                format!(" (Save: {})", saves.iter().map(|e| format!(".{e}")).collect::<Vec<_>>().join(" "))
-            };
+            let saves = save_extensions(registry, t);
+            let saved = if saves.is_empty() { String::new() } else { format!(" (Save: {saves})") };
             outln!("    {:<14} {}{saved}", t.name(), t.spec().doc);
         }
     }
     ExitCode::SUCCESS
 }
 
+/// What the cache keeps of an operator's results, in words.
+pub(super) fn persist_text(persist: Persist) -> &'static str {
+    match persist {
+        Persist::Measured => "a large result is stored when slower to recompute than to read back",
+        Persist::Always => "every result is stored",
+        Persist::IfSmall => "a large result is stored only as a target (one cheap pass per byte)",
+    }
+}
+
+/// `.exr .png`: the extensions `Save` writes a value type as ("" when it writes none).
+pub(super) fn save_extensions(registry: &Registry, t: crate::engine::value::ValueType) -> String {
+    let saves = registry.saver(t).map_or(&[][..], |s| s.extensions);
+    saves.iter().map(|e| format!(".{e}")).collect::<Vec<_>>().join(" ")
+}
+
+/// The message for an operator name that is not registered: the closest names when some are
+/// close (`Rotat`: did you mean "Rotate"?), else every operator.
+fn unknown_operator(name: &str, names: &[&str]) -> String {
+    match suggest(name, names, "operators") {
+        close if close.starts_with(';') => format!("no operator {name:?}{close}"),
+        _ => format!("no operator {name:?} (operators: {})", names.join(", ")),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use std::process::ExitCode;
 
+    use super::unknown_operator;
     use crate::cli::testing::{exit_code, parse_error};
 
     /// An unknown operator is a usage error (2); names match regardless of case.
@@ -72,5 +89,17 @@ mod tests {
     fn an_unknown_operator_exits_2() {
         assert_eq!(exit_code(&["ops", "NoSuchOperator"]), ExitCode::from(2));
         assert_eq!(parse_error(&["ops", "a", "b"]).0, clap::error::ErrorKind::UnknownArgument);
+    }
+
+    /// A near miss names the closest operators; a name close to none lists them all.
+    #[test]
+    fn an_unknown_operator_names_the_closest_ones() {
+        let names = ["LoadHdr", "Rotate", "Resize", "Sample"];
+        assert_eq!(unknown_operator("Rotat", &names), "no operator \"Rotat\"; did you mean \"Rotate\"?");
+        assert_eq!(unknown_operator("loadhrd", &names), "no operator \"loadhrd\"; did you mean \"LoadHdr\"?");
+        assert_eq!(
+            unknown_operator("Zzzzzzzz", &names),
+            "no operator \"Zzzzzzzz\" (operators: LoadHdr, Rotate, Resize, Sample)"
+        );
     }
 }

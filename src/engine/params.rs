@@ -110,8 +110,8 @@ impl FieldKind {
                     Arity::List { min, max } => format!("list of {min}..{max} {one}"),
                 }
             }
-            FieldKind::Float { min, max } => format!("float in [{}, {}]", fmt_bound(*min), fmt_bound(*max)),
-            FieldKind::Int { min, max } => format!("integer in [{min}, {max}]"),
+            FieldKind::Float { .. } => format!("float in {}", self.range().unwrap_or_default()),
+            FieldKind::Int { .. } => format!("integer in {}", self.range().unwrap_or_default()),
             FieldKind::Bool => "bool".into(),
             FieldKind::Text => "string".into(),
             FieldKind::TextList { .. } => "list of strings".into(),
@@ -120,9 +120,33 @@ impl FieldKind {
             FieldKind::Choice(options) => options.join(" | "),
             FieldKind::Tuple { len, .. } => format!("({})", vec!["float"; *len].join(", ")),
             FieldKind::Color { .. } => "(r, g, b) or grey".into(),
-            FieldKind::NumberList { min, max, .. } => {
-                format!("list of numbers in [{}, {}]", fmt_bound(*min), fmt_bound(*max))
+            FieldKind::NumberList { .. } => format!("list of numbers in {}", self.range().unwrap_or_default()),
+        }
+    }
+
+    /// The inclusive range of a number, or of each number of a tuple, colour or number list,
+    /// as [`describe`](Self::describe) prints it (`[0, 1]`, `[-inf, inf]`); `None` for the
+    /// kinds that are not numbers.
+    pub fn range(&self) -> Option<String> {
+        match self {
+            FieldKind::Float { min, max }
+            | FieldKind::Tuple { min, max, .. }
+            | FieldKind::Color { min, max }
+            | FieldKind::NumberList { min, max, .. } => Some(format!("[{}, {}]", fmt_bound(*min), fmt_bound(*max))),
+            FieldKind::Int { min, max } => Some(format!("[{min}, {max}]")),
+            _ => None,
+        }
+    }
+
+    /// The inclusive length range of a list (of nodes, strings or numbers), `(min, max)`, with
+    /// `usize::MAX` for no upper bound; `None` for the kinds that are not lists.
+    pub fn length(&self) -> Option<(usize, usize)> {
+        match self {
+            FieldKind::Input { arity: Arity::List { min, max }, .. } | FieldKind::TextList { min, max } => {
+                Some((*min, *max))
             }
+            FieldKind::NumberList { min_len, max_len, .. } => Some((*min_len, *max_len)),
+            _ => None,
         }
     }
 
