@@ -74,3 +74,28 @@ fn an_unknown_operator_name_suggests_the_closest() {
         .assert_stderr_contains("no operator \"Rotat\"; did you mean \"Rotate\"");
     run_hdrflow(["ops", "--markdown", "x", "Rotate"]).assert_code(2);
 }
+
+/// The book's table of contents (`docs/src/SUMMARY.md`) lists every operator page, in the
+/// index's order: mdBook renders only the pages it lists.
+#[test]
+fn the_book_lists_every_operator_page_in_the_index_order() {
+    let root = Path::new(common::MANIFEST_DIR);
+    let index = std::fs::read_to_string(root.join(PAGES).join("index.md")).unwrap();
+    let in_index: Vec<String> = index
+        .lines()
+        .filter_map(|l| l.strip_prefix("| [")?.split_once("](").map(|(name, _)| name.to_string()))
+        .collect();
+    let summary = std::fs::read_to_string(root.join("docs/src/SUMMARY.md")).unwrap();
+    let listed: Vec<String> = summary
+        .lines()
+        .filter_map(|l| l.trim().strip_prefix("- [")?.split_once("](reference/operators/"))
+        .filter(|(_, rest)| *rest != "index.md)")
+        .map(|(name, _)| name.to_string())
+        .collect();
+    let want: String = in_index.iter().map(|n| format!("    - [{n}](reference/operators/{n}.md)\n")).collect();
+    assert!(
+        !in_index.is_empty() && listed == in_index,
+        "docs/src/SUMMARY.md must list the operator pages in the index's order; under \
+         `- [Operator reference](reference/operators/index.md)` put:\n{want}"
+    );
+}
