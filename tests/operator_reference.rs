@@ -55,16 +55,23 @@ fn each_page_gives_the_fields_ranges_defaults_and_ports() {
     let dir = tempfile::tempdir().unwrap();
     run_hdrflow(["ops", "--markdown", &dir.path().display().to_string()]).assert_success();
     let rotate = std::fs::read_to_string(dir.path().join("Rotate.md")).unwrap();
-    for needle in ["# Rotate\n", "**Category**: [image](index.md#image)", "| `yaw` | float |", "## Output ports"] {
+    for needle in [
+        "# Rotate\n",
+        "**Category**: [image](index.md#image)",
+        "| `yaw` | float in [-3600, 3600] | 0.0 |",
+        "## Output ports",
+    ] {
         assert!(rotate.contains(needle), "Rotate.md lacks {needle:?}:\n{rotate}");
     }
     let index = std::fs::read_to_string(dir.path().join("index.md")).unwrap();
     assert!(index.contains("| [Rotate](Rotate.md) |"), "{index}");
     assert!(index.contains("## Value types"), "{index}");
-    // A choice's options are escaped for the table; an input lists the types it accepts.
+    // A choice's options are escaped for the table; an input names the types it accepts.
     let lum = std::fs::read_to_string(dir.path().join("Luminance.md")).unwrap();
     assert!(lum.contains("Rec709 \\| Rec2020 \\| Mean \\| Max"), "{lum}");
-    assert!(lum.contains("| `image` | input | image"), "{lum}");
+    assert!(lum.contains("| `image` | input: image"), "{lum}");
+    // An unbounded range says nothing and is left out.
+    assert!(rotate.contains("| `matrix` | 9 floats | optional |"), "{rotate}");
 }
 
 #[test]
