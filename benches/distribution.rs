@@ -1,6 +1,6 @@
 //! `values::distribution`: `Distribution2D::build` (BuildCdf) of a random 2048x1024 luminance
 //! map, the size where its point target ("within 3x of one pass over the map's bytes",
-//! BENCHMARKS.md) is tightest, against two passes over the same texels:
+//! docs/src/benchmarks/point-targets.md) is tightest, against two passes over the same texels:
 //!
 //! - `rgb_pass`: one parallel read of the RGB f32 map the luminance comes from, the target's
 //!   reference at memory bandwidth (`one_pass`, the same function as `hdrflow bench`'s);

@@ -1,4 +1,4 @@
-//! Image-based lighting measurements (numbers recorded in BENCHMARKS.md, "Image-based lighting"):
+//! Image-based lighting measurements (numbers recorded in docs/src/benchmarks/ibl.md, "Image-based lighting"):
 //!
 //!     cargo bench --bench ibl            # HDRFLOW_IBL_MAP=path.hdr to choose the map
 //!     HDRFLOW_IBL_ONLY=sh cargo bench --bench ibl          # section 4 alone
@@ -12,7 +12,7 @@
 //!    (5 levels, 1024 samples), the irradiance (SH and exact), the BRDF texture;
 //! 4. SH irradiance against the exact irradiance, per map, order and window (a 16 cube);
 //! 5. `PrefilterSpecular` against `exact: true` on every map, time against error as a log-log
-//!    chart (`docs/bench/prefilter_time_error.svg`);
+//!    chart (`docs/src/benchmarks/data/prefilter_time_error.svg`);
 //! 6. what `SunExtract` does to the prefilter's error: sampled residual plus the sun's exact
 //!    part, against sampling the whole map, at equal samples.
 //!
@@ -225,7 +225,7 @@ fn prefilter_all_maps(maps: &[(String, Image)]) {
         println!("| {name} | {t_exact:.2} s | {} |", cells.join(" | "));
         lines.push(Line { name: name.clone(), points, ci: Vec::new() });
     }
-    let out = Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/bench/prefilter_time_error.svg");
+    let out = Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/src/benchmarks/data/prefilter_time_error.svg");
     match plot_svg("PrefilterSpecular, 64 cube: time (ms) against RMS relative error", &lines, 900, 600) {
         Ok(svg) => match std::fs::write(&out, svg) {
             Ok(()) => println!("\nchart: {}", out.display()),

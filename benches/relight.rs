@@ -5,7 +5,7 @@
 //!
 //! - `relight_512x512_1024_lights`: `relight` of a 512x512 sphere seen from (90, 90) under 1024
 //!   Fibonacci-sphere lights (the target of `RelightSphere` 512x512 with 1024 samples: about
-//!   20 ms on 2 cores, BENCHMARKS.md).
+//!   20 ms on 2 cores, docs/src/benchmarks/point-targets.md).
 //! - `kernel_wide_hot_tile`: `Kernel::accumulate_wide` over 16 wide blocks (256 lights) and 256
 //!   normals, repeated; throughput in terms (normal, light lane) per second, so that each
 //!   kernel's figure over `Scalar`'s is its speed-up. Kernels the CPU cannot run are left out

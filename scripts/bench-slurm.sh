@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Wall time of `graphs/seed.ron` over 16 maps of 1024x512 as a Slurm job array on the one-node
 # cluster of scripts/slurm-cluster.sh, against the same batch run locally, in one run
-# (BENCHMARKS.md, "Batch runs"). Needs root and the slurm packages (scripts/slurm-cluster.sh
+# (docs/src/benchmarks/batch.md, "Batch runs"). Needs root and the slurm packages (scripts/slurm-cluster.sh
 # install) and a release build (cargo build --release).
 #   scripts/bench-slurm.sh [MAP]     MAP: any map hdrflow reads (default: the built-in sky)
 set -euo pipefail

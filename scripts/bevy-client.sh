@@ -3,7 +3,7 @@
 # tests/bevy_render.rs) once, and prints the path of its binary. Bevy is its own crate with its own
 # lock file, outside hdrflow's workspace, so a normal hdrflow build never compiles it.
 #   BEVY_TARGET_DIR  target folder (default: clients/bevy/target); a build from scratch takes about
-#                    20 minutes on 2 cores and some 4 GB of disk (BENCHMARKS.md, "Bevy client").
+#                    20 minutes on 2 cores and some 4 GB of disk (docs/src/benchmarks/rendered.md, "Bevy, rendered for real").
 # The renderer runs on Mesa's lavapipe (a CPU Vulkan driver): Debian `mesa-vulkan-drivers`.
 # Run the test with: HDRFLOW_BEVY_RENDER=$(scripts/bevy-client.sh) cargo test --release --test bevy_render
 set -euo pipefail

@@ -24,7 +24,7 @@
 //! (ASCII case ignored), e.g. `HDRFLOW_CPU=portable hdrflow run ...` to rule out a SIMD path when
 //! a result looks wrong, or to run the portable code on a processor that has more. Any other
 //! value (the empty one included), or a level the processor lacks, is a [`CpuError`] that names
-//! the variable. The variable is read once, on first use. `docs/cpu.md` says the same for users.
+//! the variable. The variable is read once, on first use. `docs/src/internals/cpu.md` says the same for users.
 //!
 //! A kernel cannot report that error (it asks [`level`] deep inside a bake), so the programs
 //! report it before any work: the command line (`cli::main_from_with_extra`, exit code 2) and the

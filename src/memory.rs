@@ -3,7 +3,7 @@
 /// Asks Linux to back `buf` with transparent huge pages (`madvise(MADV_HUGEPAGE)` on the whole
 /// 4 KiB pages inside it; this machine's THP setting is `madvise`). A large `vec![0.0; n]` is a
 /// fresh `mmap` that the kernel faults in and zeroes page by page on first write, 512 times
-/// fewer faults with 2 MiB pages (the times are in BENCHMARKS.md, "Point targets", BuildCdf). Advice only: contents are
+/// fewer faults with 2 MiB pages (the times are in docs/src/benchmarks/point-targets.md, BuildCdf). Advice only: contents are
 /// unchanged, a failure is ignored, and other systems do nothing.
 #[cfg(target_os = "linux")]
 pub fn advise_huge_pages<T>(buf: &mut [T]) {

@@ -194,20 +194,24 @@ fn all_problems_of_a_file_are_reported_together() {
     assert!(files_under(&sandbox.out()).is_empty());
 }
 
-/// The README's block of example errors is what the binary prints for the `tests/bad/` files
-/// its marker names (`<!-- errors of tests/bad: a b c -->`, then a fenced block): the first
-/// `error:` line of each, in the marker's order, so the README cannot drift from the messages.
+/// The book's page on pipeline files, which shows the errors of `tests/bad/`.
+const PIPELINES_PAGE: &str = "docs/src/guides/pipelines.md";
+
+/// The book's block of example errors (`docs/src/guides/pipelines.md`) is what the binary
+/// prints for the `tests/bad/` files its marker names (`<!-- errors of tests/bad: a b c -->`,
+/// then a fenced block): the first `error:` line of each, in the marker's order, so the page
+/// cannot drift from the messages.
 #[test]
-fn the_readme_error_block_is_what_the_binary_prints() {
-    let readme = std::fs::read_to_string(Path::new(common::MANIFEST_DIR).join("README.md")).expect("README.md");
-    let mut lines = readme.lines();
+fn the_books_error_block_is_what_the_binary_prints() {
+    let page = std::fs::read_to_string(Path::new(common::MANIFEST_DIR).join(PIPELINES_PAGE)).expect(PIPELINES_PAGE);
+    let mut lines = page.lines();
     let names: Vec<&str> = lines
         .by_ref()
         .find_map(|l| l.trim().strip_prefix("<!-- errors of tests/bad:").and_then(|r| r.strip_suffix("-->")))
-        .expect("the README has no `<!-- errors of tests/bad: ... -->` marker")
+        .expect("the pipelines page has no `<!-- errors of tests/bad: ... -->` marker")
         .split_whitespace()
         .collect();
-    assert!(!names.is_empty(), "the README's error marker names no file");
+    assert!(!names.is_empty(), "the pipelines page's error marker names no file");
     assert!(lines.next().is_some_and(|l| l.starts_with("```")), "the error marker must be followed by a fenced block");
     let written: Vec<&str> = lines.take_while(|l| !l.starts_with("```")).collect();
     let printed: Vec<String> = names
@@ -225,7 +229,7 @@ fn the_readme_error_block_is_what_the_binary_prints() {
         .collect();
     assert!(
         written == printed,
-        "the README's error block is not what the binary prints; paste this block instead:\n```text\n{}\n```",
+        "the error block of {PIPELINES_PAGE} is not what the binary prints; paste this block instead:\n```text\n{}\n```",
         printed.join("\n")
     );
 }

@@ -21,7 +21,7 @@
 //! `HDRFLOW_REQUIRE_BEVY=1`. Run: `cargo test --release --test bevy_render -- --nocapture`
 //! (prints the table of errors). With `HDRFLOW_BEVY_PICTURES=DIR` the sphere tests also write
 //! each frame and its exact reference as EXR into DIR (`scripts/bevy-readme-picture.sh` makes the
-//! README's picture from them).
+//! book's pictures from them, docs/src/guides/baking/bevy.md).
 
 mod common;
 #[path = "bevy_render/mistakes.rs"]
@@ -46,7 +46,7 @@ const REQUIRE: &str = "HDRFLOW_REQUIRE_BEVY";
 const WIDTH: usize = 768;
 const HEIGHT: usize = 256;
 /// Relative RMSE bounds per sphere (mirror, metals 0.25, 0.5, 0.75, 1, diffuse) on the test map:
-/// about twice what the correct bake measures (BENCHMARKS.md, "Bevy, rendered for real"). The
+/// about twice what the correct bake measures (docs/src/benchmarks/rendered.md, "Bevy, rendered for real"). The
 /// roughness-1 sphere reads the chain's 1 x 1 level (lod = r (N - 1) = N - 1: six values for the
 /// whole sphere), hence its larger bound.
 const TEST_MAP_BOUNDS: [f64; 6] = [0.03, 0.02, 0.02, 0.04, 0.15, 0.005];
@@ -87,7 +87,7 @@ struct Bake {
 }
 
 /// `hdrflow bake MAP --for bevy --sun keep --out DIR [--set S ...] [EXTRA ...]`, the command the
-/// README gives (the sun stays in the map: the spheres are lit by the two cube maps alone), with
+/// book gives (docs/src/guides/baking/bevy.md) (the sun stays in the map: the spheres are lit by the two cube maps alone), with
 /// the sandbox's cache shared by every bake of a test.
 fn bake(sandbox: &common::Sandbox, map: &Path, dir: &str, sets: &[&str], extra: &[&str]) -> Bake {
     let out = sandbox.join(dir);
@@ -415,7 +415,7 @@ fn bevy_shows_the_map_unmirrored_up_and_its_centre_forward() {
     // The orientation does not depend on the chain's size: the draft quality (a 128 chain).
     let draft = ["--quality", "draft"];
 
-    // The preset: the map's centre faces -Z of Bevy's world (README, "Baking for an engine").
+    // The preset: the map's centre faces -Z of Bevy's world (docs/src/guides/baking/index.md).
     let good = bake(&sandbox, &path, "good", &[], &draft);
     let forward = skybox_problems(&client, &sandbox, &good, "sky_forward", "0,0,-1");
     // --yaw -90 puts it at +X, where glTF-IBL-Sampler's Bevy assets have it (the tools' table).

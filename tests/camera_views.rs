@@ -104,8 +104,9 @@ fn the_worked_example_runs_and_its_views_agree() {
 
 #[test]
 fn the_documented_example_is_a_valid_pipeline() {
-    let doc = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/docs/toolkit/camera.md")).unwrap();
-    let start = doc.find("```ron\n").expect("docs/toolkit/camera.md has a RON example") + "```ron\n".len();
+    let doc =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/docs/src/guides/toolkit/camera.md")).unwrap();
+    let start = doc.find("```ron\n").expect("docs/src/guides/toolkit/camera.md has a RON example") + "```ron\n".len();
     let text = &doc[start..start + doc[start..].find("```").unwrap()];
     let registry = hdrflow::builtin_registry();
     let graphs = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/graphs"));

@@ -1,5 +1,5 @@
 //! Cube layouts in pipelines: every layout and the six face files round-trip bit for bit (also
-//! through saved files), each cell of every layout looks where `docs/toolkit/cube_layouts.md`
+//! through saved files), each cell of every layout looks where `docs/src/guides/toolkit/cube_layouts.md`
 //! says, the dice and horizon agree with py360convert's (`scripts/py360-oracle.py`), and
 //! images of the wrong shape are errors that name the node: before anything runs when the size
 //! is known, when the node runs otherwise.

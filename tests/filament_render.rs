@@ -50,7 +50,7 @@ use serde_json::{json, Value as Json};
 
 const REQUIRE: &str = "HDRFLOW_REQUIRE_FILAMENT";
 /// Relative RMSE bounds per sphere (mirror, metals 0.25, 0.5, 0.75, 1, dielectric) on the test
-/// map: about twice what the correct bake measures (BENCHMARKS.md, "Filament, rendered for real").
+/// map: about twice what the correct bake measures (docs/src/benchmarks/rendered.md, "Filament, rendered for real").
 const TEST_MAP_BOUNDS: [f64; 6] = [0.015, 0.015, 0.016, 0.04, 0.05, 0.0015];
 /// The same on the park map, whose sun (69120, 0.35-degree texels) the 1024-sample prefilter
 /// renders far less accurately.

@@ -15,8 +15,8 @@
 //! - Orientation and handedness: a map of coloured markers (`common/markers.rs`) through the
 //!   renderer's skybox pass (the specular chain's level 0) must show each marker where a
 //!   360-degree viewer facing the map's centre does: at `environmentRotation` 0 looking along -Z
-//!   (the preset's frame), at the renderer's default of 90 degrees looking along +X (the README's
-//!   table), and a `--yaw -90` bake (what glTF-IBL-Sampler does to the map) at 0 along +X. A
+//!   (the preset's frame), at the renderer's default of 90 degrees looking along +X (the table of
+//!   docs/src/guides/baking/index.md), and a `--yaw -90` bake (what glTF-IBL-Sampler does to the map) at 0 along +X. A
 //!   mirrored map fails.
 //! - Then the park map.
 //!
@@ -60,7 +60,7 @@ const PACKAGE_VERSION: &str = "1.1.0";
 /// scene's CAMERA_Z); the renderer's view vector points from each surface point to it.
 const CAMERA: DVec3 = DVec3::new(0.0, 0.0, 10.0);
 /// Relative RMSE bounds per sphere (mirror, metals 0.25, 0.5, 0.75, 1, dielectric) on the test
-/// map: about twice what the correct bake measures (BENCHMARKS.md, "The Khronos Sample Viewer's
+/// map: about twice what the correct bake measures (docs/src/benchmarks/rendered.md, "The Khronos Sample Viewer's
 /// renderer, rendered for real").
 const TEST_MAP_BOUNDS: [f64; 6] = [0.015, 0.016, 0.008, 0.005, 0.05, 0.002];
 /// The same on the park map, whose sun (69120, 0.35-degree texels) the 1024-sample prefilter of

@@ -3,7 +3,7 @@
 //! back direction on its rim, masks and `ball_fraction`), the angular probe's round trip, the
 //! sky hemispheres (bit-exact sky lat-long round trip, sky-angular orientation and fill), and
 //! every bad input as a pipeline error naming the node. The expected values are computed here
-//! from the formulas of docs/toolkit/map_layouts.md, not from the library's mapping code.
+//! from the formulas of docs/src/guides/toolkit/map_layouts.md, not from the library's mapping code.
 
 mod common;
 

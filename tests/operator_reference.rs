@@ -55,16 +55,23 @@ fn each_page_gives_the_fields_ranges_defaults_and_ports() {
     let dir = tempfile::tempdir().unwrap();
     run_hdrflow(["ops", "--markdown", &dir.path().display().to_string()]).assert_success();
     let rotate = std::fs::read_to_string(dir.path().join("Rotate.md")).unwrap();
-    for needle in ["# Rotate\n", "**Category**: [image](index.md#image)", "| `yaw` | float |", "## Output ports"] {
+    for needle in [
+        "# Rotate\n",
+        "**Category**: [image](index.md#image)",
+        "| `yaw` | float in [-3600, 3600] | 0.0 |",
+        "## Output ports",
+    ] {
         assert!(rotate.contains(needle), "Rotate.md lacks {needle:?}:\n{rotate}");
     }
     let index = std::fs::read_to_string(dir.path().join("index.md")).unwrap();
     assert!(index.contains("| [Rotate](Rotate.md) |"), "{index}");
     assert!(index.contains("## Value types"), "{index}");
-    // A choice's options are escaped for the table; an input lists the types it accepts.
+    // A choice's options are escaped for the table; an input names the types it accepts.
     let lum = std::fs::read_to_string(dir.path().join("Luminance.md")).unwrap();
     assert!(lum.contains("Rec709 \\| Rec2020 \\| Mean \\| Max"), "{lum}");
-    assert!(lum.contains("| `image` | input | image"), "{lum}");
+    assert!(lum.contains("| `image` | input: image"), "{lum}");
+    // An unbounded range says nothing and is left out.
+    assert!(rotate.contains("| `matrix` | 9 floats | optional |"), "{rotate}");
 }
 
 #[test]
@@ -73,4 +80,29 @@ fn an_unknown_operator_name_suggests_the_closest() {
         .assert_code(2)
         .assert_stderr_contains("no operator \"Rotat\"; did you mean \"Rotate\"");
     run_hdrflow(["ops", "--markdown", "x", "Rotate"]).assert_code(2);
+}
+
+/// The book's table of contents (`docs/src/SUMMARY.md`) lists every operator page, in the
+/// index's order: mdBook renders only the pages it lists.
+#[test]
+fn the_book_lists_every_operator_page_in_the_index_order() {
+    let root = Path::new(common::MANIFEST_DIR);
+    let index = std::fs::read_to_string(root.join(PAGES).join("index.md")).unwrap();
+    let in_index: Vec<String> = index
+        .lines()
+        .filter_map(|l| l.strip_prefix("| [")?.split_once("](").map(|(name, _)| name.to_string()))
+        .collect();
+    let summary = std::fs::read_to_string(root.join("docs/src/SUMMARY.md")).unwrap();
+    let listed: Vec<String> = summary
+        .lines()
+        .filter_map(|l| l.trim().strip_prefix("- [")?.split_once("](reference/operators/"))
+        .filter(|(_, rest)| *rest != "index.md)")
+        .map(|(name, _)| name.to_string())
+        .collect();
+    let want: String = in_index.iter().map(|n| format!("    - [{n}](reference/operators/{n}.md)\n")).collect();
+    assert!(
+        !in_index.is_empty() && listed == in_index,
+        "docs/src/SUMMARY.md must list the operator pages in the index's order; under \
+         `- [Operator reference](reference/operators/index.md)` put:\n{want}"
+    );
 }

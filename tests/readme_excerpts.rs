@@ -1,8 +1,37 @@
-//! The README's code excerpts are the sources' text: every fenced block that follows a line
-//! `<!-- excerpt: PATH -->` must appear verbatim in PATH, so an excerpt cannot drift from the
-//! code it shows (the failure prints the block to paste).
+//! The README's and the book's code excerpts are the sources' text, and their shell commands read
+//! only files the repository ships. Every Markdown file checked is `README.md` and every page of
+//! the book (`docs/src/**/*.md`):
+//! - every fenced block that follows a line `<!-- excerpt: PATH -->` must appear verbatim in PATH,
+//!   so an excerpt cannot drift from the code it shows (the failure prints the block to paste);
+//! - every file a ```sh command reads must be in the repository, so that the commands run on a
+//!   fresh clone with nothing beside it.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
+
+/// `README.md` and every page of the book, as (path relative to the crate, text), sorted.
+fn documents() -> Vec<(String, String)> {
+    fn walk(dir: &Path, out: &mut Vec<PathBuf>) {
+        for entry in std::fs::read_dir(dir).unwrap_or_else(|e| panic!("{}: {e}", dir.display())) {
+            let path = entry.unwrap().path();
+            if path.is_dir() {
+                walk(&path, out);
+            } else if path.extension().is_some_and(|e| e == "md") {
+                out.push(path);
+            }
+        }
+    }
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut paths = vec![root.join("README.md")];
+    walk(&root.join("docs/src"), &mut paths);
+    paths.sort();
+    paths
+        .into_iter()
+        .map(|p| {
+            let text = std::fs::read_to_string(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
+            (p.strip_prefix(root).unwrap().display().to_string(), text)
+        })
+        .collect()
+}
 
 fn excerpts(readme: &str) -> Vec<(String, String)> {
     let mut out = Vec::new();
@@ -27,18 +56,20 @@ fn excerpts(readme: &str) -> Vec<(String, String)> {
 }
 
 #[test]
-fn every_readme_excerpt_is_the_source_text() {
+fn every_excerpt_of_the_readme_and_the_book_is_the_source_text() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let readme = std::fs::read_to_string(root.join("README.md")).unwrap();
-    let found = excerpts(&readme);
-    assert!(!found.is_empty(), "the README has no excerpt markers: the 'Adding an operator' one was removed");
-    for (path, body) in found {
-        let source = std::fs::read_to_string(root.join(&path)).unwrap_or_else(|e| panic!("{path}: {e}"));
-        assert!(
-            source.contains(&body),
-            "the README's excerpt of {path} is not that file's text any more; the excerpt was:\n{body}"
-        );
+    let mut found = 0;
+    for (doc, text) in documents() {
+        for (path, body) in excerpts(&text) {
+            found += 1;
+            let source = std::fs::read_to_string(root.join(&path)).unwrap_or_else(|e| panic!("{doc}: {path}: {e}"));
+            assert!(
+                source.contains(&body),
+                "{doc}'s excerpt of {path} is not that file's text any more; the excerpt was:\n{body}"
+            );
+        }
     }
+    assert!(found > 0, "no excerpt markers in the README or the book: the 'Adding an operator' one was removed");
 }
 
 #[test]
@@ -49,16 +80,19 @@ fn an_excerpt_that_drifted_is_caught() {
     assert!(!"fn b() {}\n".contains(&found[0].1));
 }
 
-/// The files the README's shell commands name (`graphs/seed.ron`, `--set env.path=assets/...`),
-/// from every ```sh block: each must be in the repository, so that the commands run on a fresh
-/// clone with nothing beside it (nothing under `../shared`). Output paths (`--out`, `>`) are not
-/// inputs and are left out.
+/// The files the shell commands of a document name (`graphs/seed.ron`, `--set
+/// env.path=assets/...`), from every ```sh block: each must be in the repository, so that the
+/// commands run on a fresh clone with nothing beside it (nothing under `../shared`). Output paths
+/// (`--out`, `>`, ...) are not inputs and are left out, and so is a file that an earlier command
+/// of the same block wrote (that path, or one inside an output folder).
 fn command_inputs(readme: &str) -> Vec<String> {
     let mut out = Vec::new();
     let mut in_sh = false;
+    let mut written: Vec<String> = Vec::new();
     for line in readme.lines() {
         if line.starts_with("```") {
             in_sh = line.trim() == "```sh";
+            written.clear();
             continue;
         }
         if !in_sh {
@@ -68,10 +102,14 @@ fn command_inputs(readme: &str) -> Vec<String> {
         let words: Vec<&str> = code.split_whitespace().collect();
         for (k, w) in words.iter().enumerate() {
             let prev = if k > 0 { words[k - 1] } else { "" };
+            let value = w.rsplit('=').next().unwrap_or(w).trim_matches(|c| c == '"' || c == '\'');
             if matches!(prev, "--out" | ">" | "--report" | "--cache-dir" | "-o") {
+                written.push(value.trim_end_matches('/').to_string());
                 continue;
             }
-            let value = w.rsplit('=').next().unwrap_or(w).trim_matches(|c| c == '"' || c == '\'');
+            if written.iter().any(|o| value == o || value.starts_with(&format!("{o}/"))) {
+                continue;
+            }
             let known_ext = [".ron", ".hdr", ".exr", ".pfm", ".py", ".sh", ".txt", ".json"];
             if value.contains('/') && known_ext.iter().any(|e| value.ends_with(e)) && !value.contains('*') {
                 out.push(value.to_string());
@@ -82,18 +120,29 @@ fn command_inputs(readme: &str) -> Vec<String> {
 }
 
 #[test]
-fn every_file_a_readme_command_reads_ships_with_the_repository() {
+fn every_file_a_command_of_the_readme_or_the_book_reads_ships_with_the_repository() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let readme = std::fs::read_to_string(root.join("README.md")).unwrap();
-    let inputs = command_inputs(&readme);
-    assert!(inputs.iter().any(|p| p == "graphs/seed.ron"), "the main job's command is found: {inputs:?}");
-    let missing: Vec<&String> =
-        inputs.iter().filter(|p| p.starts_with("../") || p.starts_with('/') || !root.join(p).is_file()).collect();
-    assert!(missing.is_empty(), "README commands read files a fresh clone does not have: {missing:?}");
+    let mut missing = Vec::new();
+    for (doc, text) in documents() {
+        let inputs = command_inputs(&text);
+        if doc == "README.md" {
+            assert!(inputs.iter().any(|p| p == "graphs/seed.ron"), "the README's main job is found: {inputs:?}");
+        }
+        for p in inputs {
+            if p.starts_with("../") || p.starts_with('/') || !root.join(&p).is_file() {
+                missing.push(format!("{doc}: {p}"));
+            }
+        }
+    }
+    assert!(missing.is_empty(), "commands read files a fresh clone does not have: {missing:#?}");
 }
 
 #[test]
 fn command_inputs_are_found_and_outputs_left_out() {
     let readme = "```sh\nhdrflow run graphs/a.ron --set e.path=../shared/x.hdr --out out/b.json  # c/d.ron\n```\n";
     assert_eq!(command_inputs(readme), vec!["graphs/a.ron".to_string(), "../shared/x.hdr".to_string()]);
+    // A file an earlier command of the block wrote is no input; the next block starts afresh.
+    let made = "```sh\ncat > /tmp/m.ron\nhdrflow run /tmp/m.ron --out /tmp/maps\nhdrflow run g/s.ron --set e.path=/tmp/maps/x.pfm\n```\n\
+                ```sh\nhdrflow run /tmp/m.ron\n```\n";
+    assert_eq!(command_inputs(made), vec!["g/s.ron".to_string(), "/tmp/m.ron".to_string()]);
 }

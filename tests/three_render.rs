@@ -68,7 +68,7 @@ const PROBE_SIZE: usize = 256;
 /// Relative RMSE bound of the probe-lit spheres (`MeshLambertMaterial`, and
 /// `MeshStandardMaterial` with three's energy term fed the exact DFG) against the exact
 /// irradiance: about twice what is measured, 0.029 on the test map, all of it the order-2 SH's
-/// approximation (BENCHMARKS.md, "three.js, rendered for real").
+/// approximation (docs/src/benchmarks/rendered.md, "three.js, rendered for real").
 const SH_BOUND: f64 = 0.06;
 /// The same for the Lambertian sphere against the SH evaluated here (three's arithmetic and
 /// tessellation: 1e-4 measured).

@@ -19,7 +19,7 @@ right-handed) moves the content seen in direction v to R v, so skylibs' `rotate(
 samples the source at dcm d) gets dcm = R^T; a crop whose camera is turned by R sees along R c for
 the camera ray c, which skylibs' `project(rotation_matrix)` takes as the world-to-camera matrix R^T.
 
-Not hdrflow's choices, but what the libraries do (see BENCHMARKS.md, "Dataset preparation"):
+Not hdrflow's choices, but what the libraries do (see docs/src/benchmarks/dataset.md, "Dataset preparation"):
 skylibs' crops put the first and last pixel centres on the field of view's edges (a grid
 W / (W - 1) times coarser than hdrflow's) and interpolate bilinearly; its rotation interpolates
 too; SH integrate with skylibs' per-texel solid angles; the SG fit is SciPy's trust-region

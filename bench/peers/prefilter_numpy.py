@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """GGX specular prefiltering written the way a user writes it in NumPy: the peer of hdrflow's
-`PrefilterSpecular` (README, "Image-based lighting"; BENCHMARKS.md, "Image-based lighting").
+`PrefilterSpecular` (docs/src/guides/ibl.md; docs/src/benchmarks/ibl.md, "Image-based lighting").
 
 Same conventions as hdrflow: n = v = r, alpha = roughness^2, level k of `levels` has face size
 max(1, size >> k) and roughness k / (levels - 1); faces +X -X +Y -Y +Z -Z in hdrflow's axes

@@ -1,4 +1,4 @@
-"""What the Python bindings cost over the command line (the numbers in BENCHMARKS.md).
+"""What the Python bindings cost over the command line (the numbers in docs/src/benchmarks/engine.md).
 
     python python/bench/overhead.py [--bin target/release/hdrflow] [--repeats 30]
 

@@ -8,7 +8,7 @@ it): pipelines are validated, scheduled and cached exactly as ``hdrflow run`` do
     >>> r["sphere_1024"].shape
     (256, 256, 3)
 
-See the README's "Python" section for the whole story.
+See the book's "Python" page (docs/src/guides/python.md) for the whole story.
 """
 
 from __future__ import annotations

@@ -119,8 +119,9 @@ fn f64_array<'py>(py: Python<'py>, v: Vec<f64>) -> Bound<'py, PyAny> {
     PyArray1::from_vec(py, v).into_any()
 }
 
-/// A value as a Python object (see the README's Python section for the mapping). An image is
-/// moved into its NumPy array when nothing else holds it (no copy), else copied once.
+/// A value as a Python object (see the book's Python page, docs/src/guides/python.md, for the
+/// mapping). An image is moved into its NumPy array when nothing else holds it (no copy), else
+/// copied once.
 fn value_to_py<'py>(py: Python<'py>, value: Value, out: Option<&Path>) -> PyResult<Bound<'py, PyAny>> {
     if value.get::<Image>().is_some() {
         let img = value.take::<Image>().expect("checked to be an image");

@@ -141,7 +141,7 @@ def test_op_runs_one_operator_on_arrays_and_caches_it(cache):
     env = np.random.default_rng(3).random((8, 16, 3)).astype(np.float32)
     out = hdrflow.op("Exposure", image=env, stops=1.0, cache_dir=cache)
     assert out.shape == (8, 16, 3) and np.array_equal(out, env * 2)
-    # A whole-column yaw is an exact roll (the README's Rotate section): 90 degrees = 4 columns.
+    # A whole-column yaw is an exact roll (the book's Rotations, docs/src/conventions.md): 90 degrees = 4 columns.
     rolled = hdrflow.op("Rotate", image=env, yaw=90, cache_dir=cache)
     assert np.array_equal(rolled, np.roll(env, -4, axis=1)) or np.array_equal(rolled, np.roll(env, 4, axis=1))
     # One channel is a scalar field; a file name is loaded.

@@ -1,4 +1,4 @@
-//! `hdrflow bench --bake`: issue 24's bake benchmark (BENCHMARKS.md, "Bake speed and error").
+//! `hdrflow bench --bake`: issue 24's bake benchmark (docs/src/benchmarks/bake.md, "Bake speed and error").
 //!
 //! For each map size (default 2048 x 1024 and 4096 x 2048: the shipped 1k park map through the
 //! energy-preserving `Resize`, as no 2k or 4k map ships under a licence we may redistribute):

@@ -8,7 +8,7 @@
 //! per output texel: on a 256 source that is 0.4 M pairs a texel, so it is evaluated on a fixed
 //! subset of each level's texels (`texels_per_level`, spread over every face by a stride with a
 //! varying offset; all of a level when it has fewer), and each error is the RMS over that subset's
-//! values of `(estimate - exact) / exact`, the measure of BENCHMARKS.md's prefilter tables.
+//! values of `(estimate - exact) / exact`, the measure of the prefilter tables of docs/src/benchmarks/ibl.md.
 
 use std::time::Instant;
 

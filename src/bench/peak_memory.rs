@@ -3,7 +3,7 @@
 //! it over).
 //!
 //! Both steps run the `hdrflow` binary itself in a child process, as a user runs it: the map is
-//! the built-in sky resized and saved as PFM (the BENCHMARKS.md recipe, `make_map_graph`), then the
+//! the built-in sky resized and saved as PFM (the recipe of docs/src/benchmarks/engine.md, `make_map_graph`), then the
 //! seed graph runs on it (`run graphs/seed.ron --set env.path=MAP --no-cache --jobs 2 -q`), and its
 //! peak is the child's own high-water mark of resident memory (`run_for_peak`). Two workers, as on the
 //! 2-core machine the issue measured on: each worker may hold a PNG's 8-bit copy that the run

@@ -53,10 +53,10 @@ pub(super) struct BakeArgs {
     #[arg(long, value_enum, default_value_t = QualityArg::Default)]
     pub(super) quality: QualityArg,
     /// Turn the map about +Y by this many degrees first (a positive yaw turns forward, -Z,
-    /// towards -X); the README says which yaw reproduces each engine's own tool.
+    /// towards -X); the book (docs/src/guides/baking/index.md) says which yaw reproduces each engine's own tool.
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true, value_name = "DEGREES")]
     pub(super) yaw: f64,
-    /// extract (default: measured more accurate, BENCHMARKS.md): the sun becomes the engine's
+    /// extract (default: measured more accurate, docs/src/benchmarks/ibl.md): the sun becomes the engine's
     /// directional light; keep: it stays in the map.
     #[arg(long, value_enum, default_value_t = SunArg::Extract)]
     pub(super) sun: SunArg,

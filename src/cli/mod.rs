@@ -239,7 +239,8 @@ where
         }
     };
     match cli.command {
-        Command::Ops { name, markdown } => ops::ops(&registry, name.as_deref(), markdown.as_deref()),
+        Command::Ops { markdown: Some(dir), .. } => ops_markdown::markdown(&registry, &dir),
+        Command::Ops { name, markdown: None } => ops::ops(&registry, name.as_deref()),
         Command::Dot(args) => match load(&registry, &args) {
             Ok(p) => {
                 out!("{}", p.to_dot());

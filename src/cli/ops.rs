@@ -1,33 +1,20 @@
 //! `hdrflow ops [NAME]`: every operator with its ports, fields, types, defaults and docs (from
 //! its params struct), then the value types; an unknown NAME names the closest operators.
-//! `hdrflow ops --markdown DIR` writes the same specs as the book's operator reference
-//! (`ops_markdown`).
+//! (`hdrflow ops --markdown DIR`, the same specs as the book's operator reference, is
+//! `ops_markdown`.)
 
-use std::path::Path;
 use std::process::ExitCode;
 
 use super::op_text::{persist_text, save_extensions};
 use crate::engine::graph::suggest;
 use crate::engine::registry::Registry;
 
-pub(super) fn ops(registry: &Registry, name: Option<&str>, markdown: Option<&Path>) -> ExitCode {
+pub(super) fn ops(registry: &Registry, name: Option<&str>) -> ExitCode {
     let all = registry.all();
     let selected: Vec<_> = all.into_iter().filter(|s| name.is_none_or(|n| s.name.eq_ignore_ascii_case(n))).collect();
     if selected.is_empty() {
         eprintln!("error: {}", unknown_operator(name.unwrap_or(""), &registry.names()));
         return ExitCode::from(2);
-    }
-    if let Some(dir) = markdown {
-        return match super::ops_markdown::write_pages(registry, &selected, dir) {
-            Ok(n) => {
-                outln!("{n} operator pages and index.md written to {}", dir.display());
-                ExitCode::SUCCESS
-            }
-            Err(e) => {
-                eprintln!("error: {e}");
-                ExitCode::from(1)
-            }
-        };
     }
     let mut category = "";
     for spec in selected {

@@ -1,8 +1,8 @@
 //! `hdrflow ops --markdown DIR`: the operator reference of the book, one page per operator
-//! (`DIR/<Name>.md`: category, one-line doc, version, cache class, fields with type, accepted
-//! input types, range, default and doc, output ports) and `DIR/index.md` (the operators by
-//! category with links, then the value types). The text comes from the registry's specs, the
-//! same data `hdrflow ops` prints, with its formatting of types, ranges and defaults
+//! (`DIR/<Name>.md`: category, one-line doc, version, cache class, fields with their type,
+//! range, accepted input types, default and doc, output ports) and `DIR/index.md` (the
+//! operators by category with links, then the value types). The text comes from the registry's
+//! specs, the same data `hdrflow ops` prints, with its formatting of types, ranges and defaults
 //! (`FieldKind::describe`, `FieldKind::range`, `FieldSpec::describe_default`).
 //!
 //! The pages are checked in at `docs/src/reference/operators/`; `tests/operator_reference.rs`
@@ -10,19 +10,34 @@
 
 use std::fmt::Write as _;
 use std::path::Path;
+use std::process::ExitCode;
 use std::sync::Arc;
 
 use crate::engine::cache::store::write_atomic;
 use crate::engine::op::OpSpec;
-use crate::engine::params::{Arity, FieldKind};
+use crate::engine::params::{Arity, FieldKind, FieldSpec};
 use crate::engine::registry::Registry;
 
 /// The command that writes the checked-in pages (printed in each page and by the test).
 const REGENERATE: &str = "cargo run --release -- ops --markdown docs/src/reference/operators";
 
+/// `hdrflow ops --markdown DIR`: every operator's page and the index written into `dir`.
+pub(super) fn markdown(registry: &Registry, dir: &Path) -> ExitCode {
+    match write_pages(registry, &registry.all(), dir) {
+        Ok(n) => {
+            outln!("{n} operator pages and index.md written to {}", dir.display());
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::from(1)
+        }
+    }
+}
+
 /// Writes one page per operator of `specs` and `index.md` into `dir` (created if missing);
 /// returns the number of operator pages.
-pub(super) fn write_pages(registry: &Registry, specs: &[&Arc<OpSpec>], dir: &Path) -> Result<usize, String> {
+fn write_pages(registry: &Registry, specs: &[&Arc<OpSpec>], dir: &Path) -> Result<usize, String> {
     std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
     let write = |name: &str, text: String| {
         let path = dir.join(name);
@@ -48,17 +63,15 @@ fn page(spec: &OpSpec) -> String {
     if spec.fields.is_empty() {
         let _ = writeln!(s, "None.\n");
     } else {
-        let _ = writeln!(s, "| field | type | accepts | range | default | description |");
-        let _ = writeln!(s, "|---|---|---|---|---|---|");
+        let _ = writeln!(s, "| field | type | default | description |");
+        let _ = writeln!(s, "|---|---|---|---|");
         for f in &spec.fields {
             let _ = writeln!(
                 s,
-                "| `{}` | {} | {} | {} | {} | {} |",
+                "| `{}` | {} | {} | {} |",
                 f.name,
                 cell(&field_type(&f.kind)),
-                cell(&accepts(&f.kind)),
-                cell(&range(&f.kind)),
-                cell(&f.describe_default()),
+                cell(&default_text(f)),
                 cell(&f.doc)
             );
         }
@@ -140,36 +153,49 @@ fn index(registry: &Registry, specs: &[&Arc<OpSpec>]) -> String {
     s
 }
 
-/// The field's type without its range: `float`, `input`, `Rec709 | Rec2020`, ...
+/// The field's type with its range, and for an input the value types it accepts:
+/// `float in [0, 1]`, `input: image, scalar field`, `list of 1 to 64 inputs: image`,
+/// `Rec709 | Rec2020`. Numbers print as `hdrflow ops` prints them (`FieldKind::range`: `in [0, 1]`,
+/// `>= 0`); an unbounded range is left out.
 fn field_type(kind: &FieldKind) -> String {
+    let range = match kind.range() {
+        Some(r) if r.starts_with('[') => format!(" in {r}"),
+        Some(r) => format!(" {r}"),
+        None => String::new(),
+    };
+    let length = match kind.length() {
+        Some((min, usize::MAX)) => format!("{min} or more "),
+        Some((min, max)) if min == max => format!("{min} "),
+        Some((min, max)) => format!("{min} to {max} "),
+        None => String::new(),
+    };
     match kind {
-        FieldKind::Input { arity: Arity::One, .. } => "input".into(),
-        FieldKind::Input { arity: Arity::Optional, .. } => "optional input".into(),
-        FieldKind::Input { arity: Arity::List { .. }, .. } => "list of inputs".into(),
-        FieldKind::Float { .. } => "float".into(),
-        FieldKind::Int { .. } => "integer".into(),
-        FieldKind::NumberList { .. } => "list of numbers".into(),
+        FieldKind::Input { types, arity } => {
+            let accepts = if types.is_empty() {
+                "any type".to_string()
+            } else {
+                types.iter().map(|t| t.name()).collect::<Vec<_>>().join(", ")
+            };
+            match arity {
+                Arity::One => format!("input: {accepts}"),
+                Arity::Optional => format!("optional input: {accepts}"),
+                Arity::List { .. } => format!("list of {length}inputs: {accepts}"),
+            }
+        }
+        FieldKind::Float { .. } => format!("float{range}"),
+        FieldKind::Int { .. } => format!("integer{range}"),
+        FieldKind::Tuple { len, .. } => format!("{len} floats{range}"),
+        FieldKind::Color { .. } => format!("(r, g, b) or grey{range}"),
+        FieldKind::NumberList { .. } => format!("list of {length}numbers{range}"),
+        FieldKind::TextList { .. } => format!("list of {length}strings"),
         other => other.describe(),
     }
 }
 
-/// The value types an input accepts (`any` when it takes every type); empty for a parameter.
-fn accepts(kind: &FieldKind) -> String {
-    match kind {
-        FieldKind::Input { types, .. } if types.is_empty() => "any".into(),
-        FieldKind::Input { types, .. } => types.iter().map(|t| t.name()).collect::<Vec<_>>().join(", "),
-        _ => String::new(),
-    }
-}
-
-/// The range of the values and, for a list, of its length.
-fn range(kind: &FieldKind) -> String {
-    let length = kind.length().map(|(min, max)| match max {
-        usize::MAX => format!("length {min} or more"),
-        max if max == min => format!("length {min}"),
-        max => format!("length {min} to {max}"),
-    });
-    [kind.range(), length].into_iter().flatten().collect::<Vec<_>>().join("; ")
+/// The default as `hdrflow ops` prints it, in a column of its own: `0.5`, `required`, `optional`.
+fn default_text(field: &FieldSpec) -> String {
+    let d = field.describe_default();
+    d.strip_prefix("default ").map(str::to_string).unwrap_or(d)
 }
 
 /// Text made safe for a Markdown table cell: pipes escaped, angle brackets as entities (a doc's
@@ -191,7 +217,7 @@ fn cell(text: &str) -> String {
 
 #[cfg(test)]
 mod tests {
-    use super::{cell, range};
+    use super::{cell, field_type};
     use crate::engine::params::{Arity, FieldKind};
 
     #[test]
@@ -201,16 +227,17 @@ mod tests {
     }
 
     #[test]
-    fn ranges_give_values_and_list_lengths() {
-        assert_eq!(range(&FieldKind::Float { min: 0.0, max: f64::INFINITY }), "[0, inf]");
+    fn types_give_ranges_list_lengths_and_accepted_types() {
+        assert_eq!(field_type(&FieldKind::Float { min: 0.0, max: f64::INFINITY }), "float in [0, inf]");
+        assert_eq!(field_type(&FieldKind::Tuple { len: 9, min: -f64::MAX, max: f64::MAX }), "9 floats");
         assert_eq!(
-            range(&FieldKind::Input { types: vec![], arity: Arity::List { min: 1, max: 64 } }),
-            "length 1 to 64"
+            field_type(&FieldKind::Input { types: vec![], arity: Arity::List { min: 1, max: 64 } }),
+            "list of 1 to 64 inputs: any type"
         );
         assert_eq!(
-            range(&FieldKind::NumberList { min_len: 1, max_len: usize::MAX, min: 0.0, max: 100.0 }),
-            "[0, 100]; length 1 or more"
+            field_type(&FieldKind::NumberList { min_len: 1, max_len: usize::MAX, min: 0.0, max: 100.0 }),
+            "list of 1 or more numbers in [0, 100]"
         );
-        assert_eq!(range(&FieldKind::Bool), "");
+        assert_eq!(field_type(&FieldKind::Bool), "bool");
     }
 }

@@ -2,8 +2,8 @@
 //!
 //! An operator file declares its fields, inputs and parameters, as one struct with `params!`
 //! (see `engine::fields`), and a `spec()` function that builds the spec; its domain's `mod.rs`
-//! registers it with one line. The smallest one, `FlipVertical`, is quoted in the README
-//! ("Adding an operator"), where a test keeps the quote equal to the file.
+//! registers it with one line. The smallest one, `FlipVertical`, is quoted in the book
+//! (`docs/src/internals/adding-an-operator.md`), where a test keeps the quote equal to the file.
 //!
 //! The engine validates a node's fields against the spec before anything runs, so `eval`
 //! receives the struct with typed parameters and inputs of the declared types; it never checks

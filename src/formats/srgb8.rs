@@ -14,7 +14,7 @@
 //! the guard band is at least 0.33 GUARD = 3e-13 from a boundary; on the power segment the error
 //! is below 1e-13 (a few ulps of 255) and the slope at least 10, so at least 9e-12. The tests
 //! compare both functions on 20,000 values on each side of every step, on a stride of all f32
-//! in [0, 1], and on values times random exposures. Measured: BENCHMARKS.md, "Peak memory".
+//! in [0, 1], and on values times random exposures. Measured: docs/src/benchmarks/engine.md, "Peak memory".
 
 use std::sync::OnceLock;
 

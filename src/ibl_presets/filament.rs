@@ -5,7 +5,7 @@
 //!   `r = lodToPerceptualRoughness(l / (N - 1))`, the inverse of the shader's
 //!   `lod = iblRoughnessOneLevel r (2 - r)` (shaders/src/surface_light_indirect.fs):
 //!   `RoughnessMap::Filament`. 1024 samples (cmgen doubles them from level 2 on, for plain
-//!   importance sampling; hdrflow's filtered importance sampling keeps 1024: BENCHMARKS.md,
+//!   importance sampling; hdrflow's filtered importance sampling keeps 1024: docs/src/benchmarks/ibl.md,
 //!   image-based lighting, sections 4-5).
 //! - The cube is sampled with the world direction (`textureLod(sampler0_iblSpecular, r, lod)`),
 //!   OpenGL faces: `CubeFrame::Standard`. cmgen's lat-long mapping puts the map's centre at +Z

@@ -9,7 +9,7 @@
 //! default sizes, file names).
 //!
 //! Every preset puts the map's centre where hdrflow's lat-long convention puts it, forward (-Z),
-//! in the engine's world, never mirrored (`--yaw` turns it; the tables in the README say which
+//! in the engine's world, never mirrored (`--yaw` turns it; the tables of docs/src/guides/baking/index.md say which
 //! yaw reproduces the engine's own tool). All four engines are right-handed with +Y up, as
 //! hdrflow is, so a direction means the same in hdrflow and in the engine: only the cube lookup
 //! (`geometry::cube_frame`) and, for three.js, its own lat-long mapping differ.

@@ -12,7 +12,7 @@
 //!   `0.488603 y, 0.488603 z, 0.488603 x, ...` in slots 1-3: `ShIrradiance(frame: World)`.
 //! - Any size (no power-of-two rule); the map keeps its size.
 //!
-//! `tests/three_render.rs` checks these conventions in three.js 0.187 itself (README, "three.js,
+//! `tests/three_render.rs` checks these conventions in three.js 0.187 itself (docs/src/guides/baking/three.md, "three.js,
 //! rendered"): the turned map as `scene.background` shows its centre along -Z, not mirrored; the
 //! SH file in a `LightProbe` lights a white sphere as the map's exact irradiance does, to the
 //! order-2 SH's own error. Its page (clients/three-web/render.js) loads the files with the lines

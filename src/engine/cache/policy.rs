@@ -1,7 +1,7 @@
 //! What is worth keeping in the persistent cache.
 //!
 //! Storing everything costs disk without paying back: one seed run on an 8192x4096 map wrote
-//! hundreds of times its outputs' bytes in entries (BENCHMARKS.md, "Cache bytes per item"),
+//! hundreds of times its outputs' bytes in entries (docs/src/benchmarks/batch.md, "Cache bytes per item"),
 //! mostly full-size images that one pass over memory recomputes faster than a disk reads them
 //! back. The rule, applied to each
 //! computed node when it finishes:
@@ -48,7 +48,7 @@ pub const SMALL_ENTRY_BYTES: u64 = 1 << 20;
 
 /// Reading an entry back (file read, BLAKE3 check, decode into a value), in bytes per
 /// millisecond: 500 MB/s, a little below what a cached load of a large distribution reached on
-/// this project's busy 2-core machine (BENCHMARKS.md, "Cache bytes per item"), so that a value
+/// this project's busy 2-core machine (docs/src/benchmarks/batch.md, "Cache bytes per item"), so that a value
 /// is dropped only when recomputing it is the cheaper way back.
 pub const RELOAD_BYTES_PER_MS: f64 = 500_000.0;
 

@@ -256,7 +256,7 @@ impl CacheStore {
         entry.extend_from_slice(blake3::hash(&payload).as_bytes());
         entry.extend_from_slice(&payload);
         // No fsync: a process kill cannot tear a renamed file, and the checksum catches what a
-        // power loss might; fsync per entry cost ~1 ms a node (see BENCHMARKS.md).
+        // power loss might; fsync per entry cost ~1 ms a node (see docs/src/benchmarks/engine.md).
         write_atomic_with(&path, &entry, false).map_err(|source| CacheError::Io { path, source })
     }
 

@@ -26,7 +26,7 @@
 //! What the count does not see: buffers an operator allocates and frees inside its `eval` (a
 //! PNG's 8-bit copy), and values a non-last consumer still holds after the last has finished.
 //! It orders starts; it is never a limit that fails a run. Measured on `graphs/seed.ron`:
-//! BENCHMARKS.md, "Peak memory".
+//! docs/src/benchmarks/engine.md, "Peak memory".
 //!
 //! The queue is a heap by the order above; a pop skips (and keeps) the large nodes that may not
 //! start, and ranks again an entry whose prediction has changed since it was queued, so it costs

@@ -186,7 +186,7 @@ crate::choice! {
     }
 }
 
-/// The Zstandard level `Save` uses unless told otherwise: zstd's own default (`BENCHMARKS.md` has
+/// The Zstandard level `Save` uses unless told otherwise: zstd's own default (`docs/src/benchmarks/ibl.md` has
 /// the sizes and times of levels 3, 9 and 19).
 pub const DEFAULT_ZSTD_LEVEL: i32 = 3;
 

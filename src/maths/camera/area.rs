@@ -30,13 +30,13 @@
 //!
 //! Why not `maths::resample::layouts`: it integrates footprints by bisecting towards texel edges until
 //! a tolerance is met, and for a view finer than the map (every dataset crop) that resolves
-//! each edge crossing a pixel with hundreds of leaves (docs/toolkit/camera.md has the times),
+//! each edge crossing a pixel with hundreds of leaves (docs/src/guides/toolkit/camera.md has the times),
 //! where one octagon is exact.
 //!
 //! The tests check the result against the exact means of a map of four constant quadrants
 //! (spherical polygons, Van Oosterom and Strackee's triangle formula) to 5e-4 (values 1 to 4),
 //! and against a brute force of 384 x 384 sub-rays per pixel on texel noise (values 1 to 2)
-//! to 1e-3 inside the circle or disc and 1e-2 on its rim (docs/toolkit/camera.md has the
+//! to 1e-3 inside the circle or disc and 1e-2 on its rim (docs/src/guides/toolkit/camera.md has the
 //! measured numbers).
 
 use std::f64::consts::PI;

@@ -25,7 +25,7 @@
 //! integral `sum_T out(T) Omega(T)` equals the source's to the quadrature error of the leaves on
 //! source texel boundaries, each below `tol` unless the depth limit stopped it: the tests check
 //! 1e-3 relative on the built-in sky, whose 2-degree sun (a few texels) carries 97% of the
-//! energy (measured: 1.5e-5 to a 64 or 256 cube; 9e-4 for the worst round trip of BENCHMARKS.md,
+//! energy (measured: 1.5e-5 to a 64 or 256 cube; 9e-4 for the worst round trip of docs/src/benchmarks/ibl.md,
 //! the park's 69,120 sun from a 256 cube back to 1024x512). The lat-long
 //! source's integral is its midpoint sum (`latlong::texel_solid_angle`), which differs from the
 //! exact integral of the piecewise-constant map by O(1/H^2) relative (3e-6 at H = 256).

@@ -18,7 +18,7 @@
 //! every elementary box of area `1/N` holds one point, therefore stays evenly spread over the
 //! map's area at every scale, which is what a smooth integrand (a cosine lobe times the map)
 //! rewards. With independent uniforms both warps give the same estimator distribution, so
-//! per-pixel sampling uses this one with Sobol points only (BENCHMARKS.md has the errors).
+//! per-pixel sampling uses this one with Sobol points only (docs/src/benchmarks/relighting.md has the errors).
 //!
 //! Values are f32 (as Mitsuba's): half the memory traffic of f64. Each level's sum rounds once,
 //! so the probability the descent gives a texel differs from `P(x, y)` by a relative
@@ -31,7 +31,7 @@
 //! a coin flip a branch predictor would miss half the time) and rescales both uniforms with one
 //! division; at the AVX-512 level (`crate::cpu`) the 2x2 steps run eight draws at once (gathers of the
 //! four values), with the same bits as the scalar step (a test). Each of these steps was timed
-//! against CDF inversion (BENCHMARKS.md, "Per-pixel sampling against Mitsuba 3", `warp:
+//! against CDF inversion (docs/src/benchmarks/relighting.md, "Per-pixel sampling against Mitsuba 3", `warp:
 //! Hierarchical`); the descent stays slower per sample than inversion.
 
 use rayon::prelude::*;

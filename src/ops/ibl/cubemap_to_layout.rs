@@ -19,7 +19,7 @@ crate::params! {
         /// the cube map
         #[input(&[CUBEMAP_T])]
         pub cubemap: Input<Cubemap>,
-        /// where each face sits and how it is turned (docs/toolkit/cube_layouts.md)
+        /// where each face sits and how it is turned (docs/src/guides/toolkit/cube_layouts.md)
         pub layout: CubeLayout,
     }
 }

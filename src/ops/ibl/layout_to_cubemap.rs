@@ -21,7 +21,7 @@ crate::params! {
         /// the layout image (RGB first; one channel is read as grey)
         #[input(ANY_IMAGE)]
         pub image: Input<Image>,
-        /// where each face sits and how it is turned (docs/toolkit/cube_layouts.md)
+        /// where each face sits and how it is turned (docs/src/guides/toolkit/cube_layouts.md)
         pub layout: CubeLayout,
     }
 }

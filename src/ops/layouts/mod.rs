@@ -1,7 +1,7 @@
 //! Layout conversions between lat-long maps and the layouts captures and datasets store: the
 //! angular probe, the mirror ball, and the upper hemisphere alone (sky lat-long, sky angular).
 //! The geometry is `geometry::azimuthal`, the resampling `maths::resample::disc_image`; the conventions
-//! are in docs/toolkit/map_layouts.md.
+//! are in docs/src/guides/toolkit/map_layouts.md.
 
 pub mod angular_to_latlong;
 pub mod latlong_to_angular;

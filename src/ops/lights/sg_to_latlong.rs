@@ -7,7 +7,7 @@
 //! `2 pi a (1 - exp(-2 lambda)) / lambda`; the rendered map's midpoint sum
 //! `sum_t L(d_t) Omega_t` meets it to within twice the grid's own excess over 4 pi,
 //! `pi^2 / (24 H^2)` relative (tested from lambda = 0.05 to 5000; measured in
-//! `docs/toolkit/spherical_gaussians.md`).
+//! `docs/src/guides/toolkit/spherical_gaussians.md`).
 
 use crate::engine::fields::Input;
 use crate::engine::op::{OpContext, OpError, OpSpec};

@@ -6,7 +6,7 @@
 //! (up to f32 rounding).
 //!
 //! Cost: O(pixels x lit texels), a brute-force sum made fast by culling and SIMD (timings in
-//! BENCHMARKS.md).
+//! docs/src/benchmarks/point-targets.md).
 
 use super::sphere_view;
 use crate::engine::fields::Input;

@@ -51,7 +51,7 @@
 //! third of the build at 2048x1024). The buffer is asked to be backed by transparent huge pages
 //! on Linux (`crate::memory::advise_huge_pages`): a fresh buffer of hundreds of MB is otherwise
 //! faulted in and zeroed by the kernel 4 KiB at a time, which at 8192x4096 cost more than
-//! everything else. Measured numbers are in BENCHMARKS.md ("BuildCdf at scale").
+//! everything else. Measured numbers are in docs/src/benchmarks/point-targets.md ("BuildCdf at scale").
 //!
 //! In graphs a `distribution`; saved as an image of its solid-angle pdf per texel. Cache payload:
 //! width, height (u64), sin_theta, carries_light (u8), total, luminance_integral (f64), then the

@@ -10,7 +10,7 @@
 //! `1 / sum`. Both run over blocks of 8 texels so that only one f64 add per block is on the
 //! dependency chain. The AVX-512 and AVX2 ones (`x86`, chosen at run time) write the running
 //! sums once with an 8-lane scan per block and normalise them while the row is in the L1 cache,
-//! so that memory traffic, not the scan, bounds `BuildCdf` (BENCHMARKS.md, "Point targets", BuildCdf: the
+//! so that memory traffic, not the scan, bounds `BuildCdf` (docs/src/benchmarks/point-targets.md, "Point targets", BuildCdf: the
 //! kernels' cost per texel and the floor they are measured against). `values::distribution`'s tests compare every kernel the processor
 //! has with the portable one, row by row and whole builds (`row_kernels_give_the_same_bits`).
 //!
@@ -47,7 +47,7 @@ fn block_prefix(b: &[f32; 8]) -> [f64; 8] {
 fn row_sum(src: &[f32]) -> (f64, f32) {
     let mut carry = 0.0f64;
     // One minimum per lane, by compare-and-select: `f32::min`'s NaN rule made this loop much
-    // slower (BENCHMARKS.md, "BuildCdf at scale").
+    // slower (docs/src/benchmarks/point-targets.md, "BuildCdf at scale").
     let mut mins = [f32::INFINITY; 8];
     let mut blocks = src.chunks_exact(8);
     for b in &mut blocks {
@@ -121,7 +121,7 @@ fn write_uniform_cdf<S: CdfSlot>(cdf: &mut [S]) {
 /// and all give the same bits (a test compares them on rows of every length modulo 8, zero rows,
 /// -0.0, huge dynamic ranges and bad texels); `Distribution2D::build` runs at [`cpu::level`]:
 /// - portable: `row_sum`, then `write_row_cdf`: scalar code, every processor, the slowest (each
-///   kernel's cost per texel: BENCHMARKS.md, "BuildCdf at scale");
+///   kernel's cost per texel: docs/src/benchmarks/point-targets.md, "BuildCdf at scale");
 /// - AVX-512: `x86::write_row_cdf`, the same operations on 8 lanes (AVX-512F and DQ), the fastest;
 /// - AVX2: `x86::write_row_cdf_avx2`, the same on two halves of 4 lanes, for the
 ///   processors without AVX-512.
@@ -151,7 +151,7 @@ pub(crate) fn write_row(level: Level, src: &[f32], cdf: &mut [MaybeUninit<f64>])
 /// adds per block of 8 texels, the same adds on the same values as the tree, so the bits are the
 /// portable kernel's. The loop is bound by the shuffle unit (cross-lane shuffles: one a cycle),
 /// so it spends as few as it can: zero-masked shuffles (AVX2: blends with zero) instead of
-/// merges, the carry kept in every lane. BENCHMARKS.md ("BuildCdf at scale") has each kernel's
+/// merges, the carry kept in every lane. docs/src/benchmarks/point-targets.md ("BuildCdf at scale") has each kernel's
 /// cost per texel and the variants tried.
 #[cfg(target_arch = "x86_64")]
 mod x86 {

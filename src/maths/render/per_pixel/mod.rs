@@ -49,7 +49,7 @@
 //! fastest) or a descent of the probabilities' mip-map ([`HierarchicalWarp`], Mitsuba's
 //! envmap sampler), which carries Sobol points' stratification over the map's area better.
 //!
-//! Speed (issue 14; BENCHMARKS.md has the numbers against Mitsuba 3's LLVM variant). A sample
+//! Speed (issue 14; docs/src/benchmarks/relighting.md has the numbers against Mitsuba 3's LLVM variant). A sample
 //! costs a few table reads and no call to libm:
 //! - the texel is drawn by inversion through guide tables ([`GuidedDistribution`]; Chen and
 //!   Asau 1974) rather than two binary searches: the same texel as `Distribution2D::sample` for
@@ -74,7 +74,7 @@
 //!   same IEEE operations in the same order (Rust never contracts `a * b + c` into a fused
 //!   multiply-add), so an image has the same bits on any x86_64 processor: a test compares the
 //!   two for every loop. The hierarchical warp's 2x2 steps use AVX-512 intrinsics (gathers) the
-//!   same way. The single-thread times before and after are in BENCHMARKS.md ("Per-pixel
+//!   same way. The single-thread times before and after are in docs/src/benchmarks/relighting.md ("Per-pixel
 //!   sampling against Mitsuba 3").
 //!
 //! Not done: the guided search and the texel corrections stay scalar (their loops end at a
@@ -162,7 +162,7 @@ crate::choice! {
     /// Both draw every texel with the distribution's probability, so the estimator's
     /// expectation and, with independent uniforms, its whole distribution are the same; they
     /// differ in how well they carry a low-discrepancy point set's stratification over to the
-    /// map (BENCHMARKS.md measures both with `sequence: Sobol`).
+    /// map (docs/src/benchmarks/relighting.md measures both with `sequence: Sobol`).
     pub enum PerPixelWarp {
         /// Rows by inverting the marginal CDF with `u1`, then the column by inverting the row's
         /// conditional CDF with `u2`, through guide tables (pbrt's `Distribution2D`): O(1)
@@ -234,7 +234,7 @@ pub fn relight_per_pixel(
 /// from `sequence` seeded with [`pixel_seed`]`(seed, i)`. Rows in parallel; the result does not
 /// depend on the number of threads.
 ///
-/// Speed (see BENCHMARKS.md): the texel is drawn through guide tables
+/// Speed (see docs/src/benchmarks/relighting.md): the texel is drawn through guide tables
 /// ([`GuidedDistribution`], the same texel as `Distribution2D::sample`) or, with
 /// [`PerPixelWarp::Hierarchical`], by the mip-map descent ([`HierarchicalWarp`]); texel directions,
 /// solid angles and edges come from a [`LatLongGrid`], and directions are mapped to texels
