@@ -9,13 +9,15 @@
 //! - [`render`]: the sphere renderers and their exact references;
 //! - [`ibl`]: prefiltering, irradiance, split-sum tables, spherical harmonics;
 //! - [`camera`]: camera views of a map and their footprints;
-//! - [`fit`]: least squares and what is fitted with it (lights, suns, spherical Gaussians).
+//! - [`fit`]: least squares and what is fitted with it (lights, suns, spherical Gaussians);
+//! - [`capture`]: camera response, exposure merging and fusion, bracket alignment.
 //!
 //! Below them all: the data types ([`crate::values`]) and the geometry of directions, layouts,
 //! lenses and rotations ([`crate::geometry`]).
 
 pub mod brdf;
 pub mod camera;
+pub mod capture;
 pub mod fit;
 pub mod ibl;
 pub mod render;

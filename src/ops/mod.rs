@@ -7,6 +7,7 @@
 //! it on `builtin_registry()` and run the command line over it with `hdrflow::cli::main_with`
 //! (see `examples/custom_operator.rs`).
 
+pub mod capture;
 pub mod dataset;
 pub mod ibl;
 pub mod image;
@@ -32,6 +33,7 @@ pub fn register_all(registry: &mut Registry) -> Result<(), RegistryError> {
     plotting::register(registry)?;
     ibl::register(registry)?;
     dataset::register(registry)?;
+    capture::register(registry)?;
     Ok(())
 }
 

@@ -19,6 +19,7 @@
 //!
 //! [`TypeSpec`]: crate::engine::value::TypeSpec
 
+pub mod brackets;
 pub mod camera;
 pub mod cubemap;
 pub mod curves;
@@ -38,6 +39,7 @@ use crate::engine::registry::Registry;
 use crate::engine::value::ValueType;
 
 pub use self::image::{Image, IMAGE, SCALAR_FIELD};
+pub use brackets::{Brackets, BRACKETS};
 pub use camera::{Camera, CAMERA};
 pub use cubemap::{Cubemap, MipChain, CUBEMAP, MIP_CHAIN};
 pub use curves::{Curves, CURVES};
@@ -69,6 +71,7 @@ pub fn register_all(r: &mut Registry) {
         &MIP_CHAIN,
         &CAMERA,
         &LABEL,
+        &BRACKETS,
     ] {
         r.register_type(spec);
     }
@@ -94,6 +97,7 @@ pub mod ty {
     pub const MIP_CHAIN_T: ValueType = ValueType(&MIP_CHAIN);
     pub const CAMERA_T: ValueType = ValueType(&CAMERA);
     pub const LABEL_T: ValueType = ValueType(&LABEL);
+    pub const BRACKETS_T: ValueType = ValueType(&BRACKETS);
     /// Either kind of image.
     pub const ANY_IMAGE: &[ValueType] = &[IMAGE_T, SCALAR_T];
 }
