@@ -228,7 +228,8 @@ mod tests {
 
     #[test]
     fn types_give_ranges_list_lengths_and_accepted_types() {
-        assert_eq!(field_type(&FieldKind::Float { min: 0.0, max: f64::INFINITY }), "float in [0, inf]");
+        assert_eq!(field_type(&FieldKind::Float { min: 0.0, max: f64::INFINITY }), "float >= 0");
+        assert_eq!(field_type(&FieldKind::Int { min: i64::MIN, max: 7 }), "integer <= 7");
         assert_eq!(field_type(&FieldKind::Tuple { len: 9, min: -f64::MAX, max: f64::MAX }), "9 floats");
         assert_eq!(
             field_type(&FieldKind::Input { types: vec![], arity: Arity::List { min: 1, max: 64 } }),

@@ -230,7 +230,7 @@ mod tests {
         .unwrap();
         assert_eq!(b.frames[0].name, "a.tif");
         assert_eq!(b.max_code(), 65535);
-        assert_eq!(b.summary(), "2 frames of 2x1 at 16 bits, exposures 1/250 s, 0.5 s");
+        assert_eq!(b.summary(), "2 frames of 2x1 at 16 bits, exposures 1/250 s, 1/2 s");
         let mut bytes = Vec::new();
         b.encode(&mut bytes);
         let back = decode(&bytes).unwrap();
