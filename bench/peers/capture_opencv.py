@@ -23,7 +23,8 @@ Steps (each an OpenCV call with its defaults unless said):
    frames' pixels). Python's `AlignMTB.process(src, dst)` does not fill `dst`, hence the explicit
    `calculateShift` + `shiftMat` + crop, which is `process`'s own code path. `--no-align` skips it.
 2. `createCalibrateDebevec(samples=70, lambda_=10)` (grid sampling, random=False) on the aligned
-   frames: `response_debevec.csv` (code,R,G,B; OpenCV's response is normalised to 1 at code 128).
+   frames: `response_debevec.csv` (code,R,G,B; OpenCV's response is near 1 at code 128: g(128) = 0
+   is one more least-squares equation, not a hard constraint).
 3. `createMergeDebevec().process(frames, times, response)`: `merged_debevec.exr` through
    `cv2.imwrite` when this OpenCV build writes EXR (`OPENCV_IO_ENABLE_OPENEXR=1` is set before
    cv2 is imported), otherwise `merged_debevec.pfm` (hdrflow's PFM convention: RGB, float32,
@@ -610,7 +611,8 @@ def srgb_oetf(x):
 
 
 def make_synthetic(folder, size=(256, 192), frames=5, stops=2.0, t0=1.0 / 4000, response="srgb",
-                   shift_px=0, bits=8, ext="png", seed=1, noise=0.0, range_stops=6.0, mid_exposure=0.05):
+                   shift_px=0, bits=8, ext="png", seed=1, noise=0.0, range_stops=6.0, mid_exposure=0.05,
+                   displace=True):
     """Writes `frames` brackets `stops` apart (times t0 * 2^(stops k)) of a scene of known
     radiance, their times.json and the truth in the sub-folder truth/ (truth.pfm, truth.npy: RGB
     radiance in the middle frame's pixels; truth.json: times, shifts, response). The scene's log2
@@ -623,7 +625,8 @@ def make_synthetic(folder, size=(256, 192), frames=5, stops=2.0, t0=1.0 / 4000, 
     `noise` > 0 adds Gaussian shot noise (`noise` = its standard deviation at exposure 1) and read
     noise (noise / 20) before quantisation. With `shift_px` > 0, every frame but the middle one has
     its content displaced by a vector drawn in [-shift_px, shift_px]^2 (not (0, 0)); AlignMTB
-    should answer the opposite vector."""
+    should answer the opposite vector; `displace=False` (`--no-displace`) writes the same scene
+    and noise without the displacements, the unshifted reference of a shifted set."""
     w, h = size
     rng = np.random.default_rng(seed)
     pad = shift_px
@@ -670,7 +673,7 @@ def make_synthetic(folder, size=(256, 192), frames=5, stops=2.0, t0=1.0 / 4000, 
             d = tuple(int(v) for v in rng.integers(-shift_px, shift_px + 1, 2))
             if d != (0, 0):
                 break
-        shifts.append(d)
+        shifts.append(d if displace else (0, 0))
     maxcode = 255 if bits == 8 else 65535
     dtype = np.uint8 if bits == 8 else np.uint16
     os.makedirs(folder, exist_ok=True)
@@ -747,6 +750,8 @@ def main():
     ap.add_argument("--stops", type=float, default=2.0)
     ap.add_argument("--synthetic-response", default="srgb", choices=("srgb", "gamma2.2", "linear"))
     ap.add_argument("--shift-px", type=int, default=0)
+    ap.add_argument("--no-displace", action="store_true",
+                    help="with --shift-px: the same scene without the displacements")
     ap.add_argument("--bits", type=int, choices=(8, 16), default=8)
     ap.add_argument("--ext", default="png", choices=("png", "jpg", "tif"))
     ap.add_argument("--seed", type=int, default=1)
@@ -763,7 +768,8 @@ def main():
         w, h = (int(v) for v in args.size.lower().split("x"))
         meta = make_synthetic(args.make_synthetic, (w, h), args.frames, args.stops,
                               response=args.synthetic_response, shift_px=args.shift_px,
-                              bits=args.bits, ext=args.ext, seed=args.seed, noise=args.noise)
+                              bits=args.bits, ext=args.ext, seed=args.seed, noise=args.noise,
+                              displace=not args.no_displace)
         print(json.dumps(meta))
         return
     if not args.folder:
