@@ -41,8 +41,9 @@ Steps (each an OpenCV call with its defaults unless said):
    Python's own baseline), `merge_extra` that peak less the RSS just before the first merge
    (OpenCV's temporaries and the output). tracemalloc cannot see OpenCV's allocations. Where
    clear_refs cannot be written, the child's ru_maxrss over its whole life is reported instead
-   (`peak_method`). The child's whole-life ru_maxrss (as `/usr/bin/time -v` would show it) is
-   `child_maxrss`.
+   (`peak_method`). `decode_peak_rss` is VmHWM before the reset, `child_peak_rss` the child's
+   whole-life peak. (The parent's RUSAGE_CHILDREN ru_maxrss is no measure of the child: Linux
+   counts in it the parent's memory copied at fork, before the exec.)
 
 16-bit frames: OpenCV's CalibrateDebevec, MergeDebevec, MergeRobertson and AlignMTB take 8-bit
 frames only (`CV_Assert(images[0].depth() == CV_8U)`), so 16-bit frames are reduced to 8 bits by
@@ -373,7 +374,7 @@ def merge_child(spec_path):
     times = np.asarray(spec["times"], dtype=np.float32)
     response = np.load(spec["response"]) if spec.get("response") else None
     merge = cv2.createMergeDebevec()
-    before = proc_status()
+    before = proc_status()  # VmHWM here: the peak of the start and the decoding
     can_reset = reset_peak()
     ms = []
     out = None
@@ -408,6 +409,11 @@ def merge_child(spec_path):
         result["merge_peak_rss"] = ru
     if result["rss_before_merge"] is not None:
         result["merge_extra"] = result["merge_peak_rss"] - result["rss_before_merge"]
+    # the child's own whole-life peak (its VmHWM starts afresh at exec; RUSAGE_CHILDREN's
+    # ru_maxrss would also count the parent's memory at fork time, copied before the exec)
+    if "VmHWM" in before:
+        result["decode_peak_rss"] = before["VmHWM"]
+        result["child_peak_rss"] = max(before["VmHWM"], result["merge_peak_rss"])
     print(json.dumps(result))
 
 
@@ -417,18 +423,13 @@ def timed_merge(paths, times, response_path, repeats, threads, out_dir):
     spec_path = os.path.join(out_dir, "merge_child.json")
     with open(spec_path, "w") as f:
         json.dump(spec, f)
-    before = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
     proc = subprocess.run(
         [sys.executable, os.path.abspath(__file__), "--merge-child", spec_path],
         capture_output=True, text=True,
     )
     if proc.returncode != 0:
         raise RuntimeError(f"merge child failed ({proc.returncode}): {proc.stderr.strip()[-2000:]}")
-    res = json.loads(proc.stdout.strip().splitlines()[-1])
-    after = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
-    # RUSAGE_CHILDREN is the largest of the waited-for children: valid when this one is the largest
-    res["child_maxrss"] = after * 1024 if after > before else None
-    return res
+    return json.loads(proc.stdout.strip().splitlines()[-1])
 
 
 # ----------------------------------------------------------------------------------------------
