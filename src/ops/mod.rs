@@ -9,6 +9,7 @@
 
 pub mod capture;
 pub mod dataset;
+pub mod evaluation;
 pub mod ibl;
 pub mod image;
 pub mod io;
@@ -34,6 +35,7 @@ pub fn register_all(registry: &mut Registry) -> Result<(), RegistryError> {
     ibl::register(registry)?;
     dataset::register(registry)?;
     capture::register(registry)?;
+    evaluation::register(registry)?;
     Ok(())
 }
 

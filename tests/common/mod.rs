@@ -453,3 +453,22 @@ pub fn run_text(text: &str, targets: &[&str]) -> Result<BTreeMap<String, hdrflow
     };
     scheduler::run(&p, &options).map(|o| o.values).map_err(|e| e.to_string())
 }
+
+/// The Python with NumPy (and OpenCV) that runs the peers of `bench/peers/` inside tests:
+/// `HDRFLOW_PEER_PYTHON`, else the venv `scripts/peer-venv.sh` makes (`target/peer-venv`);
+/// `None` after a visible skip (a failure under `HDRFLOW_REQUIRE_PEERS=1`, as `.ci/run` sets it).
+#[allow(dead_code)]
+pub fn peer_python() -> Option<PathBuf> {
+    let python = match std::env::var_os("HDRFLOW_PEER_PYTHON") {
+        Some(p) => PathBuf::from(p),
+        None => Path::new(MANIFEST_DIR).join("target/peer-venv/bin/python"),
+    };
+    if python.is_file() {
+        return Some(python);
+    }
+    skip(
+        "HDRFLOW_REQUIRE_PEERS",
+        &format!("no peer Python at {} (make it with `bash scripts/peer-venv.sh`)", python.display()),
+    );
+    None
+}

@@ -2,4 +2,5 @@
 //! reference (luminance by `crate::colour`'s Rec. 709 weights). Imports no other `maths` domain.
 
 pub mod error_metrics;
+pub mod protocol_metrics;
 pub mod statistics;

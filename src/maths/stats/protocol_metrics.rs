@@ -1,0 +1,196 @@
+//! The four image metrics of the lighting-estimation sphere protocol (StyleLight, EMLight,
+//! DiffusionLight), exactly as `stylelight/fast_rmse.py` of `DiffusionLight/DiffusionLight-evaluation`
+//! (MIT) defines them, over the `N` pixels of a mask and the first three channels, sums in f64:
+//!
+//! - `rmse = sqrt(sum_{masked px, c} (p - g)^2 / N)`: note `N` counts pixels, not pixels x 3;
+//! - `si_rmse = sqrt((4ac - b^2) / (4a) / N)` with `a = sum p^2`, `b = -2 sum p g`,
+//!   `c = sum g^2`: the RMSE after the closed-form best scale `alpha = -b / 2a` of the
+//!   prediction. Computed as `(c - (sum p g)^2 / a) / N`, clamped at 0 (rounding can make it a
+//!   hair negative, where the script's square root gives NaN). An all-zero prediction (`a = 0`)
+//!   has no best scale; the script returns NaN there, this returns `sqrt(c / N)`, the limit
+//!   (every scale of a zero image gives that error);
+//! - `angular_error_deg`: the mean over the `N` pixels of `acos(clip(p . g / (|p| |g|), 0, 1))`
+//!   in degrees; a pixel where `p` or `g` is black contributes 0 (the script's `nan_to_num`);
+//! - `norm_rmse`: `rmse` after normalising each image by its own `0.01` and `99.9` percentiles
+//!   (`(x - P0.01) / (P99.9 - P0.01)` over all pixels and the three channels, mask or not, numpy's
+//!   linear interpolation between order statistics: ExpandNet's normalisation). An image whose
+//!   two percentiles are equal normalises to 0 (the script divides by zero).
+//!
+//! Pixels where the prediction or the truth is not finite are left out of every sum and of `N`,
+//! counted as `nonfinite_pixels` (the script would average NaN into every metric); `norm_rmse`'s
+//! percentiles are taken over the finite samples. `tests/evaluation_metrics.rs` checks all four
+//! against the script's own functions on the same EXR files to 1e-6 relative.
+
+/// The protocol's metrics of one prediction against its truth.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ProtocolMetrics {
+    pub rmse: f64,
+    pub si_rmse: f64,
+    pub angular_error_deg: f64,
+    pub norm_rmse: f64,
+    /// `N`: the masked pixels with finite values in both images.
+    pub pixels: usize,
+    /// Masked pixels left out because a value of either image is NaN or infinite.
+    pub nonfinite_pixels: usize,
+}
+
+/// Interleaved RGB-like samples: `data` has `channels >= 3` values per pixel; the first three count.
+pub struct Pixels<'a> {
+    pub data: &'a [f32],
+    pub channels: usize,
+}
+
+impl Pixels<'_> {
+    fn rgb(&self, i: usize) -> [f64; 3] {
+        let p = &self.data[i * self.channels..];
+        [p[0] as f64, p[1] as f64, p[2] as f64]
+    }
+    fn len(&self) -> usize {
+        self.data.len() / self.channels
+    }
+}
+
+/// numpy's `np.percentile(x, q)` (linear interpolation) of the finite first-three-channel samples.
+pub fn numpy_percentile(samples: &mut [f64], q: f64) -> Option<f64> {
+    let n = samples.len();
+    if n == 0 {
+        return None;
+    }
+    let pos = q / 100.0 * (n - 1) as f64;
+    let lo = pos.floor() as usize;
+    let hi = (lo + 1).min(n - 1);
+    let t = pos - lo as f64;
+    let (_, &mut a, rest) = samples.select_nth_unstable_by(lo, f64::total_cmp);
+    // The next order statistic is the smallest of the values above the lo-th.
+    let b = if hi == lo { a } else { rest.iter().copied().fold(f64::INFINITY, f64::min) };
+    // numpy's `_lerp`: from the nearer end, so t = 0 and t = 1 give the order statistics exactly.
+    Some(if t >= 0.5 { b - (b - a) * (1.0 - t) } else { a + (b - a) * t })
+}
+
+/// `(x - P0.01) / (P99.9 - P0.01)` of each first-three-channel sample of `img` (module docs).
+fn normaliser(img: &Pixels) -> (f64, f64) {
+    let mut v: Vec<f64> = (0..img.len()).flat_map(|i| img.rgb(i)).filter(|x| x.is_finite()).collect();
+    let lo = numpy_percentile(&mut v, 0.01).unwrap_or(0.0);
+    let hi = numpy_percentile(&mut v, 99.9).unwrap_or(0.0);
+    (lo, if hi > lo { 1.0 / (hi - lo) } else { 0.0 })
+}
+
+/// The protocol's metrics of `pred` against `gt` (the same pixel count) over the pixels where
+/// `mask` is true; `Err` when no pixel is left.
+pub fn protocol_metrics(pred: &Pixels, gt: &Pixels, mask: &[bool]) -> Result<ProtocolMetrics, String> {
+    if pred.len() != gt.len() || mask.len() != pred.len() {
+        return Err(format!(
+            "the prediction has {} pixels, the truth {} and the mask {}: they must agree",
+            pred.len(),
+            gt.len(),
+            mask.len()
+        ));
+    }
+    let (plo, pscale) = normaliser(pred);
+    let (glo, gscale) = normaliser(gt);
+    let (mut sq, mut pp, mut pg, mut gg, mut ang, mut norm_sq) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+    let (mut n, mut nonfinite) = (0usize, 0usize);
+    for i in (0..mask.len()).filter(|&i| mask[i]) {
+        let (p, g) = (pred.rgb(i), gt.rgb(i));
+        if !p.iter().chain(&g).all(|v| v.is_finite()) {
+            nonfinite += 1;
+            continue;
+        }
+        n += 1;
+        let (mut dot, mut np2, mut ng2) = (0.0, 0.0, 0.0);
+        for c in 0..3 {
+            sq += (p[c] - g[c]).powi(2);
+            dot += p[c] * g[c];
+            np2 += p[c] * p[c];
+            ng2 += g[c] * g[c];
+            norm_sq += ((p[c] - plo) * pscale - (g[c] - glo) * gscale).powi(2);
+        }
+        pp += np2;
+        pg += dot;
+        gg += ng2;
+        let denom = np2.sqrt() * ng2.sqrt();
+        if denom > 0.0 {
+            ang += (dot / denom).clamp(0.0, 1.0).acos();
+        }
+    }
+    if n == 0 {
+        return Err(match nonfinite {
+            0 => "the mask selects no pixel".to_string(),
+            k => format!("every one of the {k} masked pixels has a NaN or infinite value"),
+        });
+    }
+    let nf = n as f64;
+    let si = if pp > 0.0 { (gg - pg * pg / pp).max(0.0) } else { gg };
+    Ok(ProtocolMetrics {
+        rmse: (sq / nf).sqrt(),
+        si_rmse: (si / nf).sqrt(),
+        angular_error_deg: (ang / nf).to_degrees(),
+        norm_rmse: (norm_sq / nf).sqrt(),
+        pixels: n,
+        nonfinite_pixels: nonfinite,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn px(data: &[f32]) -> Pixels<'_> {
+        Pixels { data, channels: 3 }
+    }
+
+    #[test]
+    fn identical_images_have_zero_error_and_a_scaled_one_zero_si_rmse() {
+        let g: Vec<f32> = (0..30).map(|i| 0.1 + i as f32 * 0.37 % 2.0).collect();
+        let mask = vec![true; 10];
+        let m = protocol_metrics(&px(&g), &px(&g), &mask).unwrap();
+        assert_eq!((m.rmse, m.si_rmse, m.norm_rmse), (0.0, 0.0, 0.0));
+        assert!(m.angular_error_deg < 1e-5, "{}", m.angular_error_deg);
+        let p: Vec<f32> = g.iter().map(|v| v * 4.0).collect();
+        let m = protocol_metrics(&px(&p), &px(&g), &mask).unwrap();
+        assert!(m.si_rmse < 1e-6 && m.rmse > 1.0, "{m:?}");
+        // A scale changes neither the angle nor the percentile-normalised image.
+        assert!(m.angular_error_deg < 1e-5 && m.norm_rmse < 1e-6, "{m:?}");
+    }
+
+    #[test]
+    fn closed_forms_on_two_pixels() {
+        // p = (1,0,0), (0,0,0); g = (0,1,0), (0,0,2); one masked pixel out of three.
+        let p = [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 5.0, 5.0, 5.0];
+        let g = [0.0, 1.0, 0.0, 0.0, 0.0, 2.0, 9.0, 9.0, 9.0];
+        let m = protocol_metrics(&px(&p), &px(&g), &[true, true, false]).unwrap();
+        assert_eq!(m.pixels, 2);
+        // sum (p - g)^2 = 2 + 4 over N = 2 pixels.
+        assert!((m.rmse - 3f64.sqrt()).abs() < 1e-12);
+        // p . g = 0: the best scale is 0 and the error is |g|^2 / N = 5 / 2.
+        assert!((m.si_rmse - 2.5f64.sqrt()).abs() < 1e-12);
+        // 90 degrees at the first pixel, 0 (black prediction) at the second: mean 45.
+        assert!((m.angular_error_deg - 45.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn an_all_zero_prediction_gets_the_limit_and_nan_is_counted_not_averaged() {
+        let g = [1.0f32, 2.0, 2.0, 0.0, 0.0, 0.0];
+        let m = protocol_metrics(&px(&[0.0; 6]), &px(&g), &[true, true]).unwrap();
+        assert!((m.si_rmse - (9.0f64 / 2.0).sqrt()).abs() < 1e-12 && m.si_rmse == m.rmse, "{m:?}");
+        let p = [f32::NAN, 1.0, 1.0, 1.0, 2.0, 2.0];
+        let m = protocol_metrics(&px(&p), &px(&g), &[true, true]).unwrap();
+        assert_eq!((m.pixels, m.nonfinite_pixels), (1, 1));
+        assert!(m.rmse.is_finite() && m.norm_rmse.is_finite());
+        let e = protocol_metrics(&px(&[f32::NAN; 3]), &px(&[1.0; 3]), &[true]).unwrap_err();
+        assert!(e.contains("every one of the 1 masked pixels"), "{e}");
+        assert!(protocol_metrics(&px(&g), &px(&g), &[false, false]).unwrap_err().contains("no pixel"));
+        assert!(protocol_metrics(&px(&g), &px(&g[..3]), &[true]).is_err());
+    }
+
+    #[test]
+    fn percentiles_interpolate_as_numpy() {
+        // np.percentile([1, 2, 3, 4], [0, 25, 50, 99.9, 100]) = 1, 1.75, 2.5, 3.997, 4.
+        for (q, want) in [(0.0, 1.0), (25.0, 1.75), (50.0, 2.5), (99.9, 3.997), (100.0, 4.0)] {
+            let mut v = vec![4.0, 1.0, 3.0, 2.0];
+            let got = numpy_percentile(&mut v, q).unwrap();
+            assert!((got - want).abs() < 1e-12, "q {q}: {got}");
+        }
+        assert_eq!(numpy_percentile(&mut [], 50.0), None);
+    }
+}

@@ -1,0 +1,12 @@
+//! Evaluation: what a lighting-estimation paper reports about a predicted map against its
+//! ground truth, as the published protocol computes it (StyleLight, EMLight, DiffusionLight:
+//! `DiffusionLight/DiffusionLight-evaluation`).
+
+pub mod image_metrics;
+
+use crate::engine::registry::{Registry, RegistryError};
+
+pub fn register(r: &mut Registry) -> Result<(), RegistryError> {
+    r.register(image_metrics::spec())?;
+    Ok(())
+}
