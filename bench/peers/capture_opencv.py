@@ -589,6 +589,19 @@ def run(args):
                                  "saturation": mm.getSaturationWeight(),
                                  "exposure": mm.getExposureWeight()}
 
+    # Other merges of the same frames (hdrflow's), measured exactly as OpenCV's: --also NAME=MAP.
+    for spec in args.also or []:
+        name, _, path = spec.partition("=")
+        x, y, cw, ch = res["crop"]
+        other = read_truth(path)
+        if other.shape[:2] != (h, w):
+            raise PeerError(f"{path}: {other.shape[1]} x {other.shape[0]}, frames {w} x {h}")
+        other = other[y:y + ch, x:x + cw]
+        res.setdefault("also", {})[name] = {
+            "nonfinite": int((~np.isfinite(other)).sum()),
+            **({"merge_error": merge_error(other[:, :, ::-1], truth, valid)} if truth is not None else {}),
+        }
+
     # 5. MergeDebevec alone, timed, with its memory, in a child process
     if args.repeats > 0:
         rp = None
@@ -743,6 +756,8 @@ def main():
     ap.add_argument("--truth", help="the true radiance (PFM or .npy, RGB, middle frame's pixels)")
     ap.add_argument("--true-response", help="srgb | gamma2.2 | linear | CSV code,R,G,B")
     ap.add_argument("--response-codes", default="10,245")
+    ap.add_argument("--also", action="append", metavar="NAME=MAP",
+                    help="measure another merge of the same frames (PFM or .npy, RGB) as OpenCV's")
     ap.add_argument("--merge-child", metavar="SPEC", help=argparse.SUPPRESS)
     ap.add_argument("--make-synthetic", metavar="DIR",
                     help="write a synthetic bracket set with its truth to DIR and exit")

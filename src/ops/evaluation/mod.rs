@@ -3,10 +3,12 @@
 //! `DiffusionLight/DiffusionLight-evaluation`).
 
 pub mod image_metrics;
+pub mod lights_error;
 
 use crate::engine::registry::{Registry, RegistryError};
 
 pub fn register(r: &mut Registry) -> Result<(), RegistryError> {
     r.register(image_metrics::spec())?;
+    r.register(lights_error::spec())?;
     Ok(())
 }
