@@ -2,3 +2,13 @@
 //! camera response recovery, exposure merging and fusion, median-threshold-bitmap alignment.
 //! It may import `values` (the `Brackets` type) and `maths::stats`; operators in
 //! `crate::ops::capture` build on it.
+
+pub mod debevec;
+pub mod merge;
+pub mod response;
+pub mod robertson;
+pub mod simulate;
+pub mod fusion;
+
+#[cfg(test)]
+mod tests;
