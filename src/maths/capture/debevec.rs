@@ -93,8 +93,9 @@ pub fn debevec(b: &Brackets, lambda: f64, samples: usize) -> Result<Response, St
             a[(z + 1) * m + row] = w;
             row += 1;
         }
-        let sol = least_squares(&mut a, m, n, &mut rhs)
-            .ok_or_else(|| format!("channel {}: the Debevec system is singular (too few distinct codes)", ["R", "G", "B"][c]))?;
+        let sol = least_squares(&mut a, m, n, &mut rhs).ok_or_else(|| {
+            format!("channel {}: the Debevec system is singular (too few distinct codes)", ["R", "G", "B"][c])
+        })?;
         *gc = sol[..256].iter().map(|v| v.exp()).collect();
     }
     Ok(expand(g, b.bit_depth))
@@ -135,7 +136,8 @@ pub fn expand(bins: [Vec<f64>; 3], bits: u8) -> Response {
 /// `None` when a column is numerically dependent on the previous ones (a pivot below `1e-10`
 /// times the largest column norm).
 pub fn least_squares(a: &mut [f64], m: usize, n: usize, b: &mut [f64]) -> Option<Vec<f64>> {
-    let col_norm = |a: &[f64], j: usize, from: usize| a[j * m + from..(j + 1) * m].iter().map(|v| v * v).sum::<f64>().sqrt();
+    let col_norm =
+        |a: &[f64], j: usize, from: usize| a[j * m + from..(j + 1) * m].iter().map(|v| v * v).sum::<f64>().sqrt();
     let scale = (0..n).map(|j| col_norm(a, j, 0)).fold(0.0, f64::max);
     if !(scale > 0.0 && scale.is_finite()) || m < n {
         return None;

@@ -259,7 +259,13 @@ impl Scratch {
 
     /// Marks the frames that disagree with the reference at pixel `p` (module documentation);
     /// returns how many.
-    fn consistency<T: Code>(&mut self, frames: &[&[T]], tab: &Tables, p: usize, use_frame: &impl Fn(usize) -> bool) -> usize {
+    fn consistency<T: Code>(
+        &mut self,
+        frames: &[&[T]],
+        tab: &Tables,
+        p: usize,
+        use_frame: &impl Fn(usize) -> bool,
+    ) -> usize {
         self.dropped.iter_mut().for_each(|d| *d = false);
         let n = frames.len();
         let entry = |f: usize, c: usize| {
@@ -268,7 +274,11 @@ impl Scratch {
         };
         let good = |f: usize| use_frame(f) && (0..3).all(|c| entry(f, c).0[0] > 0.0);
         let mid = (n - 1) / 2;
-        let Some(reference) = (0..n).map(|k| if k % 2 == 0 { mid + k / 2 } else { mid.wrapping_sub(k / 2 + 1) }).filter(|&f| f < n).find(|&f| good(f)) else {
+        let Some(reference) = (0..n)
+            .map(|k| if k % 2 == 0 { mid + k / 2 } else { mid.wrapping_sub(k / 2 + 1) })
+            .filter(|&f| f < n)
+            .find(|&f| good(f))
+        else {
             return 0;
         };
         let mut count = 0;

@@ -4,11 +4,11 @@
 //! `crate::ops::capture` build on it.
 
 pub mod debevec;
+pub mod fusion;
 pub mod merge;
 pub mod response;
 pub mod robertson;
 pub mod simulate;
-pub mod fusion;
 
 #[cfg(test)]
 mod tests;

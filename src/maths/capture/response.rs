@@ -170,7 +170,11 @@ impl Response {
             ));
         }
         if let Some(z) = (0..n).find(|&z| curves.x[z] != z as f64) {
-            return Err(format!("the response's x values must be the codes 0..={}; entry {z} is {}", n - 1, curves.x[z]));
+            return Err(format!(
+                "the response's x values must be the codes 0..={}; entry {z} is {}",
+                n - 1,
+                curves.x[z]
+            ));
         }
         let get = |name: &str| {
             curves

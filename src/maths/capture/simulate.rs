@@ -5,9 +5,10 @@
 //! the image at pixel `(x - dx_i, y - dy_i)` (clamped to the image: the uncovered edge is filled
 //! from the edge, as an aligned frame is), the sensor's linear exposure is `X = scale E t_i`
 //! (1 = the clip; NaN and negative values read as 0). Noise, in the units where the clip is
-//! 1: `X' = X + noise sqrt(X / W + (R / W)^2) n`, a full well of `W = 4096` electrons (shot
-//! noise, Poisson approximated by a Gaussian) and a read noise of `R = 4` electrons, `n` a
-//! standard normal; `noise` scales both (0: none, 1: that camera). The code is
+//! 1: `X' = X + noise sqrt(X / W + (R / W)^2) n`, a full well of `W = 32768` electrons (shot
+//! noise, Poisson approximated by a Gaussian) and a read noise of `R = 4` electrons (an APS-C
+//! sensor at base ISO: about 13 stops), `n` a standard normal; `noise` scales both (0: none,
+//! 1: that camera). The code is
 //! `round(f(clamp(X', 0, 1)) max)`, `f` the known response ([`Known::encode`]).
 //!
 //! `n` is deterministic: Box-Muller on two uniforms from SplitMix64 of (seed, frame, sample
@@ -21,7 +22,7 @@ use crate::values::brackets::{Brackets, Codes, Frame};
 use crate::values::Image;
 
 /// Electrons at the clip.
-pub const FULL_WELL: f64 = 4096.0;
+pub const FULL_WELL: f64 = 32768.0;
 /// Read noise, electrons.
 pub const READ_NOISE: f64 = 4.0;
 
@@ -41,7 +42,8 @@ pub struct Simulation {
 /// A standard normal from (seed, frame, sample).
 #[inline]
 fn normal(seed: u64, frame: usize, i: usize) -> f64 {
-    let k = mix64(seed ^ mix64((frame as u64).wrapping_mul(GOLDEN_GAMMA) ^ (i as u64).wrapping_mul(0x2545_F491_4F6C_DD1D)));
+    let k =
+        mix64(seed ^ mix64((frame as u64).wrapping_mul(GOLDEN_GAMMA) ^ (i as u64).wrapping_mul(0x2545_F491_4F6C_DD1D)));
     let u1 = 1.0 - unit_f64(k); // (0, 1]
     let u2 = unit_f64(mix64(k ^ GOLDEN_GAMMA));
     (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
@@ -83,7 +85,12 @@ pub fn simulate(image: &Image, sim: &Simulation) -> Result<Brackets, String> {
             } else {
                 Codes::U16((0..n).into_par_iter().map(|i| code(i) as u16).collect())
             };
-            Frame { name: format!("frame{f}_{}", crate::values::brackets::format_time(t)), time: t, codes, covered: None }
+            Frame {
+                name: format!("frame{f}_{}", crate::values::brackets::format_time(t)),
+                time: t,
+                codes,
+                covered: None,
+            }
         })
         .collect();
     Brackets::new(w, h, sim.bits, frames)
@@ -134,13 +141,13 @@ mod tests {
         let a = simulate(&flat, &sim(7)).unwrap();
         assert_eq!(a, simulate(&flat, &sim(7)).unwrap());
         assert_ne!(a, simulate(&flat, &sim(8)).unwrap());
-        // Linear values back: mean 0.25, sd sqrt(0.25 / 4096 + (4 / 4096)^2) = 7.88e-3.
+        // Linear values back: mean 0.25, sd sqrt(0.25 / 32768 + (4 / 32768)^2) = 2.766e-3.
         let v: Vec<f64> = (0..a.frames[0].codes.len())
             .map(|i| Known::Gamma22.decode(a.frames[0].codes.get(i) as f64 / 65535.0))
             .collect();
         let mean = v.iter().sum::<f64>() / v.len() as f64;
         let sd = (v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / v.len() as f64).sqrt();
-        assert!((mean - 0.25).abs() < 3e-4, "{mean}");
-        assert!((sd / 7.88e-3 - 1.0).abs() < 0.05, "{sd}");
+        assert!((mean - 0.25).abs() < 1e-4, "{mean}");
+        assert!((sd / 2.766e-3 - 1.0).abs() < 0.05, "{sd}");
     }
 }

@@ -46,15 +46,23 @@ const ROBERTSON_MAX_ITER: usize = 30;
 const ROBERTSON_THRESHOLD: f64 = 0.01;
 
 pub fn spec() -> OpSpec {
-    Op::new("CalibrateResponse", 1, "Recover a camera's response curves from bracketed exposures (Debevec or Robertson)", eval)
-        .output("response", CURVES_T, "relative exposure per code and channel (R, G, B), the middle code 1")
-        .check(check)
-        .into()
+    Op::new(
+        "CalibrateResponse",
+        1,
+        "Recover a camera's response curves from bracketed exposures (Debevec or Robertson)",
+        eval,
+    )
+    .output("response", CURVES_T, "relative exposure per code and channel (R, G, B), the middle code 1")
+    .check(check)
+    .into()
 }
 
 fn check(_: &CheckContext, p: CalibrateResponseParams<Check>) -> Result<(), CheckProblem> {
     if p.method == Method::Robertson && p.samples != 70 {
-        return Err(CheckProblem::at(CalibrateResponseParams::samples, "samples is Debevec's; Robertson uses every pixel"));
+        return Err(CheckProblem::at(
+            CalibrateResponseParams::samples,
+            "samples is Debevec's; Robertson uses every pixel",
+        ));
     }
     Ok(())
 }

@@ -45,12 +45,17 @@ const SATURATED: Port<Image> = Port::new("saturated");
 const METRICS: Port<Metrics> = Port::new("metrics");
 
 pub fn spec() -> OpSpec {
-    Op::new("MergeBrackets", 1, "Merge bracketed exposures into relative radiance (with confidence and the saturated mask)", eval)
-        .port(IMAGE, IMAGE_T, "relative radiance, RGB")
-        .port(CONFIDENCE, SCALAR_T, "the sum of the frames' weights per pixel (mean over the channels)")
-        .port(SATURATED, SCALAR_T, "1 where a channel is clipped in every frame (it holds the shortest exposure's value)")
-        .port(METRICS, METRICS_T, "frames, saturated and underexposed fractions, mean confidence, dropped fraction")
-        .into()
+    Op::new(
+        "MergeBrackets",
+        1,
+        "Merge bracketed exposures into relative radiance (with confidence and the saturated mask)",
+        eval,
+    )
+    .port(IMAGE, IMAGE_T, "relative radiance, RGB")
+    .port(CONFIDENCE, SCALAR_T, "the sum of the frames' weights per pixel (mean over the channels)")
+    .port(SATURATED, SCALAR_T, "1 where a channel is clipped in every frame (it holds the shortest exposure's value)")
+    .port(METRICS, METRICS_T, "frames, saturated and underexposed fractions, mean confidence, dropped fraction")
+    .into()
 }
 
 fn eval(_: &mut OpContext, p: MergeBracketsParams) -> Result<Outputs, OpError> {
@@ -58,7 +63,9 @@ fn eval(_: &mut OpContext, p: MergeBracketsParams) -> Result<Outputs, OpError> {
     super::require_frames(b, 2)?;
     let response = match &p.response {
         None => Response::linear(b.bit_depth),
-        Some(c) => Response::from_curves(c, b.bit_depth).map_err(|e| OpError::Invalid(format!("input \"response\": {e}")))?,
+        Some(c) => {
+            Response::from_curves(c, b.bit_depth).map_err(|e| OpError::Invalid(format!("input \"response\": {e}")))?
+        }
     };
     let m = merge(b, &response, p.weight, p.deghost);
     let pixels = b.pixel_count().max(1) as f64;

@@ -39,7 +39,10 @@ pub fn require_frames(b: &Brackets, n: usize) -> Result<(), OpError> {
             )));
         }
         if f.covered.as_ref().is_some_and(|m| m.len() != b.pixel_count()) {
-            return Err(OpError::Invalid(format!("frame {}'s coverage mask is not {} x {}", f.name, b.width, b.height)));
+            return Err(OpError::Invalid(format!(
+                "frame {}'s coverage mask is not {} x {}",
+                f.name, b.width, b.height
+            )));
         }
     }
     Ok(())

@@ -4,7 +4,7 @@
 //!
 //! Frame `i` exposes `scale E t_i` (1 = the clip) of the image shifted by the integer
 //! `shifts[2i], shifts[2i + 1]` pixels (x right, y down; the uncovered edge filled from the
-//! edge), adds shot and read noise scaled by `noise` (a 4096-electron full well and 4 electrons
+//! edge), adds shot and read noise scaled by `noise` (a 32768-electron full well and 4 electrons
 //! of read noise at `noise: 1`, seeded and deterministic) and quantises the response's display
 //! value to `bits`-bit codes. The formulas, the `SCurve` curve's among them:
 //! `maths::capture::simulate` and `maths::capture::response`. Port `response`: the true
@@ -33,7 +33,7 @@ crate::params! {
         /// bits per channel of the codes: 8 or 16
         #[range(8, 16)]
         pub bits: u32 = 8,
-        /// shot and read noise scale (0: none; 1: a 4096-electron full well, 4 electrons read noise)
+        /// shot and read noise scale (0: none; 1: a 32768-electron full well, 4 electrons read noise)
         #[range(0.0, 1000.0)]
         pub noise: f64 = 0.0,
         /// the noise's seed
@@ -103,6 +103,7 @@ fn eval(_: &mut OpContext, p: SimulateBracketsParams) -> Result<Outputs, OpError
         scale: p.scale,
     };
     let brackets = simulate(&p.env, &sim).map_err(OpError::Invalid)?;
-    let truth = Response::known(p.response, p.bits as u8).to_curves(&format!("{} response ({} bits)", p.response, p.bits));
+    let truth =
+        Response::known(p.response, p.bits as u8).to_curves(&format!("{} response ({} bits)", p.response, p.bits));
     Ok(Outputs::new().port(BRACKETS, brackets).port(RESPONSE, truth))
 }
