@@ -35,7 +35,8 @@
 //! both weights are positive, `|E_i - E_ref| > 3 (q_i + q_ref) + 0.1 max(E_i, E_ref)`: `q` half
 //! the response's step at the code divided by `t` (the quantisation error bound), and 10% for
 //! the sensor noise of a mid-grey code. A static pixel of a noise-free capture with the right
-//! response is never dropped (its frames differ by at most `q_i + q_ref`).
+//! response is never dropped (its frames differ by at most `q_i + q_ref`). With two frames
+//! there is no majority to side with, and nothing is dropped.
 //!
 //! Speed: per frame and channel a table `code -> (w, x / t)` (and `q` when deghosting), so the
 //! inner loop reads one code and one table entry per frame; rows run in parallel; no float

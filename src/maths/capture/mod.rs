@@ -1,7 +1,7 @@
 //! The maths of capture, on plain slices of codes and floats (no operator, no file format):
 //! camera response recovery, exposure merging and fusion, median-threshold-bitmap alignment.
-//! It may import `values` (the `Brackets` type) and `maths::stats`; operators in
-//! `crate::ops::capture` build on it.
+//! It may import `values` (the `Brackets` type), `maths::stats` and `maths::sampling` (the
+//! seeded noise of synthetic brackets); operators in `crate::ops::capture` build on it.
 
 pub mod debevec;
 pub mod fusion;

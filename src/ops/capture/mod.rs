@@ -47,3 +47,25 @@ pub fn require_frames(b: &Brackets, n: usize) -> Result<(), OpError> {
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::values::brackets::{Codes, Frame};
+
+    fn frame(name: &str, time: f64, n: usize) -> Frame {
+        Frame { name: name.into(), time, codes: Codes::U8(vec![9; n]), covered: None }
+    }
+
+    #[test]
+    fn one_frame_and_a_frame_of_another_size_are_run_errors_naming_it() {
+        let one = Brackets::new(2, 1, 8, vec![frame("a.jpg", 1.0, 6)]).unwrap();
+        let e = require_frames(&one, 2).unwrap_err().to_string();
+        assert!(e.contains("the bracket has 1 frame: at least 2 exposures are needed"), "{e}");
+        // Built by hand past `Brackets::new`'s checks: still an error, not a panic.
+        let mut odd = Brackets::new(2, 1, 8, vec![frame("a.jpg", 1.0, 6), frame("b.jpg", 2.0, 6)]).unwrap();
+        odd.frames[1].codes = Codes::U8(vec![0; 5]);
+        let e = require_frames(&odd, 2).unwrap_err().to_string();
+        assert!(e.contains("frame b.jpg is not 2 x 1 x 3 codes of 8 bits"), "{e}");
+    }
+}
