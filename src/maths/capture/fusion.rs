@@ -61,7 +61,7 @@ fn up(p: &Plane, w: usize, h: usize) -> Plane {
     // Per dimension: even outputs (s[i-1] + 6 s[i] + s[i+1]) / 8, odd ones (s[i] + s[i+1]) / 2.
     let taps = |o: usize| -> [(isize, f32); 3] {
         let i = (o / 2) as isize;
-        if o % 2 == 0 {
+        if o.is_multiple_of(2) {
             [(i - 1, 0.125), (i, 0.75), (i + 1, 0.125)]
         } else {
             [(i, 0.5), (i + 1, 0.5), (i, 0.0)]
