@@ -13,7 +13,8 @@
 //! `dropped_fraction` (frame-pixel pairs dropped by deghosting). A response that is not
 //! monotonic, or for another bit depth, and a single frame are errors. Tests
 //! (`maths::capture::tests`): five 8-bit sRGB brackets two stops apart merge through
-//! `CalibrateResponse` to within 1.5% median relative error of the map after the best scale.
+//! `CalibrateResponse` (Debevec, 70 samples) to within the 3% median relative error of
+//! the map after the best scale (measured 1.3% to 2.7% on two maps; 0.8% with the true response).
 
 use crate::engine::fields::Input;
 use crate::engine::op::{OpContext, OpError, OpSpec, Outputs};
