@@ -1,4 +1,14 @@
 //! The maths of capture, on plain slices of codes and floats (no operator, no file format):
 //! camera response recovery, exposure merging and fusion, median-threshold-bitmap alignment.
-//! It may import `values` (the `Brackets` type) and `maths::stats`; operators in
-//! `crate::ops::capture` build on it.
+//! It may import `values` (the `Brackets` type), `maths::stats` and `maths::sampling` (the
+//! seeded noise of synthetic brackets); operators in `crate::ops::capture` build on it.
+
+pub mod debevec;
+pub mod fusion;
+pub mod merge;
+pub mod response;
+pub mod robertson;
+pub mod simulate;
+
+#[cfg(test)]
+mod tests;
