@@ -4,9 +4,15 @@
 //! preview, calibrating a map to a measured illuminance, and joining two mirror-ball views.
 //! The maths they share is `crate::maths::capture`.
 
+pub mod align_brackets;
+pub mod calibrate_illuminance;
+pub mod merge_mirror_balls;
+
 use crate::engine::registry::{Registry, RegistryError};
 
 pub fn register(r: &mut Registry) -> Result<(), RegistryError> {
-    let _ = r;
+    r.register(align_brackets::spec())?;
+    r.register(calibrate_illuminance::spec())?;
+    r.register(merge_mirror_balls::spec())?;
     Ok(())
 }
