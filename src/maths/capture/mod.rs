@@ -3,12 +3,16 @@
 //! It may import `values` (the `Brackets` type), `maths::stats` and `maths::sampling` (the
 //! seeded noise of synthetic brackets); operators in `crate::ops::capture` build on it.
 
+pub mod align;
 pub mod debevec;
 pub mod fusion;
+pub mod illuminance;
 pub mod merge;
+pub mod mtb;
 pub mod response;
 pub mod robertson;
 pub mod simulate;
+pub mod two_balls;
 
 #[cfg(test)]
 mod tests;

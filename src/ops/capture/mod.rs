@@ -4,20 +4,26 @@
 //! preview, calibrating a map to a measured illuminance, and joining two mirror-ball views.
 //! The maths they share is `crate::maths::capture`.
 
-use crate::engine::op::OpError;
-use crate::engine::registry::{Registry, RegistryError};
-use crate::values::brackets::Brackets;
-
+pub mod align_brackets;
+pub mod calibrate_illuminance;
 pub mod calibrate_response;
 pub mod fuse_exposures;
 pub mod merge_brackets;
+pub mod merge_mirror_balls;
 pub mod simulate_brackets;
+
+use crate::engine::op::OpError;
+use crate::engine::registry::{Registry, RegistryError};
+use crate::values::brackets::Brackets;
 
 pub fn register(r: &mut Registry) -> Result<(), RegistryError> {
     r.register(simulate_brackets::spec())?;
     r.register(calibrate_response::spec())?;
     r.register(merge_brackets::spec())?;
     r.register(fuse_exposures::spec())?;
+    r.register(align_brackets::spec())?;
+    r.register(calibrate_illuminance::spec())?;
+    r.register(merge_mirror_balls::spec())?;
     Ok(())
 }
 
