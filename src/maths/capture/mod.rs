@@ -2,3 +2,5 @@
 //! camera response recovery, exposure merging and fusion, median-threshold-bitmap alignment.
 //! It may import `values` (the `Brackets` type) and `maths::stats`; operators in
 //! `crate::ops::capture` build on it.
+
+pub mod codes;
