@@ -94,9 +94,7 @@ fn load_image_applies_the_orientation_and_reads_the_exif() {
     // Auto on a 16-bit grey file: linear, grey expanded to RGB; no EXIF, no settings.
     let g = v["grey"].get::<Image>().unwrap();
     assert_eq!((g.width, g.channels), (2, 3));
-    assert_eq!(g.pixel(1, 0), [65535.0 / 65535.0; 3]);
-    let from_bytes = u16::from_ne_bytes([255, 255]) as f32 / 65535.0;
-    assert_eq!(g.pixel(1, 0)[0], from_bytes);
+    assert_eq!((g.pixel(0, 0), g.pixel(1, 0)), ([0.0; 3].as_slice(), [1.0; 3].as_slice()));
 }
 
 #[test]
@@ -171,16 +169,19 @@ fn given_exposure_times_replace_missing_exif_in_name_order() {
     assert_eq!(got, [("x2.png", 0.125), ("x1.png", 0.5)]);
 }
 
-/// Runs `LoadBrackets(paths: PATHS[, exposure_times: TIMES])` into a Save and returns the output.
-fn run_bad(sb: &Sandbox, name: &str, paths: &str, times: Option<&str>) -> common::Output {
-    let times = times.map(|t| format!(", exposure_times: {t}")).unwrap_or_default();
-    let graph = sb.write(
-        format!("{name}.ron"),
-        format!(r#"(nodes: {{ "b": LoadBrackets(paths: {paths:?}{times}), "s": Save(input: "b", path: "f/") }})"#),
+/// Runs `LoadBrackets(paths: PATHS[, exposure_times: TIMES])` into a Save; returns the output
+/// and the positions (`FILE:1:COLUMN`) of the two fields' values, where validation reports them.
+fn run_bad(sb: &Sandbox, name: &str, paths: &str, times: Option<&str>) -> (common::Output, [String; 2]) {
+    let times_field = times.map(|t| format!(", exposure_times: {t}")).unwrap_or_default();
+    let text = format!(
+        r#"(nodes: {{ "b": LoadBrackets(paths: {paths:?}{times_field}), "s": Save(input: "b", path: "f/") }})"#
     );
+    let column = |needle: &str| text.find(needle).map_or(0, |i| i + needle.len() + 1);
+    let at = [column("paths: "), column("exposure_times: ")].map(|c| format!("{name}.ron:1:{c}:"));
+    let graph = sb.write(format!("{name}.ron"), &text);
     let (o, _) = sb.run_in(&graph, &sb.join(format!("out_{name}")), &sb.cache(), &[]);
     assert!(!o.stderr.contains("panicked"), "{name}\n{}", o.describe());
-    o
+    (o, at)
 }
 
 #[test]
@@ -221,14 +222,15 @@ fn every_bad_bracket_is_a_clear_error_naming_the_file() {
         ("noexif", "noexif", None, "frame a.png has no EXIF exposure time: give exposure_times"),
     ];
     for (name, paths, times, message) in cases {
-        let o = run_bad(&sb, name, paths, times);
+        let (o, [at_paths, at_times]) = run_bad(&sb, name, paths, times);
         o.assert_code(2).assert_stderr_contains(message);
-        let field = if times.is_some() { "exposure_times" } else { "paths" };
-        o.assert_stderr_contains(&format!("field {field:?}"));
+        // Reported at the field the problem is about.
+        o.assert_stderr_contains(if times.is_some() { &at_times } else { &at_paths });
     }
     // Given times fix the missing EXIF; a non-positive one is refused by the field's range.
-    run_bad(&sb, "noexif_given", "noexif", Some("[0.01, 0.02]")).assert_success();
+    run_bad(&sb, "noexif_given", "noexif", Some("[0.01, 0.02]")).0.assert_success();
     run_bad(&sb, "zero", "count", Some("[0.0, 0.02]"))
+        .0
         .assert_code(2)
         .assert_stderr_contains("exposure time 0 for a.png is not a positive number of seconds");
     // A 16-bit bracket cannot be saved as JPEG: a run error naming the path.
@@ -242,7 +244,56 @@ fn every_bad_bracket_is_a_clear_error_naming_the_file() {
     o.assert_code(1).assert_stderr_contains("JPEG holds 8 bits per channel");
     // A bracket saved to one file is refused before the run.
     let graph =
-        sb.write("onefile.ron", r#"(nodes: { "b": LoadBrackets(paths: "count", exposure_times: [1, 2]), "s": Save(input: "b", path: "b.png") })"#);
+        sb.write("onefile.ron", r#"(nodes: { "b": LoadBrackets(paths: "count", exposure_times: [1.0, 2.0]), "s": Save(input: "b", path: "b.png") })"#);
     let (o, _) = sb.run_in(&graph, &sb.join("out_onefile"), &sb.cache(), &[]);
     o.assert_code(2).assert_stderr_contains("brackets are saved one file per frame");
+}
+
+#[test]
+fn a_batch_over_capture_folders_runs_one_item_per_folder() {
+    let sb = Sandbox::new();
+    let (w, h) = (4, 2);
+    for (folder, n) in [("kitchen", 3), ("attic", 2)] {
+        for k in 0..n {
+            write_frame(
+                &sb.join(format!("captures/{folder}")),
+                &format!("f{k}.jpg"),
+                w,
+                &codes8(w, h, k),
+                0.01 * (1 << k) as f64,
+            );
+        }
+    }
+    common::write_file(&sb.join("captures/readme.txt"), b"not a capture folder");
+    let graph = sb.write(
+        "batch.ron",
+        r#"(nodes: { "brackets": LoadBrackets(paths: "captures/kitchen/"), "s": Save(input: "brackets", path: "frames/") })"#,
+    );
+    let over = format!("brackets.paths={}/captures/*/", sb.path().display());
+    let o = common::run_hdrflow([
+        "batch",
+        &graph.display().to_string(),
+        "--over",
+        &over,
+        "--out",
+        &sb.out().display().to_string(),
+        "--cache-dir",
+        &sb.cache().display().to_string(),
+    ]);
+    o.assert_success();
+    let written = common::files_under(&sb.out());
+    let frames: Vec<String> =
+        written.iter().map(|p| p.display().to_string()).filter(|p| p.contains("/frames/")).collect();
+    assert_eq!(
+        frames,
+        [
+            "attic/frames/frame_0.png",
+            "attic/frames/frame_1.png",
+            "kitchen/frames/frame_0.png",
+            "kitchen/frames/frame_1.png",
+            "kitchen/frames/frame_2.png"
+        ],
+        "{}",
+        o.describe()
+    );
 }

@@ -9,7 +9,8 @@
 //! JPEG; `.tif`: uncompressed TIFF; `.png`: 8- or 16-bit PNG). `{frame}` is the frame's index in
 //! exposure order, zero-padded to one width so that name order is exposure order. The saver
 //! registered for the type (reached only when a caller encodes a bracket as one file) writes
-//! the shortest exposure.
+//! the shortest exposure. An aligned bracket's coverage masks are not written: a photograph has
+//! no place for them (the filled border pixels are saved as they are).
 
 use super::super::photo::encode::encode_frame;
 use crate::engine::registry::Registry;
