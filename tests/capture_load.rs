@@ -297,3 +297,30 @@ fn a_batch_over_capture_folders_runs_one_item_per_folder() {
         o.describe()
     );
 }
+
+#[test]
+fn the_cache_key_follows_the_files_contents_and_names_not_their_times_on_disk() {
+    let sb = Sandbox::new();
+    let (w, h) = (4, 2);
+    for (k, t) in [0.01, 0.04].iter().enumerate() {
+        write_frame(&sb.join("a"), &format!("f{k}.png"), w, &codes8(w, h, k as u8), *t);
+    }
+    let graph =
+        sb.write("cache.ron", r#"(nodes: { "b": LoadBrackets(paths: "a"), "s": Save(input: "b", path: "f/") })"#);
+    let (_, first) = sb.run_ok(&graph, &[]);
+    assert_eq!(first.status_of("b"), "computed");
+    // The same bytes written again (a new modification time): the same key.
+    write_frame(&sb.join("a"), "f1.png", w, &codes8(w, h, 1), 0.04);
+    let (_, again) = sb.run_ok(&graph, &[]);
+    // (The saved frames are found in the cache, so the bracket is not even needed.)
+    assert_eq!((again.status_of("s"), again.status_of("b")), ("cached", "not needed"), "{:#?}", again.status);
+    // One frame's time changed in its EXIF: a new key.
+    write_frame(&sb.join("a"), "f1.png", w, &codes8(w, h, 1), 0.08);
+    let (_, edited) = sb.run_ok(&graph, &[]);
+    assert_eq!(edited.status_of("b"), "computed");
+    // A renamed frame: a new key (the names are in it).
+    std::fs::rename(sb.join("a/f1.png"), sb.join("a/g1.png")).unwrap();
+    let (_, renamed) = sb.run_ok(&graph, &[]);
+    assert_eq!(renamed.status_of("b"), "computed");
+    assert_ne!(renamed.key_of("b"), edited.key_of("b"));
+}

@@ -14,8 +14,10 @@
 //! time and no `exposure_times`, a count of `exposure_times` that differs from the files, a
 //! 16-bit frame among 8-bit ones, a file that is not an image and an empty folder or glob are
 //! pipeline errors before anything runs; the run checks the decoded frames again. The cache key
-//! is every file's name, in order, and BLAKE3 content hash (the times are a field); frames are
-//! decoded in parallel.
+//! is every file's name, in order, and BLAKE3 content hash, plus the fields (the times, and the
+//! `paths` text: a folder or glob is not an input-file field, which the key would leave out, so
+//! moving the captures recomputes them; rewriting a file with the same bytes does not). Frames
+//! are decoded in parallel.
 
 use std::path::Path;
 
