@@ -324,3 +324,33 @@ fn the_cache_key_follows_the_files_contents_and_names_not_their_times_on_disk() 
     assert_eq!(renamed.status_of("b"), "computed");
     assert_ne!(renamed.key_of("b"), edited.key_of("b"));
 }
+
+#[test]
+fn load_image_saves_its_exif_as_json_and_refuses_missing_or_broken_files() {
+    let sb = Sandbox::new();
+    write_frame(&sb.path().join("shots"), "one.jpg", 4, &codes8(4, 2, 0), 1.0 / 30.0);
+    let graph = sb.write(
+        "exif.ron",
+        r#"(nodes: { "img": LoadImage(path: "shots/one.jpg"), "s": Save(input: "img.exif", path: "exif.json") })"#,
+    );
+    sb.run_ok(&graph, &[]);
+    let json: serde_json::Value = serde_json::from_slice(&common::read_file(&sb.out().join("exif.json"))).unwrap();
+    assert_eq!(json["exposure_time"], 1.0 / 30.0);
+    assert!(json["make"].is_null() && json["iso"].is_null(), "{json}");
+    // A missing file: found by validation (exit code 2) at its field.
+    let missing = sb.write(
+        "missing.ron",
+        r#"(nodes: { "img": LoadImage(path: "shots/none.jpg"), "s": Save(input: "img", path: "x.exr") })"#,
+    );
+    let (o, _) = sb.run_in(&missing, &sb.join("out_missing"), &sb.cache(), &[]);
+    o.assert_code(2).assert_stderr_contains("input file \"shots/none.jpg\" does not exist");
+    // Not an image: a run error naming the file, never a panic.
+    common::write_file(&sb.path().join("shots/text.png"), b"plain text, not a PNG");
+    let broken = sb.write(
+        "broken.ron",
+        r#"(nodes: { "img": LoadImage(path: "shots/text.png"), "s": Save(input: "img", path: "x.exr") })"#,
+    );
+    let (o, _) = sb.run_in(&broken, &sb.join("out_broken"), &sb.cache(), &[]);
+    o.assert_code(1).assert_stderr_contains("text.png").assert_stderr_contains("is not an image");
+    assert!(!o.stderr.contains("panicked"), "{}", o.describe());
+}
