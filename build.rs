@@ -43,7 +43,6 @@ const UNSALTED_CRATES: &[(&str, &str)] = &[
     ("layout-rs", "layout"),
     ("base64", "base64"),
     ("csv", "csv"),
-    ("glob", "glob"),
     ("ron", "ron"),
     ("proptest", "proptest"),
     ("criterion", "criterion"),

@@ -19,7 +19,9 @@ pub struct Axis {
 impl Axis {
     /// Parses `NODE.FIELD=V1,V2,...` (`(0,1,0),(1,0,0)` is two tuples). For `--over`, each
     /// value with `*`, `?` or `[` is a glob, replaced by its matching files, sorted
-    /// (`maps/*_1k.hdr,extra/one.hdr` is every match, then the one file).
+    /// (`maps/*_1k.hdr,extra/one.hdr` is every match, then the one file); a glob ending in `/`
+    /// is replaced by its matching folders, each with its `/` (`captures/*/`: one capture
+    /// folder per item, named by the folder).
     pub fn parse(s: &str, over: bool) -> Result<Axis, String> {
         let flag = if over { "--over" } else { "--sweep" };
         let o = Override::parse(s).map_err(|e| e.replace("--set", flag))?;
@@ -29,15 +31,22 @@ impl Axis {
                 values.push(item);
                 continue;
             }
+            // A glob ending in `/` matches folders (one capture folder per item), kept with their
+            // slash; any other glob matches files.
+            let folders = item.ends_with('/');
+            let pattern = if folders { item.trim_end_matches('/') } else { item.as_str() };
             let mut matches = Vec::new();
-            for entry in glob::glob(&item).map_err(|e| format!("{flag} {s:?}: bad pattern {item:?}: {e}"))? {
+            for entry in glob::glob(pattern).map_err(|e| format!("{flag} {s:?}: bad pattern {item:?}: {e}"))? {
                 let path = entry.map_err(|e| format!("{flag} {s:?}: {e}"))?;
-                if path.is_file() {
+                if folders && path.is_dir() {
+                    matches.push(format!("{}/", path.display()));
+                } else if !folders && path.is_file() {
                     matches.push(path.display().to_string());
                 }
             }
             if matches.is_empty() {
-                return Err(format!("{flag} {s:?}: no file matches {item:?}"));
+                let what = if folders { "folder" } else { "file" };
+                return Err(format!("{flag} {s:?}: no {what} matches {item:?}"));
             }
             matches.sort();
             values.extend(matches);
@@ -207,5 +216,26 @@ mod tests {
         assert!(err.ends_with(&format!("no file matches \"{d}/*_4k.hdr\"")), "{err}");
         // --sweep values are never globs.
         assert_eq!(Axis::parse("e.stops=1,2", false).unwrap().values, ["1", "2"]);
+    }
+
+    /// Issue 38: `--over brackets.paths='captures/*/'` gives one item per capture folder.
+    #[test]
+    fn an_over_glob_ending_in_a_slash_matches_folders_only() {
+        let dir = tempfile::tempdir().unwrap();
+        for name in ["kitchen", "attic"] {
+            std::fs::create_dir(dir.path().join(name)).unwrap();
+        }
+        std::fs::write(dir.path().join("notes.txt"), b"").unwrap();
+        let d = dir.path().display();
+        let axis = Axis::parse(&format!("brackets.paths={d}/*/"), true).unwrap();
+        assert_eq!(axis.values, [format!("{d}/attic/"), format!("{d}/kitchen/")]);
+        let items = super::items(&[axis], false, None).unwrap();
+        let dirs: Vec<&str> = items.iter().map(|i| i.dir.as_str()).collect();
+        assert_eq!(dirs, ["attic", "kitchen"]);
+        // Without the slash, the same glob matches files only.
+        let files = Axis::parse(&format!("brackets.paths={d}/*"), true).unwrap();
+        assert_eq!(files.values, [format!("{d}/notes.txt")]);
+        let err = Axis::parse(&format!("brackets.paths={d}/none*/"), true).unwrap_err();
+        assert!(err.contains("no folder matches"), "{err}");
     }
 }

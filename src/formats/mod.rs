@@ -9,6 +9,7 @@
 //! | [`ktx1`]    | Khronos KTX 1.1 `.ktx`           | no   | yes   | Filament's: R11F_G11F_B10F/RGBA16F cube with mips, the `sh` key |
 //! | [`packed_float`] | rgb9e5, 11/10-bit floats    | -    | -     | the packed texel encodings and their error bounds |
 //! | [`png`]     | PNG (8-bit sRGB preview, 16-bit linear) | no   | yes   | exposure + sRGB OETF, or linear 16-bit, through the `image` crate |
+//! | [`photo`]   | photographs: PNG, JPEG, TIFF of 8/16-bit codes with EXIF | yes | yes | `LoadImage`, `LoadBrackets`, saved brackets; `image` codecs, `kamadak-exif` |
 //! | [`builtin`] | procedural lat-long maps         | -    | -     | so that everything runs with no data files |
 //!
 //! [`save`] holds `Save`'s encoders of every built-in value type (images through the writers
@@ -36,6 +37,7 @@ pub mod ktx1;
 pub mod ktx2;
 pub mod packed_float;
 pub mod pfm;
+pub mod photo;
 pub mod png;
 pub mod rgbe;
 pub mod save;

@@ -24,6 +24,7 @@ pub mod camera;
 pub mod cubemap;
 pub mod curves;
 pub mod distribution;
+pub mod exif;
 pub mod filament_sh;
 pub mod image;
 pub(crate) mod json;
@@ -44,6 +45,7 @@ pub use camera::{Camera, CAMERA};
 pub use cubemap::{Cubemap, MipChain, CUBEMAP, MIP_CHAIN};
 pub use curves::{Curves, CURVES};
 pub use distribution::{Distribution2D, DISTRIBUTION};
+pub use exif::{Exif, EXIF};
 pub use filament_sh::{FilamentSh, FILAMENT_SH};
 pub use label::{Label, LABEL};
 pub use light::{Light, LIGHT};
@@ -72,6 +74,7 @@ pub fn register_all(r: &mut Registry) {
         &CAMERA,
         &LABEL,
         &BRACKETS,
+        &EXIF,
     ] {
         r.register_type(spec);
     }
@@ -98,6 +101,7 @@ pub mod ty {
     pub const CAMERA_T: ValueType = ValueType(&CAMERA);
     pub const LABEL_T: ValueType = ValueType(&LABEL);
     pub const BRACKETS_T: ValueType = ValueType(&BRACKETS);
+    pub const EXIF_T: ValueType = ValueType(&EXIF);
     /// Either kind of image.
     pub const ANY_IMAGE: &[ValueType] = &[IMAGE_T, SCALAR_T];
 }

@@ -1,13 +1,13 @@
 //! How `Save` writes the values saved only as their JSON object: a `light`, `lights`, `sg`, a
-//! `camera` and a `label`, each as `.json`. The object is the type's own (`to_json_value` in its
+//! `camera`, a `label` and a photograph's `exif`, each as `.json`. The object is the type's own (`to_json_value` in its
 //! module under `crate::values`, where its keys are documented), so that a label's parts are
 //! key for key the files their own types save.
 
 use crate::engine::registry::Registry;
 use crate::engine::save::SaveOptions;
 use crate::engine::value::Value;
-use crate::values::{camera, label, light, lights, sg};
-use crate::values::{Camera, Label, Light, Lights, SphericalGaussians, CAMERA, LABEL, LIGHT, LIGHTS, SG};
+use crate::values::{camera, exif, label, light, lights, sg};
+use crate::values::{Camera, Exif, Label, Light, Lights, SphericalGaussians, CAMERA, EXIF, LABEL, LIGHT, LIGHTS, SG};
 
 /// Registers the savers of lights, spherical Gaussians, cameras and labels.
 pub fn register(r: &mut Registry) {
@@ -16,6 +16,7 @@ pub fn register(r: &mut Registry) {
     r.register_saver(&SG, &["json"], save_sg);
     r.register_saver(&CAMERA, &["json"], save_camera);
     r.register_saver(&LABEL, &["json"], save_label);
+    r.register_saver(&EXIF, &["json"], save_exif);
 }
 
 fn save_light(value: &Value, _: &SaveOptions) -> Result<Vec<u8>, String> {
@@ -41,6 +42,11 @@ fn save_camera(value: &Value, _: &SaveOptions) -> Result<Vec<u8>, String> {
 fn save_label(value: &Value, _: &SaveOptions) -> Result<Vec<u8>, String> {
     let l = value.get::<Label>().ok_or("not a label")?;
     Ok(label::to_json(l).into_bytes())
+}
+
+fn save_exif(value: &Value, _: &SaveOptions) -> Result<Vec<u8>, String> {
+    let e = value.get::<Exif>().ok_or("not EXIF settings")?;
+    Ok(exif::to_json(e).into_bytes())
 }
 
 #[cfg(test)]

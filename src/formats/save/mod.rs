@@ -11,9 +11,12 @@
 //! - [`curves`]: `.json`, `.csv`, and plots (`.png`, `.svg`, through `crate::plotting`);
 //! - [`samples`], [`metrics`]: `.csv` and `.json` tables;
 //! - [`sh`]: SH coefficients (`.json`, `.csv`) and Filament's SH (`.txt`, `.json`);
-//! - [`as_json`]: the types saved as their JSON object (light, lights, sg, camera, label).
+//! - [`as_json`]: the types saved as their JSON object (light, lights, sg, camera, label, exif);
+//! - [`brackets`]: a bracket as one photograph per frame with its EXIF exposure time (`Save` writes
+//!   the frames, as it writes a mip chain's levels).
 
 pub mod as_json;
+pub mod brackets;
 pub mod cubemap;
 pub mod curves;
 pub mod image;
@@ -32,4 +35,5 @@ pub fn register_all(r: &mut Registry) {
     metrics::register(r);
     sh::register(r);
     as_json::register(r);
+    brackets::register(r);
 }

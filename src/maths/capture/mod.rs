@@ -4,6 +4,7 @@
 //! seeded noise of synthetic brackets); operators in `crate::ops::capture` build on it.
 
 pub mod align;
+pub mod codes;
 pub mod debevec;
 pub mod fusion;
 pub mod illuminance;

@@ -5,9 +5,12 @@
 //! The maths they share is `crate::maths::capture`.
 
 pub mod align_brackets;
+pub mod bracket_files;
 pub mod calibrate_illuminance;
 pub mod calibrate_response;
 pub mod fuse_exposures;
+pub mod load_brackets;
+pub mod load_image;
 pub mod merge_brackets;
 pub mod merge_mirror_balls;
 pub mod simulate_brackets;
@@ -17,6 +20,8 @@ use crate::engine::registry::{Registry, RegistryError};
 use crate::values::brackets::Brackets;
 
 pub fn register(r: &mut Registry) -> Result<(), RegistryError> {
+    r.register(load_image::spec())?;
+    r.register(load_brackets::spec())?;
     r.register(simulate_brackets::spec())?;
     r.register(calibrate_response::spec())?;
     r.register(merge_brackets::spec())?;

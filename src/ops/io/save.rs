@@ -13,6 +13,7 @@
 //! | metrics               | `.json`, `.csv` |
 //! | cube map              | `.exr`, `.pfm`, `.hdr`, `.png`: one 6S x S strip, faces +X -X +Y -Y +Z -Z |
 //! | mip chain             | the same, one strip per level: the path must contain `{level}` (`spec_{level}.exr`) |
+//! | brackets              | one photograph per frame with its EXIF exposure time: a folder `frames/` (`frame_0.png`, ...) or a path with `{frame}` (`.png` 8/16-bit, `.jpg`, `.tif`) |
 //! | image, cube map, mip chain | `.ktx2`: a 2D texture, a cube texture, a cube texture with every level (`ktx_format`, `ktx_supercompression`) |
 //! | image, cube map, mip chain | `.ktx` (KTX 1.1, for Filament): the same (`ktx1_format`; `sh`: SH coefficients under the key `sh`, as cmgen writes them) |
 //!
@@ -28,6 +29,7 @@ use crate::engine::value::{FileBlob, Value, ValueType, FILE};
 use crate::formats::ktx1::{self, Ktx1Format};
 use crate::formats::ktx2::{Compression, KtxFormat, KtxSupercompression};
 use crate::formats::png::PngFormat;
+use crate::formats::save::brackets;
 use crate::formats::save::image::{channels_not_kept, channels_not_kept_in};
 use crate::values::Image;
 use crate::values::{FilamentSh, ShCoefficients};
@@ -84,7 +86,18 @@ fn check(ctx: &CheckContext, p: SaveParams<Check>) -> Result<(), CheckProblem> {
             "give either auto_exposure (each PNG its own exposure) or exposure_from (one shared exposure), not both",
         ));
     }
-    let ext = p.path.extension();
+    let t = p.input.ty;
+    let ext = if t == crate::values::ty::BRACKETS_T {
+        let pattern = brackets::frame_pattern(&p.path.0).ok_or_else(|| {
+            CheckProblem::at(
+                SaveParams::path,
+                "brackets are saved one file per frame: give a folder (\"frames/\": frame_0.png, frame_1.png, ...) or a path with {frame} (\"frames/shot_{frame}.jpg\")",
+            )
+        })?;
+        OutputPath(pattern).extension()
+    } else {
+        p.path.extension()
+    };
     if p.ktx_format != KtxFormat::Rgba16f && ext != "ktx2" {
         return Err(CheckProblem::at(SaveParams::ktx_format, "ktx_format applies to .ktx2 files only"));
     }
@@ -105,7 +118,6 @@ fn check(ctx: &CheckContext, p: SaveParams<Check>) -> Result<(), CheckProblem> {
     if p.sh.is_some() && ext != "ktx" {
         return Err(CheckProblem::at(SaveParams::sh, "sh applies to .ktx files only (Filament's key \"sh\")"));
     }
-    let t = p.input.ty;
     if p.png_format != PngFormat::Srgb8 && (ext != "png" || t == crate::values::ty::CURVES_T) {
         return Err(CheckProblem::at(
             SaveParams::png_format,
@@ -138,6 +150,14 @@ fn check(ctx: &CheckContext, p: SaveParams<Check>) -> Result<(), CheckProblem> {
 fn eval(ctx: &mut OpContext, p: SaveParams) -> Result<Value, OpError> {
     let rel_path = p.path.0.clone();
     let value = p.input.value();
+    if let Some(b) = value.get::<crate::values::Brackets>() {
+        let fail = |m: String| OpError::Invalid(format!("encoding {rel_path}: {m}"));
+        let pattern =
+            brackets::frame_pattern(&rel_path).ok_or_else(|| fail("a bracket needs a folder or {frame}".into()))?;
+        let mut files = brackets::save_frames(b, &pattern).map_err(fail)?.into_iter();
+        let (first_path, first) = files.next().ok_or_else(|| fail("an empty bracket".into()))?;
+        return Ok(Value::new(FileBlob { rel_path: first_path, bytes: first, more: files.collect() }));
+    }
     let ext = p.path.extension();
     // The texel format of a KTX file (either version), for the warnings.
     let ktx = match ext.as_str() {
