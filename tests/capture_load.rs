@@ -323,6 +323,12 @@ fn the_cache_key_follows_the_files_contents_and_names_not_their_times_on_disk() 
     let (_, renamed) = sb.run_ok(&graph, &[]);
     assert_eq!(renamed.status_of("b"), "computed");
     assert_ne!(renamed.key_of("b"), edited.key_of("b"));
+    // The folder moved (another machine's layout): the key holds no path, so the same key.
+    std::fs::rename(sb.join("a"), sb.join("moved")).unwrap();
+    let graph =
+        sb.write("moved.ron", r#"(nodes: { "b": LoadBrackets(paths: "moved/"), "s": Save(input: "b", path: "f/") })"#);
+    let (_, moved) = sb.run_ok(&graph, &[]);
+    assert_eq!(moved.key_of("b"), renamed.key_of("b"));
 }
 
 #[test]

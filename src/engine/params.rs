@@ -68,6 +68,10 @@ pub enum FieldKind {
     /// A file to read, or `builtin:NAME`. A loader's path is not part of its cache key: the
     /// file's content is.
     Path,
+    /// Files to read named by a folder or a glob (`captures/kitchen/`, `shots/*.jpg`), relative
+    /// to the pipeline file; like `Path`, left out of the cache key of an operator whose content
+    /// key hashes the files it names.
+    InputPattern,
     /// A file to write, relative to the output folder: it must stay inside it, and two nodes
     /// may not write the same path (both checked at validation).
     OutputPath,
@@ -116,6 +120,7 @@ impl FieldKind {
             FieldKind::Text => "string".into(),
             FieldKind::TextList { .. } => "list of strings".into(),
             FieldKind::Path => "path".into(),
+            FieldKind::InputPattern => "folder or glob".into(),
             FieldKind::OutputPath => "output path".into(),
             FieldKind::Choice(options) => options.join(" | "),
             FieldKind::Tuple { len, .. } => format!("({})", vec!["float"; *len].join(", ")),
@@ -463,6 +468,27 @@ impl Param for InputPath {
     fn from_value(v: &ParamValue) -> Option<Self> {
         match v {
             ParamValue::Text(s) => Some(InputPath(s.clone())),
+            _ => None,
+        }
+    }
+}
+
+/// Files to read named by a folder or a glob (`captures/kitchen/`, `captures/kitchen/*.jpg`),
+/// relative to the pipeline file (on the command line, to the working folder, as a path). The
+/// operator that reads them hashes their contents into its content key; the text is not keyed.
+#[derive(Clone, Debug, PartialEq)]
+pub struct InputPattern(pub String);
+
+impl Param for InputPattern {
+    fn kind(_: Option<(f64, f64)>) -> FieldKind {
+        FieldKind::InputPattern
+    }
+    fn to_value(&self) -> Option<ParamValue> {
+        Some(ParamValue::Text(self.0.clone()))
+    }
+    fn from_value(v: &ParamValue) -> Option<Self> {
+        match v {
+            ParamValue::Text(s) => Some(InputPattern(s.clone())),
             _ => None,
         }
     }

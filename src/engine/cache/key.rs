@@ -74,7 +74,7 @@ pub fn node_key_with(
             }
             continue;
         }
-        if matches!(field.kind, FieldKind::Path) && spec.content_key.is_some() {
+        if matches!(field.kind, FieldKind::Path | FieldKind::InputPattern) && spec.content_key.is_some() {
             continue;
         }
         let Some(value) = node.params.values.get(field.name) else { continue };

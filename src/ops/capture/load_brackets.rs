@@ -14,9 +14,9 @@
 //! time and no `exposure_times`, a count of `exposure_times` that differs from the files, a
 //! 16-bit frame among 8-bit ones, a file that is not an image and an empty folder or glob are
 //! pipeline errors before anything runs; the run checks the decoded frames again. The cache key
-//! is every file's name, in order, and BLAKE3 content hash, plus the fields (the times, and the
-//! `paths` text: a folder or glob is not an input-file field, which the key would leave out, so
-//! moving the captures recomputes them; rewriting a file with the same bytes does not). Frames
+//! is every file's name, in order, and BLAKE3 content hash, plus the times; not the `paths` text
+//! (an `InputPattern`, which keys leave out like an input file's path), so moving the captures,
+//! or running on another machine with them elsewhere, keeps the key. Frames
 //! are decoded in parallel.
 
 use std::path::Path;
@@ -26,6 +26,7 @@ use rayon::prelude::*;
 use super::bracket_files::{self, Blame, BracketFile, FrameFacts};
 use crate::engine::fields::Check;
 use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec, Size};
+use crate::engine::params::InputPattern;
 use crate::engine::typed_op::Op;
 use crate::engine::value::Value;
 use crate::formats::photo;
@@ -35,7 +36,7 @@ use crate::values::ty::*;
 crate::params! {
     pub struct LoadBracketsParams {
         /// a folder of photographs (with or without a trailing /) or a glob (`captures/kitchen/*.jpg`), relative to the pipeline file; files in name order
-        pub paths: String,
+        pub paths: InputPattern,
         /// the exposure times in seconds, one per file in name order; absent: each file's EXIF ExposureTime
         #[range(0.0, 1e6)]
         pub exposure_times: Option<Vec<f64>>,
@@ -76,7 +77,7 @@ fn facts(file: &BracketFile, need_time: bool) -> Result<FrameFacts, String> {
 }
 
 fn check(ctx: &CheckContext, p: LoadBracketsParams<Check>) -> Result<(), CheckProblem> {
-    let files = bracket_files::list(ctx.base_dir, &p.paths).map_err(|m| problem(Blame::Paths, m))?;
+    let files = bracket_files::list(ctx.base_dir, &p.paths.0).map_err(|m| problem(Blame::Paths, m))?;
     let given = p.exposure_times.as_deref();
     let facts: Vec<FrameFacts> = files
         .par_iter()
@@ -88,7 +89,7 @@ fn check(ctx: &CheckContext, p: LoadBracketsParams<Check>) -> Result<(), CheckPr
 
 /// The first file's size (every frame's, once validation has passed).
 fn size(ctx: &CheckContext, p: LoadBracketsParams<Check>) -> Size {
-    let files = bracket_files::list(ctx.base_dir, &p.paths).ok()?;
+    let files = bracket_files::list(ctx.base_dir, &p.paths.0).ok()?;
     let h = photo::header(&files.first()?.path).ok()?;
     Some((h.width as u64, h.height as u64))
 }
@@ -105,7 +106,7 @@ fn key_of(parts: &[(String, blake3::Hash)]) -> Vec<u8> {
 }
 
 fn content_key(p: LoadBracketsParams<Check>, base_dir: &Path) -> Result<Vec<u8>, OpError> {
-    let files = bracket_files::list(base_dir, &p.paths).map_err(OpError::Invalid)?;
+    let files = bracket_files::list(base_dir, &p.paths.0).map_err(OpError::Invalid)?;
     let parts = files
         .par_iter()
         .map(|f| {
@@ -117,7 +118,7 @@ fn content_key(p: LoadBracketsParams<Check>, base_dir: &Path) -> Result<Vec<u8>,
 }
 
 fn eval(ctx: &mut OpContext, p: LoadBracketsParams) -> Result<Value, OpError> {
-    let files = bracket_files::list(ctx.base_dir, &p.paths).map_err(OpError::Invalid)?;
+    let files = bracket_files::list(ctx.base_dir, &p.paths.0).map_err(OpError::Invalid)?;
     let decoded = files
         .par_iter()
         .map(|f| {
@@ -134,7 +135,7 @@ fn eval(ctx: &mut OpContext, p: LoadBracketsParams) -> Result<Value, OpError> {
     if ctx.content_key.is_some_and(|key| key != key_of(&parts).as_slice()) {
         return Err(OpError::Invalid(format!(
             "the files of {:?} changed while hdrflow was running; run again",
-            p.paths
+            p.paths.0
         )));
     }
     let facts: Vec<FrameFacts> = files

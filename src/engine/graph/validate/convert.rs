@@ -31,7 +31,7 @@ pub(super) fn convert(field: &FieldSpec, value: &Ron) -> Result<ParamValue, Stri
             Ron::Bool(b) => Ok(ParamValue::Bool(*b)),
             _ => Err(found()),
         },
-        FieldKind::Text | FieldKind::Path => match value {
+        FieldKind::Text | FieldKind::Path | FieldKind::InputPattern => match value {
             Ron::Str(s) => Ok(ParamValue::Text(s.clone())),
             _ => Err(found()),
         },

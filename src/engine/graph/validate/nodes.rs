@@ -141,7 +141,8 @@ pub(super) fn apply_overrides(
             continue;
         };
         let kind = field.kind.clone();
-        let is_text = matches!(kind, FieldKind::Text | FieldKind::Path | FieldKind::OutputPath);
+        let is_text =
+            matches!(kind, FieldKind::Text | FieldKind::Path | FieldKind::InputPattern | FieldKind::OutputPath);
         let value = match syntax::parse(&o.value) {
             Ok(v) if !is_text || matches!(v.value, Ron::Str(_)) => v,
             // A shell strips quotes: `--set env.path=../x.exr` means the string.
@@ -155,7 +156,7 @@ pub(super) fn apply_overrides(
         // A relative path typed on the command line is relative to the working folder, not to
         // the pipeline file's (keys hold file contents, never paths, so this costs no cache hit).
         let value = match (&kind, value) {
-            (FieldKind::Path, Spanned { value: Ron::Str(path), pos })
+            (FieldKind::Path | FieldKind::InputPattern, Spanned { value: Ron::Str(path), pos })
                 if !path.starts_with("builtin:") && Path::new(&path).is_relative() =>
             {
                 let abs = std::env::current_dir().map(|d| d.join(&path)).unwrap_or_else(|_| path.clone().into());
