@@ -17,9 +17,10 @@
 //! registry beside the types.
 //!
 //! Every reader returns a [`crate::values::Image`]: f32 samples, row 0 at the top, 1, 3 or 4 (EXR
-//! alpha) channels. [`decode_by_extension_with`] takes [`DecodeOptions`]: the EXR part or layer,
-//! the window (display or data), and the colour space (converted to linear Rec. 709 from EXR
-//! `chromaticities` or Radiance `PRIMARIES`, or as stored).
+//! alpha) channels; photographs are the exception: [`photo`] returns their integer codes, which
+//! `LoadImage` turns into floats and `LoadBrackets` keeps. [`decode_by_extension_with`] takes
+//! [`DecodeOptions`]: the EXR part or layer, the window (display or data), and the colour space
+//! (converted to linear Rec. 709 from EXR `chromaticities` or Radiance `PRIMARIES`, or as stored).
 //! f32 (not f16) in memory because real suns exceed the half-float maximum of 65504
 //! (`../shared/NOTES.md`, "Formats": the park map's sun is 69120).
 //!
