@@ -18,7 +18,7 @@
 use crate::engine::fields::Input;
 use crate::engine::op::{OpContext, OpError, OpSpec, Outputs};
 use crate::engine::typed_op::{Op, Port};
-use crate::maths::capture::align::{align_brackets, max_bits_for, reference_index};
+use crate::maths::capture::align::{align_brackets, max_bits_for, reference_index, Pairing};
 use crate::maths::capture::mtb::max_level;
 use crate::values::ty::*;
 use crate::values::{Brackets, Metrics};
@@ -31,6 +31,8 @@ crate::params! {
         /// the largest shift to search for, pixels: max_bits = ceil(log2(max_shift)) (64: OpenCV's 6)
         #[range(1, 32768)]
         pub max_shift: u32 = 64,
+        /// Chained: each frame against its neighbour towards the middle one, the shifts added; Reference: each against the middle frame, as OpenCV's AlignMTB
+        pub pairing: Pairing = Pairing::Chained,
     }
 }
 
@@ -54,7 +56,7 @@ fn eval(_: &mut OpContext, p: AlignBracketsParams) -> Result<Outputs, OpError> {
     if b.frames.is_empty() {
         return Err(OpError::Invalid("the bracket has no frames to align".into()));
     }
-    let shifts = align_brackets(&mut b, p.max_shift);
+    let shifts = align_brackets(&mut b, p.max_shift, p.pairing);
     let levels = max_level(b.width, b.height, max_bits_for(p.max_shift)) + 1;
     let mut fields = vec![
         ("reference".to_string(), reference_index(b.frames.len()) as f64),
@@ -81,6 +83,6 @@ mod tests {
         // The maths is tested in maths::capture::align; a bracket round-trips its shape here.
         let f = |t: f64| Frame { name: format!("{t}"), time: t, codes: Codes::U8(vec![9; 12]), covered: None };
         let mut b = Brackets::new(2, 2, 8, vec![f(1.0), f(2.0)]).unwrap();
-        assert_eq!(align_brackets(&mut b, 64), vec![(0, 0), (0, 0)]);
+        assert_eq!(align_brackets(&mut b, 64, Pairing::Chained), vec![(0, 0), (0, 0)]);
     }
 }
