@@ -4,13 +4,14 @@
 //! there; the target is at most half). The frames are a smooth synthetic scene (a
 //! radiance ramp over 14 stops with a texture), made once outside the timing; the codes are
 //! the encoded exposure, so every frame has clipped, black and well-exposed regions. Variants:
-//! the three weights and Consistency deghosting. `HDRFLOW_BENCH_SMALL=1` uses 1500 x 1000.
+//! the three weights and Consistency deghosting; then `AlignBrackets`' search (both pairings). `HDRFLOW_BENCH_SMALL=1` uses 1500 x 1000.
 //!
 //!     cargo bench --bench capture
 
 use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+use hdrflow::maths::capture::align::{bracket_shifts, Pairing};
 use hdrflow::maths::capture::merge::{merge, Deghost, Weight};
 use hdrflow::maths::capture::response::{Known, Response};
 use hdrflow::values::brackets::{Brackets, Codes, Frame};
@@ -50,6 +51,15 @@ fn capture(c: &mut Criterion) {
     ] {
         group.bench_function(format!("{weight}_{deghost}"), |bench| {
             bench.iter(|| black_box(merge(black_box(&b), &r, weight, deghost)).image.len())
+        });
+    }
+    group.finish();
+    // AlignBrackets' search on the same frames (both pairings), without moving them.
+    let mut group = c.benchmark_group(format!("align_brackets_7x{w}x{h}_8bit"));
+    group.sample_size(10);
+    for pairing in [Pairing::Chained, Pairing::Reference] {
+        group.bench_function(format!("{pairing:?}"), |bench| {
+            bench.iter(|| black_box(bracket_shifts(black_box(&b), 64, pairing)).len())
         });
     }
     group.finish();

@@ -263,31 +263,3 @@ mod tests {
         assert_eq!(align_brackets(&mut b, 64, Pairing::Chained), offsets.to_vec());
     }
 }
-
-#[cfg(test)]
-mod timing {
-    use super::*;
-
-    /// `cargo test --lib align_24mp -- --ignored --nocapture`: three 6000 x 4000 frames.
-    #[test]
-    #[ignore = "timing, 216 MB of frames"]
-    fn align_24mp() {
-        let (w, h) = (6000, 4000);
-        let frame = |k: u64, t: f64| {
-            let codes = (0..w * h * 3)
-                .map(|i| {
-                    let (x, y) = ((i / 3 % w) as u64 / 7, (i / 3 / w) as u64 / 5);
-                    let v = (x.wrapping_add(k) ^ y).wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 56;
-                    v as u8
-                })
-                .collect();
-            Frame { name: format!("{k}"), time: t, codes: Codes::U8(codes), covered: None }
-        };
-        let mut b = Brackets::new(w, h, 8, vec![frame(0, 1.0), frame(0, 2.0), frame(1, 4.0)]).unwrap();
-        let start = std::time::Instant::now();
-        let shifts = align_brackets(&mut b, 64, Pairing::Chained);
-        // The search and one moved frame are timed; the shifts of this periodic pattern are not
-        // a test (known_shifts_between_exposures_are_recovered_exactly is).
-        eprintln!("3 frames of 24 MP aligned in {:.2?} ({} shifts)", start.elapsed(), shifts.len());
-    }
-}
