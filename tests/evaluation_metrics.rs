@@ -11,7 +11,7 @@ use hdrflow::values::Image;
 /// either image (the angle's 0/0), a dynamic range of 10^4, pixels off the mask that differ.
 fn images(w: usize, h: usize) -> (Image, Image, Image) {
     let hash = |x: usize, y: usize, k: usize| {
-        let v = (x * 73856093 ^ y * 19349663 ^ k * 83492791) % 1000;
+        let v = ((x * 73856093) ^ (y * 19349663) ^ (k * 83492791)) % 1000;
         v as f32 / 1000.0
     };
     let gt = Image::from_fn_rgb(w, h, |x, y| {
@@ -25,8 +25,12 @@ fn images(w: usize, h: usize) -> (Image, Image, Image) {
     for i in (0..w * h).step_by(17) {
         pred.data[3 * i..3 * i + 3].fill(0.0);
     }
-    let alpha =
-        Image::from_vec(w, h, 1, (0..w * h).map(|i| if (i / w + i % w) % 5 == 0 { 0.0 } else { 1.0 }).collect());
+    let alpha = Image::from_vec(
+        w,
+        h,
+        1,
+        (0..w * h).map(|i| if (i / w + i % w).is_multiple_of(5) { 0.0 } else { 1.0 }).collect(),
+    );
     (pred, alpha, gt)
 }
 
