@@ -54,6 +54,8 @@ impl<T> Clone for Port<T> {
 }
 impl<T> Copy for Port<T> {}
 
+// Beside `Port`, not beside `Outputs::with` in `op.rs`: `op.rs` is below this file (this file
+// imports it), and `Port` belongs to the typed item.
 impl Outputs {
     /// Adds the value of `port`.
     pub fn port<T: ValueData>(self, port: Port<T>, data: T) -> Self {
