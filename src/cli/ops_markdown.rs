@@ -15,7 +15,7 @@ use std::sync::Arc;
 
 use crate::engine::cache::store::write_atomic;
 use crate::engine::op::OpSpec;
-use crate::engine::params::{Arity, FieldKind, FieldSpec};
+use crate::engine::params::{with_range, Arity, FieldKind, FieldSpec};
 use crate::engine::registry::Registry;
 
 /// The command that writes the checked-in pages (printed in each page and by the test).
@@ -158,11 +158,6 @@ fn index(registry: &Registry, specs: &[&Arc<OpSpec>]) -> String {
 /// `Rec709 | Rec2020`. Numbers print as `hdrflow ops` prints them (`FieldKind::range`: `in [0, 1]`,
 /// `>= 0`); an unbounded range is left out.
 fn field_type(kind: &FieldKind) -> String {
-    let range = match kind.range() {
-        Some(r) if r.starts_with('[') => format!(" in {r}"),
-        Some(r) => format!(" {r}"),
-        None => String::new(),
-    };
     let length = match kind.length() {
         Some((min, usize::MAX)) => format!("{min} or more "),
         Some((min, max)) if min == max => format!("{min} "),
@@ -182,11 +177,11 @@ fn field_type(kind: &FieldKind) -> String {
                 Arity::List { .. } => format!("list of {length}inputs: {accepts}"),
             }
         }
-        FieldKind::Float { .. } => format!("float{range}"),
-        FieldKind::Int { .. } => format!("integer{range}"),
-        FieldKind::Tuple { len, .. } => format!("{len} floats{range}"),
-        FieldKind::Color { .. } => format!("(r, g, b) or grey{range}"),
-        FieldKind::NumberList { .. } => format!("list of {length}numbers{range}"),
+        FieldKind::Float { .. } => with_range("float", kind.range()),
+        FieldKind::Int { .. } => with_range("integer", kind.range()),
+        FieldKind::Tuple { len, .. } => with_range(&format!("{len} floats"), kind.range()),
+        FieldKind::Color { .. } => with_range("(r, g, b) or grey", kind.range()),
+        FieldKind::NumberList { .. } => with_range(&format!("list of {length}numbers"), kind.range()),
         FieldKind::TextList { .. } => format!("list of {length}strings"),
         other => other.describe(),
     }

@@ -184,7 +184,7 @@ fn int_range(min: i64, max: i64) -> Option<String> {
 }
 
 /// `kind in [min, max]`, `kind <= max`, `kind >= min` or `kind`, from [`fmt_range`]'s range.
-fn with_range(kind: &str, range: Option<String>) -> String {
+pub fn with_range(kind: &str, range: Option<String>) -> String {
     match range {
         Some(r) if r.starts_with('[') => format!("{kind} in {r}"),
         Some(r) => format!("{kind} {r}"),
