@@ -16,5 +16,17 @@ if [ ! -e /usr/share/vulkan/icd.d/lvp_icd.x86_64.json ]; then
     echo "warning: no lavapipe ICD (apt-get install -y mesa-vulkan-drivers); the binary builds but cannot render" >&2
 fi
 # --locked: the committed clients/bevy/Cargo.lock, never a newer Bevy dependency.
-cargo build --locked --quiet --manifest-path "$root/clients/bevy/Cargo.toml" --target-dir "$target" >&2
+# A failed build prints its messages with each line cut to 400 characters (the linker's command
+# line alone is tens of kilobytes and would hide the reason printed after it), and the free disk
+# space (a Bevy build needs some 4 GB; a full disk is the usual reason a link fails).
+log=$(mktemp)
+if ! cargo build --locked --quiet --manifest-path "$root/clients/bevy/Cargo.toml" --target-dir "$target" 2>"$log"; then
+    cut -c1-400 "$log" >&2
+    df -h "$target" >&2
+    rm -f "$log"
+    echo "error: the Bevy client did not build (messages above)" >&2
+    exit 1
+fi
+cat "$log" >&2
+rm -f "$log"
 echo "$target/debug/hdrflow-bevy-render"
