@@ -1,0 +1,234 @@
+//! The lighting-estimation protocol's probe spheres (DiffusionLight-evaluation's
+//! `stylelight/{mirror,matte_silver,diffuse}.py`), computed from the map instead of path traced:
+//! the scene's camera, lens, pixel filter and sphere ([`camera`], [`mesh`]), the world lookup of
+//! Cycles' Environment Texture ([`environment`]), Principled BSDF v1 as Cycles 3.4 evaluates it
+//! ([`principled`]) and a fixed quadrature of the rough lobes ([`shading`]). The book page
+//! `docs/src/guides/evaluation-protocol.md` states the scene with its sources.
+//!
+//! **A pixel** `(c, r)` of the `W x H` render (row 0 at the top) is the Cycles film's value: the
+//! mean over camera rays whose filter offsets follow the Blackman-Harris pixel filter and whose lens
+//! points cover the aperture, each ray carrying the sphere's radiance when it hits it and nothing
+//! (transparent film) when it misses. Its alpha is the fraction of rays that hit; its RGB is thus
+//! premultiplied by that coverage, as in the protocol's EXR files. The rays are a fixed 4D point set
+//! of `pixel_samples` points (offsets `x`, `y` through the filter's inverse CDF, lens `u`, `v`
+//! through Cycles' polygon mapping; a Halton set, the first coordinate `i / n`), the same in every
+//! pixel. A pixel whose rays neither all hit nor all miss is on the silhouette: it is computed
+//! again with [`EDGE_FACTOR`] times as many rays, so the coverage is resolved finely where it is
+//! fractional.
+//!
+//! - Mirror: each hitting ray's reflection is looked up ([`shading::mirror`]), as Cycles does.
+//! - Rough materials: the radiance varies over the sphere on the scale of the lobes (degrees of
+//!   normal, many pixels), so it is integrated once per pixel, at the hit of the pinhole ray through
+//!   the mean filter offset of the hitting rays, and multiplied by the coverage. For a radiance
+//!   linear across the pixel's footprint (about 1.3 px across with the lens blur) this is the mean;
+//!   the departure is second order in the footprint over the radiance's own scale.
+//!
+//! Rows run in parallel (rayon); every pixel is a pure function of the inputs, so the image is
+//! the same bit for bit whatever the number of threads.
+
+pub mod camera;
+pub mod environment;
+pub mod mesh;
+pub mod principled;
+pub mod shading;
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use self::camera::{Camera, FilterTable, Ray, FILTER_WIDTH};
+use self::environment::Environment;
+use self::mesh::Hit;
+use self::principled::{Principled, Smith};
+use self::shading::Quadrature;
+use crate::maths::sampling::sequences::radical_inverse;
+use crate::values::Image;
+
+/// How many times `pixel_samples` a silhouette pixel gets.
+pub const EDGE_FACTOR: usize = 16;
+
+crate::choice! {
+    /// The protocol's three materials (Principled BSDF v1, base colour 0.8).
+    pub enum ProbeMaterial {
+        /// mirror.py: metallic 1, specular 0.2, roughness 0 (a perfect mirror)
+        Mirror,
+        /// matte_silver.py: metallic 1, specular 0, roughness 0.3271 (its glossy mix is not linked)
+        MatteSilver,
+        /// diffuse.py: metallic 0, specular 0.5, roughness 0.364 (Disney diffuse + a GGX coat)
+        Diffuse,
+    }
+}
+
+crate::choice! {
+    /// The sphere's geometry.
+    pub enum ProbeShape {
+        /// the mesh Blender renders: a 32 x 16 UV sphere, subdivided once, smooth-shaded
+        Subdivided,
+        /// the unit sphere
+        Ideal,
+    }
+}
+
+impl ProbeMaterial {
+    /// The Principled node of the material's script.
+    pub fn principled(self, smith: Smith) -> Principled {
+        match self {
+            ProbeMaterial::Mirror => Principled::new(0.8, 1.0, 0.2, 0.0, smith),
+            ProbeMaterial::MatteSilver => Principled::new(0.8, 1.0, 0.0, 0.3271, smith),
+            ProbeMaterial::Diffuse => Principled::new(0.8, 0.0, 0.5, 0.364, smith),
+        }
+    }
+}
+
+/// What to render.
+#[derive(Clone, Copy, Debug)]
+pub struct ProbeSettings {
+    pub material: ProbeMaterial,
+    pub shape: ProbeShape,
+    pub width: usize,
+    pub height: usize,
+    /// lobe directions per shading point (rough materials)
+    pub samples: usize,
+    /// camera rays per pixel (filter and lens)
+    pub pixel_samples: usize,
+    pub smith: Smith,
+}
+
+/// The render: RGBA (RGB premultiplied by the coverage) and the coverage alone.
+pub struct ProbeRender {
+    pub image: Image,
+    pub mask: Image,
+}
+
+/// One camera ray of a pixel: its filter offset in pixels and its aperture point.
+struct PixelSample {
+    offset: [f64; 2],
+    lens: [f64; 2],
+}
+
+/// The fixed pattern of `n` rays per pixel: a 4D Halton set whose first coordinate is `(i + 1/2) / n`,
+/// through the filter's inverse CDF (x, y) and the aperture polygon (u, v).
+fn pattern(n: usize, filter: &FilterTable) -> Vec<PixelSample> {
+    (0..n as u64)
+        .map(|i| PixelSample {
+            offset: [filter.offset((i as f64 + 0.5) / n as f64), filter.offset(radical_inverse(i, 2))],
+            lens: camera::lens_point([radical_inverse(i, 3), radical_inverse(i, 5)]),
+        })
+        .collect()
+}
+
+struct Scene<'a> {
+    env: &'a Environment,
+    camera: Camera,
+    bsdf: Principled,
+    shape: ProbeShape,
+    quad: Quadrature,
+    /// the rays of an ordinary pixel and of a silhouette pixel
+    rays: Vec<PixelSample>,
+    edge_rays: Vec<PixelSample>,
+    /// pixels whose centre is farther than this from the frame's centre see no sphere
+    reach: f64,
+}
+
+impl Scene<'_> {
+    fn hit(&self, ray: &Ray) -> Option<Hit> {
+        match self.shape {
+            ProbeShape::Ideal => mesh::hit_ideal(ray),
+            ProbeShape::Subdivided => mesh::subdivided().hit(ray),
+        }
+    }
+
+    /// `(rgb premultiplied, coverage)` of pixel `(c, r)` with the rays of `pattern`.
+    fn pixel(&self, c: usize, r: usize, pattern: &[PixelSample]) -> ([f64; 3], f64) {
+        let (cf, rf) = (c as f64, r as f64);
+        let (dx, dy) = (cf + 0.5 - 0.5 * self.camera.width as f64, rf + 0.5 - 0.5 * self.camera.height as f64);
+        if dx.hypot(dy) > self.reach {
+            return ([0.0; 3], 0.0);
+        }
+        let n = pattern.len();
+        let mut rgb = [0.0; 3];
+        let (mut hits, mut sum_ox, mut sum_oy) = (0usize, 0.0, 0.0);
+        let mut first_hit: Option<(Hit, DVec3)> = None;
+        for s in pattern {
+            let [ox, oy] = s.offset;
+            let ray = self.camera.ray_through(cf, rf, ox, oy, s.lens);
+            let Some(hit) = self.hit(&ray) else { continue };
+            hits += 1;
+            if self.bsdf.is_mirror() {
+                let l = shading::mirror(self.env, &self.bsdf, &hit, -ray.dir);
+                (0..3).for_each(|k| rgb[k] += l[k]);
+            } else {
+                sum_ox += ox;
+                sum_oy += oy;
+                if first_hit.is_none() {
+                    first_hit = Some((hit, -ray.dir));
+                }
+            }
+        }
+        if hits == 0 {
+            return ([0.0; 3], 0.0);
+        }
+        let coverage = hits as f64 / n as f64;
+        if self.bsdf.is_mirror() {
+            return (rgb.map(|v| v / n as f64), coverage);
+        }
+        // The rough lobes once, at the pinhole ray through the hitting rays' mean offset.
+        let ray = self.camera.pinhole(cf, rf, sum_ox / hits as f64, sum_oy / hits as f64);
+        let (hit, v) = match self.hit(&ray) {
+            Some(h) => (h, -ray.dir),
+            None => first_hit.expect("a hitting ray was counted"),
+        };
+        let l = shading::rough(self.env, &self.bsdf, &hit, v, &self.quad);
+        (l.map(|v| v * coverage), coverage)
+    }
+}
+
+/// Renders the protocol's sphere of `settings.material` under `env` (a lat-long map, hdrflow's
+/// convention; see [`environment`] for how Blender reads the same file).
+pub fn render(env: &Image, settings: &ProbeSettings) -> ProbeRender {
+    let environment = Environment::new(env);
+    let filter = FilterTable::blackman_harris(FILTER_WIDTH);
+    let n = settings.pixel_samples.max(1);
+    let camera = Camera::new(settings.width, settings.height);
+    // The unit sphere's silhouette (which bounds the mesh's) plus the filter's reach and a margin
+    // for the lens blur, which is below 0.1 px at the silhouette.
+    let reach = camera.focal_px() / (camera::POSITION.length_squared() - 1.0).sqrt() + FILTER_WIDTH + 2.0;
+    let scene = Scene {
+        env: &environment,
+        camera,
+        bsdf: settings.material.principled(settings.smith),
+        shape: settings.shape,
+        quad: Quadrature::new(settings.samples),
+        rays: pattern(n, &filter),
+        edge_rays: pattern(n * EDGE_FACTOR, &filter),
+        reach,
+    };
+    let (w, h) = (settings.width, settings.height);
+    let rows: Vec<Vec<([f64; 3], f64)>> = (0..h)
+        .into_par_iter()
+        .map(|r| {
+            (0..w)
+                .map(|c| {
+                    let (rgb, a) = scene.pixel(c, r, &scene.rays);
+                    if a > 0.0 && a < 1.0 {
+                        scene.pixel(c, r, &scene.edge_rays)
+                    } else {
+                        (rgb, a)
+                    }
+                })
+                .collect()
+        })
+        .collect();
+    let mut rgba = Vec::with_capacity(w * h * 4);
+    let mut alpha = Vec::with_capacity(w * h);
+    for (rgb, a) in rows.into_iter().flatten() {
+        rgba.extend_from_slice(&[rgb[0] as f32, rgb[1] as f32, rgb[2] as f32, a as f32]);
+        alpha.push(a as f32);
+    }
+    ProbeRender {
+        image: Image::from_vec(w, h, 4, rgba),
+        mask: Image::from_vec(w, h, 1, alpha),
+    }
+}
+
+#[cfg(test)]
+mod tests;
