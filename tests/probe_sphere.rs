@@ -11,7 +11,8 @@ use hdrflow::values::Image;
 fn world(w: usize, h: usize) -> Image {
     Image::from_fn_rgb(w, h, |x, y| {
         let up = 1.0 - y as f32 / h as f32;
-        let patch = if (x as i64 - (3 * w / 4) as i64).abs() < 4 && (y as i64 - (h / 2) as i64).abs() < 3 { 8.0 } else { 0.0 };
+        let patch =
+            if (x as i64 - (3 * w / 4) as i64).abs() < 4 && (y as i64 - (h / 2) as i64).abs() < 3 { 8.0 } else { 0.0 };
         [0.3 + up + patch, 0.3 + up + 0.5 * patch, 0.3 + up]
     })
 }
@@ -29,9 +30,9 @@ fn the_three_spheres_are_saved_with_their_coverage_as_alpha_and_mask() {
         "p.ron",
         r#"(nodes: {
             "env": LoadHdr(path: "env.pfm"),
-            "mirror": ProbeSphere(env: "env", material: Mirror, width: 192, height: 108, pixel_samples: 16),
-            "silver": ProbeSphere(env: "env", material: MatteSilver, width: 192, height: 108, samples: 64, pixel_samples: 16),
-            "diffuse": ProbeSphere(env: "env", material: Diffuse, width: 192, height: 108, samples: 64, pixel_samples: 16),
+            "mirror": ProbeSphere(env: "env", material: Mirror, width: 192, height: 108, samples: 16),
+            "silver": ProbeSphere(env: "env", material: MatteSilver, width: 192, height: 108, samples: 16),
+            "diffuse": ProbeSphere(env: "env", material: Diffuse, width: 192, height: 108, samples: 16),
             "s1": Save(input: "mirror", path: "mirror.exr"),
             "s2": Save(input: "silver", path: "silver.exr"),
             "s3": Save(input: "diffuse", path: "diffuse.exr"),
@@ -73,7 +74,7 @@ fn a_map_that_is_not_two_to_one_warns_and_a_nan_texel_is_an_error() {
         "square.ron",
         r#"(nodes: {
             "env": LoadHdr(path: "square.pfm"),
-            "p": ProbeSphere(env: "env", width: 48, height: 27, pixel_samples: 4),
+            "p": ProbeSphere(env: "env", width: 48, height: 27, samples: 4),
             "s": Save(input: "p", path: "p.exr"),
         })"#,
     );
@@ -83,7 +84,7 @@ fn a_map_that_is_not_two_to_one_warns_and_a_nan_texel_is_an_error() {
         "nan.ron",
         r#"(nodes: {
             "env": LoadHdr(path: "nan.pfm"),
-            "p": ProbeSphere(env: "env", width: 48, height: 27, pixel_samples: 4),
+            "p": ProbeSphere(env: "env", width: 48, height: 27, samples: 4),
             "s": Save(input: "p", path: "p.exr"),
         })"#,
     );

@@ -145,29 +145,35 @@ impl SphereMesh {
             })
             .collect();
         let outer = positions.iter().map(|v| v.length()).fold(0.0, f64::max) * (1.0 + 1e-12);
-        let inner = triangles
-            .iter()
-            .zip(&face_normals)
-            .map(|(t, n)| n.dot(p(t[0])).abs())
-            .fold(f64::INFINITY, f64::min)
-            * (1.0 - 1e-12);
+        let inner =
+            triangles.iter().zip(&face_normals).map(|(t, n)| n.dot(p(t[0])).abs()).fold(f64::INFINITY, f64::min)
+                * (1.0 - 1e-12);
         let mut cells = vec![Vec::new(); AZIMUTH_CELLS * POLAR_CELLS];
-        let (cell_az, cell_pol) = (std::f64::consts::TAU / AZIMUTH_CELLS as f64, std::f64::consts::PI / POLAR_CELLS as f64);
+        let (cell_az, cell_pol) =
+            (std::f64::consts::TAU / AZIMUTH_CELLS as f64, std::f64::consts::PI / POLAR_CELLS as f64);
         for (id, tri) in triangles.iter().enumerate() {
             let dirs = tri.map(p);
             let pol: Vec<f64> = dirs.iter().map(|d| angles(*d).1).collect();
             let (p0, p1) = (pol.iter().cloned().fold(f64::INFINITY, f64::min), pol.iter().cloned().fold(0.0, f64::max));
             let at_pole = dirs.iter().any(|d| d.x.hypot(d.y) < 1e-6 * d.length());
             // Azimuths unwrapped about the first off-pole vertex.
-            let azs: Vec<f64> = dirs.iter().filter(|d| d.x.hypot(d.y) >= 1e-6 * d.length()).map(|d| angles(*d).0).collect();
+            let azs: Vec<f64> =
+                dirs.iter().filter(|d| d.x.hypot(d.y) >= 1e-6 * d.length()).map(|d| angles(*d).0).collect();
             let (a0, a1) = if at_pole || azs.is_empty() {
                 (0.0, std::f64::consts::TAU)
             } else {
                 let base = azs[0];
-                let un: Vec<f64> = azs.iter().map(|&a| base + (a - base + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI).collect();
+                let un: Vec<f64> = azs
+                    .iter()
+                    .map(|&a| {
+                        base + (a - base + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
+                            - std::f64::consts::PI
+                    })
+                    .collect();
                 (un.iter().cloned().fold(f64::INFINITY, f64::min), un.iter().cloned().fold(f64::NEG_INFINITY, f64::max))
             };
-            let pr = (((p0 / cell_pol) - 0.5).floor().max(0.0) as usize)..=((((p1 / cell_pol) + 0.5).floor() as usize).min(POLAR_CELLS - 1));
+            let pr = (((p0 / cell_pol) - 0.5).floor().max(0.0) as usize)
+                ..=((((p1 / cell_pol) + 0.5).floor() as usize).min(POLAR_CELLS - 1));
             let ar: Vec<usize> = if at_pole {
                 (0..AZIMUTH_CELLS).collect()
             } else {
@@ -188,8 +194,25 @@ impl SphereMesh {
 
     /// The nearest hit of `ray` on the mesh.
     pub fn hit(&self, ray: &Ray) -> Option<Hit> {
+        self.hit_near(ray, &mut None)
+    }
+
+    /// [`SphereMesh::hit`], trying first the triangle `hint` names (the last one hit, for rays
+    /// close together) and leaving in it the triangle hit. The mesh is convex (tested), so a ray
+    /// that enters a triangle from its front has no nearer hit.
+    pub fn hit_near(&self, ray: &Ray, hint: &mut Option<usize>) -> Option<Hit> {
+        if let Some(id) = *hint {
+            if self.face_normals[id].dot(ray.dir) < 0.0 {
+                if let Some((t, u, v)) = self.intersect(id, ray) {
+                    return Some(self.hit_at(ray, id, t, u, v));
+                }
+            }
+        }
         let (t0, t1) = shell_segment(ray, self.outer, self.inner)?;
-        let mut candidates: Vec<u32> = Vec::with_capacity(64);
+        // Candidates from the cells of points along the segment (on the stack; a cell near a pole
+        // holds the whole polar fan, a grazing ray crosses up to ~20 cells).
+        let mut candidates = [0u32; 1024];
+        let mut count = 0;
         let mut last_cell = usize::MAX;
         let (d0, d1) = (ray.origin + t0 * ray.dir, ray.origin + t1 * ray.dir);
         let span = d0.angle_between(d1);
@@ -199,32 +222,58 @@ impl SphereMesh {
             let (a, p) = cell_of(ray.origin + t * ray.dir);
             let cell = p * AZIMUTH_CELLS + a;
             if cell != last_cell {
-                candidates.extend_from_slice(&self.cells[cell]);
+                let ids = &self.cells[cell];
+                let room = (candidates.len() - count).min(ids.len());
+                candidates[count..count + room].copy_from_slice(&ids[..room]);
+                count += room;
                 last_cell = cell;
             }
         }
+        if count == candidates.len() {
+            // Never seen (the fullest ray sees a few hundred): test every triangle rather than lose one.
+            return self.hit_brute(ray, hint);
+        }
+        let candidates = &mut candidates[..count];
         candidates.sort_unstable();
-        candidates.dedup();
         let mut best: Option<(f64, usize, f64, f64)> = None;
-        for &id in &candidates {
+        let mut previous = u32::MAX;
+        for &id in candidates.iter() {
+            if id == previous {
+                continue;
+            }
+            previous = id;
             let id = id as usize;
             if let Some((t, u, v)) = self.intersect(id, ray) {
-                if best.map_or(true, |b| t < b.0) {
+                if best.is_none_or(|b| t < b.0) {
                     best = Some((t, id, u, v));
                 }
             }
         }
         let (t, id, u, v) = best?;
+        *hint = Some(id);
+        Some(self.hit_at(ray, id, t, u, v))
+    }
+
+    fn hit_brute(&self, ray: &Ray, hint: &mut Option<usize>) -> Option<Hit> {
+        let (t, id, u, v) = (0..self.triangles.len())
+            .filter_map(|id| self.intersect(id, ray).map(|(t, u, v)| (t, id, u, v)))
+            .min_by(|a, b| a.0.total_cmp(&b.0))?;
+        *hint = Some(id);
+        Some(self.hit_at(ray, id, t, u, v))
+    }
+
+    fn hit_at(&self, ray: &Ray, id: usize, t: f64, u: f64, v: f64) -> Hit {
         let [a, b, c] = self.triangles[id].map(|i| i as usize);
         let n = (1.0 - u - v) * self.normals[a] + u * self.normals[b] + v * self.normals[c];
         let ng = self.face_normals[id];
         let normal = if n.length_squared() > 0.0 { n.normalize() } else { ng };
-        Some(Hit { t, point: ray.origin + t * ray.dir, normal, ng })
+        Hit { t, point: ray.origin + t * ray.dir, normal, ng }
     }
 
     /// Moller-Trumbore: `(t, u, v)` with the hit at `(1 - u - v) p0 + u p1 + v p2`.
     fn intersect(&self, id: usize, ray: &Ray) -> Option<(f64, f64, f64)> {
-        let [a, b, c] = self.triangles[id].map(|i| self.positions[i as usize]);
+        let t = &self.triangles[id];
+        let (a, b, c) = (self.positions[t[0] as usize], self.positions[t[1] as usize], self.positions[t[2] as usize]);
         let (e1, e2) = (b - a, c - a);
         let pv = ray.dir.cross(e2);
         let det = e1.dot(pv);
@@ -293,6 +342,9 @@ mod tests {
                     .filter_map(|id| m.intersect(id, &ray))
                     .map(|(t, _, _)| t)
                     .fold(f64::INFINITY, f64::min);
+                let mut hint = Some((i * 67 + j * 13) % m.triangles.len());
+                let hinted = m.hit_near(&ray, &mut hint).map(|h| h.t);
+                assert_eq!(hinted, m.hit(&ray).map(|h| h.t), "{i} {j}: a hint changed the hit");
                 match m.hit(&ray) {
                     Some(h) => {
                         assert_eq!(h.t, brute, "{i} {j}");
@@ -307,9 +359,19 @@ mod tests {
     }
 
     #[test]
+    fn the_mesh_is_convex_so_a_front_facing_hit_is_the_nearest() {
+        let m = subdivided();
+        for (t, n) in m.triangles.iter().zip(&m.face_normals) {
+            let p0 = m.positions[t[0] as usize];
+            let worst = m.positions.iter().map(|p| n.dot(*p - p0)).fold(f64::NEG_INFINITY, f64::max);
+            assert!(worst < 1e-9, "a vertex {worst} above the plane of {t:?}");
+        }
+    }
+
+    #[test]
     fn the_ideal_sphere_is_hit_at_radius_one() {
         let ray = Ray { origin: DVec3::new(0.0, -16.0, 2.0), dir: DVec3::new(0.0, 16.0, -2.0).normalize() };
         let h = hit_ideal(&ray).unwrap();
-        assert!((h.point.length() - 1.0).abs() < 1e-14 && (h.t - (260f64.sqrt() - 1.0)).abs() < 1e-12);
+        assert!((h.point.length() - 1.0).abs() < 1e-12 && (h.t - (260f64.sqrt() - 1.0)).abs() < 1e-12);
     }
 }

@@ -2,7 +2,8 @@
 //! `stylelight/{mirror,matte_silver,diffuse}.py`), computed from the map instead of path traced:
 //! the scene's camera, lens, pixel filter and sphere ([`camera`], [`mesh`]), the world lookup of
 //! Cycles' Environment Texture ([`environment`]), Principled BSDF v1 as Cycles 3.4 evaluates it
-//! ([`principled`]) and a fixed quadrature of the rough lobes ([`shading`]). The book page
+//! ([`principled`]) and the rough lobes summed over the map's texels ([`texel_tree`], [`shading`]).
+//! The book page
 //! `docs/src/guides/evaluation-protocol.md` states the scene with its sources.
 //!
 //! **A pixel** `(c, r)` of the `W x H` render (row 0 at the top) is the Cycles film's value: the
@@ -10,7 +11,7 @@
 //! points cover the aperture, each ray carrying the sphere's radiance when it hits it and nothing
 //! (transparent film) when it misses. Its alpha is the fraction of rays that hit; its RGB is thus
 //! premultiplied by that coverage, as in the protocol's EXR files. The rays are a fixed 4D point set
-//! of `pixel_samples` points (offsets `x`, `y` through the filter's inverse CDF, lens `u`, `v`
+//! of `samples` points (offsets `x`, `y` through the filter's inverse CDF, lens `u`, `v`
 //! through Cycles' polygon mapping; a Halton set, the first coordinate `i / n`), the same in every
 //! pixel. A pixel whose rays neither all hit nor all miss is on the silhouette: it is computed
 //! again with [`EDGE_FACTOR`] times as many rays, so the coverage is resolved finely where it is
@@ -31,6 +32,7 @@ pub mod environment;
 pub mod mesh;
 pub mod principled;
 pub mod shading;
+pub mod texel_tree;
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -39,12 +41,12 @@ use self::camera::{Camera, FilterTable, Ray, FILTER_WIDTH};
 use self::environment::Environment;
 use self::mesh::Hit;
 use self::principled::{Principled, Smith};
-use self::shading::Quadrature;
+use self::texel_tree::TexelTree;
 use crate::maths::sampling::sequences::radical_inverse;
 use crate::values::Image;
 
-/// How many times `pixel_samples` a silhouette pixel gets.
-pub const EDGE_FACTOR: usize = 16;
+/// How many times `samples` camera rays a silhouette pixel gets.
+pub const EDGE_FACTOR: usize = 4;
 
 crate::choice! {
     /// The protocol's three materials (Principled BSDF v1, base colour 0.8).
@@ -86,10 +88,10 @@ pub struct ProbeSettings {
     pub shape: ProbeShape,
     pub width: usize,
     pub height: usize,
-    /// lobe directions per shading point (rough materials)
+    /// camera rays per pixel (pixel filter and lens)
     pub samples: usize,
-    /// camera rays per pixel (filter and lens)
-    pub pixel_samples: usize,
+    /// the texel sum's refinement ratio (rough materials; [`texel_tree`])
+    pub cut: f64,
     pub smith: Smith,
 }
 
@@ -118,31 +120,45 @@ fn pattern(n: usize, filter: &FilterTable) -> Vec<PixelSample> {
 
 struct Scene<'a> {
     env: &'a Environment,
+    tree: Option<&'a TexelTree>,
     camera: Camera,
     bsdf: Principled,
     shape: ProbeShape,
-    quad: Quadrature,
     /// the rays of an ordinary pixel and of a silhouette pixel
     rays: Vec<PixelSample>,
     edge_rays: Vec<PixelSample>,
     /// pixels whose centre is farther than this from the frame's centre see no sphere
     reach: f64,
+    /// every ray of a pixel whose centre is nearer than this to the frame's centre hits it
+    inside: f64,
+    /// the mean filter offset of `rays`
+    mean_offset: [f64; 2],
 }
 
 impl Scene<'_> {
-    fn hit(&self, ray: &Ray) -> Option<Hit> {
+    /// The sphere's hit; `hint` carries the last triangle hit between calls.
+    fn hit(&self, ray: &Ray, hint: &mut Option<usize>) -> Option<Hit> {
         match self.shape {
             ProbeShape::Ideal => mesh::hit_ideal(ray),
-            ProbeShape::Subdivided => mesh::subdivided().hit(ray),
+            ProbeShape::Subdivided => mesh::subdivided().hit_near(ray, hint),
         }
     }
 
     /// `(rgb premultiplied, coverage)` of pixel `(c, r)` with the rays of `pattern`.
-    fn pixel(&self, c: usize, r: usize, pattern: &[PixelSample]) -> ([f64; 3], f64) {
+    fn pixel(&self, c: usize, r: usize, pattern: &[PixelSample], hint: &mut Option<usize>) -> ([f64; 3], f64) {
         let (cf, rf) = (c as f64, r as f64);
         let (dx, dy) = (cf + 0.5 - 0.5 * self.camera.width as f64, rf + 0.5 - 0.5 * self.camera.height as f64);
-        if dx.hypot(dy) > self.reach {
+        let from_centre = dx.hypot(dy);
+        if from_centre > self.reach {
             return ([0.0; 3], 0.0);
+        }
+        if !self.bsdf.is_mirror() && from_centre < self.inside {
+            // Every ray hits: the rough lobes at the pattern's mean offset, full coverage.
+            let [ox, oy] = self.mean_offset;
+            let ray = self.camera.pinhole(cf, rf, ox, oy);
+            if let Some(hit) = self.hit(&ray, hint) {
+                return (self.rough(&hit, -ray.dir), 1.0);
+            }
         }
         let n = pattern.len();
         let mut rgb = [0.0; 3];
@@ -151,7 +167,7 @@ impl Scene<'_> {
         for s in pattern {
             let [ox, oy] = s.offset;
             let ray = self.camera.ray_through(cf, rf, ox, oy, s.lens);
-            let Some(hit) = self.hit(&ray) else { continue };
+            let Some(hit) = self.hit(&ray, hint) else { continue };
             hits += 1;
             if self.bsdf.is_mirror() {
                 let l = shading::mirror(self.env, &self.bsdf, &hit, -ray.dir);
@@ -173,12 +189,16 @@ impl Scene<'_> {
         }
         // The rough lobes once, at the pinhole ray through the hitting rays' mean offset.
         let ray = self.camera.pinhole(cf, rf, sum_ox / hits as f64, sum_oy / hits as f64);
-        let (hit, v) = match self.hit(&ray) {
+        let (hit, v) = match self.hit(&ray, hint) {
             Some(h) => (h, -ray.dir),
             None => first_hit.expect("a hitting ray was counted"),
         };
-        let l = shading::rough(self.env, &self.bsdf, &hit, v, &self.quad);
-        (l.map(|v| v * coverage), coverage)
+        (self.rough(&hit, v).map(|v| v * coverage), coverage)
+    }
+
+    fn rough(&self, hit: &Hit, v: DVec3) -> [f64; 3] {
+        let tree = self.tree.expect("rough materials have a texel tree");
+        shading::rough(tree, &self.bsdf, hit, v)
     }
 }
 
@@ -186,31 +206,46 @@ impl Scene<'_> {
 /// convention; see [`environment`] for how Blender reads the same file).
 pub fn render(env: &Image, settings: &ProbeSettings) -> ProbeRender {
     let environment = Environment::new(env);
+    let bsdf = settings.material.principled(settings.smith);
+    // The texel tree only serves the rough lobes.
+    let tree = (!bsdf.is_mirror()).then(|| TexelTree::new(env, settings.cut, shading::lobe_width(&bsdf)));
     let filter = FilterTable::blackman_harris(FILTER_WIDTH);
-    let n = settings.pixel_samples.max(1);
+    let n = settings.samples.max(1);
     let camera = Camera::new(settings.width, settings.height);
-    // The unit sphere's silhouette (which bounds the mesh's) plus the filter's reach and a margin
-    // for the lens blur, which is below 0.1 px at the silhouette.
-    let reach = camera.focal_px() / (camera::POSITION.length_squared() - 1.0).sqrt() + FILTER_WIDTH + 2.0;
+    // The silhouettes of spheres inside and around the shape, widened and narrowed by the filter's
+    // reach and a margin for the lens blur (below 0.1 px at the silhouette).
+    let silhouette =
+        |radius: f64| camera.focal_px() * radius / (camera::POSITION.length_squared() - radius * radius).sqrt();
+    let inner = match settings.shape {
+        ProbeShape::Ideal => 1.0,
+        ProbeShape::Subdivided => mesh::subdivided().inner,
+    };
+    let reach = silhouette(1.0) + FILTER_WIDTH + 2.0;
+    let inside = silhouette(inner) - FILTER_WIDTH - 2.0;
+    let rays = pattern(n, &filter);
+    let mean_offset = [0, 1].map(|k| rays.iter().map(|s| s.offset[k]).sum::<f64>() / n as f64);
     let scene = Scene {
         env: &environment,
+        tree: tree.as_ref(),
         camera,
-        bsdf: settings.material.principled(settings.smith),
+        bsdf,
         shape: settings.shape,
-        quad: Quadrature::new(settings.samples),
-        rays: pattern(n, &filter),
+        rays,
         edge_rays: pattern(n * EDGE_FACTOR, &filter),
         reach,
+        inside,
+        mean_offset,
     };
     let (w, h) = (settings.width, settings.height);
     let rows: Vec<Vec<([f64; 3], f64)>> = (0..h)
         .into_par_iter()
         .map(|r| {
+            let mut hint = None;
             (0..w)
                 .map(|c| {
-                    let (rgb, a) = scene.pixel(c, r, &scene.rays);
+                    let (rgb, a) = scene.pixel(c, r, &scene.rays, &mut hint);
                     if a > 0.0 && a < 1.0 {
-                        scene.pixel(c, r, &scene.edge_rays)
+                        scene.pixel(c, r, &scene.edge_rays, &mut hint)
                     } else {
                         (rgb, a)
                     }
@@ -224,10 +259,7 @@ pub fn render(env: &Image, settings: &ProbeSettings) -> ProbeRender {
         rgba.extend_from_slice(&[rgb[0] as f32, rgb[1] as f32, rgb[2] as f32, a as f32]);
         alpha.push(a as f32);
     }
-    ProbeRender {
-        image: Image::from_vec(w, h, 4, rgba),
-        mask: Image::from_vec(w, h, 1, alpha),
-    }
+    ProbeRender { image: Image::from_vec(w, h, 4, rgba), mask: Image::from_vec(w, h, 1, alpha) }
 }
 
 #[cfg(test)]

@@ -65,6 +65,8 @@ pub struct Principled {
     /// Fresnel at normal incidence, `mix(0.08 specular, base, metallic)`
     pub cspec0: f64,
     pub smith: Smith,
+    /// the dielectric reflectance at normal incidence, `F_d(1, ior)`
+    f0: f64,
 }
 
 impl Principled {
@@ -72,14 +74,16 @@ impl Principled {
     /// into closures.
     pub fn new(base: f64, metallic: f64, specular: f64, roughness: f64, smith: Smith) -> Principled {
         let metallic = metallic.clamp(0.0, 1.0);
+        let ior = 2.0 / (1.0 - (0.08 * specular).max(0.0).sqrt()) - 1.0;
         Principled {
             diffuse: base * (1.0 - metallic),
             roughness,
             // `bsdf_microfacet_ggx_fresnel_setup` saturates alpha and cspec0.
             alpha: (roughness * roughness).clamp(0.0, 1.0),
-            ior: 2.0 / (1.0 - (0.08 * specular).max(0.0).sqrt()) - 1.0,
+            ior,
             cspec0: (0.08 * specular * (1.0 - metallic) + base * metallic).clamp(0.0, 1.0),
             smith,
+            f0: reflectance_unpolarised(1.0, 1.0, ior),
         }
     }
 
@@ -90,11 +94,14 @@ impl Principled {
 
     /// Principled v1's Fresnel at `cos = l.m`.
     pub fn fresnel(&self, cos: f64) -> f64 {
-        let f0 = reflectance_unpolarised(1.0, 1.0, self.ior);
-        if f0 >= 1.0 {
+        if self.ior == 1.0 {
+            // F_d(., 1) = 0 (off grazing): the remapped Fresnel is cspec0 at every angle.
+            return self.cspec0;
+        }
+        if self.f0 >= 1.0 {
             return 1.0;
         }
-        let fh = (reflectance_unpolarised(cos.abs(), 1.0, self.ior) - f0) / (1.0 - f0);
+        let fh = (reflectance_unpolarised(cos.abs(), 1.0, self.ior) - self.f0) / (1.0 - self.f0);
         self.cspec0 * (1.0 - fh) + fh
     }
 
