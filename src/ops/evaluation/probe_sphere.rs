@@ -1,4 +1,4 @@
-//! `ProbeSphere(env, material: Mirror, width: 960, height: 540, samples: 64, cut: 0.25,
+//! `ProbeSphere(env, material: Mirror, width: 960, height: 540, samples: 64, cut: 0.125,
 //! shape: Subdivided, smith: Separable)`: the lighting-estimation protocol's sphere under `env`, as
 //! its Blender scene renders it (DiffusionLight-evaluation's `stylelight/mirror.py`,
 //! `matte_silver.py`, `diffuse.py`), computed deterministically from the map
@@ -53,7 +53,7 @@ crate::params! {
         /// MatteSilver and Diffuse: a block of texels counts as one when its radius is at most cut
         /// times its angle from the lobe's peak plus the lobe's width (0: every texel)
         #[range(0.0, 1.0)]
-        pub cut: f64 = 0.25,
+        pub cut: f64 = 0.125,
         /// Subdivided (the mesh Blender renders) or Ideal (the unit sphere)
         pub shape: ProbeShape = ProbeShape::Subdivided,
         /// Separable (Cycles of Blender 3.4, Debian's) or Correlated (Blender 3.5+)

@@ -73,6 +73,11 @@ const POLAR_CELLS: usize = 32;
 /// padding of the triangles' boxes. A segment spans at most ~18 degrees (a ray grazing the shell).
 const SEGMENT_STEP: f64 = std::f64::consts::PI / 180.0;
 
+/// The steepness (cosine from the triangle's plane normal) above which a hit on the hinted
+/// triangle is taken without a search: 11.5 degrees from grazing, twice the steepest slope a dent
+/// can hide a nearer hit under (atan(2 * 2.2e-3 / 0.05)).
+const HINT_MIN_COS: f64 = 0.2;
+
 static MESH: OnceLock<SphereMesh> = OnceLock::new();
 
 /// The protocol's subdivided sphere (parsed once).
@@ -198,11 +203,14 @@ impl SphereMesh {
     }
 
     /// [`SphereMesh::hit`], trying first the triangle `hint` names (the last one hit, for rays
-    /// close together) and leaving in it the triangle hit. The mesh is convex (tested), so a ray
-    /// that enters a triangle from its front has no nearer hit.
+    /// close together) and leaving in it the triangle hit. The mesh is convex but for dents at most
+    /// 2.2e-3 deep where a non-planar quad is split across its valley (tested), under triangles
+    /// about 0.1 wide: a ray that enters a triangle from its front more steeply than
+    /// [`HINT_MIN_COS`] cannot have left and re-entered the sphere before, so that hit is the
+    /// nearest; a grazing ray takes the full search.
     pub fn hit_near(&self, ray: &Ray, hint: &mut Option<usize>) -> Option<Hit> {
         if let Some(id) = *hint {
-            if self.face_normals[id].dot(ray.dir) < 0.0 {
+            if self.face_normals[id].dot(ray.dir) < -HINT_MIN_COS {
                 if let Some((t, u, v)) = self.intersect(id, ray) {
                     return Some(self.hit_at(ray, id, t, u, v));
                 }
@@ -359,13 +367,14 @@ mod tests {
     }
 
     #[test]
-    fn the_mesh_is_convex_so_a_front_facing_hit_is_the_nearest() {
+    fn the_mesh_is_convex_but_for_shallow_dents() {
         let m = subdivided();
+        let mut worst: f64 = 0.0;
         for (t, n) in m.triangles.iter().zip(&m.face_normals) {
             let p0 = m.positions[t[0] as usize];
-            let worst = m.positions.iter().map(|p| n.dot(*p - p0)).fold(f64::NEG_INFINITY, f64::max);
-            assert!(worst < 1e-9, "a vertex {worst} above the plane of {t:?}");
+            worst = worst.max(m.positions.iter().map(|p| n.dot(*p - p0)).fold(f64::NEG_INFINITY, f64::max));
         }
+        assert!(worst > 0.0 && worst < 2.2e-3, "the deepest dent is {worst}");
     }
 
     #[test]
