@@ -7,8 +7,9 @@
 # For each MAP (anything LoadHdr reads; converted to OpenEXR first, as the protocol's scripts only
 # read .exr), renders the three spheres with Blender (bench/peers/blender_probe.sh, seeds 0 and 1)
 # and with hdrflow (ProbeSphere at the same size, default fields), then prints, per map and
-# material, bench/peers/compare_probe.py's line for Blender seed 0 against seed 1 (the noise) and for
-# hdrflow against seed 0. HDRFLOW (default target/release/hdrflow) and BLENDER name the binaries.
+# material, bench/peers/compare_probe.py's lines for Blender seed 0 against seed 1 (the noise), for
+# hdrflow against seed 0, and for hdrflow against the two seeds' mean (the ratio to their noise).
+# HDRFLOW (default target/release/hdrflow) and BLENDER name the binaries.
 set -euo pipefail
 if [ $# -lt 5 ]; then
     sed -n '2,12p' "$0"
@@ -56,6 +57,9 @@ EOF
     end=$(date +%s.%N)
     printf 'hdrflow, %s: %.2f s for the three spheres\n' "$name" "$(echo "$end - $start" | bc)"
     for material in mirror matte_silver diffuse; do
+        "$blender" --background --factory-startup --python "$here/compare_probe.py" -- \
+            "$out/hdrflow/$material/$name.exr" "$out/blender-0/$material/$name.exr" \
+            "$out/blender-1/$material/$name.exr" "$name $material ratio" 2>/dev/null | grep ratio || true
         for pair in "blender-1 blender-0 noise" "hdrflow blender-0 hdrflow"; do
             set -- $pair
             "$blender" --background --factory-startup --python "$here/compare_probe.py" -- \

@@ -190,7 +190,7 @@ mod tests {
         assert!((cam.up - DVec3::new(0.0, 2.0 / s, 16.0 / s)).length() < 1e-15);
         assert!((cam.focus - s).abs() < 1e-12);
         assert!((cam.aperture - 0.085).abs() < 1e-15);
-        assert!((cam.focal_px() - 2266.666_666_666_667).abs() < 1e-9);
+        assert!((cam.focal_px() - 2_266.666_666_666_667).abs() < 1e-9);
         // The centre of the frame (between the four middle pixels) looks at the origin.
         let ray = cam.pinhole(479.5, 269.5, 0.0, 0.0);
         assert!(ray.dir.cross(-POSITION.normalize()).length() < 1e-15);
