@@ -22,7 +22,9 @@
 //!   normal, many pixels), so it is integrated once per pixel, at the hit of the pinhole ray through
 //!   the mean filter offset of the hitting rays, and multiplied by the coverage. For a radiance
 //!   linear across the pixel's footprint (about 1.3 px across with the lens blur) this is the mean;
-//!   the departure is second order in the footprint over the radiance's own scale.
+//!   the departure is second order in the footprint over the radiance's own scale. A pixel whose
+//!   rays all lie within the silhouette of a sphere inside the mesh (its nearest triangle plane's
+//!   distance) is not traced: coverage 1, shaded at the pattern's mean offset, the same result.
 //!
 //! Rows run in parallel (rayon); every pixel is a pure function of the inputs, so the image is
 //! the same bit for bit whatever the number of threads.
