@@ -1,0 +1,113 @@
+//! The world of the protocol's scene: an equirectangular map read as Cycles' Environment Texture
+//! node reads it.
+//!
+//! **Orientation.** The scripts feed the node the world's `Generated` coordinate, which for the
+//! background is the ray direction, so the node's own mapping applies (`kernel/svm/image.h`,
+//! `kernel/camera/projection.h` `direction_to_equirectangular`): for a Blender direction
+//! `(x, y, z)` (Z up), `u = 0.5 - atan2(y, x) / (2 pi)` and `v = 1 - acos(z) / pi`, `v = 1` the
+//! image's top row. The map's centre column faces +X. In hdrflow's lat-long convention
+//! (`geometry::latlong`: Y up, centre column -Z) the same texel is in direction `(-y, z, -x)`
+//! ([`to_hdrflow`]); both put `u = x / W` and `theta = pi (row + 0.5) / H` (row 0 at the top) on
+//! the same texel centres, so a map needs no resampling.
+//!
+//! **The lookup** is the node's own: bilinear (`Linear`, the node's default) on texel
+//! centres, `x = u W - 0.5`, `y = v H - 0.5`, with the `EXTENSION_REPEAT` wrap of
+//! `EnvironmentTextureNode::image_params` in both axes: a lookup within half a row of a pole blends
+//! in the row at the other pole, as Cycles' does. The mirror reads it; the rough lobes sum the
+//! texels themselves ([`super::texel_tree`]).
+
+use std::f64::consts::PI;
+
+use glam::DVec3;
+
+use crate::values::Image;
+
+/// The hdrflow lat-long direction of Blender world direction `d` (the same texel).
+#[inline]
+pub fn to_hdrflow(d: DVec3) -> DVec3 {
+    DVec3::new(-d.y, d.z, -d.x)
+}
+
+/// The Blender world direction of hdrflow direction `d` (inverse of [`to_hdrflow`]).
+#[inline]
+pub fn from_hdrflow(d: DVec3) -> DVec3 {
+    DVec3::new(-d.z, -d.x, d.y)
+}
+
+/// An environment map read as Cycles' Environment Texture reads it.
+pub struct Environment {
+    width: usize,
+    height: usize,
+    rgb: Vec<[f64; 3]>,
+}
+
+impl Environment {
+    /// The map's first three channels (one channel is read as grey).
+    pub fn new(map: &Image) -> Environment {
+        let (w, h) = (map.width, map.height);
+        let rgb = (0..h).flat_map(|y| (0..w).map(move |x| (x, y))).map(|(x, y)| map.rgb(x, y).map(f64::from)).collect();
+        Environment { width: w, height: h, rgb }
+    }
+
+    /// Cycles' lookup in Blender direction `d` (need not be unit, must not be zero): bilinear on
+    /// texel centres, `x = u W - 0.5` and `y = (1 - v) H - 0.5` from the top, both wrapping.
+    pub fn cycles(&self, d: DVec3) -> [f64; 3] {
+        let len = d.length();
+        let u = 0.5 - d.y.atan2(d.x) / (2.0 * PI);
+        let t = (d.z / len).clamp(-1.0, 1.0).acos() / PI;
+        let (fx, fy) = (u * self.width as f64 - 0.5, t * self.height as f64 - 0.5);
+        let (x0, y0) = (fx.floor(), fy.floor());
+        let (tx, ty) = (fx - x0, fy - y0);
+        let (w, h) = (self.width as isize, self.height as isize);
+        let (x0, y0) = (x0 as isize, y0 as isize);
+        let mut out = [0.0; 3];
+        for (dx, dy, wgt) in
+            [(0, 0, (1.0 - tx) * (1.0 - ty)), (1, 0, tx * (1.0 - ty)), (0, 1, (1.0 - tx) * ty), (1, 1, tx * ty)]
+        {
+            let p = self.rgb[(y0 + dy).rem_euclid(h) as usize * self.width + (x0 + dx).rem_euclid(w) as usize];
+            for c in 0..3 {
+                out[c] += wgt * p[c];
+            }
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::latlong;
+
+    fn ramp(w: usize, h: usize) -> Image {
+        Image::from_fn_rgb(w, h, |x, y| [x as f32, y as f32, (x * 7 + y * 3) as f32])
+    }
+
+    #[test]
+    fn blenders_axes_land_on_the_texels_the_docs_name() {
+        let (w, h) = (64, 32);
+        let env = Environment::new(&ramp(w, h));
+        // At a texel centre the bilinear lookup is the texel; +X is the centre column, +Y a
+        // quarter of the width, -Y three quarters, on the equator (between rows 15 and 16).
+        let at = |d: DVec3| env.cycles(d);
+        let eq = |x: f64| [x, 15.5, x * 7.0 + 15.5 * 3.0];
+        for (d, col) in [(DVec3::X, 31.5), (DVec3::Y, 15.5), (-DVec3::Y, 47.5)] {
+            let got = at(d);
+            assert!((0..3).all(|c| (got[c] - eq(col)[c]).abs() < 1e-9), "{d}: {got:?}");
+        }
+        // hdrflow's texel-centre directions, turned to Blender's, read back their own texel.
+        for (x, y) in [(0, 0), (10, 3), (63, 31), (40, 20)] {
+            let d = from_hdrflow(DVec3::from(latlong::texel_direction(x, y, w, h)));
+            let got = at(d);
+            assert!((got[0] - x as f64).abs() < 1e-9 && (got[1] - y as f64).abs() < 1e-9, "{x} {y}: {got:?}");
+            assert!((to_hdrflow(d) - DVec3::from(latlong::texel_direction(x, y, w, h))).length() < 1e-15);
+        }
+    }
+
+    #[test]
+    fn near_a_pole_the_lookup_wraps_to_the_other_pole_as_cycles_repeat_does() {
+        let env = Environment::new(&ramp(8, 4));
+        // Straight up: fy = -0.5, half row 0 (y = 0) and half row 3 (y = 3).
+        let got = env.cycles(DVec3::Z);
+        assert!((got[1] - 1.5).abs() < 1e-12, "{got:?}");
+    }
+}

@@ -1,0 +1,386 @@
+//! The protocol's sphere and the camera rays' hits on it: the unit sphere (`Ideal`) or the mesh
+//! Blender renders (`Subdivided`), a UV sphere of 32 segments and 16 rings after one level of
+//! Catmull-Clark subdivision, smooth-shaded.
+//!
+//! The mesh is Blender 3.4.1's own evaluation, dumped by `bench/peers/blender_sphere_mesh.py`
+//! into `sphere_mesh.bin` (1986 vertices with their normals, 3968 triangles, Blender world
+//! coordinates): subdivision places the vertices on the limit surface, between radius 0.9872 and
+//! 0.9976, so the rendered sphere is slightly smaller than the unit sphere and its shading normals
+//! are not radial. As in Cycles (`kernel/geom/triangle.h` `triangle_smooth_normal`), the shading
+//! normal at a hit is the barycentric interpolation of the three vertex normals, normalised, and the
+//! geometric normal `Ng` the triangle's.
+//!
+//! Intersection: every triangle lies in the shell between the sphere through the farthest vertex
+//! and the sphere tangent to the nearest triangle plane, and covers a small patch of directions
+//! from the origin (the mesh is star-shaped about it). A ray's hit, if any, lies on its segment
+//! inside that shell; the triangles whose patch of directions (an azimuth-polar box, padded by half
+//! a cell) meets the directions of points along the segment are tested exactly (Moller-Trumbore,
+//! f64), and the nearest hit wins.
+
+use std::sync::OnceLock;
+
+use glam::DVec3;
+
+use super::camera::Ray;
+
+/// Where a ray meets the sphere.
+#[derive(Clone, Copy, Debug)]
+pub struct Hit {
+    /// the distance along the ray
+    pub t: f64,
+    pub point: DVec3,
+    /// the shading normal (interpolated and normalised; radial for the ideal sphere)
+    pub normal: DVec3,
+    /// the geometric normal (the triangle's; radial for the ideal sphere)
+    pub ng: DVec3,
+}
+
+/// The unit sphere at the origin.
+pub fn hit_ideal(ray: &Ray) -> Option<Hit> {
+    let b = ray.origin.dot(ray.dir);
+    let c = ray.origin.length_squared() - 1.0;
+    let disc = b * b - c;
+    if disc < 0.0 {
+        return None;
+    }
+    let t = -b - disc.sqrt();
+    if t <= 0.0 {
+        return None;
+    }
+    let point = ray.origin + t * ray.dir;
+    let normal = point.normalize();
+    Some(Hit { t, point, normal, ng: normal })
+}
+
+/// The subdivided sphere Blender renders, with its lookup grid.
+pub struct SphereMesh {
+    pub positions: Vec<DVec3>,
+    pub normals: Vec<DVec3>,
+    pub triangles: Vec<[u32; 3]>,
+    face_normals: Vec<DVec3>,
+    /// radius of the sphere through the farthest vertex
+    pub outer: f64,
+    /// distance of the nearest triangle plane from the origin
+    pub inner: f64,
+    /// triangle ids per grid cell, `cells[polar * AZIMUTH_CELLS + azimuth]`
+    cells: Vec<Vec<u32>>,
+}
+
+const AZIMUTH_CELLS: usize = 64;
+const POLAR_CELLS: usize = 32;
+/// The largest angle, in radians, between the directions of consecutive points along a ray's
+/// segment in the shell whose cells are looked up: 1 degree, well within the half-cell (2.8 degree)
+/// padding of the triangles' boxes. A segment spans at most ~18 degrees (a ray grazing the shell).
+const SEGMENT_STEP: f64 = std::f64::consts::PI / 180.0;
+
+/// The steepness (cosine from the triangle's plane normal) above which a hit on the hinted
+/// triangle is taken without a search: 11.5 degrees from grazing, twice the steepest slope a dent
+/// can hide a nearer hit under (atan(2 * 2.2e-3 / 0.05)).
+const HINT_MIN_COS: f64 = 0.2;
+
+static MESH: OnceLock<SphereMesh> = OnceLock::new();
+
+/// The protocol's subdivided sphere (parsed once).
+pub fn subdivided() -> &'static SphereMesh {
+    MESH.get_or_init(|| SphereMesh::parse(include_bytes!("sphere_mesh.bin")).expect("the embedded sphere mesh parses"))
+}
+
+/// The cell (azimuth, polar) of a direction.
+fn cell_of(d: DVec3) -> (usize, usize) {
+    let (az, pol) = angles(d);
+    let a = ((az / std::f64::consts::TAU) * AZIMUTH_CELLS as f64).floor() as isize;
+    let p = ((pol / std::f64::consts::PI) * POLAR_CELLS as f64).floor() as isize;
+    (a.rem_euclid(AZIMUTH_CELLS as isize) as usize, p.clamp(0, POLAR_CELLS as isize - 1) as usize)
+}
+
+/// Azimuth in [0, 2 pi) about +Z from +X, and polar angle from +Z.
+fn angles(d: DVec3) -> (f64, f64) {
+    let len = d.length();
+    let mut az = d.y.atan2(d.x);
+    if az < 0.0 {
+        az += std::f64::consts::TAU;
+    }
+    (az, (d.z / len).clamp(-1.0, 1.0).acos())
+}
+
+impl SphereMesh {
+    /// Parses the dump format of `bench/peers/blender_sphere_mesh.py`.
+    pub fn parse(bytes: &[u8]) -> Result<SphereMesh, String> {
+        let magic = b"HFSPHERE";
+        if bytes.len() < 16 || &bytes[..8] != magic {
+            return Err("not a sphere mesh dump".into());
+        }
+        let u32_at = |i: usize| u32::from_le_bytes(bytes[i..i + 4].try_into().unwrap());
+        let f32_at = |i: usize| f32::from_le_bytes(bytes[i..i + 4].try_into().unwrap()) as f64;
+        let (nv, nt) = (u32_at(8) as usize, u32_at(12) as usize);
+        if bytes.len() != 16 + nv * 24 + nt * 12 {
+            return Err(format!("a dump of {nv} vertices and {nt} triangles has the wrong length"));
+        }
+        let mut positions = Vec::with_capacity(nv);
+        let mut normals = Vec::with_capacity(nv);
+        for i in 0..nv {
+            let o = 16 + i * 24;
+            positions.push(DVec3::new(f32_at(o), f32_at(o + 4), f32_at(o + 8)));
+            normals.push(DVec3::new(f32_at(o + 12), f32_at(o + 16), f32_at(o + 20)).normalize());
+        }
+        let mut triangles = Vec::with_capacity(nt);
+        for i in 0..nt {
+            let o = 16 + nv * 24 + i * 12;
+            let t = [u32_at(o), u32_at(o + 4), u32_at(o + 8)];
+            if t.iter().any(|&v| v as usize >= nv) {
+                return Err(format!("triangle {i} names a vertex past {nv}"));
+            }
+            triangles.push(t);
+        }
+        Ok(SphereMesh::build(positions, normals, triangles))
+    }
+
+    fn build(positions: Vec<DVec3>, normals: Vec<DVec3>, triangles: Vec<[u32; 3]>) -> SphereMesh {
+        let p = |i: u32| positions[i as usize];
+        let face_normals: Vec<DVec3> = triangles
+            .iter()
+            .map(|&[a, b, c]| {
+                let n = (p(b) - p(a)).cross(p(c) - p(a)).normalize();
+                // Outward: Blender's winding gives it; keep it so whatever the dump's order.
+                if n.dot(p(a) + p(b) + p(c)) < 0.0 {
+                    -n
+                } else {
+                    n
+                }
+            })
+            .collect();
+        let outer = positions.iter().map(|v| v.length()).fold(0.0, f64::max) * (1.0 + 1e-12);
+        let inner =
+            triangles.iter().zip(&face_normals).map(|(t, n)| n.dot(p(t[0])).abs()).fold(f64::INFINITY, f64::min)
+                * (1.0 - 1e-12);
+        let mut cells = vec![Vec::new(); AZIMUTH_CELLS * POLAR_CELLS];
+        let (cell_az, cell_pol) =
+            (std::f64::consts::TAU / AZIMUTH_CELLS as f64, std::f64::consts::PI / POLAR_CELLS as f64);
+        for (id, tri) in triangles.iter().enumerate() {
+            let dirs = tri.map(p);
+            let pol: Vec<f64> = dirs.iter().map(|d| angles(*d).1).collect();
+            let (p0, p1) = (pol.iter().cloned().fold(f64::INFINITY, f64::min), pol.iter().cloned().fold(0.0, f64::max));
+            let at_pole = dirs.iter().any(|d| d.x.hypot(d.y) < 1e-6 * d.length());
+            // Azimuths unwrapped about the first off-pole vertex.
+            let azs: Vec<f64> =
+                dirs.iter().filter(|d| d.x.hypot(d.y) >= 1e-6 * d.length()).map(|d| angles(*d).0).collect();
+            let (a0, a1) = if at_pole || azs.is_empty() {
+                (0.0, std::f64::consts::TAU)
+            } else {
+                let base = azs[0];
+                let un: Vec<f64> = azs
+                    .iter()
+                    .map(|&a| {
+                        base + (a - base + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
+                            - std::f64::consts::PI
+                    })
+                    .collect();
+                (un.iter().cloned().fold(f64::INFINITY, f64::min), un.iter().cloned().fold(f64::NEG_INFINITY, f64::max))
+            };
+            let pr = (((p0 / cell_pol) - 0.5).floor().max(0.0) as usize)
+                ..=((((p1 / cell_pol) + 0.5).floor() as usize).min(POLAR_CELLS - 1));
+            let ar: Vec<usize> = if at_pole {
+                (0..AZIMUTH_CELLS).collect()
+            } else {
+                let (lo, hi) = (((a0 / cell_az) - 0.5).floor() as isize, ((a1 / cell_az) + 0.5).floor() as isize);
+                (lo..=hi).map(|a| a.rem_euclid(AZIMUTH_CELLS as isize) as usize).collect()
+            };
+            for pc in pr {
+                for &ac in &ar {
+                    let cell = &mut cells[pc * AZIMUTH_CELLS + ac];
+                    if cell.last() != Some(&(id as u32)) {
+                        cell.push(id as u32);
+                    }
+                }
+            }
+        }
+        SphereMesh { positions, normals, triangles, face_normals, outer, inner, cells }
+    }
+
+    /// The nearest hit of `ray` on the mesh.
+    pub fn hit(&self, ray: &Ray) -> Option<Hit> {
+        self.hit_near(ray, &mut None)
+    }
+
+    /// [`SphereMesh::hit`], trying first the triangle `hint` names (the last one hit, for rays
+    /// close together) and leaving in it the triangle hit. The mesh is convex but for dents at most
+    /// 2.2e-3 deep where a non-planar quad is split across its valley (tested), under triangles
+    /// about 0.1 wide: a ray that enters a triangle from its front more steeply than
+    /// [`HINT_MIN_COS`] cannot have left and re-entered the sphere before, so that hit is the
+    /// nearest; a grazing ray takes the full search.
+    pub fn hit_near(&self, ray: &Ray, hint: &mut Option<usize>) -> Option<Hit> {
+        if let Some(id) = *hint {
+            if self.face_normals[id].dot(ray.dir) < -HINT_MIN_COS {
+                if let Some((t, u, v)) = self.intersect(id, ray) {
+                    return Some(self.hit_at(ray, id, t, u, v));
+                }
+            }
+        }
+        let (t0, t1) = shell_segment(ray, self.outer, self.inner)?;
+        // Candidates from the cells of points along the segment (on the stack; a cell near a pole
+        // holds the whole polar fan, a grazing ray crosses up to ~20 cells).
+        let mut candidates = [0u32; 1024];
+        let mut count = 0;
+        let mut last_cell = usize::MAX;
+        let (d0, d1) = (ray.origin + t0 * ray.dir, ray.origin + t1 * ray.dir);
+        let span = d0.angle_between(d1);
+        let points = ((span / SEGMENT_STEP).ceil() as usize + 1).max(2);
+        for k in 0..points {
+            let t = t0 + (t1 - t0) * k as f64 / (points - 1) as f64;
+            let (a, p) = cell_of(ray.origin + t * ray.dir);
+            let cell = p * AZIMUTH_CELLS + a;
+            if cell != last_cell {
+                let ids = &self.cells[cell];
+                let room = (candidates.len() - count).min(ids.len());
+                candidates[count..count + room].copy_from_slice(&ids[..room]);
+                count += room;
+                last_cell = cell;
+            }
+        }
+        if count == candidates.len() {
+            // Never seen (the fullest ray sees a few hundred): test every triangle rather than lose one.
+            return self.hit_brute(ray, hint);
+        }
+        let candidates = &mut candidates[..count];
+        candidates.sort_unstable();
+        let mut best: Option<(f64, usize, f64, f64)> = None;
+        let mut previous = u32::MAX;
+        for &id in candidates.iter() {
+            if id == previous {
+                continue;
+            }
+            previous = id;
+            let id = id as usize;
+            if let Some((t, u, v)) = self.intersect(id, ray) {
+                if best.is_none_or(|b| t < b.0) {
+                    best = Some((t, id, u, v));
+                }
+            }
+        }
+        let (t, id, u, v) = best?;
+        *hint = Some(id);
+        Some(self.hit_at(ray, id, t, u, v))
+    }
+
+    fn hit_brute(&self, ray: &Ray, hint: &mut Option<usize>) -> Option<Hit> {
+        let (t, id, u, v) = (0..self.triangles.len())
+            .filter_map(|id| self.intersect(id, ray).map(|(t, u, v)| (t, id, u, v)))
+            .min_by(|a, b| a.0.total_cmp(&b.0))?;
+        *hint = Some(id);
+        Some(self.hit_at(ray, id, t, u, v))
+    }
+
+    fn hit_at(&self, ray: &Ray, id: usize, t: f64, u: f64, v: f64) -> Hit {
+        let [a, b, c] = self.triangles[id].map(|i| i as usize);
+        let n = (1.0 - u - v) * self.normals[a] + u * self.normals[b] + v * self.normals[c];
+        let ng = self.face_normals[id];
+        let normal = if n.length_squared() > 0.0 { n.normalize() } else { ng };
+        Hit { t, point: ray.origin + t * ray.dir, normal, ng }
+    }
+
+    /// Moller-Trumbore: `(t, u, v)` with the hit at `(1 - u - v) p0 + u p1 + v p2`.
+    fn intersect(&self, id: usize, ray: &Ray) -> Option<(f64, f64, f64)> {
+        let t = &self.triangles[id];
+        let (a, b, c) = (self.positions[t[0] as usize], self.positions[t[1] as usize], self.positions[t[2] as usize]);
+        let (e1, e2) = (b - a, c - a);
+        let pv = ray.dir.cross(e2);
+        let det = e1.dot(pv);
+        if det.abs() < 1e-300 {
+            return None;
+        }
+        let inv = 1.0 / det;
+        let tv = ray.origin - a;
+        let u = tv.dot(pv) * inv;
+        let qv = tv.cross(e1);
+        let v = ray.dir.dot(qv) * inv;
+        // A hair of tolerance so that a ray through a shared edge is never lost between triangles.
+        const EPS: f64 = 1e-12;
+        if u < -EPS || v < -EPS || u + v > 1.0 + EPS {
+            return None;
+        }
+        let t = e2.dot(qv) * inv;
+        (t > 0.0).then_some((t, u, v))
+    }
+}
+
+/// The part `[t0, t1]` of a ray inside the sphere of radius `outer` and before the sphere of radius
+/// `inner` (where it reaches it).
+fn shell_segment(ray: &Ray, outer: f64, inner: f64) -> Option<(f64, f64)> {
+    let b = ray.origin.dot(ray.dir);
+    let c0 = ray.origin.length_squared();
+    let disc = b * b - (c0 - outer * outer);
+    if disc < 0.0 {
+        return None;
+    }
+    let s = disc.sqrt();
+    let (t0, mut t1) = (-b - s, -b + s);
+    let disc_in = b * b - (c0 - inner * inner);
+    if disc_in >= 0.0 {
+        t1 = -b - disc_in.sqrt();
+    }
+    (t1 > 0.0).then_some((t0.max(0.0), t1))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_embedded_mesh_is_blenders_subdivided_uv_sphere() {
+        let m = subdivided();
+        assert_eq!((m.positions.len(), m.triangles.len()), (1986, 3968));
+        assert!(m.outer > 0.9975 && m.outer < 0.9977, "{}", m.outer);
+        assert!(m.inner > 0.98 && m.inner < 0.9873, "{}", m.inner);
+        // Every triangle is registered somewhere, and the vertex normals point outwards.
+        assert!(m.cells.iter().map(|c| c.len()).sum::<usize>() >= m.triangles.len());
+        assert!(m.positions.iter().zip(&m.normals).all(|(p, n)| p.dot(*n) > 0.99 * p.length()));
+    }
+
+    #[test]
+    fn grid_lookup_finds_the_same_hit_as_testing_every_triangle() {
+        let m = subdivided();
+        let origin = super::super::camera::POSITION;
+        let mut hits = 0;
+        for i in 0..60 {
+            for j in 0..60 {
+                // Directions over the sphere's disc and a little beyond it (the silhouette).
+                let target = DVec3::new(-1.05 + 2.1 * i as f64 / 59.0, 0.0, -1.05 + 2.1 * j as f64 / 59.0);
+                let ray = Ray { origin, dir: (target - origin).normalize() };
+                let brute = (0..m.triangles.len())
+                    .filter_map(|id| m.intersect(id, &ray))
+                    .map(|(t, _, _)| t)
+                    .fold(f64::INFINITY, f64::min);
+                let mut hint = Some((i * 67 + j * 13) % m.triangles.len());
+                let hinted = m.hit_near(&ray, &mut hint).map(|h| h.t);
+                assert_eq!(hinted, m.hit(&ray).map(|h| h.t), "{i} {j}: a hint changed the hit");
+                match m.hit(&ray) {
+                    Some(h) => {
+                        assert_eq!(h.t, brute, "{i} {j}");
+                        assert!(h.ng.dot(ray.dir) < 0.0);
+                        hits += 1;
+                    }
+                    None => assert!(brute.is_infinite(), "{i} {j}: missed a hit at {brute}"),
+                }
+            }
+        }
+        assert!(hits > 2000, "{hits}");
+    }
+
+    #[test]
+    fn the_mesh_is_convex_but_for_shallow_dents() {
+        let m = subdivided();
+        let mut worst: f64 = 0.0;
+        for (t, n) in m.triangles.iter().zip(&m.face_normals) {
+            let p0 = m.positions[t[0] as usize];
+            worst = worst.max(m.positions.iter().map(|p| n.dot(*p - p0)).fold(f64::NEG_INFINITY, f64::max));
+        }
+        assert!(worst > 0.0 && worst < 2.2e-3, "the deepest dent is {worst}");
+    }
+
+    #[test]
+    fn the_ideal_sphere_is_hit_at_radius_one() {
+        let ray = Ray { origin: DVec3::new(0.0, -16.0, 2.0), dir: DVec3::new(0.0, 16.0, -2.0).normalize() };
+        let h = hit_ideal(&ray).unwrap();
+        assert!((h.point.length() - 1.0).abs() < 1e-12 && (h.t - (260f64.sqrt() - 1.0)).abs() < 1e-12);
+    }
+}

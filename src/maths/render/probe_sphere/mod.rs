@@ -1,0 +1,268 @@
+//! The lighting-estimation protocol's probe spheres (DiffusionLight-evaluation's
+//! `stylelight/{mirror,matte_silver,diffuse}.py`), computed from the map instead of path traced:
+//! the scene's camera, lens, pixel filter and sphere ([`camera`], [`mesh`]), the world lookup of
+//! Cycles' Environment Texture ([`environment`]), Principled BSDF v1 as Cycles 3.4 evaluates it
+//! ([`principled`]) and the rough lobes summed over the map's texels ([`texel_tree`], [`shading`]).
+//! The book page
+//! `docs/src/guides/evaluation-protocol.md` states the scene with its sources.
+//!
+//! **A pixel** `(c, r)` of the `W x H` render (row 0 at the top) is the Cycles film's value: the
+//! mean over camera rays whose filter offsets follow the Blackman-Harris pixel filter and whose lens
+//! points cover the aperture, each ray carrying the sphere's radiance when it hits it and nothing
+//! (transparent film) when it misses. Its alpha is the fraction of rays that hit; its RGB is thus
+//! premultiplied by that coverage, as in the protocol's EXR files. The rays are a fixed 4D point set
+//! of `samples` points (offsets `x`, `y` through the filter's inverse CDF, lens `u`, `v`
+//! through Cycles' polygon mapping; a Halton set, the first coordinate `i / n`), the same in every
+//! pixel. A pixel whose rays neither all hit nor all miss is on the silhouette: it is computed
+//! again with [`EDGE_FACTOR`] times as many rays, so the coverage is resolved finely where it is
+//! fractional.
+//!
+//! - Mirror: each hitting ray's reflection is looked up ([`shading::mirror`]), as Cycles does.
+//! - Rough materials: the radiance varies over the sphere on the scale of the lobes (degrees of
+//!   normal, many pixels), so it is integrated once per pixel, at the hit of the pinhole ray through
+//!   the mean filter offset of the hitting rays, and multiplied by the coverage. For a radiance
+//!   linear across the pixel's footprint (about 1.3 px across with the lens blur) this is the mean;
+//!   the departure is second order in the footprint over the radiance's own scale. A pixel whose
+//!   rays all lie within the silhouette of a sphere inside the mesh (its nearest triangle plane's
+//!   distance) is not traced: coverage 1, shaded at the pattern's mean offset, the same result.
+//!
+//! Rows run in parallel (rayon); every pixel is a pure function of the inputs, so the image is
+//! the same bit for bit whatever the number of threads.
+
+pub mod camera;
+pub mod environment;
+pub mod mesh;
+pub mod principled;
+pub mod shading;
+pub mod texel_tree;
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use self::camera::{Camera, FilterTable, Ray, FILTER_WIDTH};
+use self::environment::Environment;
+use self::mesh::Hit;
+use self::principled::{Principled, Smith};
+use self::texel_tree::TexelTree;
+use crate::maths::sampling::sequences::radical_inverse;
+use crate::values::Image;
+
+/// How many times `samples` camera rays a silhouette pixel gets.
+pub const EDGE_FACTOR: usize = 4;
+
+crate::choice! {
+    /// The protocol's three materials (Principled BSDF v1, base colour 0.8).
+    pub enum ProbeMaterial {
+        /// mirror.py: metallic 1, specular 0.2, roughness 0 (a perfect mirror)
+        Mirror,
+        /// matte_silver.py: metallic 1, specular 0, roughness 0.3271 (its glossy mix is not linked)
+        MatteSilver,
+        /// diffuse.py: metallic 0, specular 0.5, roughness 0.364 (Disney diffuse + a GGX coat)
+        Diffuse,
+    }
+}
+
+crate::choice! {
+    /// The sphere's geometry.
+    pub enum ProbeShape {
+        /// the mesh Blender renders: a 32 x 16 UV sphere, subdivided once, smooth-shaded
+        Subdivided,
+        /// the unit sphere
+        Ideal,
+    }
+}
+
+impl ProbeMaterial {
+    /// The Principled node of the material's script.
+    pub fn principled(self, smith: Smith) -> Principled {
+        match self {
+            ProbeMaterial::Mirror => Principled::new(0.8, 1.0, 0.2, 0.0, smith),
+            ProbeMaterial::MatteSilver => Principled::new(0.8, 1.0, 0.0, 0.3271, smith),
+            ProbeMaterial::Diffuse => Principled::new(0.8, 0.0, 0.5, 0.364, smith),
+        }
+    }
+}
+
+/// What to render.
+#[derive(Clone, Copy, Debug)]
+pub struct ProbeSettings {
+    pub material: ProbeMaterial,
+    pub shape: ProbeShape,
+    pub width: usize,
+    pub height: usize,
+    /// camera rays per pixel (pixel filter and lens)
+    pub samples: usize,
+    /// the texel sum's refinement ratio (rough materials; [`texel_tree`])
+    pub cut: f64,
+    pub smith: Smith,
+}
+
+/// The render: RGBA (RGB premultiplied by the coverage) and the coverage alone.
+pub struct ProbeRender {
+    pub image: Image,
+    pub mask: Image,
+}
+
+/// One camera ray of a pixel: its filter offset in pixels and its aperture point.
+struct PixelSample {
+    offset: [f64; 2],
+    lens: [f64; 2],
+}
+
+/// The fixed pattern of `n` rays per pixel: a 4D Halton set whose first coordinate is `(i + 1/2) / n`,
+/// through the filter's inverse CDF (x, y) and the aperture polygon (u, v).
+fn pattern(n: usize, filter: &FilterTable) -> Vec<PixelSample> {
+    (0..n as u64)
+        .map(|i| PixelSample {
+            offset: [filter.offset((i as f64 + 0.5) / n as f64), filter.offset(radical_inverse(i, 2))],
+            lens: camera::lens_point([radical_inverse(i, 3), radical_inverse(i, 5)]),
+        })
+        .collect()
+}
+
+struct Scene<'a> {
+    env: &'a Environment,
+    tree: Option<&'a TexelTree>,
+    camera: Camera,
+    bsdf: Principled,
+    shape: ProbeShape,
+    /// the rays of an ordinary pixel and of a silhouette pixel
+    rays: Vec<PixelSample>,
+    edge_rays: Vec<PixelSample>,
+    /// pixels whose centre is farther than this from the frame's centre see no sphere
+    reach: f64,
+    /// every ray of a pixel whose centre is nearer than this to the frame's centre hits it
+    inside: f64,
+    /// the mean filter offset of `rays`
+    mean_offset: [f64; 2],
+}
+
+impl Scene<'_> {
+    /// The sphere's hit; `hint` carries the last triangle hit between calls.
+    fn hit(&self, ray: &Ray, hint: &mut Option<usize>) -> Option<Hit> {
+        match self.shape {
+            ProbeShape::Ideal => mesh::hit_ideal(ray),
+            ProbeShape::Subdivided => mesh::subdivided().hit_near(ray, hint),
+        }
+    }
+
+    /// `(rgb premultiplied, coverage)` of pixel `(c, r)` with the rays of `pattern`.
+    fn pixel(&self, c: usize, r: usize, pattern: &[PixelSample], hint: &mut Option<usize>) -> ([f64; 3], f64) {
+        let (cf, rf) = (c as f64, r as f64);
+        let (dx, dy) = (cf + 0.5 - 0.5 * self.camera.width as f64, rf + 0.5 - 0.5 * self.camera.height as f64);
+        let from_centre = dx.hypot(dy);
+        if from_centre > self.reach {
+            return ([0.0; 3], 0.0);
+        }
+        if !self.bsdf.is_mirror() && from_centre < self.inside {
+            // Every ray hits: the rough lobes at the pattern's mean offset, full coverage.
+            let [ox, oy] = self.mean_offset;
+            let ray = self.camera.pinhole(cf, rf, ox, oy);
+            if let Some(hit) = self.hit(&ray, hint) {
+                return (self.rough(&hit, -ray.dir), 1.0);
+            }
+        }
+        let n = pattern.len();
+        let mut rgb = [0.0; 3];
+        let (mut hits, mut sum_ox, mut sum_oy) = (0usize, 0.0, 0.0);
+        let mut first_hit: Option<(Hit, DVec3)> = None;
+        for s in pattern {
+            let [ox, oy] = s.offset;
+            let ray = self.camera.ray_through(cf, rf, ox, oy, s.lens);
+            let Some(hit) = self.hit(&ray, hint) else { continue };
+            hits += 1;
+            if self.bsdf.is_mirror() {
+                let l = shading::mirror(self.env, &self.bsdf, &hit, -ray.dir);
+                (0..3).for_each(|k| rgb[k] += l[k]);
+            } else {
+                sum_ox += ox;
+                sum_oy += oy;
+                if first_hit.is_none() {
+                    first_hit = Some((hit, -ray.dir));
+                }
+            }
+        }
+        if hits == 0 {
+            return ([0.0; 3], 0.0);
+        }
+        let coverage = hits as f64 / n as f64;
+        if self.bsdf.is_mirror() {
+            return (rgb.map(|v| v / n as f64), coverage);
+        }
+        // The rough lobes once, at the pinhole ray through the hitting rays' mean offset.
+        let ray = self.camera.pinhole(cf, rf, sum_ox / hits as f64, sum_oy / hits as f64);
+        let (hit, v) = match self.hit(&ray, hint) {
+            Some(h) => (h, -ray.dir),
+            None => first_hit.expect("a hitting ray was counted"),
+        };
+        (self.rough(&hit, v).map(|v| v * coverage), coverage)
+    }
+
+    fn rough(&self, hit: &Hit, v: DVec3) -> [f64; 3] {
+        let tree = self.tree.expect("rough materials have a texel tree");
+        shading::rough(tree, &self.bsdf, hit, v)
+    }
+}
+
+/// Renders the protocol's sphere of `settings.material` under `env` (a lat-long map, hdrflow's
+/// convention; see [`environment`] for how Blender reads the same file).
+pub fn render(env: &Image, settings: &ProbeSettings) -> ProbeRender {
+    let environment = Environment::new(env);
+    let bsdf = settings.material.principled(settings.smith);
+    // The texel tree only serves the rough lobes.
+    let tree = (!bsdf.is_mirror()).then(|| TexelTree::new(env, settings.cut, shading::lobe_width(&bsdf)));
+    let filter = FilterTable::blackman_harris(FILTER_WIDTH);
+    let n = settings.samples.max(1);
+    let camera = Camera::new(settings.width, settings.height);
+    // The silhouettes of spheres inside and around the shape, widened and narrowed by the filter's
+    // reach and a margin for the lens blur (below 0.1 px at the silhouette).
+    let silhouette =
+        |radius: f64| camera.focal_px() * radius / (camera::POSITION.length_squared() - radius * radius).sqrt();
+    let inner = match settings.shape {
+        ProbeShape::Ideal => 1.0,
+        ProbeShape::Subdivided => mesh::subdivided().inner,
+    };
+    let reach = silhouette(1.0) + FILTER_WIDTH + 2.0;
+    let inside = silhouette(inner) - FILTER_WIDTH - 2.0;
+    let rays = pattern(n, &filter);
+    let mean_offset = [0, 1].map(|k| rays.iter().map(|s| s.offset[k]).sum::<f64>() / n as f64);
+    let scene = Scene {
+        env: &environment,
+        tree: tree.as_ref(),
+        camera,
+        bsdf,
+        shape: settings.shape,
+        rays,
+        edge_rays: pattern(n * EDGE_FACTOR, &filter),
+        reach,
+        inside,
+        mean_offset,
+    };
+    let (w, h) = (settings.width, settings.height);
+    let rows: Vec<Vec<([f64; 3], f64)>> = (0..h)
+        .into_par_iter()
+        .map(|r| {
+            let mut hint = None;
+            (0..w)
+                .map(|c| {
+                    let (rgb, a) = scene.pixel(c, r, &scene.rays, &mut hint);
+                    if a > 0.0 && a < 1.0 {
+                        scene.pixel(c, r, &scene.edge_rays, &mut hint)
+                    } else {
+                        (rgb, a)
+                    }
+                })
+                .collect()
+        })
+        .collect();
+    let mut rgba = Vec::with_capacity(w * h * 4);
+    let mut alpha = Vec::with_capacity(w * h);
+    for (rgb, a) in rows.into_iter().flatten() {
+        rgba.extend_from_slice(&[rgb[0] as f32, rgb[1] as f32, rgb[2] as f32, a as f32]);
+        alpha.push(a as f32);
+    }
+    ProbeRender { image: Image::from_vec(w, h, 4, rgba), mask: Image::from_vec(w, h, 1, alpha) }
+}
+
+#[cfg(test)]
+mod tests;
