@@ -36,17 +36,6 @@ fn batch(sb: &Sandbox, graph: &Path, out: &Path, extra: &[&str]) -> Output {
     run_hdrflow(batch_args(sb, graph, out, extra))
 }
 
-fn snapshot(dir: &Path) -> Vec<(PathBuf, Vec<u8>)> {
-    files_under(dir)
-        .into_iter()
-        .filter(|p| !p.to_string_lossy().starts_with("batch"))
-        .map(|p| {
-            let bytes = read_file(&dir.join(&p));
-            (p, bytes)
-        })
-        .collect()
-}
-
 #[test]
 fn plan_lists_the_cross_product_sorted_and_runs_nothing() {
     let sb = Sandbox::new();
@@ -123,7 +112,7 @@ fn a_batch_shares_nodes_reports_metrics_and_resumes_from_the_cache() {
     assert!(csv.starts_with("item,index,values,status,ms,error,diff.metrics."), "{csv}");
     assert_eq!(csv.lines().count(), 13);
     // Again: everything cached, same bytes.
-    let before = snapshot(&sb.out());
+    let before = batch_outputs(&sb.out());
     let again = batch(&sb, &g, &sb.out(), &["--sweep", "e.stops=0,1", "--report", &r]);
     again.assert_success();
     assert!(
@@ -131,7 +120,7 @@ fn a_batch_shares_nodes_reports_metrics_and_resumes_from_the_cache() {
         "{}",
         again.describe()
     );
-    assert_eq!(before, snapshot(&sb.out()));
+    assert_eq!(before, batch_outputs(&sb.out()));
 }
 
 /// A shared node inside the shared part that two items' shared nodes need (`soft` under each
@@ -227,7 +216,7 @@ fn a_killed_batch_resumes_to_the_same_bytes() {
     if !finished_before_kill {
         assert!(!again.stderr.contains("0 computed, 12 cached"), "the kill left work to do: {}", again.describe());
     }
-    assert_eq!(snapshot(&reference), snapshot(&out), "resumed outputs equal an uninterrupted batch");
+    assert_eq!(batch_outputs(&reference), batch_outputs(&out), "resumed outputs equal an uninterrupted batch");
 }
 
 #[test]
@@ -294,7 +283,7 @@ fn three_concurrent_shards_share_one_cache_and_one_folder() {
         &sb.join("cache-ref").display().to_string(),
     ]);
     full.assert_success();
-    assert_eq!(snapshot(&reference), snapshot(&out));
+    assert_eq!(batch_outputs(&reference), batch_outputs(&out));
 }
 
 /// Issue 25.6: Ctrl-C (SIGINT) stops a batch cleanly: no item starts after it, the running one

@@ -101,6 +101,8 @@ fn the_dataset_example_writes_four_labelled_crops_per_azimuth() {
             want.insert(format!("rooitou_park_1k/yaw={yaw}/map/{f}.json"));
         }
     }
+    // The report's metrics by node and their summary (the fit's relative_rmse and size).
+    want.extend(["metrics.csv", "summary.csv", "summary.md"].map(String::from));
     let got: BTreeSet<String> = files_under(&out)
         .iter()
         .map(|p| p.to_string_lossy().replace('\\', "/"))

@@ -100,3 +100,36 @@ fn mismatched_sizes_and_a_missing_mask_are_clear() {
     let m: serde_json::Value = serde_json::from_slice(&read_file(&sb.out().join("all.json"))).unwrap();
     assert_eq!(m["pixels"].as_f64(), Some(32.0));
 }
+
+#[test]
+fn protocol_tonemap_equals_the_scripts_tonemap_hdr() {
+    let Some(python) = peer_python() else { return };
+    let sb = Sandbox::new();
+    // A map with black texels (left out of the percentile) and a range of 10^4.
+    let (_, _, map) = images(64, 32);
+    sb.write("map.pfm", hdrflow::formats::pfm::encode(&map));
+    let graph = sb.write(
+        "t.ron",
+        r#"(nodes: {
+            "map": LoadHdr(path: "map.pfm"),
+            "t": ProtocolTonemap(image: "map"),
+            "save": Save(input: "t", path: "ours.pfm"),
+        })"#,
+    );
+    sb.run_ok(&graph, &[]);
+    let mut cmd = std::process::Command::new(python);
+    cmd.arg(std::path::Path::new(MANIFEST_DIR).join("bench/peers/tonemap_peer.py"));
+    cmd.arg(sb.join("map.pfm")).arg(sb.join("theirs.pfm"));
+    run_command(cmd, std::time::Duration::from_secs(60)).assert_success();
+    let ours = hdrflow::formats::pfm::decode(&read_file(&sb.out().join("ours.pfm"))).unwrap();
+    let theirs = hdrflow::formats::pfm::decode(&read_file(&sb.join("theirs.pfm"))).unwrap();
+    assert_eq!((ours.width, ours.height, ours.channels), (theirs.width, theirs.height, theirs.channels));
+    let mut worst = 0.0f64;
+    for (a, b) in ours.data.iter().zip(&theirs.data) {
+        let (a, b) = (*a as f64, *b as f64);
+        worst = worst.max((a - b).abs() / b.abs().max(1e-30));
+        assert!(a == b || (a - b).abs() <= 1e-6 * b.abs(), "hdrflow {a} vs TonemapHDR {b}");
+    }
+    assert!(ours.data.iter().any(|&v| v > 0.5), "the test map must reach above the median's 0.5");
+    eprintln!("ProtocolTonemap against TonemapHDR: worst relative difference {worst:e}");
+}

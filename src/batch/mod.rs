@@ -29,7 +29,9 @@ mod items;
 mod report;
 mod run;
 mod shared;
+mod summary;
 
 pub use items::{default_template, items, shard, Axis, Item};
 pub use report::{csv, json_rows};
 pub use run::{run, validate, BatchObserver, BatchOptions, BatchOutcome, ItemRow, ItemStatus};
+pub use summary::{metrics_csv, summarise, summary_csv, summary_markdown, FieldSummary};

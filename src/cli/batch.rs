@@ -57,7 +57,9 @@ pub(crate) struct BatchArgs {
     #[arg(long, value_enum, default_value_t = PersistArg::Auto)]
     persist: PersistArg,
     /// Write one JSON row per item to FILE, and the same rows to DIR/batch.csv
-    /// (DIR/batch.I-of-N.csv with --shard).
+    /// (DIR/batch.I-of-N.csv with --shard); when the items produce metrics, also DIR/metrics.csv
+    /// (a row per item and metrics node) and DIR/summary.csv and summary.md (each metric's mean
+    /// and 95% interval).
     #[arg(long)]
     report: Option<PathBuf>,
     /// Run every item even after one fails (default: start no new item after a failure).
@@ -261,7 +263,23 @@ pub(crate) fn batch(registry: &Registry, args: &BatchArgs) -> ExitCode {
             None => "batch.csv".to_string(),
         };
         let csv_path = args.out.join(csv_name);
-        for (p, bytes) in [(path.clone(), json.into_bytes()), (csv_path, batch::csv(&outcome.rows).into_bytes())] {
+        let mut files = vec![(path.clone(), json.into_bytes()), (csv_path, batch::csv(&outcome.rows).into_bytes())];
+        // The metrics by node and their summary (batch::summary), when the items produced any.
+        let summary = batch::summarise(&outcome.rows);
+        if let Some(metrics) = batch::metrics_csv(&outcome.rows) {
+            let named = |stem: &str, ext: &str| match shard {
+                Some((i, n)) => args.out.join(format!("{stem}.{i}-of-{n}.{ext}")),
+                None => args.out.join(format!("{stem}.{ext}")),
+            };
+            let table = batch::summary_markdown(&summary);
+            if !args.quiet {
+                println!("{}: the mean of each metric and its 95% interval\n{table}", named("summary", "md").display());
+            }
+            files.push((named("metrics", "csv"), metrics.into_bytes()));
+            files.push((named("summary", "csv"), batch::summary_csv(&summary).into_bytes()));
+            files.push((named("summary", "md"), table.into_bytes()));
+        }
+        for (p, bytes) in files {
             if let Err(e) = write_atomic(&p, &bytes) {
                 eprintln!("error: writing report {}: {e}", p.display());
                 return ExitCode::from(1);

@@ -426,7 +426,8 @@ pub fn batch_outputs(dir: &Path) -> Vec<(PathBuf, Vec<u8>)> {
         .into_iter()
         .filter(|p| {
             let s = p.to_string_lossy();
-            !(s.starts_with("batch") || s.starts_with("shards/") || s.starts_with("slurm/"))
+            // The report's files (batch, metrics and summary tables), the shards' reports and logs.
+            !["batch", "metrics", "summary", "shards/", "slurm/"].iter().any(|r| s.starts_with(r))
         })
         .map(|p| {
             let bytes = read_file(&dir.join(&p));

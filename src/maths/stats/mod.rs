@@ -3,4 +3,5 @@
 
 pub mod error_metrics;
 pub mod protocol_metrics;
+pub mod protocol_tonemap;
 pub mod statistics;
