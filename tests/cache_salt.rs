@@ -223,7 +223,39 @@ fn without_tests(t: Vec<Tok>) -> Vec<Tok> {
 
 /// The code of `file` (comments and tests removed).
 fn code(file: &str) -> Vec<Tok> {
+    if test_only(file) {
+        return Vec::new();
+    }
     without_tests(tokens(&read(file)))
+}
+
+/// Whether `file`'s parent declares it only for tests (`#[cfg(test)] mod tests;`): a test module
+/// in a file of its own, which `without_tests` would not see as one.
+fn test_only(file: &str) -> bool {
+    let segs = module_of(file);
+    let Some((name, parent)) = segs.split_last() else { return false };
+    let parents = if parent.is_empty() {
+        vec!["src/lib.rs".to_string()]
+    } else {
+        let dir = format!("src/{}", parent.join("/"));
+        vec![format!("{dir}/mod.rs"), format!("{dir}.rs")]
+    };
+    let declared = [
+        Tok::Punct('#'),
+        Tok::Punct('['),
+        Tok::Ident("cfg".into()),
+        Tok::Punct('('),
+        Tok::Ident("test".into()),
+        Tok::Punct(')'),
+        Tok::Punct(']'),
+        Tok::Ident("mod".into()),
+        Tok::Ident(name.clone()),
+        Tok::Punct(';'),
+    ];
+    parents
+        .iter()
+        .filter(|p| Path::new(ROOT).join(p).exists())
+        .any(|p| tokens(&read(p)).windows(declared.len()).any(|w| w == declared))
 }
 
 /// The module path of `file` (`src/a/b.rs` and `src/a/b/mod.rs` are `a::b`).
