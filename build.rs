@@ -23,7 +23,7 @@
 mod normalise;
 
 use std::collections::{BTreeMap, BTreeSet};
-use std::path::{Component, Path, PathBuf};
+use std::path::{Path, PathBuf};
 
 /// Layers above the operators: they parse, schedule whole runs, build pipelines and present
 /// results, but never compute a node's value, so their code is in no key.
@@ -65,57 +65,6 @@ fn collect(dir: &Path, all: bool, out: &mut Vec<PathBuf>) {
 
 fn rel(p: &Path) -> String {
     p.to_string_lossy().replace('\\', "/")
-}
-
-/// `path` with `.` and `..` resolved lexically.
-fn lexical(path: &Path) -> PathBuf {
-    let mut out = PathBuf::new();
-    for c in path.components() {
-        match c {
-            Component::CurDir => {}
-            Component::ParentDir => {
-                out.pop();
-            }
-            c => out.push(c),
-        }
-    }
-    out
-}
-
-/// The string literals of `args`, concatenated (`concat!("a", "b")` -> `ab`).
-fn literals(args: &str) -> String {
-    args.split('"').skip(1).step_by(2).collect()
-}
-
-/// The files `text` (normalised source of `file`) embeds with `include_bytes!`/`include_str!`:
-/// a path after `env!("CARGO_MANIFEST_DIR")` is relative to the crate, any other to `file`'s
-/// folder. Generated files (`OUT_DIR`) are this script's own output.
-fn embedded(file: &Path, text: &str) -> Vec<PathBuf> {
-    let mut out = Vec::new();
-    for mac in ["include_bytes!(", "include_str!("] {
-        for (at, _) in text.match_indices(mac) {
-            let rest = &text[at + mac.len()..];
-            let mut depth = 1;
-            let end = rest
-                .char_indices()
-                .find(|&(_, c)| {
-                    depth += i32::from(c == '(') - i32::from(c == ')');
-                    depth == 0
-                })
-                .map_or(rest.len(), |(i, _)| i);
-            let args = &rest[..end];
-            if args.contains("OUT_DIR") {
-                continue;
-            }
-            let path = match args.split_once("CARGO_MANIFEST_DIR") {
-                // `after` starts with the variable name's closing quote.
-                Some((_, after)) => PathBuf::from(literals(&after[1..]).trim_start_matches('/')),
-                None => file.parent().unwrap_or(Path::new("")).join(literals(args)),
-            };
-            out.push(lexical(&path));
-        }
-    }
-    out
 }
 
 /// The variables `text` reads with `env!`/`option_env!`, but the crate folder (used for paths
@@ -188,7 +137,7 @@ fn main() {
         }
         let text = normalise::normalise_source(&std::fs::read_to_string(&f).unwrap_or_default());
         env_vars(&text, &mut vars);
-        for e in embedded(&f, &text) {
+        for e in normalise::embedded(&f, &text) {
             println!("cargo:rerun-if-changed={}", rel(&e));
             salted.insert(e);
         }

@@ -1,7 +1,7 @@
 """Shared helpers for the benchmark peers: PFM I/O, hdrflow's lat-long and sphere conventions,
 the exact reference and the error measure. Pure NumPy, no timing-sensitive code here.
 
-Conventions (must match hdrflow exactly; see src/geometry/latlong.rs and src/maths/render/relight.rs):
+Conventions (must match hdrflow exactly; see src/geometry/latlong.rs and src/maths/render/relight/view.rs):
 - W x H lat-long map, row 0 = zenith (+Y). Texel (x, y) centre: theta = pi (y + 0.5) / H,
   phi = 2 pi (x + 0.5) / W, d = (-sin t sin p, cos t, sin t cos p); solid angle
   (2 pi / W)(pi / H) sin(theta) (midpoint rule).

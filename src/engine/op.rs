@@ -9,6 +9,7 @@
 //! receives the struct with typed parameters and inputs of the declared types; it never checks
 //! them again.
 
+use std::any::TypeId;
 use std::path::Path;
 use std::sync::Arc;
 
@@ -168,6 +169,29 @@ pub struct OpSpec {
     /// The file its `params!` struct is declared in, when built with [`Op`](crate::engine::typed_op::Op):
     /// the registry takes its code hash from it (see `Registry::hash_sources_with`).
     pub source_file: Option<&'static str>,
+    /// The `Check` struct `eval` was given (`P::Check`) and the one each typed closure
+    /// (`check`, `size`, computed outputs, `content_key`) was given, so that
+    /// `Registry::register` refuses a spec whose closures read another struct than `eval`'s:
+    /// `from_check` would find none of its fields and the closure would silently never run.
+    params_structs: ParamsStructs,
+}
+
+/// The params structs an [`OpSpec`]'s builder was given, by type (see `OpSpec::params_mismatch`).
+#[derive(Clone, Default)]
+struct ParamsStructs {
+    eval: Option<(TypeId, &'static str)>,
+    closures: Vec<(&'static str, TypeId, &'static str)>,
+}
+
+/// A typed closure of an [`OpSpec`] given another params struct than its `eval`.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ParamsMismatch {
+    /// The builder method, e.g. `check`.
+    pub method: &'static str,
+    /// The struct that method's closure reads.
+    pub found: &'static str,
+    /// `eval`'s struct, in its check stage.
+    pub expected: &'static str,
 }
 
 impl std::fmt::Debug for OpSpec {
@@ -195,6 +219,7 @@ impl OpSpec {
             code_hash: [0; 32],
             persist: Persist::Measured,
             source_file: None,
+            params_structs: ParamsStructs::default(),
         }
     }
 
@@ -226,6 +251,7 @@ impl OpSpec {
         R: Into<Outputs> + 'static,
     {
         self.fields.extend(P::fields());
+        self.params_structs.eval = Some((TypeId::of::<P::Check>(), std::any::type_name::<P::Check>()));
         self.eval = Arc::new(move |ctx: &mut OpContext| {
             let mut inputs = std::mem::take(&mut ctx.inputs);
             let p = P::from_run(ctx.params, &mut inputs)?;
@@ -246,6 +272,7 @@ impl OpSpec {
     /// declared fields) and returns its outputs itself. For operators declared at run time
     /// (with [`OpSpec::field_spec`]); a Rust operator uses [`OpSpec::eval`].
     pub fn eval_raw(mut self, f: EvalFn) -> Self {
+        self.params_structs.eval = None;
         self.eval = f;
         self
     }
@@ -253,6 +280,7 @@ impl OpSpec {
     /// Cross-field validation, from the typed fields before running (`P<Check>`: inputs are
     /// their [`Shape`](crate::engine::fields::Shape)s).
     pub fn check<C: CheckFields + 'static>(mut self, f: fn(&CheckContext, C) -> Result<(), CheckProblem>) -> Self {
+        self.record_params::<C>("check");
         self.check = Some(Arc::new(move |ctx: &CheckContext| C::from_check(ctx).map_or(Ok(()), |p| f(ctx, p))));
         self
     }
@@ -260,6 +288,7 @@ impl OpSpec {
     /// The default output's pixel size, from the typed fields before running (e.g.
     /// `|_, p: ExposureParams<Check>| p.image.size`).
     pub fn size<C: CheckFields + 'static>(mut self, f: fn(&CheckContext, C) -> Size) -> Self {
+        self.record_params::<C>("size");
         self.size = Some(Arc::new(move |ctx: &CheckContext| C::from_check(ctx).and_then(|p| f(ctx, p))));
         self
     }
@@ -289,12 +318,13 @@ impl OpSpec {
     }
 
     fn typed_output<C: CheckFields + 'static>(
-        self,
+        mut self,
         name: &'static str,
         how: &'static str,
         f: impl Fn(&CheckContext, C) -> Result<ValueType, String> + Send + Sync + 'static,
         doc: &'static str,
     ) -> Self {
+        self.record_params::<C>("output");
         let ty = OutputType::Computed(
             how,
             Arc::new(move |ctx: &CheckContext| match C::from_check(ctx) {
@@ -307,11 +337,27 @@ impl OpSpec {
 
     /// The loader's content key (see the field), from its typed fields.
     pub fn content_key<C: CheckFields + 'static>(mut self, f: fn(C, &Path) -> Result<Vec<u8>, OpError>) -> Self {
+        self.record_params::<C>("content_key");
         self.content_key = Some(Arc::new(move |ctx: &CheckContext| match C::from_check(ctx) {
             Some(p) => f(p, ctx.base_dir),
             None => Err(OpError::Invalid("the content key depends on an input that is not wired".into())),
         }));
         self
+    }
+
+    fn record_params<C: 'static>(&mut self, method: &'static str) {
+        self.params_structs.closures.push((method, TypeId::of::<C>(), std::any::type_name::<C>()));
+    }
+
+    /// The first typed closure given another params struct than `eval`'s (`None` when they all
+    /// read `eval`'s, or when `eval` is untyped: [`OpSpec::eval_raw`]).
+    pub fn params_mismatch(&self) -> Option<ParamsMismatch> {
+        let (expected_id, expected) = self.params_structs.eval?;
+        self.params_structs
+            .closures
+            .iter()
+            .find(|(_, id, _)| *id != expected_id)
+            .map(|&(method, _, found)| ParamsMismatch { method, found, expected })
     }
 
     /// The operator's source text (from its own file: `include_str!("my_op.rs")`, a path

@@ -9,7 +9,7 @@
 use std::collections::BTreeMap;
 use std::sync::Arc;
 
-use crate::engine::op::OpSpec;
+use crate::engine::op::{OpSpec, ParamsMismatch};
 use crate::engine::save::{SaveFn, Saver, Savers};
 use crate::engine::value::{TypeSpec, ValueType, FILE};
 
@@ -28,6 +28,10 @@ pub struct Registry {
 pub enum RegistryError {
     #[error("an operator named {0:?} is already registered: operator names must be unique")]
     Duplicate(&'static str),
+    /// A typed closure (`check`, `size`, a computed output, `content_key`) reads another params
+    /// struct than `eval`: it would never run (see `OpSpec::params_mismatch`).
+    #[error("operator {op:?}: its `{}` reads {} but its `eval` reads {}: give both the same params struct", .mismatch.method, .mismatch.found, .mismatch.expected)]
+    ParamsMismatch { op: &'static str, mismatch: ParamsMismatch },
 }
 
 impl std::fmt::Debug for Registry {
@@ -52,12 +56,16 @@ impl Registry {
     }
 
     /// Adds an operator; a second operator of the same name is an error (it would silently
-    /// replace the first). A spec that names its source file (`OpSpec::source_file`) and has no
+    /// replace the first), and so is a typed closure reading another params struct than `eval`
+    /// (it would silently never run). A spec that names its source file (`OpSpec::source_file`) and has no
     /// code hash gets the hash [`Registry::hash_sources_with`] gives for that file.
     pub fn register(&mut self, spec: impl Into<OpSpec>) -> Result<&mut Self, RegistryError> {
         let mut spec = spec.into();
         if self.ops.contains_key(spec.name) {
             return Err(RegistryError::Duplicate(spec.name));
+        }
+        if let Some(mismatch) = spec.params_mismatch() {
+            return Err(RegistryError::ParamsMismatch { op: spec.name, mismatch });
         }
         if let (Some(file), Some(hash), true) = (spec.source_file, self.source_hash, spec.code_hash == [0; 32]) {
             spec.code_hash = hash(file);
@@ -150,5 +158,56 @@ mod tests {
         assert_eq!(r.get("A").unwrap().version, 1);
         r.replace(OpSpec::new("A", "test", 3, "third"));
         assert_eq!(r.get("A").unwrap().version, 3);
+    }
+
+    crate::params! {
+        /// The struct `eval` reads.
+        struct EvalParams {
+            /// a number
+            x: f64 = 1.0,
+        }
+    }
+
+    crate::params! {
+        /// Another struct, with another field.
+        struct OtherParams {
+            /// a number
+            y: f64 = 2.0,
+        }
+    }
+
+    fn eval(
+        _: &mut crate::engine::op::OpContext,
+        _: EvalParams,
+    ) -> Result<crate::engine::value::Value, crate::engine::op::OpError> {
+        Err(crate::engine::op::OpError::Invalid("not run".into()))
+    }
+
+    #[test]
+    fn a_check_or_size_reading_another_params_struct_than_eval_is_an_error() {
+        use crate::engine::fields::Check;
+        let ok = OpSpec::new("Same", "test", 1, "same struct")
+            .eval(eval)
+            .check(|_, _: EvalParams<Check>| Ok(()))
+            .size(|_, _: EvalParams<Check>| None);
+        assert_eq!(ok.params_mismatch(), None);
+        Registry::empty().register(ok).unwrap();
+
+        let wrong_check =
+            OpSpec::new("Check", "test", 1, "another struct").eval(eval).check(|_, _: OtherParams<Check>| Ok(()));
+        let e = Registry::empty().register(wrong_check).unwrap_err();
+        let RegistryError::ParamsMismatch { op: "Check", mismatch } = &e else { panic!("{e:?}") };
+        assert_eq!(mismatch.method, "check");
+        assert!(mismatch.found.contains("OtherParams") && mismatch.expected.contains("EvalParams"), "{mismatch:?}");
+        assert!(e.to_string().contains("its `check` reads"), "{e}");
+
+        // The closure may come before `eval` in the chain.
+        let wrong_size =
+            OpSpec::new("Size", "test", 1, "another struct").size(|_, _: OtherParams<Check>| None).eval(eval);
+        let e = Registry::empty().register(wrong_size).unwrap_err();
+        assert!(
+            matches!(&e, RegistryError::ParamsMismatch { op: "Size", mismatch } if mismatch.method == "size"),
+            "{e:?}"
+        );
     }
 }

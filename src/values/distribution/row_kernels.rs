@@ -320,6 +320,8 @@ impl CdfSlot for MaybeUninit<f64> {
 mod tests {
     use super::*;
     use crate::maths::sampling::sequences::SplitMix64;
+    use crate::values::distribution::tests::random_map;
+    use crate::values::{Distribution2D, Image};
 
     #[test]
     fn row_cdfs_are_monotone_and_end_on_exactly_one() {
@@ -361,5 +363,102 @@ mod tests {
         assert!(!row_sum(&src).0.is_finite());
         src[9] = f32::NEG_INFINITY;
         assert!(row_sum(&src).1 < 0.0);
+    }
+
+    /// The row kernel of every level the processor has gives the portable kernel's bits: every
+    /// row length modulo 8, zero rows, a 1e30 sun beside 1e-3 sky, subnormals, f32::MAX, and bad
+    /// texels (the same error, or with `sanitize` the same distribution).
+    #[test]
+    fn row_kernels_give_the_same_bits() {
+        let levels = cpu::tested_levels();
+        let mut maps = Vec::new();
+        for w in (1..=41).chain([2048, 2051]) {
+            maps.push(random_map(w, 5, w as u64, Some(2)));
+            let mut rng = SplitMix64::new(100 + w as u64);
+            let data = (0..w * 4)
+                .map(|i| match rng.next_u64() % 8 {
+                    0 => 1e30,
+                    1 => 1e-3,
+                    2 => f32::MIN_POSITIVE / 8.0,
+                    3 => f32::MAX,
+                    4 if i % 3 == 0 => -0.0,
+                    _ => (1e6 * rng.next_f64() * rng.next_f64()) as f32,
+                })
+                .collect();
+            maps.push(Image::from_vec(w, 4, 1, data));
+        }
+        // -0.0: a whole row, a first block, a tail, one texel in a block of positives.
+        for w in [3, 8, 13, 2051] {
+            let mut img = random_map(w, 4, 11, None);
+            img.data[..w].fill(-0.0);
+            img.data[w..w + w.min(8)].fill(-0.0);
+            img.data[3 * w - 1] = -0.0;
+            img.data[3 * w + w / 2] = -0.0;
+            maps.push(img);
+        }
+        let clean_maps = maps.len();
+        for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY, -1.0] {
+            for w in [7, 8, 9, 23, 2051] {
+                let mut img = random_map(w, 3, 9, None);
+                img.data[w + w / 2] = bad;
+                maps.push(img);
+                // In the tail after the last full block.
+                let mut img = random_map(w, 3, 10, None);
+                img.data[2 * w - 1] = bad;
+                maps.push(img);
+            }
+        }
+        // Row by row: the same (sum, min) bits, and for a good row the same entries; a map
+        // without bad texels has only good rows (so `build_with` never redoes a row that the
+        // SIMD kernel wrongly called bad, which the comparison of whole builds would hide).
+        for (i, img) in maps.iter().enumerate() {
+            let w = img.width;
+            for y in 0..img.height {
+                // SAFETY (reads below): every slot is initialised (to NaN) before a kernel writes.
+                let bits =
+                    |r: &[MaybeUninit<f64>]| r.iter().map(|e| unsafe { e.assume_init() }.to_bits()).collect::<Vec<_>>();
+                let mut portable = vec![MaybeUninit::new(f64::NAN); w + 1];
+                let (sum, min) = write_row(Level::Portable, img.row(y), &mut portable);
+                let good = sum.is_finite() && min >= 0.0;
+                assert!(good || i >= clean_maps, "map {i} row {y} has no bad texel");
+                for &level in &levels[1..] {
+                    let mut row = vec![MaybeUninit::new(f64::NAN); w + 1];
+                    let (s, m) = write_row(level, img.row(y), &mut row);
+                    assert_eq!(
+                        (s.to_bits(), m.to_bits()),
+                        (sum.to_bits(), min.to_bits()),
+                        "{level} {w}x{} row {y}",
+                        img.height
+                    );
+                    if good {
+                        assert_eq!(bits(&row), bits(&portable), "{level} {w}x{} row {y}", img.height);
+                    }
+                }
+            }
+        }
+        for img in &maps {
+            for (sin_theta, sanitize) in [(true, false), (false, false), (true, true)] {
+                for &level in &levels[1..] {
+                    let portable = Distribution2D::build_with(img, sin_theta, sanitize, Level::Portable);
+                    let simd = Distribution2D::build_with(img, sin_theta, sanitize, level);
+                    match (portable, simd) {
+                        (Ok(a), Ok(b)) => {
+                            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                            assert_eq!(
+                                bits(&a.conditional_cdf),
+                                bits(&b.conditional_cdf),
+                                "{}x{}",
+                                img.width,
+                                img.height
+                            );
+                            assert_eq!(bits(&a.row_sums), bits(&b.row_sums));
+                            assert_eq!(a, b);
+                        }
+                        (Err(a), Err(b)) => assert_eq!(a.to_string(), b.to_string()),
+                        (a, b) => panic!("{level} {}x{}: {a:?} against {b:?}", img.width, img.height),
+                    }
+                }
+            }
+        }
     }
 }

@@ -15,6 +15,14 @@
 //! time is newer than the oldest live lease are spared. On a folder that several machines share,
 //! another machine's lease counts as live for a day. Leases of processes that are gone are
 //! removed. So one run's limit never empties a cache that other pipelines share.
+//!
+//! Files: this one reads and writes entries; `eviction` holds the leases and the pruning.
+
+mod eviction;
+#[cfg(test)]
+mod tests;
+
+pub use eviction::{EvictionReport, Lease};
 
 use std::fs;
 use std::io::Write;
@@ -55,19 +63,6 @@ pub struct CacheStore {
     policy: PersistPolicy,
 }
 
-/// A live run's claim on the entries it uses: while it exists, `prune` spares every entry used
-/// since it was taken. Dropping it releases the claim.
-#[derive(Debug)]
-pub struct Lease {
-    path: PathBuf,
-}
-
-impl Drop for Lease {
-    fn drop(&mut self) {
-        let _ = fs::remove_file(&self.path);
-    }
-}
-
 /// What the cache folder holds (`hdrflow cache stats`).
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct CacheStats {
@@ -77,15 +72,6 @@ pub struct CacheStats {
     pub live_runs: usize,
     /// Temporary files left by killed runs.
     pub temporaries: usize,
-}
-
-/// What eviction did.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct EvictionReport {
-    pub entries: usize,
-    pub bytes_before: u64,
-    pub removed: usize,
-    pub bytes_after: u64,
 }
 
 impl CacheStore {
@@ -124,54 +110,6 @@ impl CacheStore {
     /// Bytes added through this handle so far.
     pub fn added_bytes(&self) -> u64 {
         self.added.load(Ordering::Relaxed)
-    }
-
-    /// Takes a lease for a run (see the module documentation).
-    pub fn lease(&self) -> Result<Lease, CacheError> {
-        let dir = self.root.join("live");
-        fs::create_dir_all(&dir).map_err(|source| CacheError::Io { path: dir.clone(), source })?;
-        let path =
-            dir.join(format!("{}-{}@{}", std::process::id(), TMP_COUNTER.fetch_add(1, Ordering::Relaxed), this_host()));
-        fs::write(&path, b"").map_err(|source| CacheError::Io { path: path.clone(), source })?;
-        Ok(Lease { path })
-    }
-
-    /// The start of the oldest live run, if any; leases of processes that are gone are removed.
-    fn oldest_live_lease(&self) -> (Option<SystemTime>, usize) {
-        let Ok(entries) = fs::read_dir(self.root.join("live")) else { return (None, 0) };
-        let proc_fs = Path::new("/proc/self").exists();
-        let mut oldest: Option<SystemTime> = None;
-        let mut live = 0;
-        for e in entries.flatten() {
-            let name = e.file_name().to_string_lossy().into_owned();
-            // `PID-N@HOST`: only this host's processes can be checked (on a shared filesystem,
-            // another node's lease is live as far as this node can tell).
-            let (local, host) = name.split_once('@').unwrap_or((name.as_str(), ""));
-            let pid = local.split('-').next().and_then(|p| p.parse::<u32>().ok());
-            let dead = match pid {
-                Some(pid) if proc_fs && host == this_host() => {
-                    pid != std::process::id() && !Path::new("/proc").join(pid.to_string()).exists()
-                }
-                // Another node's lease is trusted for a day: a node that died mid-run must not
-                // pin the shared folder for ever.
-                _ if !host.is_empty() && host != this_host() => e
-                    .metadata()
-                    .and_then(|m| m.modified())
-                    .ok()
-                    .and_then(|t| t.elapsed().ok())
-                    .is_some_and(|age| age.as_secs() > FOREIGN_LEASE_SECS),
-                _ => false,
-            };
-            if dead {
-                let _ = fs::remove_file(e.path());
-                continue;
-            }
-            live += 1;
-            if let Ok(t) = e.metadata().and_then(|m| m.modified()) {
-                oldest = Some(oldest.map_or(t, |o| o.min(t)));
-            }
-        }
-        (oldest, live)
     }
 
     /// The per-user default folder: `$HDRFLOW_CACHE_DIR`, else `$XDG_CACHE_HOME/hdrflow`,
@@ -301,70 +239,6 @@ impl CacheStore {
     pub fn clear(&self) -> Result<EvictionReport, CacheError> {
         self.prune(0)
     }
-
-    /// Removes least-recently-used entries until the folder holds at most `max_bytes`, sparing
-    /// entries used since the start of a live run (see the module documentation).
-    pub fn prune(&self, max_bytes: u64) -> Result<EvictionReport, CacheError> {
-        self.prune_sparing(max_bytes, &|_| false)
-    }
-
-    /// [`prune`](Self::prune) that also spares the entries whose key `spare` accepts (a batch
-    /// pins the shared entries its remaining items will load).
-    pub fn prune_sparing(&self, max_bytes: u64, spare: &dyn Fn(&Key) -> bool) -> Result<EvictionReport, CacheError> {
-        let (oldest_live, _) = self.oldest_live_lease();
-        let mut entries: Vec<(SystemTime, u64, PathBuf)> = Vec::new();
-        for (mtime, len, path) in self.entries()? {
-            // Temporary files older than an hour were left by a killed run.
-            if path.to_string_lossy().contains(".tmp-") {
-                if mtime.elapsed().map(|e| e.as_secs() > 3600).unwrap_or(false) {
-                    let _ = fs::remove_file(&path);
-                }
-                continue;
-            }
-            entries.push((mtime, len, path));
-        }
-        let bytes_before: u64 = entries.iter().map(|e| e.1).sum();
-        let mut report = EvictionReport { entries: entries.len(), bytes_before, removed: 0, bytes_after: bytes_before };
-        if bytes_before <= max_bytes {
-            return Ok(report);
-        }
-        entries.sort_by_key(|e| e.0);
-        for (mtime, len, path) in entries {
-            if report.bytes_after <= max_bytes {
-                break;
-            }
-            if oldest_live.is_some_and(|start| mtime >= start) {
-                continue; // in use by a live run
-            }
-            if key_of_entry(&path).is_some_and(|k| spare(&k)) {
-                continue;
-            }
-            if fs::remove_file(&path).is_ok() {
-                report.removed += 1;
-                report.bytes_after -= len;
-            }
-        }
-        Ok(report)
-    }
-
-    /// Removes least-recently-used entries until the store is under the default size
-    /// (`default_max_bytes`), sparing entries in use by live runs.
-    pub fn evict(&self) -> Result<EvictionReport, CacheError> {
-        self.prune(default_max_bytes())
-    }
-}
-
-/// How long a lease of another machine counts as live: one day.
-const FOREIGN_LEASE_SECS: u64 = 24 * 3600;
-
-/// This machine's name (Linux), for lease files on a shared cache folder; empty elsewhere.
-fn this_host() -> &'static str {
-    static HOST: std::sync::OnceLock<String> = std::sync::OnceLock::new();
-    HOST.get_or_init(|| {
-        fs::read_to_string("/proc/sys/kernel/hostname")
-            .map(|h| h.trim().chars().filter(|c| c.is_ascii_alphanumeric() || "-._".contains(*c)).collect())
-            .unwrap_or_default()
-    })
 }
 
 /// The key of an entry file `<key hex>.val`.
@@ -459,132 +333,5 @@ pub fn remove_stale_temporaries(path: &Path) {
         if dead || old {
             let _ = fs::remove_file(entry.path());
         }
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::engine::value::FileBlob;
-
-    fn blob(n: usize) -> Vec<(String, Value)> {
-        vec![(String::new(), Value::new(FileBlob::new("a.bin".into(), vec![7; n])))]
-    }
-
-    fn store() -> (tempfile::TempDir, CacheStore) {
-        let dir = tempfile::tempdir().unwrap();
-        let s = CacheStore::new(dir.path(), DEFAULT_LIMIT_BYTES);
-        (dir, s)
-    }
-
-    #[test]
-    fn put_get_round_trip() {
-        let (_d, s) = store();
-        let key = [7u8; 32];
-        let r = Registry::empty();
-        assert!(s.get(&key, &r).unwrap().is_none());
-        s.put(&key, &blob(12)).unwrap();
-        let back = s.get(&key, &r).unwrap().unwrap();
-        assert_eq!(back[0].1.get::<FileBlob>().unwrap().bytes.len(), 12);
-    }
-
-    #[test]
-    fn corrupt_and_truncated_entries_are_errors_and_removed() {
-        let (_d, s) = store();
-        let key = [9u8; 32];
-        let r = Registry::empty();
-        s.put(&key, &blob(48)).unwrap();
-        let path = s.path_for(&key);
-        let mut bytes = fs::read(&path).unwrap();
-        let last = bytes.len() - 1;
-        bytes[last] ^= 0xff;
-        fs::write(&path, &bytes).unwrap();
-        assert!(matches!(s.get(&key, &r), Err(CacheError::Corrupt { .. })));
-        assert!(!path.exists());
-        s.put(&key, &blob(48)).unwrap();
-        let bytes = fs::read(&path).unwrap();
-        fs::write(&path, &bytes[..bytes.len() / 2]).unwrap();
-        assert!(!s.contains(&key), "a truncated entry is not planned as cached");
-        assert!(matches!(s.get(&key, &r), Err(CacheError::Corrupt { .. })));
-    }
-
-    #[test]
-    fn eviction_removes_least_recently_used_first() {
-        let dir = tempfile::tempdir().unwrap();
-        let s = CacheStore::new(dir.path(), DEFAULT_LIMIT_BYTES);
-        let old = [1u8; 32];
-        let new = [2u8; 32];
-        s.put(&old, &blob(192)).unwrap();
-        let f = fs::File::options().write(true).open(s.path_for(&old)).unwrap();
-        f.set_modified(SystemTime::UNIX_EPOCH + std::time::Duration::from_secs(1000)).unwrap();
-        s.put(&new, &blob(192)).unwrap();
-        let size = fs::metadata(s.path_for(&new)).unwrap().len();
-        let report = s.prune(size).unwrap();
-        assert_eq!(report.removed, 1);
-        assert!(!s.contains(&old));
-        assert!(s.contains(&new));
-    }
-
-    #[test]
-    fn pinned_keys_are_spared_and_forks_count_from_zero() {
-        let dir = tempfile::tempdir().unwrap();
-        let s = CacheStore::new(dir.path(), 1000);
-        let (pinned, other) = ([3u8; 32], [4u8; 32]);
-        s.put(&pinned, &blob(300)).unwrap();
-        s.put(&other, &blob(300)).unwrap();
-        assert!(matches!(s.put(&[5u8; 32], &blob(300)), Err(CacheError::LimitReached { .. })), "past the add limit");
-        assert!(s.fork().put(&[5u8; 32], &blob(300)).is_ok(), "a fork has its own limit");
-        for k in [pinned, other, [5u8; 32]] {
-            let f = fs::File::options().write(true).open(s.path_for(&k)).unwrap();
-            f.set_modified(SystemTime::UNIX_EPOCH + std::time::Duration::from_secs(1000)).unwrap();
-        }
-        let report = s.prune_sparing(0, &|k| *k == pinned).unwrap();
-        assert_eq!(report.removed, 2);
-        assert!(s.contains(&pinned) && !s.contains(&other));
-        assert_eq!(key_of_entry(&s.path_for(&pinned)), Some(pinned));
-        assert_eq!(key_of_entry(Path::new("ab/xyz.val")), None);
-    }
-
-    #[test]
-    fn a_live_lease_spares_the_entries_used_since_it_was_taken() {
-        let dir = tempfile::tempdir().unwrap();
-        let s = CacheStore::new(dir.path(), DEFAULT_LIMIT_BYTES);
-        let old = [1u8; 32];
-        s.put(&old, &blob(64)).unwrap();
-        let f = fs::File::options().write(true).open(s.path_for(&old)).unwrap();
-        f.set_modified(SystemTime::UNIX_EPOCH + std::time::Duration::from_secs(1000)).unwrap();
-        let lease = s.lease().unwrap();
-        let used = [2u8; 32];
-        s.put(&used, &blob(64)).unwrap();
-        assert_eq!(s.stats().unwrap().live_runs, 1);
-        let report = s.clear().unwrap();
-        assert_eq!(report.removed, 1, "only the entry older than the live run goes");
-        assert!(s.contains(&used) && !s.contains(&old));
-        drop(lease);
-        assert_eq!(s.stats().unwrap().live_runs, 0);
-        s.clear().unwrap();
-        assert!(!s.contains(&used));
-
-        // On a shared folder: another machine's fresh lease is live (its pid means nothing
-        // here), a day-old one is not; this machine's lease of a gone process is not.
-        let live = s.root().join("live");
-        let foreign = live.join("4000000-0@some-other-node");
-        fs::write(&foreign, b"").unwrap();
-        fs::write(live.join(format!("4000001-0@{}", this_host())), b"").unwrap();
-        assert_eq!(s.stats().unwrap().live_runs, 1);
-        let f = fs::File::options().write(true).open(&foreign).unwrap();
-        f.set_modified(SystemTime::now() - std::time::Duration::from_secs(FOREIGN_LEASE_SECS + 60)).unwrap();
-        assert_eq!(s.stats().unwrap().live_runs, 0);
-        assert!(!foreign.exists());
-    }
-
-    #[test]
-    fn a_handle_adds_at_most_its_limit() {
-        let dir = tempfile::tempdir().unwrap();
-        let s = CacheStore::new(dir.path(), 300);
-        s.put(&[1u8; 32], &blob(64)).unwrap();
-        assert!(matches!(s.put(&[2u8; 32], &blob(400)), Err(CacheError::LimitReached { .. })));
-        assert!(!s.contains(&[2u8; 32]));
-        assert!(s.added_bytes() < 300);
     }
 }
