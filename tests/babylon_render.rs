@@ -9,7 +9,7 @@
 //!   asserted; against the exact GGX integral and irradiance, reported. On the asymmetric test map
 //!   of tests/bevy_render.rs each classic mistake fails: the map mirrored, faces +Z and -Z
 //!   swapped, a linear roughness list in the chain, the polynomial holding E instead of E / pi,
-//!   RGBD written without its gamma.
+//!   the SH in hdrflow's axes instead of Babylon's, RGBD written without its gamma.
 //! - Orientation and handedness: a map of coloured markers (`common/markers.rs`) through
 //!   `scene.createDefaultSkybox` (the .env's level 0) must show each marker where a 360-degree
 //!   viewer facing the map's centre does, looking along -Z (hdrflow's axes: +Z in Babylon's
@@ -53,8 +53,9 @@ const PACKAGE_VERSION: &str = "9.37.1";
 /// The orthographic camera of the sphere renders (clients/web-common/scene.js: on +Z at CAMERA_Z).
 const CAMERA: DVec3 = DVec3::new(0.0, 0.0, 10.0);
 /// Relative RMSE bounds per sphere (mirror, metals 0.25, 0.5, 0.75, 1, diffuse) on the test map:
-/// about twice what the correct bake measures (docs/src/guides/baking/babylon.md).
-const TEST_MAP_BOUNDS: [f64; 6] = [0.03, 0.03, 0.03, 0.03, 0.03, 0.03];
+/// about twice what the correct bake measures (0.0146, 0.0095, 0.0017, 0.0008, 0.0002, 0.0002:
+/// docs/src/guides/baking/babylon.md), at least 0.002.
+const TEST_MAP_BOUNDS: [f64; 6] = [0.03, 0.02, 0.005, 0.003, 0.002, 0.002];
 /// SwiftShader is a CPU renderer on a shared machine: a minute is possible, ten are a hang.
 const BROWSER_TIMEOUT: Duration = Duration::from_secs(600);
 /// The orientation views: 256 x 256, 90 degrees (`markers::SkyCamera`).
@@ -216,6 +217,7 @@ fn babylon_shows_the_test_map_and_each_mistake_fails() {
         }),
     );
     let gamma = sandbox.write("no_gamma/test.env", edited(&good, without_gamma));
+    // The SH in hdrflow's axes (z backwards for Babylon) instead of Babylon's.
     let world = bake(&sandbox, &plain, "world", &["--set", "sh.frame=World"]);
 
     let bakes = [
@@ -250,11 +252,13 @@ fn babylon_shows_the_test_map_and_each_mistake_fails() {
     const ALL: [&str; 6] = ["mirror", "metal_0.25", "metal_0.5", "metal_0.75", "metal_1", "diffuse"];
     for (name, must_fail) in [
         ("mirrored", &ALL[..]),
-        ("swapped", &ALL[..5]),
+        // Roughness 1 and the diffuse sphere read only the polynomial (Babylon mixes the radiance
+        // with the irradiance by alphaG).
+        ("swapped", &ALL[..4]),
         ("linear", &["metal_0.25", "metal_0.5", "metal_0.75"][..]),
-        ("times_pi", &["diffuse"][..]),
-        ("no_gamma", &ALL[..]),
-        ("world", &ALL[..0]),
+        ("times_pi", &ALL[1..]),
+        ("no_gamma", &ALL[..4]),
+        ("world", &ALL[2..]),
     ] {
         let errs = errors(name, &page.frame(name, w, h), &geometry, &refs);
         let failed = geometry.failing(&errs, &TEST_MAP_BOUNDS);
