@@ -71,8 +71,8 @@ scene.environmentTexture = CubeTexture.CreateFromPrefilteredData(envUrl, scene);
 // The map as the background too (the .env's level 0):
 scene.createDefaultSkybox(scene.environmentTexture, true, 1000, 0);
 "#,
-    sun_code: r#"// The sun taken out of the map ({file:save_sun}); intensity in the map's units (irradiance: Babylon's
-// PBR divides a light's diffuse by pi as the .env's polynomial does), direction with z negated.
+    sun_code: r#"// The sun taken out of the map ({file:save_sun}): intensity = its irradiance in the map's units (Babylon's
+// PBR divides a light's diffuse term by pi), direction in Babylon's left-handed world (z negated).
 import { Color3, DirectionalLight, Vector3 } from '@babylonjs/core';
 const sun = new DirectionalLight('sun', new Vector3({sun:from_light}).multiplyByFloats(1, 1, -1), scene);
 sun.diffuse = new Color3({sun:color});

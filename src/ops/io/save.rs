@@ -62,7 +62,7 @@ crate::params! {
         pub zstd_level: usize = 3,
         /// (.ktx) texel format: Rg11b10f (GL_R11F_G11F_B10F, cmgen's default: [0, 65024], relative 2^-7, B 2^-6) or Rgba16f (GL_RGBA16F, clamped to +-65504)
         pub ktx1_format: Ktx1Format = Ktx1Format::Rg11b10f,
-        /// (.ktx) 3-band SH written under the key "sh" as Filament's cmgen writes them (9 lines "r g b"), as given: Filament expects its pre-scaled irradiance SH, ShIrradiance's filament port; (.env) ShIrradiance's 9 coefficients in Babylon's axes, written as its irradiance polynomial
+        /// (.ktx) 3-band SH written under the key "sh" as Filament's cmgen writes them (9 lines "r g b"), as given: Filament expects its pre-scaled irradiance SH, ShIrradiance's filament port
         #[input(&[crate::values::ty::FILAMENT_SH_T, crate::values::ty::SH_COEFFICIENTS_T])]
         pub sh: Option<Input<AnyValue>>,
         /// (.png of an image or cube map) Srgb8 (an 8-bit sRGB preview) or Linear16 (16-bit linear values clamped to [0, 1], for data such as a BRDF LUT: two channels as R, G with B = 0)
