@@ -18,6 +18,7 @@
 //!   3. white metal (F0 = F90 = 1): the split-sum reflectance times Babylon's energy conservation
 //!      factor `1 + F0 (1 / brdf.y - 1)` is exactly 1, so the pixel is the radiance of step 2;
 //!      the diffuse sphere (no specular: `metallicF0Factor` 0, Lambert): I(n), albedo 1.
+//!
 //!   I(n) is the order-2 SH irradiance over pi of the map (what a correct polynomial gives):
 //!   Babylon's evaluation (`formats::babylon_env::Polynomial::irradiance`) of the polynomial of
 //!   the map's 9 exact SH (`maths::ibl::sh`), at n.
