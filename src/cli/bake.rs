@@ -43,7 +43,7 @@ pub(super) struct BakeArgs {
     /// The environment map: a 2:1 lat-long .hdr, .exr or .pfm, or builtin:NAME (builtin:sky).
     #[arg(required_unless_present = "print_pipeline")]
     pub(super) map: Option<String>,
-    /// The engine: bevy, filament, khronos or three.
+    /// The engine: babylon (a Babylon.js .env), bevy, filament, khronos or three.
     #[arg(long = "for", value_name = "ENGINE")]
     pub(super) engine: String,
     /// Output folder (default: out/bake/ENGINE); one holding another engine's bake is refused.
@@ -124,11 +124,11 @@ pub(super) fn bake(registry: &Registry, args: &BakeArgs) -> ExitCode {
 
 fn bake_inner(registry: &Registry, args: &BakeArgs) -> Result<ExitCode, Refused> {
     let preset: &'static Preset = ibl_presets::preset(&args.engine).ok_or_else(|| {
-        Refused(format!(
-            "--for {:?}: no such engine; hdrflow bake writes for {}",
-            args.engine,
-            ibl_presets::names().join(", ")
-        ))
+        let names = ibl_presets::names();
+        // "; did you mean ..." for a close name only: the list follows anyway.
+        let close = crate::engine::graph::suggest(&args.engine, &names, "engines");
+        let close = if close.starts_with("; did you mean") { format!("{close} ") } else { "; ".into() };
+        Refused(format!("--for {:?}: no such engine{close}hdrflow bake writes for {}", args.engine, names.join(", ")))
     })?;
     let out_dir = args.out.clone().unwrap_or_else(|| preset.default_out());
     if !args.print_pipeline {

@@ -7,6 +7,7 @@
 //! | [`exr`]     | OpenEXR `.exr`                   | yes  | yes   | through the `exr` crate: see its docs for parts, windows, colour, what is refused |
 //! | [`ktx2`]    | Khronos KTX 2.0 `.ktx2`          | no   | yes   | RGBA16F/RGBA32F/RGB9E5/B10G11R11/RG16F, 2D or cube, mip levels in one file, optional Zstandard |
 //! | [`ktx1`]    | Khronos KTX 1.1 `.ktx`           | no   | yes   | Filament's: R11F_G11F_B10F/RGBA16F cube with mips, the `sh` key |
+//! | [`babylon_env`] | Babylon.js `.env`            | no   | yes   | RGBD PNG faces of every level, the irradiance polynomial, `EnvironmentTextureTools` v2 |
 //! | [`packed_float`] | rgb9e5, 11/10-bit floats    | -    | -     | the packed texel encodings and their error bounds |
 //! | [`png`]     | PNG (8-bit sRGB preview, 16-bit linear) | no   | yes   | exposure + sRGB OETF, or linear 16-bit, through the `image` crate |
 //! | [`photo`]   | photographs: PNG, JPEG, TIFF of 8/16-bit codes with EXIF | yes | yes | `LoadImage`, `LoadBrackets`, saved brackets; `image` codecs, `kamadak-exif` |
@@ -31,6 +32,7 @@
 //! inside it), *before* allocating anything proportional to the claimed size.
 //! Errors are a plain [`FormatError`] message; the caller adds the file name.
 
+pub mod babylon_env;
 pub mod builtin;
 pub mod csv;
 pub mod exr;

@@ -194,6 +194,11 @@ fn derived_overrides(preset: &Preset, p: &Pipeline, options: &BakeOptions) -> Re
                 if mine("levels") {
                     out.push(set(&n.name, "levels", preset.chain.levels(size).to_string()));
                 }
+                if let (Some(list), true) = (preset.level_roughness, mine("roughness_list")) {
+                    let r: Vec<String> =
+                        list(size, preset.chain.levels(size)).iter().map(|r| format!("{r:?}")).collect();
+                    out.push(set(&n.name, "roughness_list", format!("[{}]", r.join(", "))));
+                }
                 if mine("samples") {
                     out.push(set(&n.name, "samples", row.samples.to_string()));
                 }
@@ -255,7 +260,7 @@ mod tests {
     #[test]
     fn each_engine_bakes_into_its_own_folder() {
         let outs: Vec<PathBuf> = PRESETS.iter().map(|p| p.default_out()).collect();
-        assert_eq!(outs[0], Path::new("out/bake/bevy"));
+        assert_eq!(outs[1], Path::new("out/bake/bevy"));
         for (i, a) in outs.iter().enumerate() {
             assert!(outs[i + 1..].iter().all(|b| b != a), "{}", a.display());
         }
@@ -291,6 +296,11 @@ mod tests {
                         }
                         assert_eq!(int_param(&p, i, "levels"), Some(preset.chain.levels(size)), "{}", preset.name);
                         assert_eq!(int_param(&p, i, "samples"), Some(row.samples));
+                        if let Some(list) = preset.level_roughness {
+                            let levels = preset.chain.levels(size);
+                            let want = ParamValue::Tuple(list(size, levels));
+                            assert_eq!(p.nodes[i].params.values.get("roughness_list"), Some(&want), "{}", preset.name);
+                        }
                     }
                     "IrradianceCubemap" => {
                         let row = preset.quality.expect("quality rows")[1];

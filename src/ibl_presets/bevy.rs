@@ -30,6 +30,7 @@ pub const PRESET: Preset = Preset {
     world: "right-handed, +Y up, -Z forward (hdrflow's axes)",
     cube_frame: Some(CubeFrame::MirrorZ),
     roughness_map: Some(RoughnessMap::Linear),
+    level_roughness: None,
     lod: "lod = r (N - 1)",
     irradiance: "a cube map of E / pi, times the diffuse colour",
     files: "{name}_specular_rgb9e5_zstd.ktx2, {name}_diffuse_rgb9e5_zstd.ktx2, {name}_sun.json",

@@ -32,6 +32,7 @@ pub const PRESET: Preset = Preset {
     world: "right-handed, +Y up, -Z forward (hdrflow's axes)",
     cube_frame: Some(CubeFrame::Standard),
     roughness_map: Some(RoughnessMap::Filament),
+    level_roughness: None,
     lod: "lod = (N - 1) r (2 - r)",
     irradiance:
         "9 SH pre-scaled by the cosine lobe and the basis constants: E / pi = sh0 + sh1 y + sh2 z + sh3 x + ...",

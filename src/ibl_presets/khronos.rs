@@ -33,6 +33,7 @@ pub const PRESET: Preset = Preset {
     world: "right-handed, +Y up (glTF); environmentRotation 0: hdrflow's axes",
     cube_frame: Some(CubeFrame::Standard),
     roughness_map: Some(RoughnessMap::Linear),
+    level_roughness: None,
     lod: "lod = r (N - 1)",
     irradiance: "a cube map of E / pi, times the diffuse colour",
     files: "ggx/specular.ktx2, charlie/sheen.ktx2, lambertian/diffuse.ktx2, lut_ggx.png, lut_charlie.png, {name}_sun.json",

@@ -10,10 +10,13 @@
 //!
 //! Every preset puts the map's centre where hdrflow's lat-long convention puts it, forward (-Z),
 //! in the engine's world, never mirrored (`--yaw` turns it; the tables of docs/src/guides/baking/index.md say which
-//! yaw reproduces the engine's own tool). All four engines are right-handed with +Y up, as
-//! hdrflow is, so a direction means the same in hdrflow and in the engine: only the cube lookup
-//! (`geometry::cube_frame`) and, for three.js, its own lat-long mapping differ.
+//! yaw reproduces the engine's own tool). Bevy, Filament, the Khronos viewers and three.js are
+//! right-handed with +Y up, as hdrflow is, so a direction means the same in hdrflow and in the
+//! engine: only the cube lookup (`geometry::cube_frame`) and, for three.js, its own lat-long
+//! mapping differ. Babylon.js is left-handed by default (+Z forward): its `(x, y, z)` is hdrflow's
+//! `(X, Y, -Z)`, so the map's centre faces its default camera (`babylon.rs`).
 
+pub mod babylon;
 pub mod bake;
 pub mod bevy;
 pub mod filament;
@@ -27,6 +30,8 @@ use crate::maths::brdf::specular_lobe::RoughnessMap;
 crate::choice! {
     /// An engine `hdrflow bake` writes for.
     pub enum Engine {
+        /// Babylon.js (a .env file: its prefiltered cube as RGBD PNGs and its irradiance polynomial)
+        Babylon,
         /// Bevy's EnvironmentMapLight (two KTX2 cube maps)
         Bevy,
         /// Filament's IndirectLight (what cmgen writes: a reflections cube map and 9 SH)
@@ -112,6 +117,9 @@ pub struct Preset {
     pub cube_frame: Option<CubeFrame>,
     /// the roughness each level stands for (`None`: no chain is written)
     pub roughness_map: Option<RoughnessMap>,
+    /// for `RoughnessMap::List`: each level's roughness for a chain of this size and level count
+    /// (the bake sets the chain's `roughness_list` with it)
+    pub level_roughness: Option<fn(usize, usize) -> Vec<f64>>,
     /// how the engine's shader picks a level
     pub lod: &'static str,
     /// how it reads diffuse light, and in what units
@@ -141,7 +149,8 @@ pub struct Preset {
 }
 
 /// Every preset, in `Engine` order.
-pub const PRESETS: [&Preset; 4] = [&bevy::PRESET, &filament::PRESET, &khronos::PRESET, &three::PRESET];
+pub const PRESETS: [&Preset; 5] =
+    [&babylon::PRESET, &bevy::PRESET, &filament::PRESET, &khronos::PRESET, &three::PRESET];
 
 /// The preset `--for NAME` names (any case), or `None`.
 pub fn preset(name: &str) -> Option<&'static Preset> {

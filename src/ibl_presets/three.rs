@@ -28,6 +28,7 @@ pub const PRESET: Preset = Preset {
     world: "right-handed, +Y up, -Z forward (hdrflow's axes)",
     cube_frame: None,
     roughness_map: None,
+    level_roughness: None,
     lod: "its own PMREM (CubeUV atlas)",
     irradiance: "PMREM of the map, or a LightProbe of 9 orthonormal SH (SphericalHarmonics3)",
     files: "{name}_three.hdr, {name}_sh.json, {name}_sun.json",

@@ -5,18 +5,21 @@
 //! contain `{level}`; [`save_levels`]). As `.ktx2` (any `KtxFormat`, alpha 1): a cube map is one
 //! cube texture (faceCount 6) of one level, and a chain ONE cube texture whose levelCount is the
 //! chain's length (`{level}` not needed); `formats::ktx2`. As `.ktx` (KTX 1.1 for Filament,
-//! `formats::ktx1`): the same cube texture.
+//! `formats::ktx1`): the same cube texture. A chain as `.env`: Babylon.js's prefiltered
+//! environment (`formats::babylon_env`, every level down to 1 x 1, with `Save`'s `sh` as its
+//! irradiance).
 
 use super::image::encode_image;
 use crate::engine::registry::Registry;
 use crate::engine::save::SaveOptions;
 use crate::engine::value::Value;
+use crate::formats::babylon_env::{self, EnvIrradiance};
 use crate::values::{Cubemap, MipChain, CUBEMAP, MIP_CHAIN};
 
 /// Registers the savers of cube maps and mip chains.
 pub fn register(r: &mut Registry) {
     r.register_saver(&CUBEMAP, &["exr", "pfm", "hdr", "png", "ktx2", "ktx"], save);
-    r.register_saver(&MIP_CHAIN, &["exr", "pfm", "hdr", "png", "ktx2", "ktx"], save_chain_level0);
+    r.register_saver(&MIP_CHAIN, &["exr", "pfm", "hdr", "png", "ktx2", "ktx", "env"], save_chain_level0);
 }
 
 fn save(value: &Value, o: &SaveOptions) -> Result<Vec<u8>, String> {
@@ -33,6 +36,11 @@ fn save_chain_level0(value: &Value, o: &SaveOptions) -> Result<Vec<u8>, String> 
     let c = value.get::<MipChain>().ok_or("not a mip chain")?;
     if o.ext == "ktx2" || o.ext == "ktx" {
         return encode_ktx(&c.levels, o);
+    }
+    if o.ext == "env" {
+        let EnvIrradiance(polynomial) = o.get_or_default();
+        let (bytes, _) = babylon_env::encode(&c.levels, polynomial.as_ref(), babylon_env::LOD_GENERATION_SCALE, true)?;
+        return Ok(bytes);
     }
     let first = c.levels.first().ok_or("an empty mip chain")?;
     encode_image(&first.to_strip(), o)

@@ -16,6 +16,7 @@
 //! | brackets              | one photograph per frame with its EXIF exposure time: a folder `frames/` (`frame_0.png`, ...) or a path with `{frame}` (`.png` 8/16-bit, `.jpg`, `.tif`) |
 //! | image, cube map, mip chain | `.ktx2`: a 2D texture, a cube texture, a cube texture with every level (`ktx_format`, `ktx_supercompression`) |
 //! | image, cube map, mip chain | `.ktx` (KTX 1.1, for Filament): the same (`ktx1_format`; `sh`: SH coefficients under the key `sh`, as cmgen writes them) |
+//! | mip chain             | `.env` (Babylon.js): every level down to 1 x 1 as RGBD PNGs; `sh`: 9 SH coefficients in Babylon's axes, written as its irradiance polynomial; texels beyond RGBD's 255 are clamped, with one warning |
 //!
 //! The operator only encodes: the engine writes the bytes atomically into `--out`, and refuses
 //! paths that are absolute or leave that folder. Encoding is cached like any result.
@@ -26,6 +27,7 @@ use crate::engine::params::OutputPath;
 use crate::engine::save::SaveOptions;
 use crate::engine::typed_op::Op;
 use crate::engine::value::{FileBlob, Value, ValueType, FILE};
+use crate::formats::babylon_env::{EnvIrradiance, Polynomial, RGBD_MAX};
 use crate::formats::ktx1::{self, Ktx1Format};
 use crate::formats::ktx2::{Compression, KtxFormat, KtxSupercompression};
 use crate::formats::png::PngFormat;
@@ -115,8 +117,11 @@ fn check(ctx: &CheckContext, p: SaveParams<Check>) -> Result<(), CheckProblem> {
     if p.ktx1_format != Ktx1Format::Rg11b10f && ext != "ktx" {
         return Err(CheckProblem::at(SaveParams::ktx1_format, "ktx1_format applies to .ktx files only"));
     }
-    if p.sh.is_some() && ext != "ktx" {
-        return Err(CheckProblem::at(SaveParams::sh, "sh applies to .ktx files only (Filament's key \"sh\")"));
+    if p.sh.is_some() && ext != "ktx" && ext != "env" {
+        return Err(CheckProblem::at(
+            SaveParams::sh,
+            "sh applies to .ktx files (Filament's key \"sh\") and .env files (Babylon's irradiance) only",
+        ));
     }
     if p.png_format != PngFormat::Srgb8 && (ext != "png" || t == crate::values::ty::CURVES_T) {
         return Err(CheckProblem::at(
@@ -124,7 +129,10 @@ fn check(ctx: &CheckContext, p: SaveParams<Check>) -> Result<(), CheckProblem> {
             "png_format applies to .png files of images and cube maps only",
         ));
     }
-    if t == crate::values::ty::MIP_CHAIN_T && ext != "ktx2" && ext != "ktx" && !p.path.0.contains("{level}") {
+    if t == crate::values::ty::MIP_CHAIN_T
+        && !["ktx2", "ktx", "env"].contains(&ext.as_str())
+        && !p.path.0.contains("{level}")
+    {
         return Err(CheckProblem::at(
             SaveParams::path,
             "a mip chain is saved one file per level: put {level} in the path (e.g. \"spec_{level}.exr\"), or save it as one .ktx2",
@@ -227,8 +235,24 @@ fn eval(ctx: &mut OpContext, p: SaveParams) -> Result<Value, OpError> {
             exposure += auto_exposure(&c.to_strip());
         }
     }
+    if ext == "env" {
+        let count = beyond_rgbd(value);
+        if count > 0 {
+            ctx.warn(format!(
+                "{rel_path}: {count} texel{} beyond RGBD's range (255) clamped to it (colour kept)",
+                if count == 1 { " is" } else { "s are" }
+            ));
+        }
+    }
+    let mut env_irradiance = EnvIrradiance::default();
     let mut key_values = ktx1::KeyValues::default();
-    if let Some(sh) = &p.sh {
+    if let (Some(sh), "env") = (&p.sh, ext.as_str()) {
+        let c = sh
+            .value()
+            .get::<ShCoefficients>()
+            .ok_or_else(|| fail("sh of a .env: give ShIrradiance's coefficients".into()))?;
+        env_irradiance.0 = Some(Polynomial::from_sh(&c.rgb).map_err(|e| fail(format!("the sh input: {e}")))?);
+    } else if let Some(sh) = &p.sh {
         let rgb = match sh.value().get::<FilamentSh>() {
             Some(filament) => filament.rgb.to_vec(),
             None => sh.value().get::<ShCoefficients>().map(|c| c.rgb.clone()).unwrap_or_default(),
@@ -241,12 +265,13 @@ fn eval(ctx: &mut OpContext, p: SaveParams) -> Result<Value, OpError> {
         .with(Compression { scheme: p.ktx_supercompression, zstd_level: p.zstd_level as i32 })
         .with(p.ktx1_format)
         .with(key_values)
+        .with(env_irradiance)
         .with(p.png_format)
         .with(crate::formats::exr::EncodeOptions { compression: p.compression, half: p.half });
     options.exposure = exposure;
     options.plot_size = (p.plot_size[0] as u32, p.plot_size[1] as u32);
     if let Some(chain) =
-        value.get::<crate::values::MipChain>().filter(|_| options.ext != "ktx2" && options.ext != "ktx")
+        value.get::<crate::values::MipChain>().filter(|_| !["ktx2", "ktx", "env"].contains(&options.ext.as_str()))
     {
         let mut files =
             crate::formats::save::cubemap::save_levels(chain, &rel_path, &options).map_err(fail)?.into_iter();
@@ -289,6 +314,12 @@ fn beyond_half(value: &Value) -> (usize, f32) {
         }
     }
     found
+}
+
+/// How many texels of a mip chain have a channel beyond RGBD's range (`formats::babylon_env`).
+fn beyond_rgbd(value: &Value) -> usize {
+    let Some(chain) = value.get::<crate::values::MipChain>() else { return 0 };
+    chain.levels.iter().flat_map(|c| c.data.chunks_exact(3)).filter(|t| t.iter().any(|v| *v > RGBD_MAX)).count()
 }
 
 /// How many texels of an image, cube map or mip chain `format` changes beyond rounding

@@ -1,0 +1,356 @@
+//! Babylon.js, rendered for real (issue 36): `hdrflow bake MAP --for babylon --sun keep` writes
+//! the `.env` that `CubeTexture.CreateFromPrefilteredData` loads, and Babylon.js (npm
+//! `@babylonjs/core` 9.37.1, `clients/babylon-web`, WebGL2 in headless Chromium on SwiftShader)
+//! renders six spheres with it, loaded by the README's own lines. Each frame is read back as
+//! 32-bit floats, linear and unclamped (`clients/babylon-web/render.js` says how).
+//!
+//! - The spheres (mirror, metals 0.25 to 1, a Lambert diffuse one) against Babylon's formula fed
+//!   exact values (`babylon_render/reference.rs`): relative RMSE over their inner pixels,
+//!   asserted; against the exact GGX integral and irradiance, reported. On the asymmetric test map
+//!   of tests/bevy_render.rs each classic mistake fails: the map mirrored, faces +Z and -Z
+//!   swapped, a linear roughness list in the chain, the polynomial holding E instead of E / pi,
+//!   the SH in hdrflow's axes instead of Babylon's, RGBD written without its gamma.
+//! - Orientation and handedness: a map of coloured markers (`common/markers.rs`) through
+//!   `scene.createDefaultSkybox` (the .env's level 0) must show each marker where a 360-degree
+//!   viewer facing the map's centre does, looking along -Z (hdrflow's axes: +Z in Babylon's
+//!   left-handed world) and along +X; a mirrored map fails.
+//!
+//! Needs Chromium and the client's npm packages (`scripts/babylon-web.sh install`: `npm ci` in
+//! clients/babylon-web); without them the tests skip visibly, and fail under
+//! `HDRFLOW_REQUIRE_BABYLON=1`. Run: `cargo test --release --test babylon_render -- --nocapture`
+//! (prints the tables).
+
+#[path = "babylon_render/reference.rs"]
+mod babylon_reference;
+mod common;
+#[path = "common/markers.rs"]
+mod markers;
+#[allow(dead_code)]
+#[path = "bevy_render/reference.rs"]
+mod reference;
+#[allow(dead_code)]
+#[path = "bevy_render/scene.rs"]
+mod scene;
+#[path = "bevy_render/test_map.rs"]
+mod test_map;
+#[path = "common/web_page.rs"]
+mod web_page;
+
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use babylon_reference::{sh_polynomial, sphere_reference, SphereReference};
+use glam::DVec3;
+use hdrflow::formats::babylon_env;
+use hdrflow::values::Image;
+use reference::{relative_rmse, Map};
+use scene::Geometry;
+use serde_json::{json, Value as Json};
+
+const REQUIRE: &str = "HDRFLOW_REQUIRE_BABYLON";
+/// The pinned engine (clients/babylon-web/package-lock.json).
+const PACKAGE_VERSION: &str = "9.37.1";
+/// The orthographic camera of the sphere renders (clients/web-common/scene.js: on +Z at CAMERA_Z).
+const CAMERA: DVec3 = DVec3::new(0.0, 0.0, 10.0);
+/// Relative RMSE bounds per sphere (mirror, metals 0.25, 0.5, 0.75, 1, diffuse) on the test map:
+/// about twice what the correct bake measures (0.0146, 0.0095, 0.0017, 0.0008, 0.0002, 0.0002:
+/// docs/src/guides/baking/babylon.md), at least 0.002.
+const TEST_MAP_BOUNDS: [f64; 6] = [0.03, 0.02, 0.005, 0.003, 0.002, 0.002];
+/// SwiftShader is a CPU renderer on a shared machine: a minute is possible, ten are a hang.
+const BROWSER_TIMEOUT: Duration = Duration::from_secs(600);
+/// The orientation views: 256 x 256, 90 degrees (`markers::SkyCamera`).
+const SKY_SIZE: usize = 256;
+const SKY_FOV: f64 = 90.0;
+/// How far (pixels) a marker may land from where a 360-degree viewer puts it.
+const MARKER_TOLERANCE: f64 = 2.0;
+
+fn app_dir() -> PathBuf {
+    Path::new(common::MANIFEST_DIR).join("clients/babylon-web")
+}
+
+/// Chromium, or `None` after a visible skip when it or the npm package is missing.
+fn browser() -> Option<&'static str> {
+    let files = ["@babylonjs/core/index.js", "@babylonjs/core/Misc/environmentTextureTools.js"];
+    web_page::browser(REQUIRE, &app_dir(), &files, "scripts/babylon-web.sh install")
+}
+
+/// `hdrflow bake MAP --for babylon --sun keep --out DIR` plus `extra`; the .env's path.
+fn bake(sandbox: &common::Sandbox, map: &Path, dir: &str, extra: &[&str]) -> PathBuf {
+    let out = sandbox.join(dir);
+    let cache = sandbox.cache();
+    let mut args = vec!["bake", map.to_str().expect("UTF-8 paths"), "--for", "babylon", "--sun", "keep"];
+    args.extend_from_slice(&["--out", out.to_str().expect("UTF-8"), "--cache-dir", cache.to_str().expect("UTF-8")]);
+    args.push("-q");
+    args.extend_from_slice(extra);
+    common::run_hdrflow(args).assert_success();
+    out.join(format!("{}.env", map.file_stem().and_then(|s| s.to_str()).expect("a file name")))
+}
+
+/// A `.env` of `images` (level-major, six faces each) with `manifest`, positions recomputed.
+fn assemble(mut manifest: Json, images: &[Vec<u8>]) -> Vec<u8> {
+    let mut position = 0;
+    let entries: Vec<Json> = images
+        .iter()
+        .map(|png| {
+            let e = json!({ "length": png.len(), "position": position });
+            position += png.len();
+            e
+        })
+        .collect();
+    manifest["specular"]["mipmaps"] = Json::Array(entries);
+    let mut out = babylon_env::MAGIC.to_vec();
+    out.extend_from_slice(serde_json::to_string(&manifest).expect("JSON").as_bytes());
+    out.push(0);
+    for png in images {
+        out.extend_from_slice(png);
+    }
+    out
+}
+
+/// The `.env` at `path` with its manifest and images passed through `edit`.
+fn edited(path: &Path, edit: impl Fn(&mut Json, &mut [Vec<u8>])) -> Vec<u8> {
+    let bytes = common::read_file(path);
+    let (manifest, images) = babylon_env::decode(&bytes).expect("the bake's .env");
+    let (mut manifest, mut images): (Json, Vec<Vec<u8>>) = (manifest, images.into_iter().map(<[u8]>::to_vec).collect());
+    edit(&mut manifest, &mut images);
+    assemble(manifest, &images)
+}
+
+/// Each level's faces `a` and `b` exchanged.
+fn swap_faces(images: &mut [Vec<u8>], a: usize, b: usize) {
+    for level in 0..images.len() / 6 {
+        images.swap(6 * level + a, 6 * level + b);
+    }
+}
+
+/// Every RGBD face rewritten as if the encoder had left out the gamma (RGB stored linearly).
+fn without_gamma(_: &mut Json, images: &mut [Vec<u8>]) {
+    for png in images.iter_mut() {
+        let mut img = image::load_from_memory(png).expect("a PNG face").to_rgba8();
+        for p in img.pixels_mut() {
+            for c in 0..3 {
+                p.0[c] = ((p.0[c] as f64 / 255.0).powf(2.2) * 255.0).round() as u8;
+            }
+        }
+        let mut out = Vec::new();
+        img.write_to(&mut std::io::Cursor::new(&mut out), image::ImageFormat::Png).expect("PNG");
+        *png = out;
+    }
+}
+
+fn write_map(sandbox: &common::Sandbox, name: &str, img: &Image) -> PathBuf {
+    sandbox.write(name, hdrflow::formats::pfm::encode(img))
+}
+
+fn rel(sandbox: &common::Sandbox, p: &Path) -> String {
+    p.strip_prefix(sandbox.path()).expect("inside the sandbox").to_str().expect("UTF-8").to_string()
+}
+
+/// The pieces of Babylon's PBR shader `babylon_render/reference.rs` models, in the GLSL it
+/// compiled (an upgrade that changes them must revisit the reference).
+const SPHERE_SHADER: [&str; 4] = [
+    "reflectionLOD=reflectionLOD*vReflectionMicrosurfaceInfos.y+vReflectionMicrosurfaceInfos.z",
+    "float lod=log2(microsurfaceAverageSlopeTexels)",
+    "mix(environmentRadiance.rgb,environmentIrradiance,alphaG)",
+    "return 1.0+specularEnvironmentR0*(1.0/environmentBrdf.y-1.0)",
+];
+
+fn run_page(browser: &str, sandbox: &common::Sandbox, label: &str, job: &Json) -> web_page::Page {
+    let page = web_page::run(browser, &app_dir(), sandbox, job, &format!("babylon-render/{label}"), BROWSER_TIMEOUT);
+    assert_eq!(page.report["package"], PACKAGE_VERSION, "the pinned engine (clients/babylon-web/package-lock.json)");
+    for r in page.report["renders"].as_array().expect("the renders") {
+        assert_eq!(r["stable"], true, "{}: the second frame differs from the first", r["name"]);
+        assert_eq!(r["loaded"]["lodGenerationScale"], 0.8, "{r}");
+    }
+    page
+}
+
+/// Relative RMSE per sphere against the `engine` references (printed with the exact ones).
+fn errors(label: &str, frame: &Image, geometry: &Geometry, refs: &[SphereReference]) -> Vec<f64> {
+    eprintln!(
+        "{label}: relative RMSE per sphere (vs Babylon's formula on exact lookups | vs exact GGX and irradiance)"
+    );
+    let mut out = Vec::new();
+    for (s, r) in geometry.spheres.iter().zip(refs) {
+        let e = relative_rmse(frame, 1.0, &r.pixels, &r.engine);
+        let x = relative_rmse(frame, 1.0, &r.pixels, &r.exact);
+        eprintln!("  {:<11} {:>8.4} | {:>8.4}   ({} pixels)", s.name, e, x, r.pixels.len());
+        for q in [0, r.pixels.len() / 3, r.pixels.len() / 2, r.pixels.len() - 1] {
+            let p = r.pixels[q];
+            eprintln!(
+                "     px {p}: got {:?} engine {:?} exact {:?}",
+                &frame.data[p * 4..p * 4 + 3],
+                r.engine[q],
+                r.exact[q]
+            );
+        }
+        out.push(e);
+    }
+    out
+}
+
+#[test]
+fn babylon_shows_the_test_map_and_each_mistake_fails() {
+    let Some(browser) = browser() else { return };
+    let sandbox = common::Sandbox::new();
+    let map = test_map::test_map();
+    let plain = write_map(&sandbox, "test.pfm", &map);
+    let good = bake(&sandbox, &plain, "good", &[]);
+    let mirrored = bake(&sandbox, &write_map(&sandbox, "test_mirrored.pfm", &markers::mirror_x(&map)), "mirrored", &[]);
+    // Levels k / 8 (Bevy's and Khronos's rule) where Babylon reads 2^(k / 0.8) / 256.
+    let linear = "spec.roughness_list=[0.0, 0.125, 0.25, 0.375, 0.5, 0.625, 0.75, 0.875, 1.0]";
+    let linear = bake(&sandbox, &plain, "linear", &["--set", linear]);
+    let swapped = sandbox.write("swapped/test.env", edited(&good, |_, i| swap_faces(i, 4, 5)));
+    let times_pi = sandbox.write(
+        "times_pi/test.env",
+        edited(&good, |m, _| {
+            for t in babylon_env::TERMS {
+                let v: Vec<f64> = m["irradiance"][t]
+                    .as_array()
+                    .unwrap()
+                    .iter()
+                    .map(|x| x.as_f64().unwrap() * std::f64::consts::PI)
+                    .collect();
+                m["irradiance"][t] = json!(v);
+            }
+        }),
+    );
+    let gamma = sandbox.write("no_gamma/test.env", edited(&good, without_gamma));
+    // The SH in hdrflow's axes (z backwards for Babylon) instead of Babylon's.
+    let world = bake(&sandbox, &plain, "world", &["--set", "sh.frame=World"]);
+
+    let bakes = [
+        ("good", &good),
+        ("mirrored", &mirrored),
+        ("linear", &linear),
+        ("swapped", &swapped),
+        ("times_pi", &times_pi),
+        ("no_gamma", &gamma),
+        ("world", &world),
+    ];
+    let renders: Vec<Json> =
+        bakes.iter().map(|(name, env)| json!({ "name": name, "kind": "spheres", "env": rel(&sandbox, env) })).collect();
+    let page = run_page(browser, &sandbox, "test-map", &json!({ "renders": renders }));
+    let shaders = std::fs::read_to_string(page.results.join("shaders.txt")).expect("the recorded shader");
+    for piece in SPHERE_SHADER {
+        assert!(shaders.contains(piece), "the recorded shader has no {piece:?}");
+    }
+    let loaded = &page.render_report("good")["loaded"];
+    assert_eq!(loaded["width"], 256, "{loaded}");
+
+    let geometry = Geometry::read(&page.results.join("scene.json"));
+    let map = Map::new(map);
+    let poly = sh_polynomial(&map);
+    let refs: Vec<SphereReference> = (0..geometry.spheres.len())
+        .map(|k| sphere_reference(&map, &poly, &geometry.spheres[k], &geometry.pixels(k, 0.9, 2), CAMERA, 256))
+        .collect();
+    let (w, h) = (geometry.width, geometry.height);
+    let good_errors = errors("test map", &page.frame("good", w, h), &geometry, &refs);
+    let good_failing = geometry.failing(&good_errors, &TEST_MAP_BOUNDS);
+    let mut missed = Vec::new();
+    const ALL: [&str; 6] = ["mirror", "metal_0.25", "metal_0.5", "metal_0.75", "metal_1", "diffuse"];
+    for (name, must_fail) in [
+        ("mirrored", &ALL[..]),
+        // Roughness 1 and the diffuse sphere read only the polynomial (Babylon mixes the radiance
+        // with the irradiance by alphaG).
+        ("swapped", &ALL[..4]),
+        ("linear", &["metal_0.25", "metal_0.5", "metal_0.75"][..]),
+        ("times_pi", &ALL[1..]),
+        ("no_gamma", &ALL[..4]),
+        ("world", &ALL[2..]),
+    ] {
+        let errs = errors(name, &page.frame(name, w, h), &geometry, &refs);
+        let failed = geometry.failing(&errs, &TEST_MAP_BOUNDS);
+        for s in must_fail.iter().filter(|s| !failed.iter().any(|f| f == *s)) {
+            missed.push(format!("{name}: {s} passed the comparison (failing: {failed:?})"));
+        }
+    }
+    assert_eq!(good_failing, Vec::<String>::new(), "the correct bake must match");
+    assert!(missed.is_empty(), "mistakes the comparison did not catch:\n{}", missed.join("\n"));
+}
+
+#[test]
+fn babylon_shows_the_marker_map_as_a_360_viewer_does() {
+    let Some(browser) = browser() else { return };
+    let sandbox = common::Sandbox::new();
+    let plain = write_map(&sandbox, "markers.pfm", &markers::orientation_map());
+    let mirrored = write_map(&sandbox, "mirrored.pfm", &markers::mirror_x(&markers::orientation_map()));
+    let good = bake(&sandbox, &plain, "good", &[]);
+    let turned = bake(&sandbox, &plain, "yaw", &["--yaw", "-90"]);
+    let bad = bake(&sandbox, &mirrored, "mirrored", &[]);
+    let views = [
+        ("front", &good, DVec3::NEG_Z, 0.0, false),
+        // `--yaw -90` turns the map's centre to +X.
+        ("yaw", &turned, DVec3::X, -90.0, false),
+        ("yaw_front", &turned, DVec3::NEG_Z, 0.0, true),
+        ("mirrored", &bad, DVec3::NEG_Z, 0.0, true),
+    ];
+    let renders: Vec<Json> = views
+        .iter()
+        .map(|(name, env, forward, _, _)| {
+            json!({ "name": name, "kind": "sky", "env": rel(&sandbox, env), "forward": forward.to_array(),
+                    "fov_deg": SKY_FOV, "size": SKY_SIZE })
+        })
+        .collect();
+    let page = run_page(browser, &sandbox, "markers", &json!({ "renders": renders }));
+    let seen: Vec<markers::View> = views
+        .iter()
+        .map(|(name, _, forward, yaw, mistake)| markers::View {
+            name,
+            img: page.frame(name, SKY_SIZE, SKY_SIZE),
+            forward: *forward,
+            yaw: *yaw,
+            mistake: *mistake,
+        })
+        .collect();
+    markers::assert_views(&seen, "mirrored", MARKER_TOLERANCE);
+}
+
+/// The README's Babylon code is the code of the render page (`clients/babylon-web/render.js`
+/// loads the .env with it): every code line but the one naming the file is a line of that page,
+/// and that one names the file the bake wrote; a texel beyond RGBD's 255 is counted in a warning.
+#[test]
+fn the_babylon_readme_code_is_the_render_pages_code() {
+    let sandbox = common::Sandbox::new();
+    let mut bright = Image::new(64, 32, 3);
+    bright.data.iter_mut().for_each(|v| *v = 0.5);
+    bright.data[3 * (16 * 64 + 20)..3 * (16 * 64 + 21)].copy_from_slice(&[1000.0, 900.0, 800.0]);
+    let map = write_map(&sandbox, "bright.pfm", &bright);
+    let out = sandbox.join("bright");
+    let cache = sandbox.cache();
+    let o = common::run_hdrflow([
+        "bake",
+        map.to_str().unwrap(),
+        "--for",
+        "babylon",
+        "--sun",
+        "keep",
+        "--quality",
+        "draft",
+        "--out",
+        out.to_str().unwrap(),
+        "--cache-dir",
+        cache.to_str().unwrap(),
+    ]);
+    o.assert_success();
+    let text = format!("{}{}", o.stdout, o.stderr);
+    assert!(text.contains("beyond RGBD's range (255) clamped"), "{text}");
+    let readme = std::fs::read_to_string(out.join("README.txt")).unwrap();
+    let page = std::fs::read_to_string(app_dir().join("render.js")).unwrap();
+    let page_lines: Vec<&str> = page.lines().map(str::trim).collect();
+    let code = &readme[readme.find("// Babylon.js (@babylonjs/core").expect("the loading code")..];
+    let mut checked = 0;
+    for line in code.lines().map(str::trim).filter(|l| !l.is_empty() && !l.starts_with("//")) {
+        if let Some((_, file)) = line.strip_prefix("const ").and_then(|l| l.split_once("Url = '")) {
+            let file = file.trim_end_matches("';");
+            assert!(out.join(file).is_file(), "{line}: no such file written");
+        } else {
+            assert!(page_lines.contains(&line), "not a line of clients/babylon-web/render.js: {line}");
+            checked += 1;
+        }
+    }
+    assert_eq!(checked, 3, "{code}");
+    let bytes = common::read_file(&out.join("bright.env"));
+    let (manifest, images) = babylon_env::decode(&bytes).expect("a .env");
+    assert_eq!((manifest["width"].as_u64(), images.len()), (Some(128), 6 * 8));
+}
