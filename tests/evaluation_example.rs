@@ -48,8 +48,11 @@ fn json(path: &Path) -> Json {
     serde_json::from_str(&text).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
 }
 
-/// `metrics.csv` as (item, node) -> the row's numbers by column name.
-fn metrics_csv(path: &Path) -> Vec<((String, String), Vec<(String, f64)>)> {
+/// A `metrics.csv` row: (item, node) and the row's numbers by column name.
+type MetricsRow = ((String, String), Vec<(String, f64)>);
+
+/// `metrics.csv`'s rows.
+fn metrics_csv(path: &Path) -> Vec<MetricsRow> {
     let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     let mut lines = text.lines();
     let header: Vec<&str> = lines.next().expect("a header").split(',').collect();

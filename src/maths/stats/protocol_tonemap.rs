@@ -4,11 +4,11 @@
 //!
 //!   out = alpha x^(1/gamma),  alpha = max_mapping / (P + 1e-10),
 //!
-//! where P is numpy's `percentile` (linear interpolation) of the samples of x^(1/gamma) that are
-//! > 0, over every pixel and channel (all of them when none is > 0). Where the script gives NaN
+//! where P is numpy's `percentile` (linear interpolation) of the samples of x^(1/gamma) above 0,
+//! over every pixel and channel (all of them when none is above 0). Where the script gives NaN
 //! (a negative or NaN sample: `np.power` of it), this gives 0 and counts the sample.
-//! `tests/evaluation_example.rs` checks the result against the script's own `TonemapHDR` (vendored in
-//! `bench/peers/tonemap_peer.py`) to 1e-6 relative.
+//! `tests/evaluation_metrics.rs` checks the result against the script's own `TonemapHDR`
+//! (vendored in `bench/peers/tonemap_peer.py`) to 1e-6 relative.
 
 use super::protocol_metrics::numpy_percentile;
 
