@@ -200,7 +200,7 @@ pub(crate) trait Footprint: Sync {
     /// The density across the cell `r` of solid angle `omega` taken linear, `1 + b_p u + b_q v`
     /// in cell coordinates `(u, v)` in `[-1/2, 1/2]^2`: `[b_p, b_q]`, from its halves' solid angles.
     fn slopes(&self, [p0, p1, q0, q1]: [f64; 4], omega: f64) -> [f64; 2] {
-        if !(omega > 0.0) {
+        if omega.is_nan() || omega <= 0.0 {
             return [0.0; 2];
         }
         let (pm, qm) = (0.5 * (p0 + p1), 0.5 * (q0 + q1));
