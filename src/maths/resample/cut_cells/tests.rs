@@ -115,3 +115,31 @@ fn a_fractional_yaw_blends_two_columns_exactly() {
     eprintln!("fractional yaw: rows 1 to H - 2 {inside:e}, pole rows {poles:e}");
     assert!(inside < 1e-6 && poles < 5e-4, "rows 1 to H - 2 {inside:e}, pole rows {poles:e}");
 }
+
+#[test]
+fn keeps_the_integral_and_a_constant() {
+    let img = noise_map(96, 48);
+    let want = latlong_integral(&img);
+    for r in [Rotation::from_yaw_pitch_roll(12.5, -30.0, 7.0), Rotation::from_yaw_pitch_roll(0.0, 90.0, 0.0)] {
+        let got = latlong_integral(&rotated_latlong(&LatLongSource::new(&img), r.0.transpose(), 1e-9, 12));
+        for k in 0..3 {
+            assert!(((got[k] - want[k]) / want[k]).abs() < 1e-6, "{r:?}: {got:?} vs {want:?}");
+        }
+    }
+    let one = Image::from_vec(64, 32, 3, vec![1.0; 64 * 32 * 3]);
+    let out = rotated_latlong(&LatLongSource::new(&one), Rotation::from_yaw_pitch_roll(10.0, 20.0, 30.0).0, 1e-9, 12);
+    assert!(out.data.iter().all(|&v| (v - 1.0).abs() < 1e-6));
+}
+
+#[test]
+fn a_plane_cuts_the_square_into_exact_shares() {
+    // u >= 0.25: a quarter of the square; with density 1 + 2v the share of v >= 0 is 3/4.
+    let quarter = SQUARE.clip(Line { a: -0.25, b: 1.0, c: 0.0 });
+    assert!((quarter.weight([0.0; 2]) - 0.25).abs() < 1e-15);
+    let top = SQUARE.clip(Line { a: 0.0, b: 0.0, c: 1.0 });
+    assert!((top.weight([0.0, 2.0]) - 0.75).abs() < 1e-15);
+    // A diagonal through the centre halves it; its clipped half has three vertices.
+    let half = SQUARE.clip(Line { a: 0.0, b: 1.0, c: 1.0 });
+    assert_eq!(half.n, 3);
+    assert!((half.weight([0.0; 2]) - 0.5).abs() < 1e-15);
+}
