@@ -192,6 +192,23 @@ fn max_abs(v: [f32; 3]) -> f64 {
 pub(crate) trait Footprint: Sync {
     fn dir(&self, p: f64, q: f64) -> DVec3;
     fn solid_angle(&self, p0: f64, p1: f64, q0: f64, q1: f64) -> f64;
+    /// The cell `r = [p0, p1, q0, q1]` lies wholly in the domain, its density (solid angle per unit
+    /// area) smooth over it: the cut cells of `maths::resample::cut_cells` may integrate it.
+    fn whole(&self, _r: [f64; 4]) -> bool {
+        true
+    }
+    /// The density across the cell `r` of solid angle `omega` taken linear, `1 + b_p u + b_q v`
+    /// in cell coordinates `(u, v)` in `[-1/2, 1/2]^2`: `[b_p, b_q]`, from its halves' solid angles.
+    fn slopes(&self, [p0, p1, q0, q1]: [f64; 4], omega: f64) -> [f64; 2] {
+        if omega.is_nan() || omega <= 0.0 {
+            return [0.0; 2];
+        }
+        let (pm, qm) = (0.5 * (p0 + p1), 0.5 * (q0 + q1));
+        [
+            4.0 * (self.solid_angle(pm, p1, q0, q1) - self.solid_angle(p0, pm, q0, q1)) / omega,
+            4.0 * (self.solid_angle(p0, p1, qm, q1) - self.solid_angle(p0, p1, q0, qm)) / omega,
+        ]
+    }
 }
 
 /// A cube face: p = a, q = b.
@@ -206,13 +223,18 @@ impl Footprint for Face {
 }
 
 /// The lat-long domain: p = phi, q = theta.
-struct LatLongDomain;
+pub(crate) struct LatLongDomain;
 impl Footprint for LatLongDomain {
     fn dir(&self, p: f64, q: f64) -> DVec3 {
         DVec3::from(latlong::direction(q, p))
     }
     fn solid_angle(&self, p0: f64, p1: f64, q0: f64, q1: f64) -> f64 {
         (p1 - p0) * (q0.cos() - q1.cos())
+    }
+    fn slopes(&self, [_, _, q0, q1]: [f64; 4], _omega: f64) -> [f64; 2] {
+        let (c0, cm, c1) = (q0.cos(), (0.5 * (q0 + q1)).cos(), q1.cos());
+        // No change along phi; along theta, the halves' difference (the same formula as above).
+        [0.0, if c0 > c1 { 4.0 * ((cm - c1) - (c0 - cm)) / (c0 - c1) } else { 0.0 }]
     }
 }
 
@@ -229,10 +251,10 @@ impl Footprint for OctDomain {
 
 /// Subdivision limits (see the module documentation).
 pub(crate) struct Limits {
-    forced: u32,
-    boundary: u32,
-    max: u32,
-    tol: f64,
+    pub(crate) forced: u32,
+    pub(crate) boundary: u32,
+    pub(crate) max: u32,
+    pub(crate) tol: f64,
 }
 
 impl Limits {
@@ -240,7 +262,7 @@ impl Limits {
         Limits::with_tolerance(src, out_texel_angle, 1e-7, 8)
     }
     /// `rel_tol` times the source's magnitude per leaf, down to `2^-depth` of a source texel.
-    fn with_tolerance<S: SphereSource>(src: &S, out_texel_angle: f64, rel_tol: f64, depth: u32) -> Limits {
+    pub(crate) fn with_tolerance<S: SphereSource>(src: &S, out_texel_angle: f64, rel_tol: f64, depth: u32) -> Limits {
         let ratio = out_texel_angle / src.texel_angle();
         let forced = if ratio > 1.0 { ratio.log2().ceil().min(24.0) as u32 } else { 0 };
         Limits { forced, boundary: forced + 1, max: forced + depth, tol: rel_tol * src.magnitude() }

@@ -4,6 +4,7 @@
 
 pub mod area_resize;
 pub mod bilinear;
+pub mod cut_cells;
 pub mod disc_image;
 pub mod latlong_cube;
 pub mod layouts;

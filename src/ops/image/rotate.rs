@@ -37,7 +37,7 @@ crate::params! {
 }
 
 pub fn spec() -> OpSpec {
-    Op::new("Rotate", 1, "Rotate a lat-long or cube map on the sphere (energy-preserving)", eval)
+    Op::new("Rotate", 2, "Rotate a lat-long or cube map on the sphere (energy-preserving)", eval)
         .output_like("image", |p| p.image, "the rotated map")
         .size(|_, p| p.image.size)
         .check(check)
