@@ -220,8 +220,8 @@ impl<'a, 'b, F: Footprint> Cells<'a, 'b, F> {
             let cut = if self.fp.whole(r) { self.cut(r, &pts, omega) } else { None };
             match cut {
                 Some(c) if c.spread == 0.0 || c.spread * omega * c.bend <= lim.tol || depth >= lim.max => {
-                    for k in 0..3 {
-                        acc[k] += c.mean[k] * omega;
+                    for (a, m) in acc.iter_mut().zip(c.mean) {
+                        *a += m * omega;
                     }
                     *weight += omega;
                     return;

@@ -67,7 +67,8 @@ fn agrees_with_a_brute_force_footprint_mean_as_closely_as_the_midpoint_subdivisi
     let img = noise_map(w, h);
     let src = LatLongSource::new(&img);
     let probes: Vec<(usize, usize)> = (0..24).map(|i| ((i * 37 + 5) % w, (i * 11 + i / 5) % h)).collect();
-    for r in [Rotation::from_yaw_pitch_roll(33.0, 21.0, -12.0)] {
+    {
+        let r = Rotation::from_yaw_pitch_roll(33.0, 21.0, -12.0);
         let want: Vec<_> = probes.iter().map(|&(x, y)| ((x, y), brute_force(&img, r, x, y, 512))).collect();
         let new = rotated_latlong(&src, r.0.transpose(), 1e-9, 12);
         let old = to_latlong_precise(&Rotated::new(&src, r), w, h, 1e-9, 12);
