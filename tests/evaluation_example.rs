@@ -81,9 +81,7 @@ fn check_checkpoint(out: &Path, stdout: &str) {
                 let v = saved[m].as_f64().unwrap_or_else(|| panic!("{map}/{sphere}.json has no {m}"));
                 assert!(v.is_finite() && v > 0.0, "{map}/{sphere}.json: {m} = {v}");
                 let in_csv = row.iter().find(|(h, _)| h == m).map(|(_, x)| *x);
-                // serde_json's parser (without its float_roundtrip feature) may land one ulp off.
-                let same = in_csv.is_some_and(|x| (x - v).abs() <= 4.0 * f64::EPSILON * v.abs());
-                assert!(same, "{map}, {sphere}: metrics.csv's {m} {in_csv:?} is not the JSON's {v}");
+                assert_eq!(in_csv, Some(v), "{map}, {sphere}: metrics.csv's {m} is not the JSON's");
             }
             let sphere_exr = out.join(map).join(format!("{sphere}.exr"));
             assert!(sphere_exr.is_file(), "{} missing", sphere_exr.display());
