@@ -76,13 +76,7 @@ fn browser() -> Option<&'static str> {
 
 /// `hdrflow bake MAP --for babylon --sun keep --out DIR` plus `extra`; the .env's path.
 fn bake(sandbox: &common::Sandbox, map: &Path, dir: &str, extra: &[&str]) -> PathBuf {
-    let out = sandbox.join(dir);
-    let cache = sandbox.cache();
-    let mut args = vec!["bake", map.to_str().expect("UTF-8 paths"), "--for", "babylon", "--sun", "keep"];
-    args.extend_from_slice(&["--out", out.to_str().expect("UTF-8"), "--cache-dir", cache.to_str().expect("UTF-8")]);
-    args.push("-q");
-    args.extend_from_slice(extra);
-    common::run_hdrflow(args).assert_success();
+    let out = web_page::bake(sandbox, map, "babylon", dir, extra);
     out.join(format!("{}.env", map.file_stem().and_then(|s| s.to_str()).expect("a file name")))
 }
 

@@ -72,13 +72,7 @@ fn browser() -> Option<&'static str> {
 
 /// `hdrflow bake MAP --for filament --sun keep --out DIR` plus `extra`; DIR.
 fn bake(sandbox: &common::Sandbox, map: &Path, dir: &str, extra: &[&str]) -> PathBuf {
-    let out = sandbox.join(dir);
-    let cache = sandbox.cache();
-    let mut args = vec!["bake", map.to_str().unwrap(), "--for", "filament", "--sun", "keep"];
-    args.extend_from_slice(&["--out", out.to_str().unwrap(), "--cache-dir", cache.to_str().unwrap(), "-q"]);
-    args.extend_from_slice(extra);
-    common::run_hdrflow(args).assert_success();
-    out
+    web_page::bake(sandbox, map, "filament", dir, extra)
 }
 
 /// The page's run, with Filament's own views of its frames.

@@ -101,14 +101,7 @@ fn browser() -> Option<&'static str> {
 
 /// `hdrflow bake MAP --for khronos --sun keep --out DIR` plus `extra`; DIR.
 fn bake(sandbox: &common::Sandbox, map: &Path, dir: &str, extra: &[&str]) -> PathBuf {
-    let out = sandbox.join(dir);
-    let cache = sandbox.cache();
-    let mut args = vec!["bake", map.to_str().expect("UTF-8 paths"), "--for", "khronos", "--sun", "keep"];
-    args.extend_from_slice(&["--out", out.to_str().expect("UTF-8"), "--cache-dir", cache.to_str().expect("UTF-8")]);
-    args.push("-q");
-    args.extend_from_slice(extra);
-    common::run_hdrflow(args).assert_success();
-    out
+    web_page::bake(sandbox, map, "khronos", dir, extra)
 }
 
 /// A copy of the bake in `good` named `name`, with each `(file, bytes)` of `edits` replaced.

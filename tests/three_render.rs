@@ -98,14 +98,7 @@ fn browser() -> Option<&'static str> {
 
 /// `hdrflow bake MAP --for three --sun keep --out DIR` plus `extra`; DIR.
 fn bake(sandbox: &common::Sandbox, map: &Path, dir: &str, extra: &[&str]) -> PathBuf {
-    let out = sandbox.join(dir);
-    let cache = sandbox.cache();
-    let mut args = vec!["bake", map.to_str().expect("UTF-8 paths"), "--for", "three", "--sun", "keep"];
-    args.extend_from_slice(&["--out", out.to_str().expect("UTF-8"), "--cache-dir", cache.to_str().expect("UTF-8")]);
-    args.push("-q");
-    args.extend_from_slice(extra);
-    common::run_hdrflow(args).assert_success();
-    out
+    web_page::bake(sandbox, map, "three", dir, extra)
 }
 
 fn run_page(browser: &str, sandbox: &common::Sandbox, label: &str, job: &Json) -> web_page::Page {

@@ -28,7 +28,8 @@ pub fn json_rows(rows: &[ItemRow]) -> serde_json::Value {
     )
 }
 
-fn csv_field(s: &str) -> String {
+/// A CSV cell: quoted (quotes doubled) when it holds a comma, a quote or a newline.
+pub(super) fn csv_field(s: &str) -> String {
     if s.contains([',', '"', '\n']) {
         format!("\"{}\"", s.replace('"', "\"\""))
     } else {

@@ -10,6 +10,7 @@ use std::collections::BTreeMap;
 
 use statrs::distribution::{ContinuousCDF, StudentsT};
 
+use super::report::csv_field;
 use super::run::{ItemRow, ItemStatus};
 
 /// `node.field` -> (`node`, `field`): the field is after the last dot.
@@ -34,14 +35,6 @@ fn layout(rows: &[ItemRow]) -> Vec<(String, Vec<String>)> {
         }
     }
     nodes
-}
-
-fn csv_field(s: &str) -> String {
-    if s.contains([',', '"', '\n']) {
-        format!("\"{}\"", s.replace('"', "\"\""))
-    } else {
-        s.to_string()
-    }
 }
 
 /// `metrics.csv` (module docs): item, index, node, then the fields of every node (empty where a

@@ -129,3 +129,19 @@ pub fn relative_rmse(frame: &Image, scale: f64, pixels: &[usize], reference: &[[
     }
     (err / norm.max(f64::MIN_POSITIVE)).sqrt()
 }
+
+/// Bilinear, seamless lookup of a cube level (`values` per texel, face-major) at direction `d`:
+/// how the web engines' samplers read a prefiltered level (the Khronos and Babylon references).
+#[allow(dead_code)] // the Bevy test itself reads levels through `scene`'s lookups
+pub fn cube_bilinear(values: &[[f64; 3]], size: usize, d: DVec3) -> [f64; 3] {
+    use hdrflow::geometry::cubemap as cube;
+    let (f, a, b) = cube::direction_to_face(d);
+    let fx = (a + 1.0) * 0.5 * size as f64 - 0.5;
+    let fy = (b + 1.0) * 0.5 * size as f64 - 0.5;
+    let (x0, y0) = (fx.floor(), fy.floor());
+    let (tx, ty) = (fx - x0, fy - y0);
+    let (x0, y0) = (x0 as i64, y0 as i64);
+    let at = |x: i64, y: i64| values[cube::seamless_texel_index(f, x, y, size)];
+    let (v00, v10, v01, v11) = (at(x0, y0), at(x0 + 1, y0), at(x0, y0 + 1), at(x0 + 1, y0 + 1));
+    [0, 1, 2].map(|k| (v00[k] * (1.0 - tx) + v10[k] * tx) * (1.0 - ty) + (v01[k] * (1.0 - tx) + v11[k] * tx) * ty)
+}

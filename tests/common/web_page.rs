@@ -106,3 +106,16 @@ impl Page {
             .unwrap_or_else(|| panic!("no render {name} in {}", self.report))
     }
 }
+
+/// `hdrflow bake MAP --for ENGINE --sun keep --out SANDBOX/DIR -q` plus `extra`, into the sandbox's
+/// cache; the bake's folder.
+pub fn bake(sandbox: &common::Sandbox, map: &Path, engine: &str, dir: &str, extra: &[&str]) -> PathBuf {
+    let out = sandbox.join(dir);
+    let cache = sandbox.cache();
+    let mut args = vec!["bake", map.to_str().expect("UTF-8 paths"), "--for", engine, "--sun", "keep"];
+    args.extend_from_slice(&["--out", out.to_str().expect("UTF-8"), "--cache-dir", cache.to_str().expect("UTF-8")]);
+    args.push("-q");
+    args.extend_from_slice(extra);
+    common::run_hdrflow(args).assert_success();
+    out
+}

@@ -44,7 +44,7 @@ use hdrflow::maths::ibl::irradiance_cube::Texels;
 use hdrflow::maths::render::reference::irradiance_exact;
 use rayon::prelude::*;
 
-use super::reference::{lookup, Map};
+use super::reference::{cube_bilinear, lookup, Map};
 use super::scene::Sphere;
 
 /// F0 of a glTF dielectric (IOR 1.5).
@@ -66,19 +66,6 @@ pub struct Chain {
 
 /// Faces this small or smaller are modelled texel by texel (module doc, step 1).
 const COARSE: usize = 16;
-
-/// Bilinear, seamless lookup of a cube level (`values` per texel, face-major) at direction `d`.
-fn cube_bilinear(values: &[[f64; 3]], size: usize, d: DVec3) -> [f64; 3] {
-    let (f, a, b) = cube::direction_to_face(d);
-    let fx = (a + 1.0) * 0.5 * size as f64 - 0.5;
-    let fy = (b + 1.0) * 0.5 * size as f64 - 0.5;
-    let (x0, y0) = (fx.floor(), fy.floor());
-    let (tx, ty) = (fx - x0, fy - y0);
-    let (x0, y0) = (x0 as i64, y0 as i64);
-    let at = |x: i64, y: i64| values[cube::seamless_texel_index(f, x, y, size)];
-    let (v00, v10, v01, v11) = (at(x0, y0), at(x0 + 1, y0), at(x0, y0 + 1), at(x0 + 1, y0 + 1));
-    [0, 1, 2].map(|k| (v00[k] * (1.0 - tx) + v10[k] * tx) * (1.0 - ty) + (v01[k] * (1.0 - tx) + v11[k] * tx) * ty)
-}
 
 /// The exact content of level `k` of a `Linear` chain in each direction of `dirs`.
 fn level_values(map: &Map, k: usize, chain: Chain, dirs: &[DVec3]) -> Vec<[f64; 3]> {
