@@ -87,7 +87,11 @@ fn nan_and_infinite_texels_are_counted_and_sanitize_replaces_them() {
 fn a_bevy_bake_writes_what_bevy_loads() {
     let sb = Sandbox::new();
     let o = bake(&sb, &["builtin:constant", "--for", "bevy", "--quality", "draft"]);
-    o.assert_success().assert_stdout_contains("bevy: ");
+    // A 64 x 32 map holds 16 texels across a face: the draft chain's 128 is said to be 8x that.
+    o.assert_success().assert_stdout_contains("bevy: ").assert_stderr_contains(
+        "warning: builtin:constant is 64x32: small for --for bevy at --quality draft, whose cube faces are 128 texels",
+    );
+    o.assert_stderr_contains("upsampled 8x").assert_stderr_contains("--set spec.size=16");
     let out = sb.out();
     let names: Vec<String> = common::files_under(&out).iter().map(|f| f.display().to_string()).collect();
     assert_eq!(
@@ -109,7 +113,7 @@ fn a_bevy_bake_writes_what_bevy_loads() {
     }
     let readme = std::fs::read_to_string(out.join("README.txt")).unwrap();
     assert!(readme.contains("asset_server.load(\"environment_maps/constant_specular_rgb9e5_zstd.ktx2\")"), "{readme}");
-    assert!(readme.contains("No sun was found"), "a constant map has no sun:\n{readme}");
+    assert!(readme.contains("Sun: none found"), "a constant map has no sun:\n{readme}");
     // Bevy shows exposure x intensity x the map; the default camera's exposure is 2^-9.7 / 1.2
     // (bevy_camera's Exposure::BLENDER). The render test renders with exposure x intensity = 1
     // (clients/bevy: intensity 1, ev100 = -log2(1.2)): the README's intensity gives the same 1.
@@ -261,4 +265,41 @@ fn print_pipeline_shows_the_pipeline_and_its_overrides() {
         .assert_stdout_contains("//   --set spec.levels=7\n")
         .assert_stdout_contains("//   --set cube.size=64\n")
         .assert_stdout_contains("//   --set spec.size=64\n");
+}
+
+/// The sun a user cannot lose (issue 36): on the park map `--sun extract` moves two thirds of the
+/// light into the sun's file, and the bake says so every time, on stderr even under `--quiet`,
+/// and the notes lead with it; the studio's softbox (13 degrees across) and the interior's lamp
+/// (1.7% of the light) are not suns by SunExtract's rule and stay in the files, said too.
+#[test]
+fn the_bake_says_what_became_of_the_sun() {
+    let maps = Path::new(MANIFEST_DIR).join("assets/maps");
+    let readme_sun = |sb: &Sandbox| {
+        let text = std::fs::read_to_string(sb.out().join("README.txt")).unwrap();
+        let third = text.lines().nth(2).unwrap_or_default().to_string();
+        (text, third)
+    };
+    let sb = Sandbox::new();
+    let park = maps.join("rooitou_park_1k.hdr");
+    let o = bake(&sb, &[park.to_str().unwrap(), "--for", "filament", "--quality", "draft", "--quiet"]);
+    o.assert_success().assert_stderr_contains("Sun: 66% OF THE MAP'S LIGHT IS NOT IN THESE LIGHTING FILES");
+    let (text, third) = readme_sun(&sb);
+    assert!(third.starts_with("Sun: 66% OF THE MAP'S LIGHT") && third.contains("--sun keep"), "{text}");
+    assert!(text.contains("\nThe sun:\n") && text.contains("LightManager::Builder(LightManager::Type::SUN)"), "{text}");
+
+    for (map, said) in [
+        ("studio_small_03_1k.hdr", "the brightest region (12.96 degrees across, 72.0% of the light) is not a sun"),
+        ("st_fagans_interior_1k.hdr", "the brightest region (1.34 degrees across, 1.7% of the light) is not a sun"),
+    ] {
+        let sb = Sandbox::new();
+        let path = maps.join(map);
+        let o = bake(&sb, &[path.to_str().unwrap(), "--for", "filament", "--quality", "draft"]);
+        o.assert_success().assert_stdout_contains(said).assert_stderr_contains("it stays in the map");
+        let (text, third) = readme_sun(&sb);
+        assert!(third.starts_with("Sun: none taken out") && third.contains(said), "{text}");
+        assert!(!text.contains("The sun:"), "{text}");
+        let sun: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(sb.out().join(map.replace(".hdr", "_sun.json"))).unwrap()).unwrap();
+        assert_eq!(sun["solid_angle"], 0.0, "{map}: {sun}");
+    }
 }

@@ -19,7 +19,7 @@ use crate::engine::scheduler::{self, NodeStatus, RunOptions};
 use crate::ibl_presets::bake::{BakeOptions, QualityLevel, Sun};
 use crate::ibl_presets::notes::{self, NOTES_FILE};
 use crate::ibl_presets::{self, Preset};
-use crate::values::Light;
+use crate::values::{Light, Metrics};
 
 /// `--quality`: the row of the preset's table.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -136,6 +136,9 @@ fn bake_inner(registry: &Registry, args: &BakeArgs) -> Result<ExitCode, Refused>
     }
     let options = args.options()?;
     let bake = preset.bake(registry, &options).map_err(Refused)?;
+    if let Some(w) = bake.resolution_warning(&options).filter(|_| !args.print_pipeline) {
+        eprintln!("warning: {w}");
+    }
     if args.print_pipeline {
         out!("// hdrflow bake {} --for {}: this pipeline, run with\n", options.map, preset.name);
         for o in &bake.overrides {
@@ -174,7 +177,8 @@ fn bake_inner(registry: &Registry, args: &BakeArgs) -> Result<ExitCode, Refused>
     let written: Vec<String> =
         report.written.iter().map(|f| f.strip_prefix(&out_dir).unwrap_or(f).display().to_string()).collect();
     let sun = outcome.values.get("sun").and_then(|v| v.get::<Light>());
-    let text = notes::notes(&bake, &options, &written, sun);
+    let sun_metrics = outcome.values.get("sun.metrics").and_then(|v| v.get::<Metrics>());
+    let text = notes::notes(&bake, &options, &written, sun, sun_metrics);
     let notes_path = out_dir.join(NOTES_FILE);
     if let Err(e) = crate::engine::cache::store::write_atomic(&notes_path, text.as_bytes()) {
         eprintln!("error: writing {}: {e}", notes_path.display());
@@ -199,6 +203,14 @@ fn bake_inner(registry: &Registry, args: &BakeArgs) -> Result<ExitCode, Refused>
             written.len(),
             out_dir.display()
         );
+    }
+    // What became of the sun, every time (also under --quiet, on stderr, when light was moved
+    // out of the files): the notes lead with the same paragraph.
+    let statement = notes::sun_statement(&bake, &options, sun, sun_metrics);
+    if sun.is_some_and(|s| s.solid_angle > 0.0) {
+        eprintln!("{statement}");
+    } else if !args.quiet {
+        outln!("{statement}");
     }
     Ok(ExitCode::SUCCESS)
 }

@@ -86,6 +86,43 @@ impl Preset {
     }
 }
 
+impl Bake {
+    /// A warning for a map too small for the chain the quality chose: a cube face of N texels
+    /// spans 90 degrees, which a W x H lat-long map covers with H / 2 texels, so level 0 is the
+    /// map upsampled N / (H / 2) times. Up to 2x (N <= H) is silent (the default sizes on a 512 x
+    /// 256 map); more is said, with the size that fits, unless the user set the chain's size with
+    /// `--set` (they asked for it). It is a warning, not a refusal: the bake is still right (a
+    /// constant map is exact at any size), only larger than the detail it holds. A map whose
+    /// size is unknown before running is not checked.
+    pub fn resolution_warning(&self, options: &BakeOptions) -> Option<String> {
+        let p = &self.pipeline;
+        let (_, h) = p.index_of("env").and_then(|i| p.nodes[i].size)?;
+        let h = h as usize;
+        for (i, n) in p.nodes.iter().enumerate().filter(|(_, n)| n.spec.name == "PrefilterSpecular") {
+            let Some(size) = int_param(p, i, "size") else { continue };
+            if size <= h || user_sets(&options.user, &n.name, "size") {
+                continue;
+            }
+            let fits = (h / 2).max(1);
+            let fits = if self.preset.size_rule.is_some() { 1 << fits.ilog2() } else { fits };
+            return Some(format!(
+                "{} is {}x{h}: small for --for {} at --quality {}, whose cube faces are {size} texels across; \
+                 a face spans 90 degrees, which this map covers with {} texels, so the chain's first level is \
+                 the map upsampled {:.0}x, blurrier than its size says. Bake a larger map, a lower --quality, or \
+                 the size the map holds: --set {}.size={fits}",
+                options.map,
+                2 * h,
+                self.preset.name,
+                format!("{:?}", options.quality).to_lowercase(),
+                h / 2,
+                size as f64 / (h as f64 / 2.0),
+                n.name,
+            ));
+        }
+        None
+    }
+}
+
 /// The map's name in file names: its file stem, or NAME of `builtin:NAME`.
 pub fn map_name(map: &str) -> String {
     if let Some(name) = map.strip_prefix("builtin:") {
@@ -230,9 +267,11 @@ fn targets(p: &Pipeline, sun: Sun) -> Vec<String> {
         .filter(|&i| p.nodes[i].writes_file() && !(sun == Sun::Keep && from_sun(i)))
         .map(|i| p.nodes[i].name.clone())
         .collect();
-    // The light only (`sun.sun`): naming the node would keep its residual map to the end.
+    // The light and the numbers only (`sun.sun`, `sun.metrics`): naming the node would keep its
+    // residual map to the end.
     if let (Sun::Extract, Some(i)) = (sun, sun_node) {
         out.push(format!("{}.sun", p.nodes[i].name));
+        out.push(format!("{}.metrics", p.nodes[i].name));
     }
     out
 }
@@ -249,6 +288,29 @@ pub(super) fn save_path(p: &Pipeline, node: &str) -> Option<String> {
 mod tests {
     use super::*;
     use crate::ibl_presets::PRESETS;
+
+    /// A map whose faces would be upsampled more than 2x gets a warning with the size it holds;
+    /// the same size set by the user is silent.
+    #[test]
+    fn a_map_too_small_for_the_chain_is_said() {
+        let registry = crate::ops::builtin_registry();
+        let bevy = crate::ibl_presets::preset("bevy").unwrap();
+        // builtin:sky is 512 x 256: default (256) passes, high (512) is 4x.
+        let mut options = BakeOptions {
+            map: "builtin:sky".into(),
+            quality: QualityLevel::Default,
+            yaw: 0.0,
+            sun: Sun::Keep,
+            sanitize: false,
+            user: vec![],
+        };
+        assert_eq!(bevy.bake(&registry, &options).unwrap().resolution_warning(&options), None, "2x is silent");
+        options.quality = QualityLevel::High;
+        let e = bevy.bake(&registry, &options).unwrap().resolution_warning(&options).expect("4x is said");
+        assert!(e.contains("512x256") && e.contains("upsampled 4x") && e.contains("--set spec.size=128"), "{e}");
+        options.user = vec![set("spec", "size", "512")];
+        assert_eq!(bevy.bake(&registry, &options).unwrap().resolution_warning(&options), None, "the user's size");
+    }
 
     #[test]
     fn map_names_are_file_stems() {

@@ -9,10 +9,12 @@
 
 use std::path::Path;
 
-use super::bake::{save_path, Bake, BakeOptions};
+use super::bake::{save_path, Bake, BakeOptions, Sun};
 use super::Preset;
 use crate::engine::graph::Pipeline;
-use crate::values::Light;
+use crate::engine::params::ParamValue;
+use crate::maths::fit::sun_rule::SunRule;
+use crate::values::{Light, Metrics};
 
 /// The notes' file name, in the bake's folder.
 pub const NOTES_FILE: &str = "README.txt";
@@ -90,7 +92,7 @@ pub fn fill_sun(text: &str, sun: &Light) -> String {
     let peak = e.iter().copied().fold(0.0, f64::max);
     let unit = if peak > 0.0 { e.map(|v| v / peak) } else { [1.0; 3] };
     let d = sun.direction;
-    let radius = (1.0 - sun.solid_angle / (2.0 * std::f64::consts::PI)).clamp(-1.0, 1.0).acos().to_degrees();
+    let radius = crate::maths::fit::sun_rule::cone_radius_deg(sun.solid_angle);
     text.replace("{sun:illuminance}", &format!("{y:.6}"))
         .replace("{sun:color}", &triple(colour))
         .replace("{sun:peak}", &format!("{peak:.6}"))
@@ -100,18 +102,64 @@ pub fn fill_sun(text: &str, sun: &Light) -> String {
         .replace("{sun:radius_deg}", &format!("{radius:.4}"))
 }
 
-/// `README.txt`: what was baked, the files (`written`, relative to the folder), and the engine
-/// code that loads them; `sun`: the extracted light (`None` for `Sun::Keep`).
-pub fn notes(bake: &Bake, options: &BakeOptions, written: &[String], sun: Option<&Light>) -> String {
+/// What the bake did with the sun, in one paragraph: the notes lead with it and `hdrflow bake`
+/// prints it every time, because a scene that loads only the lighting files loses the light a
+/// `--sun extract` moved out (the park map's sun is two thirds of its light). `sun`: the
+/// extracted light (`None` for `Sun::Keep`); `metrics`: `SunExtract`'s.
+pub fn sun_statement(bake: &Bake, options: &BakeOptions, sun: Option<&Light>, metrics: Option<&Metrics>) -> String {
+    let share = |name: &str| metrics.and_then(|m| m.get(name)).unwrap_or(0.0);
+    // The rule's bounds as the bake ran them (`--set sun.max_radius_deg=...` included).
+    let p = &bake.pipeline;
+    let bound = |field: &str, default: f64| match p.index_of("sun").and_then(|i| p.nodes[i].params.values.get(field)) {
+        Some(ParamValue::Float(v)) => *v,
+        _ => default,
+    };
+    let file = save_path(&bake.pipeline, "save_sun").unwrap_or_else(|| "the sun's JSON file".into());
+    match (options.sun, sun) {
+        (Sun::Keep, _) => "Sun: kept in the map (--sun keep): these files hold all of its light.".into(),
+        (Sun::Extract, Some(s)) if s.solid_angle > 0.0 => format!(
+            "Sun: {:.0}% OF THE MAP'S LIGHT IS NOT IN THESE LIGHTING FILES. SunExtract moved the sun ({:.2} degrees \
+             across) into {file}, as a directional light: a scene that loads only the lighting files is that much \
+             darker than the map. Add the light with the lines under \"The sun\" at the end of this file, or bake \
+             with --sun keep to leave it in the map.",
+            100.0 * share("share"),
+            2.0 * share("radius_deg"),
+        ),
+        (Sun::Extract, _) if share("region_share") > 0.0 => format!(
+            "Sun: none taken out: the brightest region ({:.2} degrees across, {:.1}% of the light) is not a sun by \
+             SunExtract's rule (at most {} degrees across, at least {:.0}% of the light), so these files hold all of \
+             the map's light and there is no light to add.",
+            2.0 * share("region_radius_deg"),
+            100.0 * share("region_share"),
+            2.0 * bound("max_radius_deg", SunRule::DEFAULT.max_radius_deg),
+            100.0 * bound("min_share", SunRule::DEFAULT.min_share),
+        ),
+        (Sun::Extract, _) => "Sun: none found (nothing exceeds SunExtract's threshold): these files hold all of the \
+                              map's light."
+            .into(),
+    }
+}
+
+/// `README.txt`: what was baked, what became of the sun ([`sun_statement`]), the files
+/// (`written`, relative to the folder), and the engine code that loads them; `sun`: the extracted
+/// light (`None` for `Sun::Keep`), `metrics` SunExtract's.
+pub fn notes(
+    bake: &Bake,
+    options: &BakeOptions,
+    written: &[String],
+    sun: Option<&Light>,
+    metrics: Option<&Metrics>,
+) -> String {
     let (preset, p) = (bake.preset, &bake.pipeline);
     let mut out = format!(
-        "hdrflow bake {} --for {} (quality {:?}, yaw {}, sun {:?}{})\n\n{}\n\nConventions: {}; {}; irradiance: {}.\n\nFiles:\n",
+        "hdrflow bake {} --for {} (quality {:?}, yaw {}, sun {:?}{})\n\n{}\n\n{}\n\nConventions: {}; {}; irradiance: {}.\n\nFiles:\n",
         options.map,
         preset.name,
         options.quality,
         options.yaw,
         options.sun,
         if options.sanitize { ", sanitized" } else { "" },
+        sun_statement(bake, options, sun, metrics),
         preset.loads,
         preset.world,
         preset.lod,
@@ -122,15 +170,9 @@ pub fn notes(bake: &Bake, options: &BakeOptions, written: &[String], sun: Option
     }
     out.push('\n');
     out.push_str(&fill_files(preset.loading_code, p));
-    match sun {
-        Some(s) if s.solid_angle > 0.0 => {
-            out.push('\n');
-            out.push_str(&fill_sun(&fill_files(preset.sun_code, p), s));
-        }
-        Some(_) => {
-            out.push_str("\n// No sun was found above the threshold (SunExtract): no directional light to add.\n")
-        }
-        None => {}
+    if let Some(s) = sun.filter(|s| s.solid_angle > 0.0) {
+        out.push_str("\nThe sun:\n");
+        out.push_str(&fill_sun(&fill_files(preset.sun_code, p), s));
     }
     out
 }
@@ -138,7 +180,7 @@ pub fn notes(bake: &Bake, options: &BakeOptions, written: &[String], sun: Option
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::ibl_presets::bake::{QualityLevel, Sun};
+    use crate::ibl_presets::bake::QualityLevel;
     use crate::ibl_presets::PRESETS;
 
     #[test]
@@ -177,7 +219,7 @@ mod tests {
                 // The pipeline is the sky's (the odd MAP is no file); the notes name the odd MAP.
                 let sized = BakeOptions { map: "builtin:sky".into(), ..options.clone() };
                 let bake = preset.bake(&registry, &sized).expect("validates");
-                let text = notes(&bake, &options, &[], None);
+                let text = notes(&bake, &options, &[], None, None);
                 assert_eq!(engine_of_notes(&text), Some(preset.name), "{text}");
             }
         }

@@ -6,3 +6,4 @@ pub mod least_squares;
 pub mod lights;
 pub mod spherical_gaussians;
 pub mod sun;
+pub mod sun_rule;

@@ -32,6 +32,9 @@
 //!    weighted by the luminance removed, `sum_S (Y_i - Y(F)) dOmega_i d_i` (the brightest
 //!    texel's direction if that sum vanishes).
 //!
+//! 5. **Rule.** [`extract_sun_by`] takes the region out only if it is a sun by
+//!    [`super::sun_rule`] (small, carrying much of the light); [`extract_sun`] takes any region.
+//!
 //! **Conservation.** By construction, per channel, `integral(residual) + radiance_c Omega_S =
 //! integral(input) - sum_S L_c dOmega + sum_S F_c dOmega + (sum_S L_c dOmega - sum_S F_c
 //! dOmega) = integral(input)`, up to f64 rounding of sums of at most W H terms (relative
@@ -41,6 +44,7 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
+use super::sun_rule::{cone_radius_deg, Rejected, SunRule};
 pub(crate) use crate::colour::rec709_luminance as luminance;
 use crate::geometry::{latlong, unit};
 use crate::values::{Image, Light};
@@ -59,6 +63,10 @@ pub struct SunExtraction {
     pub texels: usize,
     /// The fill colour `F` (zeros when there is no sun).
     pub fill: [f32; 3],
+    /// The light's fraction of the map's luminous integral `sum Y dOmega` (0: no sun).
+    pub share: f64,
+    /// A region found above the threshold that the rule left in the map ([`super::sun_rule`]).
+    pub rejected: Option<Rejected>,
 }
 
 /// The number of colour channels of `img`: 3 for RGB(A...), 1 for a grey map.
@@ -99,16 +107,26 @@ pub(crate) fn neighbours(x: usize, y: usize, w: usize, h: usize, out: &mut [(usi
     n
 }
 
-/// Extracts the sun of `env` (see the module documentation). `env` should be finite (the
-/// operator checks); `threshold_stops` is any finite number. Never NaN for finite input.
+/// Extracts the sun of `env` (see the module documentation), whatever the region's size and
+/// share ([`SunRule::any`]). `env` should be finite (the operator checks); `threshold_stops` is
+/// any finite number. Never NaN for finite input.
 pub fn extract_sun(env: &Image, threshold_stops: f64) -> SunExtraction {
-    extract_sun_in_place(env.clone(), threshold_stops)
+    extract_sun_by(env.clone(), &SunRule::any(threshold_stops))
 }
 
 /// [`extract_sun`] of a map the caller gives up: the residual is `env` itself with the sun's
 /// texels filled, so a 16384 x 8192 map is not held twice (`SunExtract` takes its input when no
 /// other node reads it).
 pub fn extract_sun_in_place(env: Image, threshold_stops: f64) -> SunExtraction {
+    extract_sun_by(env, &SunRule::any(threshold_stops))
+}
+
+/// The sun of `env` by `rule`: the region of steps 1 and 2 at `rule.threshold_stops`, taken out
+/// (steps 3 and 4) only if [`SunRule::judge`] finds it a sun; else no light, the residual is
+/// `env` untouched and [`SunExtraction::rejected`] says why. In place, as
+/// [`extract_sun_in_place`].
+pub fn extract_sun_by(env: Image, rule: &SunRule) -> SunExtraction {
+    let threshold_stops = rule.threshold_stops;
     let (w, h) = (env.width, env.height);
     let none = |env: Image, direction: [f64; 3], level: f64, threshold: f64| SunExtraction {
         light: Light::none(direction),
@@ -117,6 +135,8 @@ pub fn extract_sun_in_place(env: Image, threshold_stops: f64) -> SunExtraction {
         threshold,
         texels: 0,
         fill: [0.0; 3],
+        share: 0.0,
+        rejected: None,
     };
     if w == 0 || h == 0 || env.channels == 0 {
         return none(env, [0.0, 1.0, 0.0], 0.0, 0.0);
@@ -181,25 +201,38 @@ pub fn extract_sun_in_place(env: Image, threshold_stops: f64) -> SunExtraction {
     });
     let fill = if cc == 1 { [fill[0]; 3] } else { fill };
 
-    // The residual, and the light from what was removed.
-    let mut residual = env;
+    // The light from what the fill would remove, judged before the map is touched.
     let y_fill = luminance(fill);
     let mut removed = [0.0f64; 3];
     let mut solid_angle = 0.0f64;
     let mut centroid = DVec3::ZERO;
+    let mut removed_luminance = 0.0f64;
     for &i in &region {
         let (x, y) = (i % w, i / w);
         let d_omega = latlong::texel_solid_angle(y, w, h);
-        let l = residual.rgb(x, y);
+        let l = env.rgb(x, y);
         for ch in 0..3 {
             removed[ch] += (l[ch] as f64 - fill[ch] as f64) * d_omega;
         }
         solid_angle += d_omega;
+        removed_luminance += (lum[i] - y_fill) * d_omega;
         centroid += (lum[i] - y_fill) * d_omega * DVec3::from(latlong::texel_direction(x, y, w, h));
-        let p = residual.pixel_mut(x, y);
-        p[..cc].copy_from_slice(&fill[..cc]);
     }
     let direction = unit(centroid).map(|d| d.to_array()).unwrap_or(brightest_dir);
+    let total = luminous_integral(&lum, w, h);
+    let share = if total > 0.0 { removed_luminance / total } else { 0.0 };
+    if let Some(rejection) = rule.judge(solid_angle, share) {
+        let rejected =
+            Rejected { rejection, texels: region.len(), radius_deg: cone_radius_deg(solid_angle), share, direction };
+        return SunExtraction { rejected: Some(rejected), ..none(env, direction, level, threshold) };
+    }
+
+    // The residual: the region filled.
+    let mut residual = env;
+    for &i in &region {
+        let p = residual.pixel_mut(i % w, i / w);
+        p[..cc].copy_from_slice(&fill[..cc]);
+    }
     let radiance = removed.map(|r| r / solid_angle);
     SunExtraction {
         light: Light { direction, solid_angle, radiance },
@@ -208,7 +241,14 @@ pub fn extract_sun_in_place(env: Image, threshold_stops: f64) -> SunExtraction {
         threshold,
         texels: region.len(),
         fill,
+        share,
+        rejected: None,
     }
+}
+
+/// `sum_i Y_i dOmega_i` over a `w x h` map's luminances `lum`: the denominator of the share.
+fn luminous_integral(lum: &[f64], w: usize, h: usize) -> f64 {
+    (0..h).map(|y| lum[y * w..(y + 1) * w].iter().sum::<f64>() * latlong::texel_solid_angle(y, w, h)).sum()
 }
 
 /// The Rec. 709 luminance of every texel of `env`, row-major (f64; rows in parallel).
@@ -430,6 +470,40 @@ mod tests {
         assert!(s.texels > 0 && s.light.solid_angle < 1e-2, "{} texels, {} sr", s.texels, s.light.solid_angle);
         assert!(luminance(s.light.radiance.map(|v| v as f32)) > 1e4, "{:?}", s.light.radiance);
         assert!(conservation_error(&sky, &s) < 1e-10);
+    }
+
+    /// The rule on synthetic maps: a sun is taken out; a small lamp carrying a few percent of the
+    /// light, and a wide softbox carrying most of it, stay in the map untouched, with the numbers
+    /// that decided it.
+    #[test]
+    fn the_rule_takes_a_sun_but_not_a_lamp_or_a_softbox() {
+        let (w, h) = (1024, 512);
+        let centre = latlong::direction_deg(30.0, 60.0);
+        let sky = [1.0f32; 3];
+        let rule = SunRule::DEFAULT;
+        // 1 degree at 1e5: ~88% of the light.
+        let sun = sky_with_sun(w, h, sky, [1e5; 3], centre, 1f64.to_radians());
+        let s = extract_sun_by(sun.clone(), &rule);
+        assert!(s.rejected.is_none() && s.texels > 0, "{:?}", s.rejected);
+        assert!((s.share - 0.88).abs() < 0.02, "{}", s.share);
+        assert!(conservation_error(&sun, &s) < 1e-12);
+        // The same disc at 1e3: ~7% of the light, a lamp.
+        let lamp = sky_with_sun(w, h, sky, [1e3; 3], centre, 1f64.to_radians());
+        let s = extract_sun_by(lamp.clone(), &rule);
+        let r = s.rejected.expect("a lamp is not a sun");
+        assert!(matches!(r.rejection, super::super::sun_rule::Rejection::TooFaint { .. }), "{r:?}");
+        assert!((r.share - 0.07).abs() < 0.01 && (r.radius_deg - 1.0).abs() < 0.1, "{r:?}");
+        assert_eq!((s.light.solid_angle, s.texels, s.share), (0.0, 0, 0.0));
+        assert_eq!(s.residual.data, lamp.data);
+        // 6 degrees at 1e3: ~73% of the light, but wider than a sun.
+        let softbox = sky_with_sun(w, h, sky, [1e3; 3], centre, 6f64.to_radians());
+        let s = extract_sun_by(softbox.clone(), &rule);
+        let r = s.rejected.expect("a softbox is not a sun");
+        assert!(matches!(r.rejection, super::super::sun_rule::Rejection::TooLarge { .. }), "{r:?}");
+        assert!(r.share > 0.7 && (r.radius_deg - 6.0).abs() < 0.2, "{r:?}");
+        assert_eq!(s.residual.data, softbox.data);
+        // Without bounds both are taken out.
+        assert!(extract_sun(&lamp, 8.0).texels > 0 && extract_sun(&softbox, 8.0).texels > 0);
     }
 
     fn rng_value(rng: &mut crate::maths::sampling::sequences::SplitMix64) -> f32 {
