@@ -22,6 +22,7 @@
 //! Run: `cargo test --release --test cmgen_peer -- --nocapture` (prints the numbers).
 
 mod common;
+#[allow(dead_code)]
 #[path = "common/markers.rs"]
 mod markers;
 
