@@ -18,13 +18,19 @@
 //!   `r_a = r_b` with `w_a = smoothstep((r_b - r_a) / SEAM)`, `smoothstep(t) = s^2 (3 - 2 s)`,
 //!   `s = clamp((t + 1) / 2, 0, 1)`, `SEAM = 0.1` in disc radius, and `w_b = 1 - w_a`; where only one
 //!   ball is usable it alone gives d.
+//! - **Camera**: each ball shows its own camera and photographer at its centre, in the
+//!   directions within `camera_cone_deg` of `c_k` (angle `2 i_k`). There the other ball, if it
+//!   sees d usably, takes over: with `kappa_k = 1 - smoothstep01((2 i_k - cone) / MARGIN)` (1
+//!   inside the cone, 0 beyond it plus `MARGIN` = 5 degrees), `w_a` becomes `w_a (1 - kappa_a (1 -
+//!   kappa_b))` where b is usable, then `w_a + (1 - w_a) kappa_b (1 - kappa_a)` where a is; where
+//!   both cones overlap (two views a few degrees apart) the incidence rule stands. Views 90
+//!   degrees apart see each other's camera directions at 45 degrees of incidence, well inside.
 //! - **Mask**: 1 where neither ball sees d usably (the value there is 0); with two views more
 //!   than a few degrees apart every direction is seen.
 //!
-//! The seam follows incidence only: the camera's and photographer's reflection near each
-//! ball's centre (directions near `c_k`) stays in the map, as on either photograph.
 //! Tests: two 256-pixel balls rendered from a smooth map (`latlong_to_disc`) merge back to it
-//! within 1% relative everywhere, the blind spot behind each ball included.
+//! within 1% relative everywhere, the blind spot behind each ball included, also with a dark
+//! camera painted into each ball's centre (which a cone of 0 keeps in the map).
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -38,6 +44,8 @@ use crate::values::Image;
 pub const MAX_INCIDENCE_DEG: f64 = 80.0;
 /// The half-width of the blend across the seam, in disc radius.
 pub const SEAM: f64 = 0.1;
+/// The width of the blend at the edge of a camera's cone, degrees.
+pub const MARGIN_DEG: f64 = 5.0;
 
 /// The mirror ball seen by a camera turned by `yaw` about +Y then `pitch` about +X, degrees
 /// (roll 0), as `MirrorBallToLatLong(yaw, pitch)` reads it.
@@ -101,6 +109,24 @@ pub fn seam_weight(ra: f64, rb: f64) -> f64 {
     s * s * (3.0 - 2.0 * s)
 }
 
+/// How much of direction d, at disc radius `r` on a ball, is that ball's own camera: 1 within
+/// `cone_deg` of the camera's direction (angle `2 asin r`), 0 beyond it plus [`MARGIN_DEG`].
+pub fn camera_weight(r: f64, cone_deg: f64) -> f64 {
+    if cone_deg <= 0.0 {
+        return 0.0;
+    }
+    let angle = 2.0 * r.clamp(0.0, 1.0).asin().to_degrees();
+    let s = ((angle - cone_deg) / MARGIN_DEG).clamp(0.0, 1.0);
+    1.0 - s * s * (3.0 - 2.0 * s)
+}
+
+/// Ball a's weight from the incidence rule's `w` and each ball's camera weight (module
+/// documentation), given which balls see d usably.
+fn without_cameras(w: f64, kappa_a: f64, kappa_b: f64) -> f64 {
+    let w = w * (1.0 - kappa_a * (1.0 - kappa_b));
+    w + (1.0 - w) * kappa_b * (1.0 - kappa_a)
+}
+
 /// The merged map and where neither ball saw.
 pub struct Merged {
     /// `width x height`, the channels (and names) of ball a's image; 0 where `unseen` is 1.
@@ -109,8 +135,9 @@ pub struct Merged {
     pub unseen: Image,
 }
 
-/// The `width x height` lat-long map of balls `a` and `b` (of one channel count).
-pub fn merge_balls(a: &Ball, b: &Ball, width: usize, height: usize) -> Merged {
+/// The `width x height` lat-long map of balls `a` and `b` (of one channel count), each ball's
+/// camera within `camera_cone_deg` replaced by the other ball's view (0: kept).
+pub fn merge_balls(a: &Ball, b: &Ball, width: usize, height: usize, camera_cone_deg: f64) -> Merged {
     let c = a.image.channels;
     let r_max = MAX_INCIDENCE_DEG.to_radians().sin();
     let mut out = vec![0.0f32; width * height * c];
@@ -122,7 +149,11 @@ pub fn merge_balls(a: &Ball, b: &Ball, width: usize, height: usize) -> Merged {
             let (ra, sa) = a.look(d, r_max, &mut va);
             let (rb, sb) = b.look(d, r_max, &mut vb);
             let wa = match (sa, sb) {
-                (true, true) => seam_weight(ra, rb),
+                (true, true) => without_cameras(
+                    seam_weight(ra, rb),
+                    camera_weight(ra, camera_cone_deg),
+                    camera_weight(rb, camera_cone_deg),
+                ),
                 (true, false) => 1.0,
                 (false, true) => 0.0,
                 (false, false) => {
@@ -182,6 +213,7 @@ mod tests {
             &Ball { image: &ib, map: mb, fraction: 1.0 },
             128,
             64,
+            0.0,
         );
         assert!(merged.unseen.data.iter().all(|&m| m == 0.0), "every direction is seen by one ball");
         let want = env(128, 64);
@@ -196,6 +228,7 @@ mod tests {
             &Ball { image: &ia, map: ma, fraction: 1.0 },
             128,
             64,
+            0.0,
         );
         assert_eq!(alone.unseen.data[y * 128 + x], 1.0, "one ball does not see behind itself");
         assert_eq!(alone.image.pixel(x, y), &[0.0, 0.0, 0.0]);
@@ -213,6 +246,7 @@ mod tests {
             &Ball { image: &ib, map: mb, fraction: 1.0 },
             96,
             48,
+            20.0,
         );
         let (pa, pb) = (pad(&ia, 250), pad(&ib, 250));
         let loose = merge_balls(
@@ -220,10 +254,65 @@ mod tests {
             &Ball { image: &pb, map: mb, fraction: 0.8 },
             96,
             48,
+            20.0,
         );
         assert_eq!(tight.unseen.data, loose.unseen.data);
         let diff = worst_relative(&loose.image, &tight.image);
         assert!(diff < 1e-5, "{diff}");
+    }
+
+    /// Each ball with a dark camera at its centre (directions within 8 degrees of its camera):
+    /// the default cone of 20 degrees takes those directions from the other ball, and the map
+    /// is the truth within 1% again; a cone of 0 keeps the camera (the map dark there).
+    #[test]
+    fn each_camera_is_replaced_by_the_other_balls_view() {
+        let truth = env(512, 256);
+        let (ma, mb) = (view_map(0.0, 0.0), view_map(90.0, 0.0));
+        let paint = |img: &mut Image| {
+            let (w, h) = (img.width, img.height);
+            for y in 0..h {
+                for x in 0..w {
+                    let (u, v) = pixel_uv(x, y, w, h);
+                    if (u * u + v * v).sqrt() < 4f64.to_radians().sin() {
+                        img.pixel_mut(x, y).fill(0.0);
+                    }
+                }
+            }
+        };
+        let (mut ia, mut ib) = (latlong_to_disc(&truth, &ma, 256), latlong_to_disc(&truth, &mb, 256));
+        paint(&mut ia);
+        paint(&mut ib);
+        let merge = |cone: f64| {
+            merge_balls(
+                &Ball { image: &ia, map: ma, fraction: 1.0 },
+                &Ball { image: &ib, map: mb, fraction: 1.0 },
+                128,
+                64,
+                cone,
+            )
+        };
+        let want = env(128, 64);
+        let worst = worst_relative(&merge(20.0).image, &want);
+        eprintln!("two balls with their cameras: worst relative error {worst:.2e}");
+        assert!(worst < 1e-2, "{worst}");
+        // Camera a looks along -Z, so it is seen towards +Z.
+        let (x, y) = latlong::texel_of_direction([0.0, 0.0, 1.0], 128, 64);
+        let kept = merge(0.0).image.pixel(x, y)[0];
+        assert!(kept < 0.1 * want.pixel(x, y)[0], "a cone of 0 keeps the camera: {kept}");
+    }
+
+    #[test]
+    fn the_camera_weight_fades_at_the_cone() {
+        let r = |angle_deg: f64| (angle_deg / 2.0).to_radians().sin();
+        assert_eq!(camera_weight(r(10.0), 20.0), 1.0);
+        assert_eq!(camera_weight(r(25.5), 20.0), 0.0);
+        assert!((camera_weight(r(22.5), 20.0) - 0.5).abs() < 1e-9);
+        assert_eq!(camera_weight(0.0, 0.0), 0.0);
+        // Both cameras or neither: the incidence rule stands; one: the other ball.
+        assert_eq!(without_cameras(0.3, 0.0, 0.0), 0.3);
+        assert_eq!(without_cameras(0.3, 1.0, 1.0), 0.3);
+        assert_eq!(without_cameras(1.0, 1.0, 0.0), 0.0);
+        assert_eq!(without_cameras(0.0, 0.0, 1.0), 1.0);
     }
 
     #[test]

@@ -1,4 +1,5 @@
-//! `MergeMirrorBalls(a, b, view_a, view_b, ball_fraction: 1, width)`: one lat-long map from two
+//! `MergeMirrorBalls(a, b, view_a, view_b, ball_fraction: 1, camera_cone_deg: 20, width)`: one
+//! lat-long map from two
 //! photographs of a mirror ball taken from two viewpoints (commonly 90 degrees apart), each
 //! direction from the ball that sees it at the smaller incidence angle (farther from its rim),
 //! blended across the seam, so that the stretched rim and the blind spot behind each ball are
@@ -9,8 +10,9 @@
 //! looks along `R_y(yaw) R_x(pitch) (-Z)`); `ball_fraction`: the fraction of the crop's side the
 //! ball's diameter covers (1: the ball touches the crop's edges). The map is `width x width / 2`,
 //! by default twice the larger ball's diameter in pixels. Port `mask`: 1 where neither ball sees
-//! the direction usably (incidence over 80 degrees on both; the map is 0 there), else 0. The
-//! camera's and photographer's reflections near each ball's centre are not removed.
+//! the direction usably (incidence over 80 degrees on both; the map is 0 there), else 0. Each
+//! ball's centre shows its camera and the photographer: the directions within `camera_cone_deg`
+//! of a camera are taken from the other ball (0 keeps them).
 
 use crate::engine::fields::{Check, Input};
 use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec, Outputs};
@@ -37,6 +39,10 @@ crate::params! {
         /// the fraction of the crop's side the ball's diameter covers, in (0, 1]
         #[range(0.0, 1.0)]
         pub ball_fraction: f64 = 1.0,
+        /// directions within this many degrees of a camera (its own reflection, and the
+        /// photographer's) come from the other ball; 0 keeps them
+        #[range(0.0, 90.0)]
+        pub camera_cone_deg: f64 = 20.0,
         /// output width (height = width / 2); default twice the larger ball's diameter in pixels
         #[range(2, 1 << 16)]
         pub width: Option<usize>,
@@ -51,7 +57,7 @@ const MASK: Port<Image> = Port::new("mask");
 pub fn spec() -> OpSpec {
     Op::new(
         "MergeMirrorBalls",
-        1,
+        2,
         "Two mirror-ball photographs from two viewpoints to one lat-long map, each direction from the ball that sees it farther from its rim",
         eval,
     )
@@ -103,6 +109,6 @@ fn eval(_: &mut OpContext, p: MergeMirrorBallsParams) -> Result<Outputs, OpError
     let (width, height) = map_size(p.width, p.a.width.max(p.b.width), p.ball_fraction);
     let a = Ball { image: &p.a, map: view_map(p.view_a[0], p.view_a[1]), fraction: p.ball_fraction };
     let b = Ball { image: &p.b, map: view_map(p.view_b[0], p.view_b[1]), fraction: p.ball_fraction };
-    let merged = merge_balls(&a, &b, width, height);
+    let merged = merge_balls(&a, &b, width, height, p.camera_cone_deg);
     Ok(Outputs::new().port(IMAGE, merged.image).port(MASK, merged.unseen))
 }
