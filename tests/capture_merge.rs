@@ -129,3 +129,46 @@ fn bad_brackets_and_responses_are_pipeline_errors() {
     assert_ne!(o.code, Some(0));
     o.assert_stderr_contains("give dx, dy for each frame");
 }
+
+/// Demand down to ports: a run that saves only the merged map and its metrics computes no
+/// `confidence` or `saturated` map (the cache entry holds the others, and serves the same run
+/// again); a run that also saves `confidence` finds that entry lacking it, computes the merge
+/// again, and its confidence map is the one a run without the cache makes; then it is cached
+/// with every port it read. The metrics (mean confidence included) are the same either way.
+#[test]
+fn ports_nothing_reads_are_not_computed_and_the_cache_knows_it() {
+    let sb = Sandbox::new();
+    let save =
+        |name: &str, port: &str| format!("    \"{name}\": Save(input: \"merged{port}\", path: \"{name}.pfm\"),\n");
+    let without = sb.write("without.ron", graph(scale(&map()), ""));
+    // The same graph with one more consumer of the image: the merge is needed again.
+    let without2 = sb.write("without2.ron", graph(scale(&map()), &save("image2", "")));
+    let with = sb.write("with.ron", graph(scale(&map()), &save("confidence", ".confidence")));
+    let two = [save("confidence", ".confidence"), save("confidence2", ".confidence")].concat();
+    let with2 = sb.write("with2.ron", graph(scale(&map()), &two));
+    let status = |r: &Option<common::Report>| r.as_ref().expect("report").status_of("merged").to_string();
+
+    let (o, r) = sb.run(&without, &[]);
+    o.assert_success();
+    assert_eq!(status(&r), "computed");
+    let metrics_without = std::fs::read_to_string(sb.out().join("metrics.json")).unwrap();
+    let (o, r) = sb.run(&without2, &[]);
+    o.assert_success();
+    assert_eq!(status(&r), "cached", "the entry without the unread ports serves a run that reads none");
+
+    let (o, r) = sb.run(&with, &[]);
+    o.assert_success();
+    assert_eq!(status(&r), "computed", "the entry lacks confidence: computed again");
+    let (o, r) = sb.run(&with2, &[]);
+    o.assert_success();
+    assert_eq!(status(&r), "cached", "now stored with its confidence");
+    assert_eq!(std::fs::read_to_string(sb.out().join("metrics.json")).unwrap(), metrics_without);
+
+    let fresh = sb.join("fresh");
+    let (o, _) = sb.run_in(&with, &fresh, &sb.join("no-cache"), &["--no-cache"]);
+    o.assert_success();
+    let read = |p: &Path| hdrflow::formats::pfm::decode(&std::fs::read(p).unwrap()).unwrap();
+    let (cached, direct) = (read(&sb.out().join("confidence.pfm")), read(&fresh.join("confidence.pfm")));
+    assert_eq!(cached.data, direct.data);
+    assert!(cached.data.iter().any(|&c| c > 0.0));
+}

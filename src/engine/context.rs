@@ -47,6 +47,11 @@ pub struct OpContext<'a> {
     pub content_key: Option<&'a [u8]>,
     /// The names of this node's open ports that consumers use (see [`OpenPorts`]).
     pub wanted_ports: &'a [String],
+    /// The names of this node's ports that something in the run reads (a consumer that runs, or
+    /// the caller): an operator may leave the others out of its outputs ([`OpContext::wants`]).
+    pub(crate) read_ports: &'a [&'a str],
+    /// The names of all of this node's ports.
+    pub(crate) all_ports: &'a [&'a str],
     /// How each value type is written as a file (the registry's savers: `Save` encodes with them).
     pub savers: &'a Savers,
     /// What [`OpContext::warn`] collected; the scheduler reports each, prefixed by the node.
@@ -75,6 +80,20 @@ impl<'a> OpContext<'a> {
             None => drop(value),
         }
     }
+    /// Whether anything in this run reads the output port `port` (a consumer that runs, or the
+    /// caller). An operator may skip computing a port nobody reads and leave it out of its
+    /// [`Outputs`](crate::engine::op::Outputs): demand-driven down to ports, so a merge whose confidence map no node uses
+    /// never allocates it. The run stands a placeholder in its place, and the cache stores the
+    /// other ports (a later run that reads the port computes the node again). A name that is
+    /// not one of the node's ports is wanted.
+    pub fn wants(&self, port: &str) -> bool {
+        self.read_ports.contains(&port) || !self.declares(port)
+    }
+
+    fn declares(&self, port: &str) -> bool {
+        self.all_ports.contains(&port)
+    }
+
     /// A path parameter resolved against the pipeline file's folder (`builtin:` names unchanged).
     pub fn path(&self, path: &str) -> PathBuf {
         resolve_path(self.base_dir, path)

@@ -101,6 +101,25 @@ pub trait ValueData: Any + Send + Sync + fmt::Debug {
     }
 }
 
+/// What stands in a port its operator did not produce because nothing in the run reads it
+/// ([`crate::engine::op::OpContext::wants`]): of the port's type, never handed to a consumer
+/// and never stored in the cache (`Value::is_absent`).
+#[derive(Debug)]
+pub(crate) struct Absent(pub ValueType);
+
+impl ValueData for Absent {
+    fn value_type(&self) -> ValueType {
+        self.0
+    }
+    fn approx_bytes(&self) -> usize {
+        0
+    }
+    fn encode(&self, _: &mut Vec<u8>) {}
+    fn summary(&self) -> String {
+        format!("a {} not computed (nothing read it)", self.0)
+    }
+}
+
 /// A value on an edge of the graph: shared, immutable, of an open set of types.
 #[derive(Clone)]
 pub struct Value {
@@ -154,6 +173,11 @@ impl Value {
 
     pub fn approx_bytes(&self) -> usize {
         self.view.approx_bytes()
+    }
+
+    /// Whether this stands for a port that was not computed because nothing read it.
+    pub fn is_absent(&self) -> bool {
+        self.get::<Absent>().is_some()
     }
 
     /// See [`ValueData::display`].

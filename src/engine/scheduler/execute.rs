@@ -11,7 +11,7 @@ use crate::engine::cache::policy;
 use crate::engine::error::{CacheError, RunError};
 use crate::engine::graph::Pipeline;
 use crate::engine::op::{OpContext, Outputs};
-use crate::engine::value::Value;
+use crate::engine::value::{Absent, Value};
 
 /// A node's outputs matched to its ports, and what else it produced (open ports no consumer
 /// names: cached, so that a later pipeline naming them is served, but not kept in memory).
@@ -21,8 +21,15 @@ pub(super) struct Matched {
 }
 
 /// Orders an operator's (or a cache entry's) outputs by the node's ports and checks each
-/// against its declared type. The unnamed output is the default port.
-pub(super) fn match_ports(p: &Pipeline, i: usize, outputs: Outputs) -> Result<Matched, String> {
+/// against its declared type. The unnamed output is the default port. A port missing from
+/// `outputs` that nothing reads (`read(k)` false: the operator skipped it, `OpContext::wants`)
+/// gets an [`Absent`] placeholder; one that is read is an error ("no output ...").
+pub(super) fn match_ports(
+    p: &Pipeline,
+    i: usize,
+    outputs: Outputs,
+    read: &dyn Fn(usize) -> bool,
+) -> Result<Matched, String> {
     let node = &p.nodes[i];
     let mut outputs = outputs.0;
     // The common case, one output for one port: no lookups.
@@ -44,8 +51,10 @@ pub(super) fn match_ports(p: &Pipeline, i: usize, outputs: Outputs) -> Result<Ma
     }
     let mut values = Vec::with_capacity(slots.len());
     for (k, slot) in slots.into_iter().enumerate() {
-        let Some(value) = slot else {
-            return Err(format!("no output {:?} was produced", node.ports[k].name));
+        let value = match slot {
+            Some(value) => value,
+            None if !read(k) => Value::new(Absent(node.ports[k].ty)),
+            None => return Err(format!("no output {:?} was produced", node.ports[k].name)),
         };
         check_type(node, k, &value)?;
         values.push(value);
@@ -149,6 +158,10 @@ fn evaluate(s: &State, i: usize, release: &(dyn Fn(Value) + Sync)) -> Result<Mat
         .collect();
     let open_ports: Vec<String> =
         node.ports.iter().filter(|p| node.spec.port(&p.name).is_none()).map(|p| p.name.to_string()).collect();
+    // A port is read when a consumer that runs, or the caller, takes it: its release count.
+    let read = |k: usize| s.slots[i][k].remaining.load(Ordering::SeqCst) > 0;
+    let all_ports: Vec<&str> = node.ports.iter().map(|p| &*p.name).collect();
+    let read_ports: Vec<&str> = all_ports.iter().enumerate().filter(|&(k, _)| read(k)).map(|(_, n)| *n).collect();
     let mut ctx = OpContext {
         node: &node.name,
         params: &node.params,
@@ -156,6 +169,8 @@ fn evaluate(s: &State, i: usize, release: &(dyn Fn(Value) + Sync)) -> Result<Mat
         base_dir: &s.p.base_dir,
         content_key: s.content[i].as_deref(),
         wanted_ports: &open_ports,
+        read_ports: &read_ports,
+        all_ports: &all_ports,
         savers: s.p.registry.savers(),
         warnings: Vec::new(),
         release_to: Some(release),
@@ -166,7 +181,7 @@ fn evaluate(s: &State, i: usize, release: &(dyn Fn(Value) + Sync)) -> Result<Mat
     }
     drop(ctx);
     match result {
-        Ok(Ok(outputs)) => match_ports(s.p, i, outputs).map_err(|m| RunError::Contract {
+        Ok(Ok(outputs)) => match_ports(s.p, i, outputs, &read).map_err(|m| RunError::Contract {
             node: node.name.clone(),
             op: node.spec.name,
             message: m,
@@ -209,8 +224,14 @@ fn store_in_cache(s: &State, i: usize, values: &[Value], extra: &[(String, Value
     if !worth || s.cache_failed.load(Ordering::Relaxed) {
         return false;
     }
-    let mut named: Vec<(String, Value)> =
-        node.ports.iter().zip(values).map(|(p, v)| (p.name.to_string(), v.clone())).collect();
+    // A port not computed (nothing read it) is left out: a run that reads it misses the entry.
+    let mut named: Vec<(String, Value)> = node
+        .ports
+        .iter()
+        .zip(values)
+        .filter(|(_, v)| !v.is_absent())
+        .map(|(p, v)| (p.name.to_string(), v.clone()))
+        .collect();
     named.extend(extra.iter().cloned());
     let obs = s.options.observer;
     match cache.put(&key, &named) {

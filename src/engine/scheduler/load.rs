@@ -47,11 +47,13 @@ pub(super) fn open_cache<'a>(cache: Option<&'a CacheStore>, obs: &dyn Observer) 
 
 /// Plans the run and loads the `Cached` nodes' values, in parallel; an entry that cannot be
 /// read or no longer matches its node's ports is reported, distrusted, and the plan made again
-/// without it. Returns the final status and each loaded node's values; the load times go into
+/// without it. An entry without a port the plan's computed nodes or the caller (`kept`) read is
+/// a miss too; one without a port nothing reads serves, with a placeholder there. Returns the final status and each loaded node's values; the load times go into
 /// `timing`.
 pub(super) fn plan_and_load(
     p: &Pipeline,
     targets: &[usize],
+    kept: &[Vec<bool>],
     keys: &[Option<Key>],
     cache: Option<&CacheStore>,
     timing: &[Mutex<Timing>],
@@ -62,6 +64,7 @@ pub(super) fn plan_and_load(
     let mut loaded: Vec<Option<Matched>> = (0..n).map(|_| None).collect();
     loop {
         let status = plan_status(p, targets, keys, cache, &distrust);
+        let read = super::plan::read_ports(p, kept, &status);
         let to_load: Vec<usize> = (0..n).filter(|&i| status[i] == NodeStatus::Cached && loaded[i].is_none()).collect();
         let results: Vec<(usize, Result<Matched, String>, f64)> = to_load
             .par_iter()
@@ -69,9 +72,9 @@ pub(super) fn plan_and_load(
                 let t0 = Instant::now();
                 let key = keys[i].expect("needed nodes are keyed");
                 let r = match cache.expect("cached implies a cache").get(&key, &p.registry) {
-                    // An entry without a port this pipeline names (an open port that an older
-                    // run did not produce) is a plain miss.
-                    Ok(Some(outputs)) => match_ports(p, i, Outputs(outputs)).map_err(|e| {
+                    // An entry without a port this run may read (an open port that an older
+                    // run did not produce, a port no node read then) is a plain miss.
+                    Ok(Some(outputs)) => match_ports(p, i, Outputs(outputs), &|k| read[i][k]).map_err(|e| {
                         if e.starts_with("no output") {
                             String::new()
                         } else {
@@ -99,6 +102,15 @@ pub(super) fn plan_and_load(
                     }
                     failed.push(i);
                 }
+            }
+        }
+        // A node loaded without a port that a node this plan computes reads (its entry was
+        // stored by a run that did not read it) is computed instead.
+        for i in 0..n {
+            let lacks = |m: &Matched| m.values.iter().enumerate().any(|(k, v)| v.is_absent() && read[i][k]);
+            if status[i] == NodeStatus::Cached && loaded[i].as_ref().is_some_and(lacks) {
+                loaded[i] = None;
+                failed.push(i);
             }
         }
         if failed.is_empty() {

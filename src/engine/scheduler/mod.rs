@@ -179,7 +179,8 @@ fn run_in_pool(p: &Pipeline, options: &RunOptions) -> Result<RunOutcome, RunErro
     let cache = load::open_cache(options.cache.as_ref(), obs);
     let n = p.nodes.len();
     let timing: Vec<Mutex<Timing>> = (0..n).map(|_| Mutex::new(Timing::default())).collect();
-    let (status, loaded) = load::plan_and_load(p, &targets, &keys, cache.store, &timing, obs);
+    let kept = plan::kept_ports(p, &options.targets, &targets);
+    let (status, loaded) = load::plan_and_load(p, &targets, &kept, &keys, cache.store, &timing, obs);
     let is_compute: Vec<bool> = status.iter().map(|s| *s == NodeStatus::Computed).collect();
     let compute: Vec<usize> = (0..n).filter(|&i| is_compute[i]).collect();
     obs.planned(compute.len(), status.iter().filter(|s| **s == NodeStatus::Cached).count());
@@ -191,7 +192,6 @@ fn run_in_pool(p: &Pipeline, options: &RunOptions) -> Result<RunOutcome, RunErro
     for &i in &targets {
         is_target[i] = true;
     }
-    let kept = plan::kept_ports(p, &options.targets, &targets);
     let slots: Vec<Vec<Slot>> = release_counts(p, &is_compute, &kept)
         .into_iter()
         .map(|ports| {

@@ -60,6 +60,21 @@ pub(super) fn kept_ports(p: &Pipeline, names: &[String], targets: &[usize]) -> V
     kept
 }
 
+/// The ports a run reads, given each node's status: those the caller keeps (`kept`) and every
+/// input of a node it computes. A node computed in it may leave the others out
+/// (`OpContext::wants`); a cache entry without one of these is a miss.
+pub(super) fn read_ports(p: &Pipeline, kept: &[Vec<bool>], status: &[NodeStatus]) -> Vec<Vec<bool>> {
+    let mut read = kept.to_vec();
+    for (i, node) in p.nodes.iter().enumerate() {
+        if status[i] == NodeStatus::Computed {
+            for s in node.sources() {
+                read[s.node][s.port] = true;
+            }
+        }
+    }
+    read
+}
+
 /// Marks every ancestor of `targets` (inclusive), stopping at provided nodes (their value
 /// needs none of their inputs).
 fn ancestors(p: &Pipeline, targets: &[usize]) -> Vec<bool> {

@@ -78,8 +78,12 @@ pub fn weight(w: Weight, z: usize, max: usize, t: f64, t_max: f64) -> f64 {
 #[derive(Clone, Debug, PartialEq)]
 pub struct Merged {
     pub image: Vec<f32>,
+    /// Per pixel (empty when [`Maps::confidence`] is false).
     pub confidence: Vec<f32>,
+    /// Per pixel (empty when [`Maps::saturated`] is false).
     pub saturated: Vec<f32>,
+    /// The sum of the confidence over the pixels (computed either way, for the metrics).
+    pub confidence_sum: f64,
     /// Pixels with a channel at the top code in every frame.
     pub saturated_pixels: usize,
     /// Pixels with a channel at code 0 in every frame.
@@ -88,8 +92,21 @@ pub struct Merged {
     pub dropped: usize,
 }
 
+/// Which per-pixel maps a merge fills besides the image: a pipeline that reads neither saves
+/// their memory (a 24-megapixel merge: 192 MB).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Maps {
+    pub confidence: bool,
+    pub saturated: bool,
+}
+
+impl Maps {
+    pub const ALL: Maps = Maps { confidence: true, saturated: true };
+}
+
 #[derive(Clone, Copy, Default)]
 struct RowStats {
+    confidence: f64,
     saturated: usize,
     dark: usize,
     dropped: usize,
@@ -141,21 +158,34 @@ fn tables(b: &Brackets, r: &Response, w: Weight, deghost: bool) -> Tables {
 /// Merges `b` with response `r` (same bit depth, checked by the caller), see the module
 /// documentation.
 pub fn merge(b: &Brackets, r: &Response, w: Weight, deghost: Deghost) -> Merged {
+    merge_maps(b, r, w, deghost, Maps::ALL)
+}
+
+/// [`merge`], filling only the per-pixel `maps` asked for (the image, counts and confidence
+/// sum are the same either way).
+pub fn merge_maps(b: &Brackets, r: &Response, w: Weight, deghost: Deghost, maps: Maps) -> Merged {
     match &b.frames[0].codes {
         Codes::U8(_) => {
             let frames: Vec<&[u8]> =
                 b.frames.iter().map(|f| if let Codes::U8(v) = &f.codes { v.as_slice() } else { &[] }).collect();
-            merge_typed(b, &frames, r, w, deghost)
+            merge_typed(b, &frames, r, w, deghost, maps)
         }
         Codes::U16(_) => {
             let frames: Vec<&[u16]> =
                 b.frames.iter().map(|f| if let Codes::U16(v) = &f.codes { v.as_slice() } else { &[] }).collect();
-            merge_typed(b, &frames, r, w, deghost)
+            merge_typed(b, &frames, r, w, deghost, maps)
         }
     }
 }
 
-fn merge_typed<T: Code>(b: &Brackets, frames: &[&[T]], r: &Response, w: Weight, deghost: Deghost) -> Merged {
+fn merge_typed<T: Code>(
+    b: &Brackets,
+    frames: &[&[T]],
+    r: &Response,
+    w: Weight,
+    deghost: Deghost,
+    maps: Maps,
+) -> Merged {
     let (width, height) = (b.width, b.height);
     let deghost = deghost == Deghost::Consistency && frames.len() > 2;
     let tab = tables(b, r, w, deghost);
@@ -163,14 +193,15 @@ fn merge_typed<T: Code>(b: &Brackets, frames: &[&[T]], r: &Response, w: Weight, 
     let any_mask = covered.iter().any(Option::is_some);
     let max = max_code(b.bit_depth);
     let mut image = vec![0f32; width * height * 3];
-    let mut confidence = vec![0f32; width * height];
-    let mut saturated = vec![0f32; width * height];
+    let map = |want: bool| vec![0f32; if want { width * height } else { 0 }];
+    let (mut confidence, mut saturated) = (map(maps.confidence), map(maps.saturated));
+    let (conf_rows, sat_rows) = (map_rows(&mut confidence, width, height), map_rows(&mut saturated, width, height));
     let stats = image
         .par_chunks_mut(width * 3)
-        .zip(confidence.par_chunks_mut(width))
-        .zip(saturated.par_chunks_mut(width))
+        .zip(conf_rows)
+        .zip(sat_rows)
         .enumerate()
-        .map(|(y, ((out, conf), sat))| {
+        .map(|(y, ((out, mut conf), mut sat))| {
             let mut s = RowStats::default();
             let mut scratch = Scratch::new(frames.len());
             for x in 0..width {
@@ -206,14 +237,20 @@ fn merge_typed<T: Code>(b: &Brackets, frames: &[&[T]], r: &Response, w: Weight, 
                         v
                     };
                 }
-                conf[x] = csum / 3.0;
-                sat[x] = if px_sat { 1.0 } else { 0.0 };
+                s.confidence += (csum / 3.0) as f64;
+                if let Some(conf) = conf.as_deref_mut() {
+                    conf[x] = csum / 3.0;
+                }
+                if let Some(sat) = sat.as_deref_mut() {
+                    sat[x] = if px_sat { 1.0 } else { 0.0 };
+                }
                 s.saturated += px_sat as usize;
                 s.dark += (px_dark && !px_sat) as usize;
             }
             s
         })
         .reduce(RowStats::default, |a, b| RowStats {
+            confidence: a.confidence + b.confidence,
             saturated: a.saturated + b.saturated,
             dark: a.dark + b.dark,
             dropped: a.dropped + b.dropped,
@@ -222,9 +259,19 @@ fn merge_typed<T: Code>(b: &Brackets, frames: &[&[T]], r: &Response, w: Weight, 
         image,
         confidence,
         saturated,
+        confidence_sum: stats.confidence,
         saturated_pixels: stats.saturated,
         dark_pixels: stats.dark,
         dropped: stats.dropped,
+    }
+}
+
+/// Each row's slice of a per-pixel map, or `None` per row for a map not asked for (empty).
+fn map_rows(v: &mut [f32], width: usize, height: usize) -> Vec<Option<&mut [f32]>> {
+    if v.is_empty() {
+        (0..height).map(|_| None).collect()
+    } else {
+        v.chunks_mut(width).map(Some).collect()
     }
 }
 

@@ -9,7 +9,7 @@
 //! with `s` the median ratio (the best global scale for a median error, up to the spread).
 
 use super::debevec::debevec;
-use super::merge::{merge, Deghost, Merged, Weight};
+use super::merge::{merge, merge_maps, Deghost, Maps, Merged, Weight};
 use super::response::{Known, Response};
 use super::robertson::robertson;
 use super::simulate::{simulate, Simulation};
@@ -111,6 +111,32 @@ fn five_srgb_brackets_merge_within_the_issue_bound() {
     for (name, what, err, bound) in report {
         assert!(err < bound, "{name} {what}: {err}");
     }
+}
+
+/// A merge without its per-pixel maps makes the same image, counts and confidence sum.
+#[test]
+fn a_merge_without_its_maps_makes_the_same_image() {
+    let env = map("st_fagans_interior_1k.hdr");
+    let b = five_brackets(&env, Known::Srgb, 8, 1.0);
+    let r = Response::known(Known::Srgb, 8);
+    let all = merge(&b, &r, Weight::Hat, Deghost::Consistency);
+    for maps in [
+        Maps { confidence: false, saturated: false },
+        Maps { confidence: true, saturated: false },
+        Maps { confidence: false, saturated: true },
+    ] {
+        let some = merge_maps(&b, &r, Weight::Hat, Deghost::Consistency, maps);
+        assert_eq!(some.image, all.image);
+        assert_eq!(
+            (some.saturated_pixels, some.dark_pixels, some.dropped),
+            (all.saturated_pixels, all.dark_pixels, all.dropped)
+        );
+        assert_eq!(some.confidence_sum, all.confidence_sum);
+        assert_eq!(some.confidence.len(), if maps.confidence { all.confidence.len() } else { 0 });
+        assert_eq!(some.saturated.len(), if maps.saturated { all.saturated.len() } else { 0 });
+    }
+    let sum: f64 = all.confidence.iter().map(|&c| c as f64).sum();
+    assert!((sum / all.confidence_sum - 1.0).abs() < 1e-6, "{sum} {}", all.confidence_sum);
 }
 
 #[test]

@@ -10,7 +10,9 @@
 //! `saturated` (1 where a channel is at the top code in every frame: such a channel holds the
 //! shortest exposure's value, a lower bound) and `metrics`: `frames`, `saturated_fraction`,
 //! `underexposed_fraction` (a channel at code 0 in every frame), `mean_confidence`,
-//! `dropped_fraction` (frame-pixel pairs dropped by deghosting). A response that is not
+//! `dropped_fraction` (frame-pixel pairs dropped by deghosting). `confidence` and `saturated`
+//! are computed only when something in the run reads them (`OpContext::wants`): then the
+//! merge's memory is the frames and the image. A response that is not
 //! monotonic, or for another bit depth, and a single frame are errors. Tests
 //! (`maths::capture::tests`): five 8-bit sRGB brackets two stops apart merge through
 //! `CalibrateResponse` (Debevec, 70 samples) to within the 3% median relative error of
@@ -19,7 +21,7 @@
 use crate::engine::fields::Input;
 use crate::engine::op::{OpContext, OpError, OpSpec, Outputs};
 use crate::engine::typed_op::{Op, Port};
-use crate::maths::capture::merge::{merge, Deghost, Weight};
+use crate::maths::capture::merge::{merge_maps, Deghost, Maps, Weight};
 use crate::maths::capture::response::Response;
 use crate::values::brackets::Brackets;
 use crate::values::ty::*;
@@ -59,7 +61,7 @@ pub fn spec() -> OpSpec {
     .into()
 }
 
-fn eval(_: &mut OpContext, p: MergeBracketsParams) -> Result<Outputs, OpError> {
+fn eval(ctx: &mut OpContext, p: MergeBracketsParams) -> Result<Outputs, OpError> {
     let b: &Brackets = &p.brackets;
     super::require_frames(b, 2)?;
     let response = match &p.response {
@@ -68,21 +70,27 @@ fn eval(_: &mut OpContext, p: MergeBracketsParams) -> Result<Outputs, OpError> {
             Response::from_curves(c, b.bit_depth).map_err(|e| OpError::Invalid(format!("input \"response\": {e}")))?
         }
     };
-    let m = merge(b, &response, p.weight, p.deghost);
+    // The per-pixel maps only when something reads them (the frames and the image are the
+    // memory a merge cannot do without).
+    let maps = Maps { confidence: ctx.wants(CONFIDENCE.name), saturated: ctx.wants(SATURATED.name) };
+    let m = merge_maps(b, &response, p.weight, p.deghost, maps);
     let pixels = b.pixel_count().max(1) as f64;
     let metrics = Metrics {
         fields: vec![
             ("frames".into(), b.frames.len() as f64),
             ("saturated_fraction".into(), m.saturated_pixels as f64 / pixels),
             ("underexposed_fraction".into(), m.dark_pixels as f64 / pixels),
-            ("mean_confidence".into(), m.confidence.iter().map(|&c| c as f64).sum::<f64>() / pixels),
+            ("mean_confidence".into(), m.confidence_sum / pixels),
             ("dropped_fraction".into(), m.dropped as f64 / (pixels * b.frames.len() as f64)),
         ],
     };
     let (w, h) = (b.width, b.height);
-    Ok(Outputs::new()
-        .port(IMAGE, Image::from_vec(w, h, 3, m.image))
-        .port(CONFIDENCE, Image::from_vec(w, h, 1, m.confidence))
-        .port(SATURATED, Image::from_vec(w, h, 1, m.saturated))
-        .port(METRICS, metrics))
+    let mut out = Outputs::new().port(IMAGE, Image::from_vec(w, h, 3, m.image)).port(METRICS, metrics);
+    if maps.confidence {
+        out = out.port(CONFIDENCE, Image::from_vec(w, h, 1, m.confidence));
+    }
+    if maps.saturated {
+        out = out.port(SATURATED, Image::from_vec(w, h, 1, m.saturated));
+    }
+    Ok(out)
 }
