@@ -20,6 +20,8 @@
 //! `HDRFLOW_REQUIRE_BABYLON=1`. Run: `cargo test --release --test babylon_render -- --nocapture`
 //! (prints the tables).
 
+#[path = "babylon_render/page.rs"]
+mod babylon_page;
 #[path = "babylon_render/reference.rs"]
 mod babylon_reference;
 mod common;
@@ -37,42 +39,36 @@ mod test_map;
 mod web_page;
 
 use std::path::{Path, PathBuf};
-use std::time::Duration;
 
-use babylon_reference::{sh_polynomial, sphere_reference, SphereReference};
+use babylon_page::{app_dir, errors, rel, write_map, CAMERA, SPHERE_SHADER, TEST_MAP_BOUNDS};
+use babylon_reference::{sh_polynomial, sphere_reference, Levels, SphereReference};
 use glam::DVec3;
 use hdrflow::formats::babylon_env;
 use hdrflow::values::Image;
-use reference::{relative_rmse, Map};
+use reference::Map;
 use scene::Geometry;
 use serde_json::{json, Value as Json};
 
-const REQUIRE: &str = "HDRFLOW_REQUIRE_BABYLON";
-/// The pinned engine (clients/babylon-web/package-lock.json).
-const PACKAGE_VERSION: &str = "9.37.1";
-/// The orthographic camera of the sphere renders (clients/web-common/scene.js: on +Z at CAMERA_Z).
-const CAMERA: DVec3 = DVec3::new(0.0, 0.0, 10.0);
-/// Relative RMSE bounds per sphere (mirror, metals 0.25, 0.5, 0.75, 1, diffuse) on the test map:
-/// about twice what the correct bake measures (0.0146, 0.0095, 0.0017, 0.0008, 0.0002, 0.0002:
-/// docs/src/guides/baking/babylon.md), at least 0.002.
-const TEST_MAP_BOUNDS: [f64; 6] = [0.03, 0.02, 0.005, 0.003, 0.002, 0.002];
-/// SwiftShader is a CPU renderer on a shared machine: a minute is possible, ten are a hang.
-const BROWSER_TIMEOUT: Duration = Duration::from_secs(600);
+/// Chromium, or `None` after a visible skip when it or the npm package is missing.
+fn browser() -> Option<&'static str> {
+    babylon_page::browser(&[])
+}
+
+/// The page on `job`, each `.env` read with lodGenerationScale 0.8.
+fn run_page(browser: &str, sandbox: &common::Sandbox, label: &str, job: &Json) -> web_page::Page {
+    babylon_page::run_page(browser, sandbox, "babylon-render", label, job, 0.8)
+}
+
+/// Every RGBD face rewritten as if the encoder had left out the gamma (RGB stored linearly).
+fn without_gamma(_: &mut Json, images: &mut [Vec<u8>]) {
+    images.iter_mut().for_each(|png| *png = babylon_page::without_gamma(png));
+}
+
 /// The orientation views: 256 x 256, 90 degrees (`markers::SkyCamera`).
 const SKY_SIZE: usize = 256;
 const SKY_FOV: f64 = 90.0;
 /// How far (pixels) a marker may land from where a 360-degree viewer puts it.
 const MARKER_TOLERANCE: f64 = 2.0;
-
-fn app_dir() -> PathBuf {
-    Path::new(common::MANIFEST_DIR).join("clients/babylon-web")
-}
-
-/// Chromium, or `None` after a visible skip when it or the npm package is missing.
-fn browser() -> Option<&'static str> {
-    let files = ["@babylonjs/core/index.js", "@babylonjs/core/Misc/environmentTextureTools.js"];
-    web_page::browser(REQUIRE, &app_dir(), &files, "scripts/babylon-web.sh install")
-}
 
 /// `hdrflow bake MAP --for babylon --sun keep --out DIR` plus `extra`; the .env's path.
 fn bake(sandbox: &common::Sandbox, map: &Path, dir: &str, extra: &[&str]) -> PathBuf {
@@ -115,72 +111,6 @@ fn swap_faces(images: &mut [Vec<u8>], a: usize, b: usize) {
     for level in 0..images.len() / 6 {
         images.swap(6 * level + a, 6 * level + b);
     }
-}
-
-/// Every RGBD face rewritten as if the encoder had left out the gamma (RGB stored linearly).
-fn without_gamma(_: &mut Json, images: &mut [Vec<u8>]) {
-    for png in images.iter_mut() {
-        let mut img = image::load_from_memory(png).expect("a PNG face").to_rgba8();
-        for p in img.pixels_mut() {
-            for c in 0..3 {
-                p.0[c] = ((p.0[c] as f64 / 255.0).powf(2.2) * 255.0).round() as u8;
-            }
-        }
-        let mut out = Vec::new();
-        img.write_to(&mut std::io::Cursor::new(&mut out), image::ImageFormat::Png).expect("PNG");
-        *png = out;
-    }
-}
-
-fn write_map(sandbox: &common::Sandbox, name: &str, img: &Image) -> PathBuf {
-    sandbox.write(name, hdrflow::formats::pfm::encode(img))
-}
-
-fn rel(sandbox: &common::Sandbox, p: &Path) -> String {
-    p.strip_prefix(sandbox.path()).expect("inside the sandbox").to_str().expect("UTF-8").to_string()
-}
-
-/// The pieces of Babylon's PBR shader `babylon_render/reference.rs` models, in the GLSL it
-/// compiled (an upgrade that changes them must revisit the reference).
-const SPHERE_SHADER: [&str; 4] = [
-    "reflectionLOD=reflectionLOD*vReflectionMicrosurfaceInfos.y+vReflectionMicrosurfaceInfos.z",
-    "float lod=log2(microsurfaceAverageSlopeTexels)",
-    "mix(environmentRadiance.rgb,environmentIrradiance,alphaG)",
-    "return 1.0+specularEnvironmentR0*(1.0/environmentBrdf.y-1.0)",
-];
-
-fn run_page(browser: &str, sandbox: &common::Sandbox, label: &str, job: &Json) -> web_page::Page {
-    let page = web_page::run(browser, &app_dir(), sandbox, job, &format!("babylon-render/{label}"), BROWSER_TIMEOUT);
-    assert_eq!(page.report["package"], PACKAGE_VERSION, "the pinned engine (clients/babylon-web/package-lock.json)");
-    for r in page.report["renders"].as_array().expect("the renders") {
-        assert_eq!(r["stable"], true, "{}: the second frame differs from the first", r["name"]);
-        assert_eq!(r["loaded"]["lodGenerationScale"], 0.8, "{r}");
-    }
-    page
-}
-
-/// Relative RMSE per sphere against the `engine` references (printed with the exact ones).
-fn errors(label: &str, frame: &Image, geometry: &Geometry, refs: &[SphereReference]) -> Vec<f64> {
-    eprintln!(
-        "{label}: relative RMSE per sphere (vs Babylon's formula on exact lookups | vs exact GGX and irradiance)"
-    );
-    let mut out = Vec::new();
-    for (s, r) in geometry.spheres.iter().zip(refs) {
-        let e = relative_rmse(frame, 1.0, &r.pixels, &r.engine);
-        let x = relative_rmse(frame, 1.0, &r.pixels, &r.exact);
-        eprintln!("  {:<11} {:>8.4} | {:>8.4}   ({} pixels)", s.name, e, x, r.pixels.len());
-        for q in [0, r.pixels.len() / 3, r.pixels.len() / 2, r.pixels.len() - 1] {
-            let p = r.pixels[q];
-            eprintln!(
-                "     px {p}: got {:?} engine {:?} exact {:?}",
-                &frame.data[p * 4..p * 4 + 3],
-                r.engine[q],
-                r.exact[q]
-            );
-        }
-        out.push(e);
-    }
-    out
 }
 
 #[test]
@@ -236,7 +166,9 @@ fn babylon_shows_the_test_map_and_each_mistake_fails() {
     let map = Map::new(map);
     let poly = sh_polynomial(&map);
     let refs: Vec<SphereReference> = (0..geometry.spheres.len())
-        .map(|k| sphere_reference(&map, &poly, &geometry.spheres[k], &geometry.pixels(k, 0.9, 2), CAMERA, 256))
+        .map(|k| {
+            sphere_reference(&map, &poly, &geometry.spheres[k], &geometry.pixels(k, 0.9, 2), CAMERA, Levels::env(256))
+        })
         .collect();
     let (w, h) = (geometry.width, geometry.height);
     let good_errors = errors("test map", &page.frame("good", w, h), &geometry, &refs);
