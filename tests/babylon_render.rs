@@ -40,13 +40,10 @@ mod web_page;
 
 use std::path::{Path, PathBuf};
 
-use babylon_page::{app_dir, errors, rel, write_map, CAMERA, SPHERE_SHADER, TEST_MAP_BOUNDS};
-use babylon_reference::{sh_polynomial, sphere_reference, Levels, SphereReference};
+use babylon_page::{rel, write_map, SPHERES};
+use babylon_reference::Levels;
 use glam::DVec3;
 use hdrflow::formats::babylon_env;
-use hdrflow::values::Image;
-use reference::Map;
-use scene::Geometry;
 use serde_json::{json, Value as Json};
 
 /// Chromium, or `None` after a visible skip when it or the npm package is missing.
@@ -155,44 +152,19 @@ fn babylon_shows_the_test_map_and_each_mistake_fails() {
     let renders: Vec<Json> =
         bakes.iter().map(|(name, env)| json!({ "name": name, "kind": "spheres", "env": rel(&sandbox, env) })).collect();
     let page = run_page(browser, &sandbox, "test-map", &json!({ "renders": renders }));
-    let shaders = std::fs::read_to_string(page.results.join("shaders.txt")).expect("the recorded shader");
-    for piece in SPHERE_SHADER {
-        assert!(shaders.contains(piece), "the recorded shader has no {piece:?}");
-    }
     let loaded = &page.render_report("good")["loaded"];
     assert_eq!(loaded["width"], 256, "{loaded}");
-
-    let geometry = Geometry::read(&page.results.join("scene.json"));
-    let map = Map::new(map);
-    let poly = sh_polynomial(&map);
-    let refs: Vec<SphereReference> = (0..geometry.spheres.len())
-        .map(|k| {
-            sphere_reference(&map, &poly, &geometry.spheres[k], &geometry.pixels(k, 0.9, 2), CAMERA, Levels::env(256))
-        })
-        .collect();
-    let (w, h) = (geometry.width, geometry.height);
-    let good_errors = errors("test map", &page.frame("good", w, h), &geometry, &refs);
-    let good_failing = geometry.failing(&good_errors, &TEST_MAP_BOUNDS);
-    let mut missed = Vec::new();
-    const ALL: [&str; 6] = ["mirror", "metal_0.25", "metal_0.5", "metal_0.75", "metal_1", "diffuse"];
-    for (name, must_fail) in [
-        ("mirrored", &ALL[..]),
+    let mistakes: [(&str, &[&str]); 6] = [
+        ("mirrored", &SPHERES[..]),
         // Roughness 1 and the diffuse sphere read only the polynomial (Babylon mixes the radiance
         // with the irradiance by alphaG).
-        ("swapped", &ALL[..4]),
-        ("linear", &["metal_0.25", "metal_0.5", "metal_0.75"][..]),
-        ("times_pi", &ALL[1..]),
-        ("no_gamma", &ALL[..4]),
-        ("world", &ALL[2..]),
-    ] {
-        let errs = errors(name, &page.frame(name, w, h), &geometry, &refs);
-        let failed = geometry.failing(&errs, &TEST_MAP_BOUNDS);
-        for s in must_fail.iter().filter(|s| !failed.iter().any(|f| f == *s)) {
-            missed.push(format!("{name}: {s} passed the comparison (failing: {failed:?})"));
-        }
-    }
-    assert_eq!(good_failing, Vec::<String>::new(), "the correct bake must match");
-    assert!(missed.is_empty(), "mistakes the comparison did not catch:\n{}", missed.join("\n"));
+        ("swapped", &SPHERES[..4]),
+        ("linear", &SPHERES[1..4]),
+        ("times_pi", &SPHERES[1..]),
+        ("no_gamma", &SPHERES[..4]),
+        ("world", &SPHERES[2..]),
+    ];
+    babylon_page::assert_spheres(&page, map, Levels::env(256), "test map", &mistakes);
 }
 
 #[test]
@@ -238,44 +210,7 @@ fn babylon_shows_the_marker_map_as_a_360_viewer_does() {
 #[test]
 fn the_babylon_readme_code_is_the_render_pages_code() {
     let sandbox = common::Sandbox::new();
-    let mut bright = Image::new(64, 32, 3);
-    bright.data.iter_mut().for_each(|v| *v = 0.5);
-    bright.data[3 * (16 * 64 + 20)..3 * (16 * 64 + 21)].copy_from_slice(&[1000.0, 900.0, 800.0]);
-    let map = write_map(&sandbox, "bright.pfm", &bright);
-    let out = sandbox.join("bright");
-    let cache = sandbox.cache();
-    let o = common::run_hdrflow([
-        "bake",
-        map.to_str().unwrap(),
-        "--for",
-        "babylon",
-        "--sun",
-        "keep",
-        "--quality",
-        "draft",
-        "--out",
-        out.to_str().unwrap(),
-        "--cache-dir",
-        cache.to_str().unwrap(),
-    ]);
-    o.assert_success();
-    let text = format!("{}{}", o.stdout, o.stderr);
-    assert!(text.contains("beyond RGBD's range (255) clamped"), "{text}");
-    let readme = std::fs::read_to_string(out.join("README.txt")).unwrap();
-    let page = std::fs::read_to_string(app_dir().join("render.js")).unwrap();
-    let page_lines: Vec<&str> = page.lines().map(str::trim).collect();
-    let code = &readme[readme.find("// Babylon.js (@babylonjs/core").expect("the loading code")..];
-    let mut checked = 0;
-    for line in code.lines().map(str::trim).filter(|l| !l.is_empty() && !l.starts_with("//")) {
-        if let Some((_, file)) = line.strip_prefix("const ").and_then(|l| l.split_once("Url = '")) {
-            let file = file.trim_end_matches("';");
-            assert!(out.join(file).is_file(), "{line}: no such file written");
-        } else {
-            assert!(page_lines.contains(&line), "not a line of clients/babylon-web/render.js: {line}");
-            checked += 1;
-        }
-    }
-    assert_eq!(checked, 3, "{code}");
+    let out = babylon_page::assert_readme_code_is_the_pages(&sandbox, "babylon", 3);
     let bytes = common::read_file(&out.join("bright.env"));
     let (manifest, images) = babylon_env::decode(&bytes).expect("a .env");
     assert_eq!((manifest["width"].as_u64(), images.len()), (Some(128), 6 * 8));

@@ -44,12 +44,9 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Duration;
 
-use babylon_page::{app_dir, errors, rel, write_map, CAMERA, REQUIRE, SPHERE_SHADER, TEST_MAP_BOUNDS};
-use babylon_reference::{sh_polynomial, sphere_reference, Levels, SphereReference};
+use babylon_page::{app_dir, rel, write_map, REQUIRE, SPHERES};
+use babylon_reference::Levels;
 use hdrflow::formats::gltf_ibl::EXTENSION;
-use hdrflow::values::Image;
-use reference::Map;
-use scene::Geometry;
 use serde_json::{json, Value as Json};
 
 /// The pinned loader (clients/babylon-web/package-lock.json): the newest the registry holds.
@@ -220,66 +217,28 @@ fn gltf_shows_the_test_map_and_each_mistake_fails() {
     let job = json!({ "renders": renders });
     let page = babylon_page::run_page(browser, &sandbox, "gltf-render", "test-map", &job, 0.5);
     assert_eq!(page.report["loaders"], LOADERS_VERSION, "the pinned loader (clients/babylon-web/package-lock.json)");
-    let shaders = std::fs::read_to_string(page.results.join("shaders.txt")).expect("the recorded shader");
-    for piece in SPHERE_SHADER {
-        assert!(shaders.contains(piece), "the recorded shader has no {piece:?}");
-    }
     let loaded = &page.render_report("good")["loaded"];
     assert_eq!((&loaded["class"], &loaded["width"]), (&json!("CubeTexture"), &json!(256)), "{loaded}");
     assert_eq!(loaded["gammaSpace"], false, "{loaded}");
     let as_loaded = &page.render_report("loader_gamma")["loaded"];
     assert_eq!(as_loaded["gammaSpace"], true, "Babylon's loader now makes a linear texture: {as_loaded}");
-
-    let geometry = Geometry::read(&page.results.join("scene.json"));
-    let map = Map::new(map);
-    let poly = sh_polynomial(&map);
-    let levels = Levels::gltf(256, LEVELS);
-    let refs: Vec<SphereReference> = (0..geometry.spheres.len())
-        .map(|k| sphere_reference(&map, &poly, &geometry.spheres[k], &geometry.pixels(k, 0.9, 2), CAMERA, levels))
-        .collect();
-    let (w, h) = (geometry.width, geometry.height);
-    let good_errors = errors("test map (gltf)", &page.frame("good", w, h), &geometry, &refs);
-    let good_failing = geometry.failing(&good_errors, &TEST_MAP_BOUNDS);
-    let mut missed = Vec::new();
-    const ALL: [&str; 6] = ["mirror", "metal_0.25", "metal_0.5", "metal_0.75", "metal_1", "diffuse"];
-    for (name, must_fail) in [
-        ("mirrored", &ALL[..]),
+    let mistakes: [(&str, &[&str]); 7] = [
+        ("mirrored", &SPHERES[..]),
         // Roughness 1 and the diffuse sphere read only the SH (Babylon mixes the radiance with
         // the irradiance by alphaG).
-        ("swapped", &ALL[..4]),
-        ("even", &["metal_0.25", "metal_0.5", "metal_0.75"][..]),
-        ("over_pi", &ALL[1..]),
-        ("no_rgbd", &ALL[..4]),
-        ("world", &ALL[2..]),
-        ("loader_gamma", &ALL[..4]),
-    ] {
-        let errs = errors(name, &page.frame(name, w, h), &geometry, &refs);
-        let failed = geometry.failing(&errs, &TEST_MAP_BOUNDS);
-        for s in must_fail.iter().filter(|s| !failed.iter().any(|f| f == *s)) {
-            missed.push(format!("{name}: {s} passed the comparison (failing: {failed:?})"));
-        }
-    }
-    assert_eq!(good_failing, Vec::<String>::new(), "the correct bake must match");
-    assert!(missed.is_empty(), "mistakes the comparison did not catch:\n{}", missed.join("\n"));
+        ("swapped", &SPHERES[..4]),
+        ("even", &SPHERES[1..4]),
+        ("over_pi", &SPHERES[1..]),
+        ("no_rgbd", &SPHERES[..4]),
+        ("world", &SPHERES[2..]),
+        ("loader_gamma", &SPHERES[..4]),
+    ];
+    babylon_page::assert_spheres(&page, map, Levels::gltf(256, LEVELS), "test map (gltf)", &mistakes);
 }
 
-/// `hdrflow bake MAP --for gltf --quality draft --out OUT` plus `extra` in `sandbox`.
+/// `hdrflow bake MAP --for gltf --sun keep --quality draft --out OUT` in `sandbox`.
 fn bake_draft(sandbox: &common::Sandbox, map: &Path, out: &Path) -> common::Output {
-    let cache = sandbox.cache();
-    common::run_hdrflow([
-        "bake",
-        map.to_str().unwrap(),
-        "--for",
-        "gltf",
-        "--sun",
-        "keep",
-        "--quality",
-        "draft",
-        "--out",
-        out.to_str().unwrap(),
-        "--cache-dir",
-        cache.to_str().unwrap(),
-    ])
+    babylon_page::bake_draft(sandbox, "gltf", map, out)
 }
 
 /// The README's glTF code is the render page's (`clients/babylon-web/render.js` loads the asset
@@ -289,31 +248,7 @@ fn bake_draft(sandbox: &common::Sandbox, map: &Path, out: &Path) -> common::Outp
 #[test]
 fn the_gltf_readme_code_is_the_render_pages_code() {
     let sandbox = common::Sandbox::new();
-    let mut bright = Image::new(64, 32, 3);
-    bright.data.iter_mut().for_each(|v| *v = 0.5);
-    bright.data[3 * (16 * 64 + 20)..3 * (16 * 64 + 21)].copy_from_slice(&[1000.0, 900.0, 800.0]);
-    let map = write_map(&sandbox, "bright.pfm", &bright);
-    let out = sandbox.join("bright");
-    let o = bake_draft(&sandbox, &map, &out);
-    o.assert_success();
-    let text = format!("{}{}", o.stdout, o.stderr);
-    assert!(text.contains("beyond RGBD's range (255) clamped"), "{text}");
-    let readme = std::fs::read_to_string(out.join("README.txt")).unwrap();
-    let page = std::fs::read_to_string(app_dir().join("render.js")).unwrap();
-    let page_lines: Vec<&str> = page.lines().map(str::trim).collect();
-    let code =
-        &readme[readme.find("// Babylon.js (@babylonjs/core 9 and @babylonjs/loaders").expect("the loading code")..];
-    let mut checked = 0;
-    for line in code.lines().map(str::trim).filter(|l| !l.is_empty() && !l.starts_with("//")) {
-        if let Some((_, file)) = line.strip_prefix("const ").and_then(|l| l.split_once("Url = '")) {
-            let file = file.trim_end_matches("';");
-            assert!(out.join(file).is_file(), "{line}: no such file written");
-        } else {
-            assert!(page_lines.contains(&line), "not a line of clients/babylon-web/render.js: {line}");
-            checked += 1;
-        }
-    }
-    assert_eq!(checked, 5, "{code}");
+    let out = babylon_page::assert_readme_code_is_the_pages(&sandbox, "gltf", 5);
     let doc: Json = serde_json::from_slice(&common::read_file(&out.join("bright.gltf"))).expect("JSON");
     let light = &doc["extensions"][EXTENSION]["lights"][0];
     assert_eq!(light["specularImageSize"], 128);

@@ -114,13 +114,7 @@ scene.environmentTexture.gammaSpace = false;
 // The map as the background too (level 0):
 scene.createDefaultSkybox(scene.environmentTexture, true, 1000, 0);
 "#,
-    sun_code: r#"// The sun taken out of the map ({file:save_sun}): intensity = its irradiance in the map's units (Babylon's
-// PBR divides a light's diffuse term by pi), direction in Babylon's left-handed world (z negated).
-import { Color3, DirectionalLight, Vector3 } from '@babylonjs/core';
-const sun = new DirectionalLight('sun', new Vector3({sun:from_light}).multiplyByFloats(1, 1, -1), scene);
-sun.diffuse = new Color3({sun:color});
-sun.intensity = {sun:illuminance};
-"#,
+    sun_code: super::babylon::SUN_CODE,
 };
 
 #[cfg(test)]

@@ -12,8 +12,8 @@ use glam::DVec3;
 use hdrflow::values::Image;
 use serde_json::Value as Json;
 
-use crate::babylon_reference::SphereReference;
-use crate::reference::relative_rmse;
+use crate::babylon_reference::{sh_polynomial, sphere_reference, Levels, SphereReference};
+use crate::reference::{relative_rmse, Map};
 use crate::scene::Geometry;
 use crate::{common, web_page};
 
@@ -111,5 +111,80 @@ pub fn errors(label: &str, frame: &Image, geometry: &Geometry, refs: &[SphereRef
         }
         out.push(e);
     }
+    out
+}
+
+/// The six spheres, in the scene's order.
+pub const SPHERES: [&str; 6] = ["mirror", "metal_0.25", "metal_0.5", "metal_0.75", "metal_1", "diffuse"];
+
+/// The page's sphere renders of the test `map` lit by a chain `levels`: render "good" within
+/// [`TEST_MAP_BOUNDS`] of Babylon's formula on every sphere, and each mistake's render (name, the
+/// spheres it must fail) failing on those; the shader pieces the reference models present.
+pub fn assert_spheres(page: &web_page::Page, map: Image, levels: Levels, label: &str, mistakes: &[(&str, &[&str])]) {
+    let shaders = std::fs::read_to_string(page.results.join("shaders.txt")).expect("the recorded shader");
+    for piece in SPHERE_SHADER {
+        assert!(shaders.contains(piece), "the recorded shader has no {piece:?}");
+    }
+    let geometry = Geometry::read(&page.results.join("scene.json"));
+    let map = Map::new(map);
+    let poly = sh_polynomial(&map);
+    let refs: Vec<SphereReference> = (0..geometry.spheres.len())
+        .map(|k| sphere_reference(&map, &poly, &geometry.spheres[k], &geometry.pixels(k, 0.9, 2), CAMERA, levels))
+        .collect();
+    let (w, h) = (geometry.width, geometry.height);
+    let good_errors = errors(label, &page.frame("good", w, h), &geometry, &refs);
+    let good_failing = geometry.failing(&good_errors, &TEST_MAP_BOUNDS);
+    let mut missed = Vec::new();
+    for (name, must_fail) in mistakes {
+        let errs = errors(name, &page.frame(name, w, h), &geometry, &refs);
+        let failed = geometry.failing(&errs, &TEST_MAP_BOUNDS);
+        for s in must_fail.iter().filter(|s| !failed.iter().any(|f| f == *s)) {
+            missed.push(format!("{name}: {s} passed the comparison (failing: {failed:?})"));
+        }
+    }
+    assert_eq!(good_failing, Vec::<String>::new(), "the correct bake must match");
+    assert!(missed.is_empty(), "mistakes the comparison did not catch:\n{}", missed.join("\n"));
+}
+
+/// `hdrflow bake MAP --for ENGINE --sun keep --quality draft --out OUT` in `sandbox`.
+pub fn bake_draft(sandbox: &common::Sandbox, engine: &str, map: &Path, out: &Path) -> common::Output {
+    let cache = sandbox.cache();
+    let (map, out, cache) =
+        (map.to_str().expect("UTF-8"), out.to_str().expect("UTF-8"), cache.to_str().expect("UTF-8"));
+    let args =
+        ["bake", map, "--for", engine, "--sun", "keep", "--quality", "draft", "--out", out, "--cache-dir", cache];
+    common::run_hdrflow(args)
+}
+
+/// The README's Babylon code is the render page's (`clients/babylon-web/render.js` loads the bake
+/// with it): a draft bake for `engine` of a map with one texel beyond RGBD's 255 (counted in a
+/// warning) into the sandbox's `bright/`, whose every code line but the one naming the file is a
+/// line of the page (`lines` of them), and that one (`const ...Url = '...'`) names a file the
+/// bake wrote. The bake's folder.
+pub fn assert_readme_code_is_the_pages(sandbox: &common::Sandbox, engine: &str, lines: usize) -> PathBuf {
+    let mut bright = Image::new(64, 32, 3);
+    bright.data.iter_mut().for_each(|v| *v = 0.5);
+    bright.data[3 * (16 * 64 + 20)..3 * (16 * 64 + 21)].copy_from_slice(&[1000.0, 900.0, 800.0]);
+    let map = write_map(sandbox, "bright.pfm", &bright);
+    let out = sandbox.join("bright");
+    let o = bake_draft(sandbox, engine, &map, &out);
+    o.assert_success();
+    let text = format!("{}{}", o.stdout, o.stderr);
+    assert!(text.contains("beyond RGBD's range (255) clamped"), "{text}");
+    let readme = std::fs::read_to_string(out.join("README.txt")).expect("the bake's README.txt");
+    let page = std::fs::read_to_string(app_dir().join("render.js")).expect("the page");
+    let page_lines: Vec<&str> = page.lines().map(str::trim).collect();
+    let code = &readme[readme.find("// Babylon.js (@babylonjs/core").expect("the loading code")..];
+    let mut checked = 0;
+    for line in code.lines().map(str::trim).filter(|l| !l.is_empty() && !l.starts_with("//")) {
+        if let Some((_, file)) = line.strip_prefix("const ").and_then(|l| l.split_once("Url = '")) {
+            let file = file.trim_end_matches("';");
+            assert!(out.join(file).is_file(), "{line}: no such file written");
+        } else {
+            assert!(page_lines.contains(&line), "not a line of clients/babylon-web/render.js: {line}");
+            checked += 1;
+        }
+    }
+    assert_eq!(checked, lines, "{code}");
     out
 }
