@@ -42,7 +42,6 @@ use std::path::{Path, PathBuf};
 
 use babylon_page::{rel, write_map, SPHERES};
 use babylon_reference::Levels;
-use glam::DVec3;
 use hdrflow::formats::babylon_env;
 use serde_json::{json, Value as Json};
 
@@ -60,12 +59,6 @@ fn run_page(browser: &str, sandbox: &common::Sandbox, label: &str, job: &Json) -
 fn without_gamma(_: &mut Json, images: &mut [Vec<u8>]) {
     images.iter_mut().for_each(|png| *png = babylon_page::without_gamma(png));
 }
-
-/// The orientation views: 256 x 256, 90 degrees (`markers::SkyCamera`).
-const SKY_SIZE: usize = 256;
-const SKY_FOV: f64 = 90.0;
-/// How far (pixels) a marker may land from where a 360-degree viewer puts it.
-const MARKER_TOLERANCE: f64 = 2.0;
 
 /// `hdrflow bake MAP --for babylon --sun keep --out DIR` plus `extra`; the .env's path.
 fn bake(sandbox: &common::Sandbox, map: &Path, dir: &str, extra: &[&str]) -> PathBuf {
@@ -170,38 +163,7 @@ fn babylon_shows_the_test_map_and_each_mistake_fails() {
 #[test]
 fn babylon_shows_the_marker_map_as_a_360_viewer_does() {
     let Some(browser) = browser() else { return };
-    let sandbox = common::Sandbox::new();
-    let plain = write_map(&sandbox, "markers.pfm", &markers::orientation_map());
-    let mirrored = write_map(&sandbox, "mirrored.pfm", &markers::mirror_x(&markers::orientation_map()));
-    let good = bake(&sandbox, &plain, "good", &[]);
-    let turned = bake(&sandbox, &plain, "yaw", &["--yaw", "-90"]);
-    let bad = bake(&sandbox, &mirrored, "mirrored", &[]);
-    let views = [
-        ("front", &good, DVec3::NEG_Z, 0.0, false),
-        // `--yaw -90` turns the map's centre to +X.
-        ("yaw", &turned, DVec3::X, -90.0, false),
-        ("yaw_front", &turned, DVec3::NEG_Z, 0.0, true),
-        ("mirrored", &bad, DVec3::NEG_Z, 0.0, true),
-    ];
-    let renders: Vec<Json> = views
-        .iter()
-        .map(|(name, env, forward, _, _)| {
-            json!({ "name": name, "kind": "sky", "env": rel(&sandbox, env), "forward": forward.to_array(),
-                    "fov_deg": SKY_FOV, "size": SKY_SIZE })
-        })
-        .collect();
-    let page = run_page(browser, &sandbox, "markers", &json!({ "renders": renders }));
-    let seen: Vec<markers::View> = views
-        .iter()
-        .map(|(name, _, forward, yaw, mistake)| markers::View {
-            name,
-            img: page.frame(name, SKY_SIZE, SKY_SIZE),
-            forward: *forward,
-            yaw: *yaw,
-            mistake: *mistake,
-        })
-        .collect();
-    markers::assert_views(&seen, "mirrored", MARKER_TOLERANCE);
+    babylon_page::assert_markers(browser, "env", "babylon-render", 0.8, bake);
 }
 
 /// The README's Babylon code is the code of the render page (`clients/babylon-web/render.js`

@@ -14,6 +14,8 @@
 //!   and -Z swapped, a roughness list that maps the levels evenly to 0..1, the coefficients of
 //!   `E / pi` instead of `E` (the loader divides by pi itself), the SH in hdrflow's axes
 //!   instead of Babylon's, and the faces written as plain 8-bit colour (no RGBD).
+//! - Orientation and handedness, as for the `.env`: the marker map through the README's
+//!   `createDefaultSkybox` (the light's level 0) shows each marker where a 360-degree viewer does.
 //! - The README's lines are lines of the page; a folder holding another glTF asset is refused.
 //!
 //! Needs Chromium, Node and the client's npm packages (`scripts/babylon-web.sh install`); without
@@ -234,6 +236,14 @@ fn gltf_shows_the_test_map_and_each_mistake_fails() {
         ("loader_gamma", &SPHERES[..4]),
     ];
     babylon_page::assert_spheres(&page, map, Levels::gltf(256, LEVELS), "test map (gltf)", &mistakes);
+}
+
+/// The marker map through the skybox of the README's code (`createDefaultSkybox`, the light's
+/// level 0), as for the `.env`: each marker where a 360-degree viewer puts it; a mirrored map fails.
+#[test]
+fn gltf_shows_the_marker_map_as_a_360_viewer_does() {
+    let Some(browser) = babylon_page::browser(&["@babylonjs/loaders/glTF/index.js"]) else { return };
+    babylon_page::assert_markers(browser, "gltf", "gltf-render", 0.5, bake);
 }
 
 /// `hdrflow bake MAP --for gltf --sun keep --quality draft --out OUT` in `sandbox`.

@@ -96,14 +96,13 @@ pub fn document(stem: &str, size: usize, levels: usize, coefficients: &[[f64; 3]
     })
 }
 
+/// Files to write: each relative path and its bytes.
+pub type Files = Vec<(String, Vec<u8>)>;
+
 /// The asset at `path` (relative, ending in `.gltf`): the `.gltf` first, then every level's six
-/// face PNGs beside it, each `(path, bytes)`; and how many texels were beyond RGBD's range
-/// (clamped). `levels`: level k of faces of `size >> k`, `size` a power of two.
-pub fn encode(
-    levels: &[Cubemap],
-    coefficients: &[[f64; 3]; 9],
-    path: &str,
-) -> Result<(Vec<(String, Vec<u8>)>, usize), String> {
+/// face PNGs beside it; and how many texels were beyond RGBD's range (clamped). `levels`: level k
+/// of faces of `size >> k`, `size` a power of two.
+pub fn encode(levels: &[Cubemap], coefficients: &[[f64; 3]; 9], path: &str) -> Result<(Files, usize), String> {
     let size = levels.first().ok_or("a glTF light needs at least one level")?.size;
     if !size.is_power_of_two() {
         return Err(format!("{EXTENSION} needs power-of-two faces (its README), got {size}"));

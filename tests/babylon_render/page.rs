@@ -1,21 +1,21 @@
 //! What the Babylon.js render tests share (tests/babylon_render.rs: a `.env`; tests/gltf_render.rs:
 //! a glTF asset's `EXT_lights_image_based` light): the client (`clients/babylon-web`), its pinned
 //! packages, the run of its page, the sphere scene's camera and bounds, the shader pieces the
-//! reference models, the table of errors, and the RGBD-without-gamma mistake. Included by `#[path]`
-//! as `babylon_page`, beside `common`, `web_page`, `reference` (Bevy's), `scene` and
-//! `babylon_reference`.
+//! reference models, the table of errors, the sphere and README checks, the orientation views of
+//! the marker map, and the RGBD-without-gamma mistake. Included by `#[path]` as `babylon_page`,
+//! beside `common`, `web_page`, `markers`, `reference` (Bevy's), `scene` and `babylon_reference`.
 
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use glam::DVec3;
 use hdrflow::values::Image;
-use serde_json::Value as Json;
+use serde_json::{json, Value as Json};
 
 use crate::babylon_reference::{sh_polynomial, sphere_reference, Levels, SphereReference};
 use crate::reference::{relative_rmse, Map};
 use crate::scene::Geometry;
-use crate::{common, web_page};
+use crate::{common, markers, web_page};
 
 pub const REQUIRE: &str = "HDRFLOW_REQUIRE_BABYLON";
 /// The pinned engine (clients/babylon-web/package-lock.json).
@@ -28,6 +28,11 @@ pub const CAMERA: DVec3 = DVec3::new(0.0, 0.0, 10.0);
 pub const TEST_MAP_BOUNDS: [f64; 6] = [0.03, 0.02, 0.005, 0.003, 0.002, 0.002];
 /// SwiftShader is a CPU renderer on a shared machine: a minute is possible, ten are a hang.
 pub const BROWSER_TIMEOUT: Duration = Duration::from_secs(600);
+/// The orientation views: 256 x 256, 90 degrees (`markers::SkyCamera`).
+const SKY_SIZE: usize = 256;
+const SKY_FOV: f64 = 90.0;
+/// How far (pixels) a marker may land from where a 360-degree viewer puts it.
+const MARKER_TOLERANCE: f64 = 2.0;
 
 pub fn app_dir() -> PathBuf {
     Path::new(common::MANIFEST_DIR).join("clients/babylon-web")
@@ -187,4 +192,50 @@ pub fn assert_readme_code_is_the_pages(sandbox: &common::Sandbox, engine: &str, 
     }
     assert_eq!(checked, lines, "{code}");
     out
+}
+
+/// The marker map through `scene.createDefaultSkybox` (the texture's level 0) seen by a perspective
+/// camera at the origin: each marker where a 360-degree viewer facing the map's centre puts it,
+/// looking along -Z (hdrflow's axes: +Z in Babylon's left-handed world), and, baked with `--yaw
+/// -90`, along +X; a mirrored map fails. `bake(sandbox, map, dir, extra)` makes each bake,
+/// loaded as the job's `key` ("env" or "gltf"), read with `lod_scale`; results kept in `keep`.
+pub fn assert_markers(
+    browser: &str,
+    key: &str,
+    keep: &str,
+    lod_scale: f64,
+    bake: fn(&common::Sandbox, &Path, &str, &[&str]) -> PathBuf,
+) {
+    let sandbox = common::Sandbox::new();
+    let plain = write_map(&sandbox, "markers.pfm", &markers::orientation_map());
+    let mirrored = write_map(&sandbox, "mirrored.pfm", &markers::mirror_x(&markers::orientation_map()));
+    let good = bake(&sandbox, &plain, "good", &[]);
+    let turned = bake(&sandbox, &plain, "yaw", &["--yaw", "-90"]);
+    let bad = bake(&sandbox, &mirrored, "mirrored", &[]);
+    let views = [
+        ("front", &good, DVec3::NEG_Z, 0.0, false),
+        // `--yaw -90` turns the map's centre to +X.
+        ("yaw", &turned, DVec3::X, -90.0, false),
+        ("yaw_front", &turned, DVec3::NEG_Z, 0.0, true),
+        ("mirrored", &bad, DVec3::NEG_Z, 0.0, true),
+    ];
+    let renders: Vec<Json> = views
+        .iter()
+        .map(|(name, file, forward, _, _)| {
+            json!({ "name": name, "kind": "sky", key: rel(&sandbox, file), "forward": forward.to_array(),
+                    "fov_deg": SKY_FOV, "size": SKY_SIZE })
+        })
+        .collect();
+    let page = run_page(browser, &sandbox, keep, "markers", &json!({ "renders": renders }), lod_scale);
+    let seen: Vec<markers::View> = views
+        .iter()
+        .map(|(name, _, forward, yaw, mistake)| markers::View {
+            name,
+            img: page.frame(name, SKY_SIZE, SKY_SIZE),
+            forward: *forward,
+            yaw: *yaw,
+            mistake: *mistake,
+        })
+        .collect();
+    markers::assert_views(&seen, "mirrored", MARKER_TOLERANCE);
 }
