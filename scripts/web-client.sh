@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # A web client of the engine render tests (clients/filament-web for tests/filament_render.rs,
 # clients/three-web for tests/three_render.rs, clients/khronos-web for tests/khronos_render.rs,
-# clients/babylon-web for tests/babylon_render.rs),
+# clients/babylon-web for tests/babylon_render.rs and tests/gltf_render.rs),
 # through its own script (scripts/filament-web.sh, scripts/three-web.sh, scripts/khronos-web.sh,
 # scripts/babylon-web.sh),
 # which passes its folder and port:

@@ -1,14 +1,16 @@
-// Renders the job of tests/babylon_render.rs with Babylon.js (npm `@babylonjs/core`, pinned in
-// package.json) in WebGL2, and reads the frames back as 32-bit floats.
+// Renders the job of tests/babylon_render.rs and tests/gltf_render.rs with Babylon.js (npm
+// `@babylonjs/core` and `@babylonjs/loaders`, pinned in package.json) in WebGL2, and reads the
+// frames back as 32-bit floats.
 //
-// The job (GET ../work/job.json) lists renders; paths are relative to ../work/:
+// The job (GET ../work/job.json) lists renders; paths are relative to ../work/; each render's
+// lighting is a .env ("env") or a glTF asset with an EXT_lights_image_based light ("gltf"):
 //   { "renders": [
-//       { "name", "kind": "spheres", "env": "good/test.env" }
-//     | { "name", "kind": "sky", "env", "forward": [x, y, z], "fov_deg", "size" } ] }
+//       { "name", "kind": "spheres", "env": "good/test.env" | "gltf": "good/test.gltf", "loader_gamma"? }
+//     | { "name", "kind": "sky", "env" | "gltf", "forward": [x, y, z], "fov_deg", "size" } ] }
 // Results are POSTed to ../result/NAME: NAME.f32 (RGBA f32 rows, top row first) per render,
 // scene.json (clients/web-common/scene.js's geometry), shaders.txt (the PBR fragment shader Babylon
-// compiled) and last report.json (the package's version, the WebGL renderer, per render what was
-// loaded: the .env's manifest as Babylon read it, and whether two frames agree; errors).
+// compiled) and last report.json (the packages' versions, the WebGL renderer, per render what was
+// loaded: the environment texture as Babylon made it, and whether two frames agree; errors).
 //
 // Every render writes linear radiance: the scene's image processing is left to a post process
 // that is never run (`applyByPostProcess`, with `skipFinalColorClamp`, so the material writes its
@@ -20,13 +22,15 @@
 // - spheres: the six spheres of scene.js (PBRMaterial, white, Lambert diffuse: its `brdf`
 //   default, EON, is Lambert at diffuse roughness 0 too; metallic 1 with roughness 0 to 1, and
 //   the diffuse one with no specular at all, `metallicF0Factor` 0), seen by an orthographic camera
-//   on hdrflow's +Z looking down -Z, lit only by `scene.environmentTexture` = the .env loaded as
-//   the README's lines load it.
+//   on hdrflow's +Z looking down -Z, lit only by `scene.environmentTexture` = the .env, or the
+//   light of the .gltf (its glTF loader sets it), loaded as the README's lines load it.
 // - sky: `scene.createDefaultSkybox(env, true, 1000, 0)` (the .env's level 0) seen by a
 //   perspective camera at the origin looking along `forward` (hdrflow's axes), +Y up, `fov_deg`
 //   vertical, square frame.
 
 import { CubeTexture } from '@babylonjs/core';
+import { AppendSceneAsync } from '@babylonjs/core';
+import '@babylonjs/loaders/glTF';
 import { Camera, Color3, Color4, Constants, Engine, FreeCamera, MeshBuilder, PBRMaterial, RenderTargetTexture, Scene, Vector3 } from '@babylonjs/core';
 import { getJson, log, post, run } from '../common/page.js';
 import * as Spheres from '../common/scene.js';
@@ -41,7 +45,32 @@ function babylon([x, y, z]) {
 async function loadEnv(scene, path) {
     const envUrl = '../work/' + path;
     scene.environmentTexture = CubeTexture.CreateFromPrefilteredData(envUrl, scene);
-    const texture = scene.environmentTexture;
+    return await whenLoaded(scene.environmentTexture, path);
+}
+
+// The lines that load the asset are those of the README.txt of `hdrflow bake --for gltf`
+// (src/ibl_presets/gltf.rs, `loading_code`; tests/gltf_render.rs checks that each is a line here).
+// The job's `loader_gamma` leaves the texture in gamma space, as the loader makes it (to show why
+// the README's gammaSpace line is there: docs/src/guides/baking/gltf.md).
+async function loadGltf(scene, path, loaderGamma) {
+    const gltfUrl = '../work/' + path;
+    await AppendSceneAsync(gltfUrl, scene);
+    if (!scene.environmentTexture) {
+        throw new Error(`${path}: the glTF loader set no scene.environmentTexture`);
+    }
+    if (!loaderGamma) {
+        scene.environmentTexture.gammaSpace = false;
+    }
+    return await whenLoaded(scene.environmentTexture, path);
+}
+
+/// The lighting of a render: its .env or its .gltf.
+async function loadLighting(scene, job) {
+    return job.gltf ? await loadGltf(scene, job.gltf, job.loader_gamma) : await loadEnv(scene, job.env);
+}
+
+/// Waits for `texture` and says what Babylon made of it.
+async function whenLoaded(texture, path) {
     await new Promise((resolve, reject) => {
         const timer = setTimeout(() => reject(new Error(`${path}: not loaded after 120 s`)), 120000);
         const done = () => {
@@ -56,6 +85,8 @@ async function loadEnv(scene, path) {
     });
     const internal = texture.getInternalTexture();
     return {
+        class: texture.getClassName(),
+        gammaSpace: texture.gammaSpace,
         width: internal.width,
         type: internal.type,
         lodGenerationScale: texture.lodGenerationScale,
@@ -105,7 +136,7 @@ async function renderFloat(scene, camera, meshes, w, h) {
 
 async function renderSpheres(engine, job) {
     const scene = newScene(engine);
-    const loaded = await loadEnv(scene, job.env);
+    const loaded = await loadLighting(scene, job);
     const meshes = Spheres.SPHERES.map((s, k) => {
         const mesh = MeshBuilder.CreateSphere(s.name, { diameter: 2 * Spheres.RADIUS, segments: 128 }, scene);
         mesh.position = babylon([Spheres.centreX(k), 0, 0]);
@@ -134,7 +165,7 @@ async function renderSpheres(engine, job) {
 
 async function renderSky(engine, job) {
     const scene = newScene(engine);
-    const loaded = await loadEnv(scene, job.env);
+    const loaded = await loadLighting(scene, job);
     scene.createDefaultSkybox(scene.environmentTexture, true, 1000, 0);
     const camera = new FreeCamera('camera', Vector3.Zero(), scene);
     camera.fov = job.fov_deg * Math.PI / 180;
@@ -150,6 +181,7 @@ async function main() {
     const job = await getJson('job.json');
     const report = { renders: [], errors: [] };
     report.package = (await (await fetch('node_modules/@babylonjs/core/package.json')).json()).version;
+    report.loaders = (await (await fetch('node_modules/@babylonjs/loaders/package.json')).json()).version;
     const canvas = document.getElementById('canvas');
     const engine = new Engine(canvas, false, { preserveDrawingBuffer: true, premultipliedAlpha: false });
     const gl = engine._gl;

@@ -43,10 +43,12 @@ pub(super) struct BakeArgs {
     /// The environment map: a 2:1 lat-long .hdr, .exr or .pfm, or builtin:NAME (builtin:sky).
     #[arg(required_unless_present = "print_pipeline")]
     pub(super) map: Option<String>,
-    /// The engine: babylon (a Babylon.js .env), bevy, filament, khronos or three.
+    /// The engine: babylon (a Babylon.js .env), bevy, filament, gltf (a glTF 2.0 asset with an
+    /// EXT_lights_image_based light), khronos or three.
     #[arg(long = "for", value_name = "ENGINE")]
     pub(super) engine: String,
-    /// Output folder (default: out/bake/ENGINE); one holding another engine's bake is refused.
+    /// Output folder (default: out/bake/ENGINE); one holding another engine's bake is refused,
+    /// and for gltf one holding another .gltf/.glb asset than an earlier gltf bake of this map.
     #[arg(long)]
     pub(super) out: Option<PathBuf>,
     /// Sizes and sample counts: draft, default (what the engine's own tool uses), high.
@@ -132,7 +134,8 @@ fn bake_inner(registry: &Registry, args: &BakeArgs) -> Result<ExitCode, Refused>
     })?;
     let out_dir = args.out.clone().unwrap_or_else(|| preset.default_out());
     if !args.print_pipeline {
-        preset.check_out(&out_dir).map_err(Refused)?;
+        let map = ibl_presets::bake::map_name(args.map.as_deref().unwrap_or("builtin:sky"));
+        preset.check_out(&out_dir, &map).map_err(Refused)?;
     }
     let options = args.options()?;
     let bake = preset.bake(registry, &options).map_err(Refused)?;

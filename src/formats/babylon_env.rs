@@ -9,30 +9,19 @@
 //!   zx, xy`, one RGB triple each: [`Polynomial`]), `specular.mipmaps` (one `{length, position}`
 //!   per image, position counted from the byte after the NUL) and `specular.lodGenerationScale`;
 //! - then every level's six faces, level 0 first, faces +X -X +Y -Y +Z -Z, each an 8-bit RGBA
-//!   PNG in RGBD ([`rgbd`]). Babylon's loader insists on a chain down to 1 x 1
+//!   PNG in RGBD (`formats::rgbd`). Babylon's loader insists on a chain down to 1 x 1
 //!   (`6 (log2(width) + 1)` images, "Unsupported specular mipmaps number") and a power-of-two width.
 //!
-//! RGBD is Babylon's `toRGBD` / `fromRGBD` (`Shaders/ShadersInclude/helperFunctions.fx`):
-//! `D = floor(max(255 / max(r, g, b), 1)) / 255`, stored `A = D`, `RGB = (c D)^(1 / 2.2)`; decoded
-//! `RGB^2.2 / A`. Values up to 255 fit; a texel brighter than that is clamped (its colour stays, its
-//! level drops to 255): [`encode`] counts such texels. Rows are written as Babylon's own files hold
-//! them (see [`encode`]'s `flip_rows`).
+//! Texels beyond RGBD's 255 are clamped and counted by [`encode`]. Rows are written as Babylon's
+//! own files hold them (see [`encode`]'s `flip_rows`).
 
-use image::codecs::png::PngEncoder;
-use image::{ExtendedColorType, ImageEncoder};
-use rayon::prelude::*;
 use serde_json::json;
 
+use super::rgbd;
 use crate::values::Cubemap;
 
 /// The file's first bytes (`MagicBytes`).
 pub const MAGIC: [u8; 8] = [0x86, 0x16, 0x87, 0x96, 0xf6, 0xd6, 0x96, 0x36];
-
-/// The largest value RGBD holds (`rgbdMaxRange`).
-pub const RGBD_MAX: f32 = 255.0;
-
-/// Babylon's gamma for the RGB part (`GammaEncodePowerApprox = 1 / 2.2`).
-const GAMMA: f32 = 2.2;
 
 /// Babylon's spherical polynomial (`SphericalPolynomial`: `x, y, z, xx, yy, zz, yz, zx, xy`, one
 /// RGB triple each, in Babylon's world). It is not `E / pi` itself: Babylon makes it with
@@ -67,7 +56,16 @@ const C2: f64 = 1.092_548_430_592_079;
 const C20: f64 = 0.315_391_565_252_520_1;
 const C22: f64 = 0.546_274_215_296_039_5;
 /// The cosine lobe's band factors over pi (Ramamoorthi-Hanrahan's `A_l / pi`).
-const A: [f64; 3] = [1.0, 2.0 / 3.0, 0.25];
+pub const A: [f64; 3] = [1.0, 2.0 / 3.0, 0.25];
+
+/// The band `l` of SH index `i = l^2 + l + m` (order 2: `i < 9`).
+pub fn band(i: usize) -> usize {
+    match i {
+        0 => 0,
+        1..=3 => 1,
+        _ => 2,
+    }
+}
 
 impl Polynomial {
     /// From the 9 orthonormal radiance SH `L_lm` (hdrflow's real basis, index `l^2 + l + m`;
@@ -80,16 +78,7 @@ impl Polynomial {
             return Err(format!("Babylon's polynomial needs the 9 SH of order 2, got {}", l.len()));
         }
         // The SH of E / pi, then updateFromHarmonics' scaling (A_l / pi again, the basis constants).
-        let h = |i: usize, k: usize| {
-            let band = if i == 0 {
-                0
-            } else if i < 4 {
-                1
-            } else {
-                2
-            };
-            A[band] * A[band] * l[i][k]
-        };
+        let h = |i: usize, k: usize| A[band(i)] * A[band(i)] * l[i][k];
         let t = |f: &dyn Fn(usize) -> f64| [f(0), f(1), f(2)];
         let terms = [
             t(&|k| C1 * h(3, k)),
@@ -132,23 +121,6 @@ impl Polynomial {
     }
 }
 
-/// One linear RGB value as RGBD bytes, and whether it was beyond [`RGBD_MAX`] (then clamped).
-/// Negative and non-finite channels count as 0.
-pub fn rgbd(c: [f32; 3]) -> ([u8; 4], bool) {
-    let c = c.map(|v| if v.is_finite() { v.max(0.0) } else { 0.0 });
-    let m = c[0].max(c[1]).max(c[2]).max(1e-7);
-    let d = (RGBD_MAX / m).max(1.0).floor().min(255.0);
-    let scale = d / 255.0;
-    let rgb = c.map(|v| ((v * scale).powf(1.0 / GAMMA).clamp(0.0, 1.0) * 255.0).round() as u8);
-    ([rgb[0], rgb[1], rgb[2], d as u8], m > RGBD_MAX)
-}
-
-/// What Babylon's `fromRGBD` reads back from RGBD bytes (before its half-float cube).
-pub fn from_rgbd(b: [u8; 4]) -> [f32; 3] {
-    let d = b[3] as f32 / 255.0;
-    [b[0], b[1], b[2]].map(|v| (v as f32 / 255.0).powf(GAMMA) / d)
-}
-
 /// The `.env` file of `levels` (level k of face size `size >> k`, down to 1 x 1) and the
 /// irradiance `polynomial`, with Babylon's `lod_generation_scale`; and how many texels were
 /// beyond RGBD's range (clamped). `flip_rows` writes each face bottom row first: Babylon uploads
@@ -177,16 +149,7 @@ pub fn encode(
             return Err(format!("level {k} has faces of {}, not {}", c.size, size >> k));
         }
     }
-    let faces: Vec<(usize, usize)> = (0..levels.len()).flat_map(|k| (0..6).map(move |f| (k, f))).collect();
-    let encoded: Vec<Result<(Vec<u8>, usize), String>> =
-        faces.par_iter().map(|&(k, f)| face_png(&levels[k], f, flip_rows)).collect();
-    let mut images = Vec::with_capacity(encoded.len());
-    let mut overflow = 0;
-    for e in encoded {
-        let (png, n) = e?;
-        overflow += n;
-        images.push(png);
-    }
+    let (images, overflow) = rgbd::chain_pngs(levels, flip_rows)?;
     let mut position = 0;
     let mipmaps: Vec<_> = images
         .iter()
@@ -224,27 +187,6 @@ pub fn encode(
     Ok((out, overflow))
 }
 
-/// Face `f` of `c` as an RGBD PNG, and its count of clamped texels.
-fn face_png(c: &Cubemap, f: usize, flip_rows: bool) -> Result<(Vec<u8>, usize), String> {
-    let s = c.size;
-    let mut bytes = Vec::with_capacity(s * s * 4);
-    let mut overflow = 0;
-    for row in 0..s {
-        let y = if flip_rows { s - 1 - row } else { row };
-        for x in 0..s {
-            let i = (f * s + y) * s + x;
-            let (b, over) = rgbd([c.data[3 * i], c.data[3 * i + 1], c.data[3 * i + 2]]);
-            overflow += over as usize;
-            bytes.extend_from_slice(&b);
-        }
-    }
-    let mut png = Vec::new();
-    PngEncoder::new(&mut png)
-        .write_image(&bytes, s as u32, s as u32, ExtendedColorType::Rgba8)
-        .map_err(|e| format!("PNG encoding failed: {e}"))?;
-    Ok((png, overflow))
-}
-
 /// The manifest and the images of a `.env` file: what Babylon's `GetEnvInfo` and
 /// `CreateRadianceImageDataArrayBufferViews` read (for tests and checks).
 pub fn decode(bytes: &[u8]) -> Result<(serde_json::Value, Vec<&[u8]>), String> {
@@ -268,36 +210,6 @@ mod tests {
     use super::*;
     use crate::maths::ibl::sh::eval_sh;
     use crate::values::ShFrame;
-
-    /// Every value up to 255 comes back within RGBD's 8-bit step: with `g = (m D)^(1/2.2)` the
-    /// stored largest channel and `h = 0.5 / 255` half a step, every channel is within
-    /// `2.2 h (g + h)^1.2 / g^2.2` of the largest channel `m` (the mean value theorem on `g^2.2`);
-    /// below 1.2% of it for `m >= 1` (where `g >= (254/255)^(1/2.2)`). Clamped beyond 255, and counted.
-    #[test]
-    fn rgbd_round_trip_is_within_its_step() {
-        let h = 0.5 / 255.0;
-        for i in 0..=4000 {
-            let v = 1e-3 * 1.0025f32.powi(i);
-            for c in [[v, v, v], [v, 0.5 * v, 0.1 * v], [0.0, v, 0.3 * v]] {
-                let (b, over) = rgbd(c);
-                let back = from_rgbd(b);
-                let m = c.iter().fold(0.0f32, |a, &x| a.max(x));
-                assert_eq!(over, m > RGBD_MAX, "{c:?}");
-                if over {
-                    continue;
-                }
-                let g = (m * b[3] as f32 / 255.0).powf(1.0 / GAMMA);
-                let bound = GAMMA * h * (g + h).powf(GAMMA - 1.0) / g.powf(GAMMA) * 1.001;
-                let err = (0..3).map(|k| (back[k] - c[k]).abs()).fold(0.0f32, f32::max) / m;
-                assert!(err <= bound, "{c:?} -> {b:?} -> {back:?}: {err} > {bound}");
-                if m >= 1.0 {
-                    assert!(err < 0.012, "{c:?}: {err}");
-                }
-            }
-        }
-        assert_eq!(rgbd([1000.0, 0.0, 0.0]), ([255, 0, 0, 1], true));
-        assert_eq!(rgbd([1.0, 0.0, f32::NAN]).0, [255, 0, 0, 255]);
-    }
 
     /// What Babylon's shader makes of the polynomial is `E / pi` of the SH it came from
     /// (Ramamoorthi-Hanrahan's `A_l`), to Babylon's 6-digit constants.
@@ -355,7 +267,7 @@ mod tests {
         // Face +X of level 1, row 0 of the file = the cube's last row (flip_rows).
         let img = image::load_from_memory(images[6]).unwrap().to_rgba8();
         let s = 4;
-        let want = rgbd([0, 1, 2].map(|k| levels[1].data[3 * ((s - 1) * s) + k])).0;
+        let want = rgbd::rgbd([0, 1, 2].map(|k| levels[1].data[3 * ((s - 1) * s) + k])).0;
         assert_eq!(img.get_pixel(0, 0).0, want);
         assert!(encode(&levels[..3], None, 0.8, true).unwrap_err().contains("4 levels"));
         assert!(encode(&[cube(6, 1.0)], None, 0.8, true).unwrap_err().contains("power-of-two"));

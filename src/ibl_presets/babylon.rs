@@ -41,6 +41,16 @@ pub fn level_roughness(size: usize, levels: usize) -> Vec<f64> {
         .collect()
 }
 
+/// The lines that add the extracted sun as a `DirectionalLight` (also the glTF preset's, whose
+/// light Babylon loads: `gltf.rs`).
+pub const SUN_CODE: &str = r#"// The sun taken out of the map ({file:save_sun}): intensity = its irradiance in the map's units (Babylon's
+// PBR divides a light's diffuse term by pi), direction in Babylon's left-handed world (z negated).
+import { Color3, DirectionalLight, Vector3 } from '@babylonjs/core';
+const sun = new DirectionalLight('sun', new Vector3({sun:from_light}).multiplyByFloats(1, 1, -1), scene);
+sun.diffuse = new Color3({sun:color});
+sun.intensity = {sun:illuminance};
+"#;
+
 pub const PRESET: Preset = Preset {
     engine: Engine::Babylon,
     name: "babylon",
@@ -71,13 +81,7 @@ scene.environmentTexture = CubeTexture.CreateFromPrefilteredData(envUrl, scene);
 // The map as the background too (the .env's level 0):
 scene.createDefaultSkybox(scene.environmentTexture, true, 1000, 0);
 "#,
-    sun_code: r#"// The sun taken out of the map ({file:save_sun}): intensity = its irradiance in the map's units (Babylon's
-// PBR divides a light's diffuse term by pi), direction in Babylon's left-handed world (z negated).
-import { Color3, DirectionalLight, Vector3 } from '@babylonjs/core';
-const sun = new DirectionalLight('sun', new Vector3({sun:from_light}).multiplyByFloats(1, 1, -1), scene);
-sun.diffuse = new Color3({sun:color});
-sun.intensity = {sun:illuminance};
-"#,
+    sun_code: SUN_CODE,
 };
 
 #[cfg(test)]

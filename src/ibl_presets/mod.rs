@@ -14,12 +14,14 @@
 //! right-handed with +Y up, as hdrflow is, so a direction means the same in hdrflow and in the
 //! engine: only the cube lookup (`geometry::cube_frame`) and, for three.js, its own lat-long
 //! mapping differ. Babylon.js is left-handed by default (+Z forward): its `(x, y, z)` is hdrflow's
-//! `(X, Y, -Z)`, so the map's centre faces its default camera (`babylon.rs`).
+//! `(X, Y, -Z)`, so the map's centre faces its default camera (`babylon.rs`); so is the glTF
+//! asset's light, which Babylon's glTF loader makes its environment (`gltf.rs`).
 
 pub mod babylon;
 pub mod bake;
 pub mod bevy;
 pub mod filament;
+pub mod gltf;
 pub mod khronos;
 pub mod notes;
 pub mod three;
@@ -36,6 +38,8 @@ crate::choice! {
         Bevy,
         /// Filament's IndirectLight (what cmgen writes: a reflections cube map and 9 SH)
         Filament,
+        /// a glTF 2.0 asset with an EXT_lights_image_based light (Babylon.js's glTF loader)
+        Gltf,
         /// the Khronos glTF Sample Viewer and Vulkan samples (glTF-IBL-Sampler's files)
         Khronos,
         /// three.js (an equirectangular map it prefilters itself, and SH for a LightProbe)
@@ -149,8 +153,8 @@ pub struct Preset {
 }
 
 /// Every preset, in `Engine` order.
-pub const PRESETS: [&Preset; 5] =
-    [&babylon::PRESET, &bevy::PRESET, &filament::PRESET, &khronos::PRESET, &three::PRESET];
+pub const PRESETS: [&Preset; 6] =
+    [&babylon::PRESET, &bevy::PRESET, &filament::PRESET, &gltf::PRESET, &khronos::PRESET, &three::PRESET];
 
 /// The preset `--for NAME` names (any case), or `None`.
 pub fn preset(name: &str) -> Option<&'static Preset> {

@@ -5,7 +5,8 @@
 //!
 //! One folder holds one engine's bake: [`Preset::check_out`] refuses a folder whose notes name
 //! another engine (the files would mix and the notes of one would replace the other's), or whose
-//! `README.txt` no bake wrote.
+//! `README.txt` no bake wrote; and for `--for gltf`, one holding another glTF asset
+//! (`gltf::check_assets`).
 
 use std::path::Path;
 
@@ -29,16 +30,22 @@ pub fn engine_of_notes(notes: &str) -> Option<&str> {
 }
 
 impl Preset {
-    /// Whether this engine's bake may write into `dir`: a missing folder, an empty one, or one
-    /// holding no `README.txt` or this engine's may; a file, another engine's bake or a
-    /// `README.txt` no bake wrote is refused (the message without `error: `).
-    pub fn check_out(&self, dir: &Path) -> Result<(), String> {
+    /// Whether this engine's bake of the map named `map` (`bake::map_name`) may write into
+    /// `dir`: a missing folder, an empty one, or one holding no `README.txt` or this engine's
+    /// may; a file, another engine's bake or a `README.txt` no bake wrote is refused, and for
+    /// glTF another asset (`gltf::check_assets`) (the message without `error: `).
+    pub fn check_out(&self, dir: &Path, map: &str) -> Result<(), String> {
         let default = self.default_out();
         if dir.exists() && !dir.is_dir() {
             return Err(format!("--out {}: is a file; --out names the folder the bake writes into", dir.display()));
         }
         let notes = dir.join(NOTES_FILE);
-        let Ok(text) = std::fs::read_to_string(&notes) else { return Ok(()) };
+        let text = std::fs::read_to_string(&notes).ok();
+        if self.engine == super::Engine::Gltf {
+            let ours = text.as_deref().and_then(engine_of_notes).is_some_and(|e| e.eq_ignore_ascii_case(self.name));
+            super::gltf::check_assets(dir, map, ours)?;
+        }
+        let Some(text) = text else { return Ok(()) };
         match engine_of_notes(&text) {
             Some(e) if e.eq_ignore_ascii_case(self.name) => Ok(()),
             Some(e) => Err(format!(

@@ -1,17 +1,19 @@
-//! What each sphere pixel should be when Babylon.js 9.37.1 renders it lit by a Babylon bake (the
+//! What each sphere pixel should be when Babylon.js 9.37.1 renders it lit by a Babylon bake, a
+//! `.env` or a glTF asset's `EXT_lights_image_based` light (tests/gltf_render.rs) (the
 //! fragment shader the page records, `shaders.txt`; Babylon's `pbrBlockReflection.fx`,
 //! `pbrIBLFunctions.fx`, `pbrBlockFinalLitComponents.fx`), in two forms:
 //!
 //! - `engine`: Babylon's formula with every texture lookup replaced by its exact value. Per pixel
 //!   (normal n, surface point p, `v = normalize(camera - p)`: Babylon takes the view vector from
 //!   the camera's position also for an orthographic camera):
-//!   1. the lookup direction `reflect(-v, n)` and the level `lod = 0.8 log2(W alphaG)`, `alphaG =
+//!   1. the lookup direction `reflect(-v, n)` and the level `lod = s log2(W alphaG)`, `alphaG =
 //!      r^2 + 0.0005` (`convertRoughnessToAverageSlope`, `getLodFromAlphaG`, `lodGenerationScale`
-//!      0.8), clamped to the chain, read trilinearly: `(1 - f) P_k + f P_k+1`, where `P_0` is the
+//!      s: 0.8 for a `.env`, `(N - 1) / log2(W)` for a glTF light of N levels: [`Levels`]), clamped
+//!      to the chain, read trilinearly: `(1 - f) P_k + f P_k+1`, where `P_0` is the
 //!      map itself (bilinear) and `P_k` the exact GGX prefiltered radiance (`ggx_reference::
-//!      prefiltered`) at Babylon's own `alphaG_k = 2^(k / 0.8) / W` (its `HDRFiltering`: what a
-//!      correct chain holds; hdrflow caps the roughness at 1, which levels 7 and 8 of a 256 cube
-//!      exceed). Faces of at most 16 texels: the exact values at the level's texel centres,
+//!      prefiltered`) at the `alphaG_k = 2^(k / s) / W` the shader reads at level k (for a `.env`
+//!      Babylon's own `HDRFiltering`: what a correct chain holds; hdrflow caps the roughness at 1,
+//!      which levels 7 and 8 of a 256 cube exceed). Faces of at most 16 texels: the exact values at the level's texel centres,
 //!      interpolated bilinearly across face edges, as the GPU reads a perfect level;
 //!   2. `MIX_IBL_RADIANCE_WITH_IRRADIANCE` (Babylon's default): the radiance becomes
 //!      `mix(P, I(n), alphaG)`, I the irradiance term at the normal;
@@ -45,9 +47,28 @@ use rayon::prelude::*;
 use super::reference::{cube_bilinear, lookup, Map};
 use super::scene::Sphere;
 
-/// Babylon's `lodGenerationScale` and the shader's smallest `alphaG` addend (`MINIMUMVARIANCE`).
-const LOD_SCALE: f64 = 0.8;
+/// The shader's smallest `alphaG` addend (`MINIMUMVARIANCE`).
 const MINIMUM_VARIANCE: f64 = 0.0005;
+
+/// The chain Babylon samples: level 0's face size, the number of levels, `lodGenerationScale`.
+#[derive(Clone, Copy, Debug)]
+pub struct Levels {
+    pub size: usize,
+    pub count: usize,
+    pub lod_scale: f64,
+}
+
+impl Levels {
+    /// A `.env`'s: every level down to 1 x 1, `lodGenerationScale` 0.8.
+    pub fn env(size: usize) -> Levels {
+        Levels { size, count: size.trailing_zeros() as usize + 1, lod_scale: 0.8 }
+    }
+
+    /// A glTF light's of `count` levels: the loader's `lodGenerationScale`, `(N - 1) / log2(size)`.
+    pub fn gltf(size: usize, count: usize) -> Levels {
+        Levels { size, count, lod_scale: (count - 1) as f64 / (size as f64).log2() }
+    }
+}
 
 /// The references of one sphere at its chosen pixels.
 pub struct SphereReference {
@@ -59,15 +80,16 @@ pub struct SphereReference {
 /// Faces this small or smaller are modelled texel by texel (module doc, step 1).
 const COARSE: usize = 16;
 
-/// The exact content of level `k` of a chain of faces of `size` in each direction of `dirs`.
-fn level_values(map: &Map, k: usize, size: usize, dirs: &[DVec3]) -> Vec<[f64; 3]> {
+/// The exact content of level `k` of the chain `levels` in each direction of `dirs`.
+fn level_values(map: &Map, k: usize, levels: Levels, dirs: &[DVec3]) -> Vec<[f64; 3]> {
     if dirs.is_empty() {
         return Vec::new();
     }
     if k == 0 {
         return dirs.iter().map(|&d| lookup(&map.full, d)).collect();
     }
-    let alpha = 2f64.powf(k as f64 / LOD_SCALE) / size as f64;
+    let size = levels.size;
+    let alpha = 2f64.powf(k as f64 / levels.lod_scale) / size as f64;
     let env = if alpha < 0.05 { &map.full } else { &map.for_ggx };
     let texels = Texels::from_latlong(env);
     let face = (size >> k).max(1);
@@ -81,9 +103,9 @@ fn level_values(map: &Map, k: usize, size: usize, dirs: &[DVec3]) -> Vec<[f64; 3
     dirs.par_chunks(64).flat_map_iter(|chunk| prefiltered(&texels, chunk, alpha)).collect()
 }
 
-/// The level Babylon's shader reads for perceptual roughness `r` on a chain of `size`, `levels`.
-pub fn shader_lod(r: f64, size: usize, levels: usize) -> f64 {
-    (LOD_SCALE * (size as f64 * (r * r + MINIMUM_VARIANCE)).log2()).clamp(0.0, (levels - 1) as f64)
+/// The level Babylon's shader reads for perceptual roughness `r` on the chain `levels`.
+pub fn shader_lod(r: f64, levels: Levels) -> f64 {
+    (levels.lod_scale * (levels.size as f64 * (r * r + MINIMUM_VARIANCE)).log2()).clamp(0.0, (levels.count - 1) as f64)
 }
 
 /// The order-2 SH irradiance over pi of `map` as Babylon's polynomial, in hdrflow's axes.
@@ -92,16 +114,16 @@ pub fn sh_polynomial(map: &Map) -> Polynomial {
 }
 
 /// The references of sphere `s` at `pixels` (index, unit normal) seen from an orthographic
-/// camera at `camera`, lit by a chain of faces of `size` (down to 1 x 1).
+/// camera at `camera`, lit by the chain `chain`.
 pub fn sphere_reference(
     map: &Map,
     poly: &Polynomial,
     s: &Sphere,
     pixels: &[(usize, DVec3)],
     camera: DVec3,
-    size: usize,
+    chain: Levels,
 ) -> SphereReference {
-    let levels = size.trailing_zeros() as usize + 1;
+    let levels = chain.count;
     assert!(s.metallic == 1.0 || s.metallic == 0.0, "{}: metallic 0 or 1 only", s.name);
     let normals: Vec<DVec3> = pixels.iter().map(|p| p.1).collect();
     let views: Vec<DVec3> = normals.iter().map(|&n| (camera - (s.centre + s.radius * n)).normalize()).collect();
@@ -117,12 +139,12 @@ pub fn sphere_reference(
         return out;
     }
     let alpha_g = s.roughness * s.roughness + MINIMUM_VARIANCE;
-    let lod = shader_lod(s.roughness, size, levels);
+    let lod = shader_lod(s.roughness, chain);
     let base = (lod.floor() as usize).min(levels - 1);
     let f = if base == levels - 1 { 0.0 } else { lod - base as f64 };
-    let mut blended = level_values(map, base, size, &mirror);
+    let mut blended = level_values(map, base, chain, &mirror);
     if f > 0.0 {
-        for (b, next) in blended.iter_mut().zip(level_values(map, base + 1, size, &mirror)) {
+        for (b, next) in blended.iter_mut().zip(level_values(map, base + 1, chain, &mirror)) {
             for c in 0..3 {
                 b[c] = (1.0 - f) * b[c] + f * next[c];
             }
@@ -147,11 +169,17 @@ pub fn sphere_reference(
 #[test]
 fn the_shader_reads_level_l_where_babylons_filter_put_alpha_l() {
     // alphaG_k = 2^(k / 0.8) / 256 is read back at lod k (without the minimum variance).
+    let env = Levels::env(256);
+    assert_eq!(env.count, 9);
     for k in 1..7 {
-        let alpha: f64 = 2f64.powf(k as f64 / LOD_SCALE) / 256.0;
+        let alpha: f64 = 2f64.powf(k as f64 / env.lod_scale) / 256.0;
         let r = (alpha - MINIMUM_VARIANCE).sqrt();
-        assert!((shader_lod(r, 256, 9) - k as f64).abs() < 1e-9, "{k}");
+        assert!((shader_lod(r, env) - k as f64).abs() < 1e-9, "{k}");
     }
-    assert_eq!(shader_lod(0.0, 256, 9), 0.0);
-    assert!((shader_lod(1.0, 256, 9) - 6.4).abs() < 1e-3);
+    assert_eq!(shader_lod(0.0, env), 0.0);
+    assert!((shader_lod(1.0, env) - 6.4).abs() < 1e-3);
+    // A glTF light of 256 down to 16: lodGenerationScale 0.5, roughness 1 at the last level.
+    let gltf = Levels::gltf(256, 5);
+    assert_eq!(gltf.lod_scale, 0.5);
+    assert!((shader_lod(1.0, gltf) - 4.0).abs() < 1e-3);
 }

@@ -7,7 +7,8 @@
 //! chain's length (`{level}` not needed); `formats::ktx2`. As `.ktx` (KTX 1.1 for Filament,
 //! `formats::ktx1`): the same cube texture. A chain as `.env`: Babylon.js's prefiltered
 //! environment (`formats::babylon_env`, every level down to 1 x 1, with `Save`'s `sh` as its
-//! irradiance).
+//! irradiance). A chain as `.gltf`: a glTF asset whose `EXT_lights_image_based` light it is, written
+//! by `Save` itself with its images (`formats::gltf_ibl`).
 
 use super::image::encode_image;
 use crate::engine::registry::Registry;
@@ -19,7 +20,7 @@ use crate::values::{Cubemap, MipChain, CUBEMAP, MIP_CHAIN};
 /// Registers the savers of cube maps and mip chains.
 pub fn register(r: &mut Registry) {
     r.register_saver(&CUBEMAP, &["exr", "pfm", "hdr", "png", "ktx2", "ktx"], save);
-    r.register_saver(&MIP_CHAIN, &["exr", "pfm", "hdr", "png", "ktx2", "ktx", "env"], save_chain_level0);
+    r.register_saver(&MIP_CHAIN, &["exr", "pfm", "hdr", "png", "ktx2", "ktx", "env", "gltf"], save_chain_level0);
 }
 
 fn save(value: &Value, o: &SaveOptions) -> Result<Vec<u8>, String> {
@@ -41,6 +42,9 @@ fn save_chain_level0(value: &Value, o: &SaveOptions) -> Result<Vec<u8>, String> 
         let EnvIrradiance(polynomial) = o.get_or_default();
         let (bytes, _) = babylon_env::encode(&c.levels, polynomial.as_ref(), babylon_env::LOD_GENERATION_SCALE, true)?;
         return Ok(bytes);
+    }
+    if o.ext == "gltf" {
+        return Err("a .gltf is written with its images and irradiance by Save (its sh input)".into());
     }
     let first = c.levels.first().ok_or("an empty mip chain")?;
     encode_image(&first.to_strip(), o)

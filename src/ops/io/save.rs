@@ -17,6 +17,7 @@
 //! | image, cube map, mip chain | `.ktx2`: a 2D texture, a cube texture, a cube texture with every level (`ktx_format`, `ktx_supercompression`) |
 //! | image, cube map, mip chain | `.ktx` (KTX 1.1, for Filament): the same (`ktx1_format`; `sh`: SH coefficients under the key `sh`, as cmgen writes them) |
 //! | mip chain             | `.env` (Babylon.js): every level down to 1 x 1 as RGBD PNGs; `sh`: 9 SH coefficients in Babylon's axes, written as its irradiance polynomial; texels beyond RGBD's 255 are clamped, with one warning |
+//! | mip chain             | `.gltf`: a glTF 2.0 asset whose `EXT_lights_image_based` light is the chain (its RGBD PNG faces written beside it) and `sh` (required: 9 SH coefficients in the engine's axes) as its `irradianceCoefficients`; clamped as `.env` |
 //!
 //! The operator only encodes: the engine writes the bytes atomically into `--out`, and refuses
 //! paths that are absolute or leave that folder. Encoding is cached like any result.
@@ -27,10 +28,12 @@ use crate::engine::params::OutputPath;
 use crate::engine::save::SaveOptions;
 use crate::engine::typed_op::Op;
 use crate::engine::value::{FileBlob, Value, ValueType, FILE};
-use crate::formats::babylon_env::{EnvIrradiance, Polynomial, RGBD_MAX};
+use crate::formats::babylon_env::{EnvIrradiance, Polynomial};
+use crate::formats::gltf_ibl::{self, GltfIrradiance};
 use crate::formats::ktx1::{self, Ktx1Format};
 use crate::formats::ktx2::{Compression, KtxFormat, KtxSupercompression};
 use crate::formats::png::PngFormat;
+use crate::formats::rgbd::RGBD_MAX;
 use crate::formats::save::brackets;
 use crate::formats::save::image::{channels_not_kept, channels_not_kept_in};
 use crate::values::Image;
@@ -62,7 +65,7 @@ crate::params! {
         pub zstd_level: usize = 3,
         /// (.ktx) texel format: Rg11b10f (GL_R11F_G11F_B10F, cmgen's default: [0, 65024], relative 2^-7, B 2^-6) or Rgba16f (GL_RGBA16F, clamped to +-65504)
         pub ktx1_format: Ktx1Format = Ktx1Format::Rg11b10f,
-        /// (.ktx) 3-band SH written under the key "sh" as Filament's cmgen writes them (9 lines "r g b"), as given: Filament expects its pre-scaled irradiance SH, ShIrradiance's filament port
+        /// (.ktx) 3-band SH written under the key "sh" as Filament's cmgen writes them (9 lines "r g b"), as given: Filament expects its pre-scaled irradiance SH, ShIrradiance's filament port; (.env) ShIrradiance's coefficients, written as Babylon's irradiance polynomial; (.gltf, required) ShIrradiance's coefficients, written as the light's irradianceCoefficients
         #[input(&[crate::values::ty::FILAMENT_SH_T, crate::values::ty::SH_COEFFICIENTS_T])]
         pub sh: Option<Input<AnyValue>>,
         /// (.png of an image or cube map) Srgb8 (an 8-bit sRGB preview) or Linear16 (16-bit linear values clamped to [0, 1], for data such as a BRDF LUT: two channels as R, G with B = 0)
@@ -117,10 +120,16 @@ fn check(ctx: &CheckContext, p: SaveParams<Check>) -> Result<(), CheckProblem> {
     if p.ktx1_format != Ktx1Format::Rg11b10f && ext != "ktx" {
         return Err(CheckProblem::at(SaveParams::ktx1_format, "ktx1_format applies to .ktx files only"));
     }
-    if p.sh.is_some() && ext != "ktx" && ext != "env" {
+    if p.sh.is_some() && !["ktx", "env", "gltf"].contains(&ext.as_str()) {
         return Err(CheckProblem::at(
             SaveParams::sh,
-            "sh applies to .ktx files (Filament's key \"sh\") and .env files (Babylon's irradiance) only",
+            "sh applies to .ktx files (Filament's key \"sh\"), .env files (Babylon's irradiance) and .gltf files (irradianceCoefficients) only",
+        ));
+    }
+    if p.sh.is_none() && ext == "gltf" {
+        return Err(CheckProblem::at(
+            SaveParams::sh,
+            "a .gltf's EXT_lights_image_based light needs irradianceCoefficients: give sh (ShIrradiance's coefficients)",
         ));
     }
     if p.png_format != PngFormat::Srgb8 && (ext != "png" || t == crate::values::ty::CURVES_T) {
@@ -130,7 +139,7 @@ fn check(ctx: &CheckContext, p: SaveParams<Check>) -> Result<(), CheckProblem> {
         ));
     }
     if t == crate::values::ty::MIP_CHAIN_T
-        && !["ktx2", "ktx", "env"].contains(&ext.as_str())
+        && !["ktx2", "ktx", "env", "gltf"].contains(&ext.as_str())
         && !p.path.0.contains("{level}")
     {
         return Err(CheckProblem::at(
@@ -235,7 +244,7 @@ fn eval(ctx: &mut OpContext, p: SaveParams) -> Result<Value, OpError> {
             exposure += auto_exposure(&c.to_strip());
         }
     }
-    if ext == "env" {
+    if ext == "env" || ext == "gltf" {
         let count = beyond_rgbd(value);
         if count > 0 {
             ctx.warn(format!(
@@ -245,13 +254,19 @@ fn eval(ctx: &mut OpContext, p: SaveParams) -> Result<Value, OpError> {
         }
     }
     let mut env_irradiance = EnvIrradiance::default();
+    let mut gltf_irradiance = GltfIrradiance::default();
     let mut key_values = ktx1::KeyValues::default();
-    if let (Some(sh), "env") = (&p.sh, ext.as_str()) {
+    if let (Some(sh), "env" | "gltf") = (&p.sh, ext.as_str()) {
         let c = sh
             .value()
             .get::<ShCoefficients>()
-            .ok_or_else(|| fail("sh of a .env: give ShIrradiance's coefficients".into()))?;
-        env_irradiance.0 = Some(Polynomial::from_sh(&c.rgb).map_err(|e| fail(format!("the sh input: {e}")))?);
+            .ok_or_else(|| fail(format!("sh of a .{ext}: give ShIrradiance's coefficients")))?;
+        let sh_error = |e: String| fail(format!("the sh input: {e}"));
+        if ext == "env" {
+            env_irradiance.0 = Some(Polynomial::from_sh(&c.rgb).map_err(sh_error)?);
+        } else {
+            gltf_irradiance.0 = Some(gltf_ibl::irradiance_coefficients(&c.rgb).map_err(sh_error)?);
+        }
     } else if let Some(sh) = &p.sh {
         let rgb = match sh.value().get::<FilamentSh>() {
             Some(filament) => filament.rgb.to_vec(),
@@ -266,17 +281,25 @@ fn eval(ctx: &mut OpContext, p: SaveParams) -> Result<Value, OpError> {
         .with(p.ktx1_format)
         .with(key_values)
         .with(env_irradiance)
+        .with(gltf_irradiance)
         .with(p.png_format)
         .with(crate::formats::exr::EncodeOptions { compression: p.compression, half: p.half });
     options.exposure = exposure;
     options.plot_size = (p.plot_size[0] as u32, p.plot_size[1] as u32);
-    if let Some(chain) =
-        value.get::<crate::values::MipChain>().filter(|_| !["ktx2", "ktx", "env"].contains(&options.ext.as_str()))
+    if let Some(chain) = value
+        .get::<crate::values::MipChain>()
+        .filter(|_| !["ktx2", "ktx", "env", "gltf"].contains(&options.ext.as_str()))
     {
         let mut files =
             crate::formats::save::cubemap::save_levels(chain, &rel_path, &options).map_err(fail)?.into_iter();
         let (first_path, first) = files.next().ok_or_else(|| fail("an empty mip chain".into()))?;
         return Ok(Value::new(FileBlob { rel_path: first_path, bytes: first, more: files.collect() }));
+    }
+    if let (Some(chain), GltfIrradiance(Some(c))) = (value.get::<crate::values::MipChain>(), options.get_or_default()) {
+        // The .gltf, then its images (`formats::gltf_ibl`).
+        let (mut files, _) = gltf_ibl::encode(&chain.levels, &c, &rel_path).map_err(fail)?;
+        let (first_path, first) = files.remove(0);
+        return Ok(Value::new(FileBlob { rel_path: first_path, bytes: first, more: files }));
     }
     if let (Some(img), "png", PngFormat::Srgb8) = (value.get::<Image>(), options.ext.as_str(), p.png_format) {
         // An image as PNG (the bytes of `formats::save::image`'s encoder): the 8-bit copy first, then the
