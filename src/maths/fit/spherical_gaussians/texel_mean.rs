@@ -22,7 +22,7 @@
 //! 30 x 30 rule on 20,000 random (lobe, texel) pairs of a 256 x 128 map (lambda from 0.01 to
 //! 6640, axes within a few widths of the texel, poles included), and an 80 x 80 rule on 3,000
 //! pairs with `beta` from 2 to 16, the largest error of each order in its range is 6e-8 of the
-//! lobe's peak, 8e-8 with the texels that keep their point value (`tests::texel_means_are_accurate`
+//! lobe's peak, 9e-8 with the texels that keep their point value (`tests::texel_means_are_accurate`
 //! checks 1e-7 on its own pairs).
 //!
 //! A texel keeps the point value `G(d_t)` where it is as good: where `G < 1e-12` all over the
