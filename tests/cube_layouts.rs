@@ -13,7 +13,7 @@ use hdrflow::engine::scheduler::{self, RunOptions, Silent};
 use hdrflow::engine::value::Value;
 use hdrflow::values::{Cubemap, Image};
 
-const LAYOUTS: [&str; 5] = ["HorizontalCross", "VerticalCross", "Dice", "Horizon", "Strip"];
+const LAYOUTS: [&str; 6] = ["HorizontalCross", "VerticalCross", "Dice", "Horizon", "Strip", "SkylibsCube"];
 const FACES: [&str; 6] = ["PosX", "NegX", "PosY", "NegY", "PosZ", "NegZ"];
 const FIELDS: [&str; 6] = ["px", "nx", "py", "ny", "pz", "nz"];
 
@@ -90,6 +90,7 @@ fn frames(layout: &str) -> [(DVec3, DVec3, DVec3); 6] {
     match layout {
         "HorizontalCross" | "Strip" => stored,
         "VerticalCross" => [stored[0], stored[1], stored[2], stored[3], stored[4], (-z, x, y)],
+        "SkylibsCube" => [(x, z, -y), (-x, -z, -y), (y, x, -z), (-y, x, z), (z, x, y), (-z, x, -y)],
         _ => [(x, z, -y), (-x, -z, -y), (y, x, -z), (-y, x, z), (z, -x, -y), (-z, x, -y)],
     }
 }
@@ -101,6 +102,7 @@ fn cells(layout: &str) -> [(usize, usize); 6] {
         "VerticalCross" => [(2, 1), (0, 1), (1, 0), (1, 2), (1, 1), (1, 3)],
         "Dice" => [(2, 1), (0, 1), (1, 0), (1, 2), (3, 1), (1, 1)],
         "Horizon" => [(1, 0), (3, 0), (4, 0), (5, 0), (2, 0), (0, 0)],
+        "SkylibsCube" => [(2, 1), (0, 1), (1, 0), (1, 2), (1, 3), (1, 1)],
         _ => [(0, 0), (1, 0), (2, 0), (3, 0), (4, 0), (5, 0)],
     }
 }
@@ -129,7 +131,7 @@ fn every_cell_looks_where_the_table_says() {
     for l in LAYOUTS {
         let img = image(&v, l);
         let (cols, rows) = (img.width / S, img.height / S);
-        let expected_grid = if l.ends_with("Cross") || l == "Dice" { 12 } else { 6 };
+        let expected_grid = if l.ends_with("Cross") || l == "Dice" || l == "SkylibsCube" { 12 } else { 6 };
         assert_eq!((cols * rows, img.width % S, img.height % S), (expected_grid, 0, 0), "{l}");
         for (f, (col, row)) in cells(l).into_iter().enumerate() {
             for (i, j) in [(S / 2, S / 2), (0, 0), (S - 1, 0), (0, S - 1), (S - 1, S - 1)] {
@@ -186,9 +188,13 @@ fn dice_and_horizon_agree_with_py360convert() {
 
 #[test]
 fn images_of_the_wrong_shape_are_pipeline_errors_at_the_node() {
-    for (layout, size) in [("HorizontalCross", "4 faces wide and 3 high"), ("VerticalCross", "3 faces wide and 4 high")]
-        .into_iter()
-        .chain(["Dice", "Horizon", "Strip"].map(|l| (l, if l == "Dice" { "4:3" } else { "6:1" })))
+    for (layout, size) in [
+        ("HorizontalCross", "4 faces wide and 3 high"),
+        ("VerticalCross", "3 faces wide and 4 high"),
+        ("SkylibsCube", "3 faces wide and 4 high"),
+    ]
+    .into_iter()
+    .chain(["Dice", "Horizon", "Strip"].map(|l| (l, if l == "Dice" { "4:3" } else { "6:1" })))
     {
         let text = format!(
             "(nodes: {{\n    \"env\": LoadHdr(path: \"builtin:sky\"),\n    \"c\": LayoutToCubemap(image: \"env\", layout: {layout}),\n}})"

@@ -14,6 +14,17 @@
 //!                                |-Z| (180)              +--+               +--+--+--+--+--+--+
 //!                                +--+                                       |+X|-X|+Y|-Y|+Z|-Z|
 //!                                                                           +--+--+--+--+--+--+
+//! SkylibsCube 3:4
+//!      +--+
+//!      |+Y| y
+//!   +--+--+--+
+//!   |-X|-Z|+X|
+//!   |x |x |x |
+//!   +--+--+--+
+//!      |-Y| y
+//!      +--+
+//!      |+Z| y
+//!      +--+
 //! ```
 //!
 //! (`x`: the face mirrored left-right, `y`: top-bottom, `(180)`: both, i.e. turned by 180
@@ -37,6 +48,15 @@
 //!   with z negated. Horizon has the dice's orientations; py360convert before 1.0 (0.1.0)
 //!   stored R and B mirrored left-right and U top-bottom in its horizon (commit a47eb50 made
 //!   them the dice's), so an old horizon reads with those three faces mirrored.
+//! - `SkylibsCube`: skylibs' `cube` format (`envmap.projections.cube2world` / `world2cube`,
+//!   version 0.7.7): up, left, forward, right, down, backward at grid (col, row) (1, 0),
+//!   (0, 1), (1, 1), (2, 1), (1, 2), (1, 3). skylibs' axes are hdrflow's (its lat-long,
+//!   `world2latlong`, is hdrflow's: -Z at the centre column, +X at 3/4 of the width), so its
+//!   faces are the dice's cells, seen from inside with -Z in the centre, except +Z (backward):
+//!   below -Y, right +X and down +Y (`u = 1.5 + 0.5 x / z`, `v = 3.5 + 0.5 y / z`), the dice's
+//!   +Z turned by 180 degrees, so that it meets -Y along their common edge. skylibs samples a
+//!   face at texel centres, as hdrflow does. Read as `VerticalCross`, a skylibs cube has -Z
+//!   and +Z swapped and every face mirrored.
 //! - `Strip`: hdrflow's own `Save` strip of a cube map: the faces as stored, in storage order.
 //!
 //! Per cell, the world direction of image right (+u, columns) and image down (+v, rows):
@@ -50,6 +70,8 @@
 //! +Z    right +X  down -Y                  as stored       right -X  down -Y   (B)
 //! -Z    right -X  down -Y                  right +X down +Y right +X  down -Y  (F)
 //! ```
+//!
+//! `SkylibsCube` is the dice's column but for +Z: right +X, down +Y.
 //!
 //! Texel (i, j) of a cell looks along `normalise(n + p r + q d)`, with `n` the face's axis, `r`
 //! and `d` the table's right and down, `p = 2 (i + 0.5) / S - 1`, `q = 2 (j + 0.5) / S - 1`
@@ -71,6 +93,9 @@ crate::choice! {
         Horizon,
         /// 6:1, the strip Save writes: +X -X +Y -Y +Z -Z as stored
         Strip,
+        /// 3:4, skylibs' cube: +Y; -X -Z +X; -Y; +Z, the view from inside (the dice's faces,
+        /// +Z turned 180 degrees below -Y)
+        SkylibsCube,
     }
 }
 
@@ -132,7 +157,7 @@ impl CubeLayout {
     pub fn grid(self) -> (usize, usize) {
         match self {
             CubeLayout::HorizontalCross | CubeLayout::Dice => (4, 3),
-            CubeLayout::VerticalCross => (3, 4),
+            CubeLayout::VerticalCross | CubeLayout::SkylibsCube => (3, 4),
             CubeLayout::Horizon | CubeLayout::Strip => (6, 1),
         }
     }
@@ -179,6 +204,14 @@ impl CubeLayout {
                 cell(3, 0, AsStored),
                 cell(4, 0, AsStored),
                 cell(5, 0, AsStored),
+            ],
+            CubeLayout::SkylibsCube => [
+                cell(2, 1, MirrorX),
+                cell(0, 1, MirrorX),
+                cell(1, 0, MirrorY),
+                cell(1, 2, MirrorY),
+                cell(1, 3, MirrorY),
+                cell(1, 1, MirrorX),
             ],
         }
     }
@@ -233,6 +266,7 @@ mod tests {
             CubeLayout::Dice | CubeLayout::Horizon => {
                 [(X, Z, -Y), (-X, -Z, -Y), (Y, X, -Z), (-Y, X, Z), (Z, -X, -Y), (-Z, X, -Y)]
             }
+            CubeLayout::SkylibsCube => [(X, Z, -Y), (-X, -Z, -Y), (Y, X, -Z), (-Y, X, Z), (Z, X, Y), (-Z, X, -Y)],
         }
     }
 
@@ -263,10 +297,12 @@ mod tests {
     }
 
     /// Adjacent cells of every layout but the strips meet along the same directions, and the
-    /// crosses are seen from outside, the dice and horizon from inside.
+    /// crosses are seen from outside, the dice, horizon and skylibs' cube from inside.
     #[test]
     fn cells_meet_along_equal_edges_and_handedness() {
-        for layout in [CubeLayout::HorizontalCross, CubeLayout::VerticalCross, CubeLayout::Dice] {
+        for layout in
+            [CubeLayout::HorizontalCross, CubeLayout::VerticalCross, CubeLayout::Dice, CubeLayout::SkylibsCube]
+        {
             let (cols, rows) = layout.grid();
             let mut meetings = 0;
             for row in 0..rows {
@@ -287,7 +323,7 @@ mod tests {
             assert_eq!(meetings, 3 * 5, "{layout}: the five folds of the unfolded cube");
         }
         for layout in CubeLayout::ALL {
-            let inside = matches!(layout, CubeLayout::Dice | CubeLayout::Horizon);
+            let inside = matches!(layout, CubeLayout::Dice | CubeLayout::Horizon | CubeLayout::SkylibsCube);
             for (n, r, d) in frames(layout) {
                 assert_eq!(r.cross(d), if inside { n } else { -n }, "{layout}");
             }
@@ -344,6 +380,42 @@ mod tests {
                 let seen = DVec3::from(direction(v * PI, u * TAU));
                 let dice = cell_dir(CubeLayout::Dice, dice_face, p, q);
                 assert!((seen - dice).length() < 1e-12, "cell ({}, {}): {seen} vs {dice}", c.col, c.row);
+            }
+        }
+    }
+
+    /// skylibs 0.7.7 `envmap.projections.cube2world` at continuous grid coordinates (u in [0, 3],
+    /// v in [0, 4], v down), its lat-long `latlong2world` being hdrflow's `latlong::direction`.
+    #[test]
+    fn skylibs_cube_is_skylibs_cube2world() {
+        use super::super::latlong::direction;
+        use std::f64::consts::{PI, TAU};
+        let cube2world = |u: f64, v: f64| -> DVec3 {
+            let d = match ((u.floor() as i32).min(2), (v.floor() as i32).min(3)) {
+                (1, 0) => DVec3::new((u - 1.5) * 2.0, 1.0, (v - 0.5) * -2.0),
+                (0, 1) => DVec3::new(-1.0, (v - 1.5) * -2.0, (u - 0.5) * -2.0),
+                (1, 1) => DVec3::new((u - 1.5) * 2.0, (v - 1.5) * -2.0, -1.0),
+                (2, 1) => DVec3::new(1.0, (v - 1.5) * -2.0, (u - 2.5) * 2.0),
+                (1, 2) => DVec3::new((u - 1.5) * 2.0, -1.0, (v - 2.5) * 2.0),
+                (1, 3) => DVec3::new((u - 1.5) * 2.0, (v - 3.5) * 2.0, 1.0),
+                cell => panic!("no face at {cell:?}"),
+            };
+            d.normalize()
+        };
+        let latlong2world = |u: f64, v: f64| {
+            let (t, p) = (PI * (2.0 * u - 1.0), PI * v);
+            DVec3::new(p.sin() * t.sin(), p.cos(), -p.sin() * t.cos())
+        };
+        for (u, v) in [(0.1, 0.2), (0.5, 0.5), (0.75, 0.3), (0.93, 0.81)] {
+            let d = DVec3::from(direction(v * PI, u * TAU));
+            assert!((latlong2world(u, v) - d).length() < 1e-15, "({u}, {v})");
+        }
+        let layout = CubeLayout::SkylibsCube;
+        for (f, c) in layout.cells().iter().enumerate() {
+            for (p, q) in [(0.0, 0.0), (-0.99, -0.99), (0.6, -0.3), (0.95, 0.5), (-0.2, 0.99)] {
+                let (u, v) = (c.col as f64 + (p + 1.0) / 2.0, c.row as f64 + (q + 1.0) / 2.0);
+                let want = cube2world(u, v);
+                assert!((cell_dir(layout, f, p, q) - want).length() < 1e-15, "face {f} at ({u}, {v})");
             }
         }
     }

@@ -13,6 +13,14 @@
 //! else by the footprint average of `maths::resample::layouts::to_latlong` (1e-3). The fit and its
 //! RMSE are on that copy.
 //!
+//! **What a texel holds.** A map fitted at its own size is taken as point values: `L_c(d_t)` is
+//! the model at the texel's centre (what `SgToLatLong` renders). A texel of the reduced copy
+//! holds the map's mean over it, so there `L_c(d_t)` stands for the lobes' means over the
+//! texel, `sum_k a_kc M_t(G_k)` (`texel_mean`: Gauss-Legendre, within 1e-7 of each lobe's
+//! peak), and the derivatives below for their means likewise. Point values there would fit
+//! sharp lobes low: a lobe of sharpness 100 / 300 / 1000 stored as texel means at 1024 x 512
+//! came back 4.8e-3 / 8.4e-3 / 4.1e-2 too narrow and dim (issue 39; now within 1e-4).
+//!
 //! **Initialisation** (deterministic, `init`): greedy matching pursuit. Each lobe in turn goes
 //! to the texel of largest residual luminance not within its predecessors' widths, with the
 //! sharpness (on a grid of powers of 2) that best explains the residual there; then NNLS
@@ -29,9 +37,19 @@
 //!    moves the sharpness at a fixed lobe integral). A step is taken only if it lowers E; otherwise the
 //!    damping grows (x4, up to 8 tries), and it shrinks (/3) after a success. Steps are capped
 //!    at 0.5 rad and a factor e^2 in sharpness, and `lambda` stays within
-//!    [[`MIN_SHARPNESS`], `max_sharpness`], `4 H^2 / pi^2` for a fit map of height H (the lobe's
-//!    width `1 / sqrt(lambda)` no less than half a texel: a sharper lobe would fall between the
-//!    texel centres it is fitted on).
+//!    [[`MIN_SHARPNESS`], `max_sharpness`]. For a map fitted at its own size H that is
+//!    `4 H^2 / pi^2` (the lobe's width `1 / sqrt(lambda)` no less than half a texel: a sharper
+//!    lobe would fall between the texel centres it is fitted on). For a reduced map, whose
+//!    texels are fitted with the lobes' means, a lobe narrower than that still puts its energy
+//!    in the texels around its axis, so the cap is `4 H_src^2 / pi^2` for the height `H_src`
+//!    of the map given (half of its texel, so that `SgToLatLong` at its size resolves the
+//!    lobe), but at most [`MEAN_CAP_FACTOR`] = 3 times the fit map's (a width of 0.29 fit
+//!    texel). Narrower still, a lobe's texel means hardly change as its axis moves inside a
+//!    texel, and fits stall: on `builtin:sky` (512 x 256) 12 lobes reach a relative RMSE of
+//!    0.017 with the factor 3, 0.037 with 2 and 0.074 with 4 (0.048 when reduced texels were
+//!    fitted with point values), and on the park map 0.080, 0.175 and 0.037 (0.258; a factor of
+//!    1 gives 0.42, the sun being narrower than a fit texel). The factor is that measurement's,
+//!    not a derivation. The pursuit's sharpness grid stops at the fit map's own cap.
 //! 2. Amplitudes, axes and sharpnesses fixed: per channel, exact non-negative least squares
 //!    (`maths::fit::least_squares::nnls`, Lawson-Hanson on the normal equations), kept if E did
 //!    not increase.
@@ -60,9 +78,11 @@ use crate::values::{Image, SgLobe, SphericalGaussians};
 
 mod init;
 mod levenberg_marquardt;
+mod texel_mean;
 
 pub use init::initial_lobes;
 use levenberg_marquardt::lm_step;
+use texel_mean::TexelMeans;
 
 /// Maps wider than this are fitted on a `FIT_WIDTH x FIT_HEIGHT` resampled copy.
 pub const FIT_WIDTH: usize = 256;
@@ -76,6 +96,8 @@ const BLOCK: usize = 2048;
 const REVIVE: usize = 8;
 /// Kernel values below this are left out of the normal equations.
 const ACTIVE: f64 = 1e-12;
+/// The sharpness cap of a reduced map is at most this times the fit map's (module docs).
+pub const MEAN_CAP_FACTOR: f64 = 3.0;
 
 /// The texels a fit runs on: directions, solid angles and RGB values.
 pub struct Target {
@@ -86,6 +108,11 @@ pub struct Target {
     pub height: usize,
     /// `sum_t w_t |f_t|^2`.
     norm: f64,
+    /// For a reduced map, whose texels hold means: the lobes' means over the texels
+    /// (`texel_mean`); `None`: the lobes' values at the texel centres.
+    means: Option<TexelMeans>,
+    /// The largest sharpness (module documentation).
+    cap: f64,
 }
 
 impl Target {
@@ -95,10 +122,14 @@ impl Target {
         if w <= FIT_WIDTH && h <= FIT_HEIGHT {
             return Target::blocks_of(env, 1, 1);
         }
-        if w % FIT_WIDTH == 0 && h % FIT_HEIGHT == 0 {
-            return Target::blocks_of(env, w / FIT_WIDTH, h / FIT_HEIGHT);
-        }
-        Target::blocks_of(&to_latlong(&LatLongSource::new(env), FIT_WIDTH, FIT_HEIGHT), 1, 1)
+        let mut t = if w % FIT_WIDTH == 0 && h % FIT_HEIGHT == 0 {
+            Target::blocks_of(env, w / FIT_WIDTH, h / FIT_HEIGHT)
+        } else {
+            Target::blocks_of(&to_latlong(&LatLongSource::new(env), FIT_WIDTH, FIT_HEIGHT), 1, 1)
+        };
+        t.means = Some(TexelMeans::new(t.width, t.height));
+        t.cap = (4.0 * (h as f64 / PI).powi(2)).min(MEAN_CAP_FACTOR * t.point_cap());
+        t
     }
 
     /// The `(W / kx) x (H / ky)` target whose texel is the solid-angle-weighted mean of a
@@ -113,6 +144,8 @@ impl Target {
             width: w,
             height: h,
             norm: 0.0,
+            means: None,
+            cap: 4.0 * (h as f64 / PI).powi(2),
         };
         for y in 0..h {
             for x in 0..w {
@@ -136,8 +169,14 @@ impl Target {
         t
     }
 
-    /// `4 H^2 / pi^2`: see the module documentation.
+    /// The largest sharpness of a fitted lobe: see the module documentation.
     pub fn max_sharpness(&self) -> f64 {
+        self.cap
+    }
+
+    /// `4 H^2 / pi^2` for the fit map's height H: the sharpest lobe its texel centres resolve
+    /// (the pursuit's grid stops there).
+    pub fn point_cap(&self) -> f64 {
         4.0 * (self.height as f64 / PI).powi(2)
     }
 
@@ -147,11 +186,33 @@ impl Target {
         (0..n.div_ceil(BLOCK)).into_par_iter().map(|b| f(b * BLOCK..((b + 1) * BLOCK).min(n))).collect()
     }
 
-    /// `E = sum_t w_t sum_c (f_tc - L_c(d_t))^2`.
+    /// The model's value at texel `t`: `L(d_t)`, or for a reduced map the lobes' means over
+    /// the texel (`sum_k a_k M_t(G_k)`).
+    #[inline]
+    fn model(&self, lobes: &[SgLobe], t: usize) -> [f64; 3] {
+        match &self.means {
+            None => value_of(lobes, self.dirs[t].into()),
+            Some(m) => lobes.iter().fold([0.0; 3], |s, l| {
+                let g = m.kernel(t, self.dirs[t], l);
+                [s[0] + l.amplitude[0] * g, s[1] + l.amplitude[1] * g, s[2] + l.amplitude[2] * g]
+            }),
+        }
+    }
+
+    /// Each lobe's kernel at texel `t` (`G_k(d_t)`, or `M_t(G_k)` for a reduced map), into `g`.
+    #[inline]
+    fn kernels_at(&self, lobes: &[SgLobe], t: usize, g: &mut [f64]) {
+        match &self.means {
+            None => kernels(lobes, self.dirs[t], g),
+            Some(m) => g.iter_mut().zip(lobes).for_each(|(gk, l)| *gk = m.kernel(t, self.dirs[t], l)),
+        }
+    }
+
+    /// `E = sum_t w_t sum_c (f_tc - L_c(d_t))^2` (`L_c(d_t)`: the model at texel `t`).
     pub fn energy(&self, lobes: &[SgLobe]) -> f64 {
         self.blocks(|r| {
             r.map(|t| {
-                let model = value_of(lobes, self.dirs[t].into());
+                let model = self.model(lobes, t);
                 self.weight[t] * (0..3).map(|c| (self.value[t][c] - model[c]).powi(2)).sum::<f64>()
             })
             .sum::<f64>()
@@ -160,11 +221,11 @@ impl Target {
         .sum()
     }
 
-    /// `f_t - L(d_t)` per texel.
+    /// `f_t - L(d_t)` per texel (the model at texel `t`).
     fn residual(&self, lobes: &[SgLobe]) -> Vec<[f64; 3]> {
         self.blocks(|r| {
             r.map(|t| {
-                let model = value_of(lobes, self.dirs[t].into());
+                let model = self.model(lobes, t);
                 std::array::from_fn(|c| self.value[t][c] - model[c])
             })
             .collect::<Vec<[f64; 3]>>()
@@ -190,7 +251,7 @@ impl Target {
             let mut c = vec![0.0; 3 * n];
             let mut g = vec![0.0; n];
             for t in r {
-                kernels(lobes, self.dirs[t], &mut g);
+                self.kernels_at(lobes, t, &mut g);
                 let (w, f) = (self.weight[t], self.value[t]);
                 for k in (0..n).filter(|&k| g[k] > ACTIVE) {
                     let wg = w * g[k];

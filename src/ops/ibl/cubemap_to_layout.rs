@@ -1,7 +1,7 @@
 //! `CubemapToLayout(cubemap, layout)`: a cube map as one image: `HorizontalCross` (4:3) and
 //! `VerticalCross` (3:4) as cmft lays them out, py360convert's `Dice` (4:3) and `Horizon` (6:1),
-//! or hdrflow's `Strip` (6:1, what `Save` writes). Cells, turns and each face's orientation in
-//! world axes: `geometry::cube_layout`.
+//! skylibs' `SkylibsCube` (3:4), or hdrflow's `Strip` (6:1, what `Save` writes). Cells, turns
+//! and each face's orientation in world axes: `geometry::cube_layout`.
 //!
 //! A copy: every texel lands unchanged in its cell, cells without a face are 0, so
 //! `LayoutToCubemap` of the result gives the cube map back bit for bit (tests, every layout).

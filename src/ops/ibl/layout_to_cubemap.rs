@@ -2,9 +2,9 @@
 //! `CubemapToLayout` and `geometry::cube_layout`), e.g. a cross loaded with `LoadHdr`.
 //!
 //! The image must be exactly whole faces of the layout's grid: 4:3 for `HorizontalCross` and
-//! `Dice`, 3:4 for `VerticalCross`, 6:1 for `Horizon` and `Strip`. When its size is known
-//! before running (a file header, a size parameter) anything else is a pipeline error at the
-//! `image` field; otherwise the same message is the node's error when it runs. RGB is the first
+//! `Dice`, 3:4 for `VerticalCross` and `SkylibsCube`, 6:1 for `Horizon` and `Strip`. When its
+//! size is known before running (a file header, a size parameter) anything else is a pipeline
+//! error at the `image` field; otherwise the same message is the node's error when it runs. RGB is the first
 //! three channels, a one-channel image is grey, alpha is ignored; cells without a face are not
 //! read. Non-finite texels in a face are an error naming the face and texel.
 

@@ -8,7 +8,8 @@
 //! - Port `metrics`: `relative_rmse` (`sqrt(sum w (f - L)^2 / sum w f^2)` over the fit map's
 //!   texels and channels), `iterations` (rounds that made progress; fewer than asked when a
 //!   round changed nothing), `fit_width`, `fit_height` (the input's size, or 256 x 128 when it
-//!   is larger: the fit runs on an energy-preserving resampled copy).
+//!   is larger: the fit runs on an energy-preserving resampled copy, whose texels hold means
+//!   and are fitted with the lobes' means over them).
 //!
 //! `seed` (0: none) jitters each starting axis by a pseudo-random tangent offset of up to a
 //! quarter of its lobe's width (SplitMix64 seeded with `seed`). The result is a pure function of the
@@ -45,9 +46,11 @@ const LOBES: Port<SphericalGaussians> = Port::new("lobes");
 const METRICS: Port<Metrics> = Port::new("metrics");
 
 pub fn spec() -> OpSpec {
+    // Version 2: a map reduced to the fit size is fitted with the lobes' means over its texels
+    // (issue 39), not their values at the texel centres.
     Op::new(
         "SphericalGaussians",
-        1,
+        2,
         "Spherical Gaussian lobes fitted to a lat-long map (solid-angle-weighted least squares, NNLS amplitudes)",
         eval,
     )

@@ -4,9 +4,9 @@
 //! residual luminance (Rec. 709, the first in scan order on a tie) that lies farther than
 //! `clamp(1 / sqrt(lambda_j), pi / H, 0.5 rad)` from every earlier lobe j (its width, at least
 //! a fit texel so that a peak sharper than the cap is not taken twice, at most 0.5 rad so that
-//! a broad lobe does not shut out the sphere), and given the sharpness of the
-//! grid `MIN_SHARPNESS 2^j` (up to the fit's cap) that best explains the residual alone: the
-//! largest gain `sum_c max(P_c, 0)^2 / S`, `P_c = sum_t w_t G_t r_tc`, `S = sum_t w_t G_t^2`,
+//! a broad lobe does not shut out the sphere), and given the sharpness of the grid
+//! `MIN_SHARPNESS 2^j` (up to the fit map's own cap, `Target::point_cap`) that best explains
+//! the residual alone: the largest gain `sum_c max(P_c, 0)^2 / S`, `P_c = sum_t w_t G_t r_tc`, `S = sum_t w_t G_t^2`,
 //! with amplitude `max(P_c, 0) / S`; then `r -= a G`. Each lobe depends only on the ones before
 //! it, so the first n lobes of an (n + 1)-lobe start are the n-lobe start, and the NNLS
 //! amplitudes that follow give an initial E that never grows with n. When no texel is left
@@ -49,10 +49,10 @@ pub fn initial_lobes(t: &Target, n: usize, seed: u64) -> Vec<SgLobe> {
     lobes
 }
 
-/// The sharpness grid `MIN_SHARPNESS 2^j`, up to the fit's cap.
+/// The sharpness grid `MIN_SHARPNESS 2^j`, up to the fit map's own cap.
 fn grid(t: &Target) -> Vec<f64> {
     let mut grid = vec![MIN_SHARPNESS];
-    while grid[grid.len() - 1] * 2.0 <= t.max_sharpness() {
+    while grid[grid.len() - 1] * 2.0 <= t.point_cap() {
         grid.push(grid[grid.len() - 1] * 2.0);
     }
     grid
@@ -128,6 +128,6 @@ fn jitter(axis: DVec3, sharpness: f64, rng: &mut SplitMix64) -> DVec3 {
 /// amplitude.
 fn fallback(t: &Target, n: usize, k: usize) -> Vec<SgLobe> {
     let spacing = (4.0 * std::f64::consts::PI / n as f64).sqrt().min(std::f64::consts::PI);
-    let sharpness = (2f64.ln() / (1.0 - spacing.cos())).clamp(MIN_SHARPNESS, t.max_sharpness());
+    let sharpness = (2f64.ln() / (1.0 - spacing.cos())).clamp(MIN_SHARPNESS, t.point_cap());
     fibonacci_sphere(n)[k..].iter().map(|&axis| SgLobe { axis, sharpness, amplitude: [0.0; 3] }).collect()
 }

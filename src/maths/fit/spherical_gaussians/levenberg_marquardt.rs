@@ -28,9 +28,18 @@ impl Target {
             let mut g = vec![0.0; n];
             let mut jac = vec![0.0; m];
             let mut active = Vec::with_capacity(n);
+            // For a reduced map: the means of the derivatives' kernels (`texel_mean`).
+            let mut slopes = vec![[0.0; 3]; n];
             for t in r {
                 let d = self.dirs[t];
-                kernels(lobes, d, &mut g);
+                match &self.means {
+                    None => kernels(lobes, d, &mut g),
+                    Some(m) => {
+                        for (k, (lobe, (e1, e2))) in lobes.iter().zip(frames).enumerate() {
+                            (g[k], slopes[k]) = m.kernel_and_slopes(t, d, lobe, *e1, *e2);
+                        }
+                    }
+                }
                 let mut res = self.value[t];
                 for (lobe, gk) in lobes.iter().zip(&g) {
                     for (r, a) in res.iter_mut().zip(lobe.amplitude) {
@@ -43,10 +52,15 @@ impl Target {
                 for &k in &active {
                     let (lobe, (e1, e2)) = (&lobes[k], frames[k]);
                     let l = lobe.sharpness;
-                    let gl = g[k] * l;
-                    let mu = DVec3::from(lobe.axis);
-                    let ds = g[k] * (l * (mu.dot(d) - 1.0) + energy_slope(l));
-                    jac[3 * k..3 * k + 3].copy_from_slice(&[gl * e1.dot(d), gl * e2.dot(d), ds]);
+                    if self.means.is_some() {
+                        let [du, dv, ds] = slopes[k];
+                        jac[3 * k..3 * k + 3].copy_from_slice(&[du, dv, ds + g[k] * energy_slope(l)]);
+                    } else {
+                        let gl = g[k] * l;
+                        let mu = DVec3::from(lobe.axis);
+                        let ds = g[k] * (l * (mu.dot(d) - 1.0) + energy_slope(l));
+                        jac[3 * k..3 * k + 3].copy_from_slice(&[gl * e1.dot(d), gl * e2.dot(d), ds]);
+                    }
                     let rho: f64 = (0..3).map(|c| res[c] * lobe.amplitude[c]).sum();
                     for i in 3 * k..3 * k + 3 {
                         b[i] += w * rho * jac[i];
