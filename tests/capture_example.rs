@@ -83,6 +83,17 @@ fn the_capture_example_runs_as_its_readme_says() {
         "--report".into(),
         report.display().to_string(),
     ];
+    // The README's Slurm form: a job array over the capture folders, nothing run.
+    let readme = std::fs::read_to_string(Path::new(common::MANIFEST_DIR).join("examples/capture/README.md")).unwrap();
+    assert!(readme.contains("--out out/capture --emit-slurm capture.sbatch"), "the README's Slurm command");
+    let script = sb.join("capture.sbatch");
+    let mut slurm = args[..8].to_vec();
+    slurm.extend(["--emit-slurm".to_string(), script.display().to_string()]);
+    run_hdrflow(&slurm).assert_success();
+    let text = std::fs::read_to_string(&script).expect("the job script");
+    assert!(text.contains("#SBATCH --array=0-0") && text.contains("capture.ron"), "{text}");
+    assert!(!out.join(ITEM).join("map.exr").exists(), "--emit-slurm runs nothing");
+
     run_hdrflow(&args).assert_success();
     let rows = json(&report);
     assert!(rows.as_array().is_some_and(|r| r.len() == 1 && r[0]["status"] == "computed"), "{rows}");
