@@ -47,11 +47,9 @@ pub struct OpContext<'a> {
     pub content_key: Option<&'a [u8]>,
     /// The names of this node's open ports that consumers use (see [`OpenPorts`]).
     pub wanted_ports: &'a [String],
-    /// The names of this node's ports that something in the run reads (a consumer that runs, or
-    /// the caller): an operator may leave the others out of its outputs ([`OpContext::wants`]).
-    pub(crate) read_ports: &'a [&'a str],
-    /// The names of all of this node's ports.
-    pub(crate) all_ports: &'a [&'a str],
+    /// The names of this node's ports that nothing in the run reads (no consumer that runs, not
+    /// the caller): an operator may leave them out of its outputs ([`OpContext::wants`]).
+    pub(crate) unread_ports: &'a [&'a str],
     /// How each value type is written as a file (the registry's savers: `Save` encodes with them).
     pub savers: &'a Savers,
     /// What [`OpContext::warn`] collected; the scheduler reports each, prefixed by the node.
@@ -87,11 +85,7 @@ impl<'a> OpContext<'a> {
     /// other ports (a later run that reads the port computes the node again). A name that is
     /// not one of the node's ports is wanted.
     pub fn wants(&self, port: &str) -> bool {
-        self.read_ports.contains(&port) || !self.declares(port)
-    }
-
-    fn declares(&self, port: &str) -> bool {
-        self.all_ports.contains(&port)
+        !self.unread_ports.contains(&port)
     }
 
     /// A path parameter resolved against the pipeline file's folder (`builtin:` names unchanged).

@@ -39,10 +39,6 @@ pub const FACES: [&str; 6] = ["px", "nx", "py", "ny", "pz", "nz"];
 /// functions (`SH3ylmBasisConstants`, `Maths/sphericalPolynomial.ts`) are hdrflow's negated.
 pub const CONDON_SHORTLEY: [f64; 9] = [1.0, -1.0, 1.0, -1.0, 1.0, -1.0, 1.0, -1.0, 1.0];
 
-/// What `Save` passes the `.gltf` encoder (`SaveOptions::with`): the `irradianceCoefficients`.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct GltfIrradiance(pub Option<[[f64; 3]; 9]>);
-
 /// The extension's `irradianceCoefficients` from the 9 orthonormal radiance SH `L_lm` (hdrflow's
 /// real basis, index `l^2 + l + m`; `ShIrradiance`) in the axes the engine evaluates them in: the
 /// SH of the irradiance `E` (`A_l L_lm`, `A_l = pi, 2 pi / 3, pi / 4`) in Babylon's basis (its

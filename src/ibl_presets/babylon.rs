@@ -72,6 +72,7 @@ pub const PRESET: Preset = Preset {
     ]),
     chain: Chain::ToOneTexel,
     size_rule: Some("Babylon's .env loader needs a power-of-two cube size (\"Texture size must be a power of two\")"),
+    check_assets: None,
     pipeline: include_str!("../../graphs/bake/babylon.ron"),
     loading_code: r#"// Babylon.js (@babylonjs/core 9), in a module with your `scene`; left-handed as by default, the map's
 // centre faces +Z, the default camera's forward.

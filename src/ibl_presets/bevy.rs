@@ -49,6 +49,7 @@ pub const PRESET: Preset = Preset {
     ]),
     chain: Chain::ToOneTexel,
     size_rule: None,
+    check_assets: None,
     pipeline: include_str!("../../graphs/bake/bevy.ron"),
     loading_code: r#"// Bevy (0.16-0.19), with its `ktx2` and `zstd_rust` (or `zstd_c`) features; copy these files into assets/environment_maps/.
 commands.spawn((

@@ -52,6 +52,7 @@ pub const PRESET: Preset = Preset {
     size_rule: Some(
         "cmgen and Filament's IBL need a power-of-two cube size (cmgen: \"output size must be a power of two\")",
     ),
+    check_assets: None,
     pipeline: include_str!("../../graphs/bake/filament.ron"),
     loading_code: r#"// Filament (C++), with libs/ktxreader as its samples use it; the SH is also sh.txt's 9 lines.
 image::Ktx1Bundle* iblBundle = new image::Ktx1Bundle(iblBytes, iblSize);      // {file:save_spec}

@@ -101,6 +101,7 @@ pub const PRESET: Preset = Preset {
     ]),
     chain: Chain::ToSize(SMALLEST),
     size_rule: Some("EXT_lights_image_based needs power-of-two faces (its README)"),
+    check_assets: Some(check_assets),
     pipeline: include_str!("../../graphs/bake/gltf.ron"),
     loading_code: r#"// Babylon.js (@babylonjs/core 9 and @babylonjs/loaders 9), in an async module with your `scene`: the glTF
 // loader implements EXT_lights_image_based and sets scene.environmentTexture.

@@ -53,6 +53,7 @@ pub const PRESET: Preset = Preset {
     ]),
     chain: Chain::ToOneTexel,
     size_rule: None,
+    check_assets: None,
     pipeline: include_str!("../../graphs/bake/khronos.ron"),
     loading_code: r#"// glTF Sample Viewer / a Vulkan renderer: upload the three KTX2 cube maps with all their levels
 // and sample them with the world direction (environmentRotation 0 to see the map's centre at -Z).

@@ -107,6 +107,10 @@ pub struct ToolPlacement {
     pub yaw: f64,
 }
 
+/// A preset's check of its output folder (`Preset::check_assets`): the folder, the map's name,
+/// whether the folder holds this engine's notes.
+pub type CheckAssets = fn(&std::path::Path, &str, bool) -> Result<(), String>;
+
 /// One engine's conventions.
 #[derive(Clone, Copy, Debug)]
 pub struct Preset {
@@ -142,6 +146,10 @@ pub struct Preset {
     pub chain: Chain,
     /// why a level-0 size is refused (`None`: any size)
     pub size_rule: Option<&'static str>,
+    /// what else in the output folder the bake must not mix with (`None`: only another engine's
+    /// bake, `Preset::check_out`): given the folder, the map's name and whether the folder holds
+    /// this engine's notes; the message without `error: ` (glTF: another asset, `gltf.rs`)
+    pub check_assets: Option<CheckAssets>,
     /// the pipeline file (`graphs/bake/<name>.ron`)
     pub pipeline: &'static str,
     /// the lines of engine code that load the files (`{file:NODE}` stands for the path the Save

@@ -5,8 +5,8 @@
 //!
 //! One folder holds one engine's bake: [`Preset::check_out`] refuses a folder whose notes name
 //! another engine (the files would mix and the notes of one would replace the other's), or whose
-//! `README.txt` no bake wrote; and for `--for gltf`, one holding another glTF asset
-//! (`gltf::check_assets`).
+//! `README.txt` no bake wrote; and whatever the preset's `check_assets` refuses (for `--for
+//! gltf`, a folder holding another glTF asset).
 
 use std::path::Path;
 
@@ -33,7 +33,7 @@ impl Preset {
     /// Whether this engine's bake of the map named `map` (`bake::map_name`) may write into
     /// `dir`: a missing folder, an empty one, or one holding no `README.txt` or this engine's
     /// may; a file, another engine's bake or a `README.txt` no bake wrote is refused, and for
-    /// glTF another asset (`gltf::check_assets`) (the message without `error: `).
+    /// glTF another asset (the preset's `check_assets`) (the message without `error: `).
     pub fn check_out(&self, dir: &Path, map: &str) -> Result<(), String> {
         let default = self.default_out();
         if dir.exists() && !dir.is_dir() {
@@ -41,9 +41,9 @@ impl Preset {
         }
         let notes = dir.join(NOTES_FILE);
         let text = std::fs::read_to_string(&notes).ok();
-        if self.engine == super::Engine::Gltf {
+        if let Some(check_assets) = self.check_assets {
             let ours = text.as_deref().and_then(engine_of_notes).is_some_and(|e| e.eq_ignore_ascii_case(self.name));
-            super::gltf::check_assets(dir, map, ours)?;
+            check_assets(dir, map, ours)?;
         }
         let Some(text) = text else { return Ok(()) };
         match engine_of_notes(&text) {
@@ -114,14 +114,14 @@ pub fn fill_sun(text: &str, sun: &Light) -> String {
 /// `--sun extract` moved out (the park map's sun is two thirds of its light). `sun`: the
 /// extracted light (`None` for `Sun::Keep`); `metrics`: `SunExtract`'s.
 pub fn sun_statement(bake: &Bake, options: &BakeOptions, sun: Option<&Light>, metrics: Option<&Metrics>) -> String {
-    let share = |name: &str| metrics.and_then(|m| m.get(name)).unwrap_or(0.0);
+    let metric = |name: &str| metrics.and_then(|m| m.get(name)).unwrap_or(0.0);
     // The rule's bounds as the bake ran them (`--set sun.max_radius_deg=...` included).
     let p = &bake.pipeline;
     let bound = |field: &str, default: f64| match p.index_of("sun").and_then(|i| p.nodes[i].params.values.get(field)) {
         Some(ParamValue::Float(v)) => *v,
         _ => default,
     };
-    let file = save_path(&bake.pipeline, "save_sun").unwrap_or_else(|| "the sun's JSON file".into());
+    let file = save_path(p, "save_sun").unwrap_or_else(|| "the sun's JSON file".into());
     match (options.sun, sun) {
         (Sun::Keep, _) => "Sun: kept in the map (--sun keep): these files hold all of its light.".into(),
         (Sun::Extract, Some(s)) if s.solid_angle > 0.0 => format!(
@@ -129,15 +129,15 @@ pub fn sun_statement(bake: &Bake, options: &BakeOptions, sun: Option<&Light>, me
              across) into {file}, as a directional light: a scene that loads only the lighting files is that much \
              darker than the map. Add the light with the lines under \"The sun\" at the end of this file, or bake \
              with --sun keep to leave it in the map.",
-            100.0 * share("share"),
-            2.0 * share("radius_deg"),
+            100.0 * metric("share"),
+            2.0 * metric("radius_deg"),
         ),
-        (Sun::Extract, _) if share("region_share") > 0.0 => format!(
+        (Sun::Extract, _) if metric("region_share") > 0.0 => format!(
             "Sun: none taken out: the brightest region ({:.2} degrees across, {:.1}% of the light) is not a sun by \
              SunExtract's rule (at most {} degrees across, at least {:.0}% of the light), so these files hold all of \
              the map's light and there is no light to add.",
-            2.0 * share("region_radius_deg"),
-            100.0 * share("region_share"),
+            2.0 * metric("region_radius_deg"),
+            100.0 * metric("region_share"),
             2.0 * bound("max_radius_deg", SunRule::DEFAULT.max_radius_deg),
             100.0 * bound("min_share", SunRule::DEFAULT.min_share),
         ),

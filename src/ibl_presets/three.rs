@@ -43,6 +43,7 @@ pub const PRESET: Preset = Preset {
     quality: None,
     chain: Chain::None,
     size_rule: None,
+    check_assets: None,
     pipeline: include_str!("../../graphs/bake/three.ron"),
     loading_code: r#"// three.js r180 or later (HDRLoader; before r180 the same calls on RGBELoader, RGBELoader.js), in a
 // module with your `scene`; the map is written turned so that its centre faces -Z, as in hdrflow. Full

@@ -52,6 +52,17 @@ impl Geometry {
             .collect()
     }
 
+    /// The spheres of `must_fail` that the mistake `name`'s per-sphere `errors` leave within
+    /// `bounds`, one line each for the failure message: what the comparison did not catch.
+    pub fn missed(&self, name: &str, errors: &[f64], bounds: &[f64], must_fail: &[&str]) -> Vec<String> {
+        let failed = self.failing(errors, bounds);
+        must_fail
+            .iter()
+            .filter(|s| !failed.iter().any(|f| f == *s))
+            .map(|s| format!("{name}: {s} passed the comparison (failing: {failed:?})"))
+            .collect()
+    }
+
     pub fn read(path: &Path) -> Geometry {
         let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("reading {}: {e}", path.display()));
         let j: Json = serde_json::from_str(&text).unwrap_or_else(|e| panic!("{}: {e}\n{text}", path.display()));

@@ -160,8 +160,8 @@ fn evaluate(s: &State, i: usize, release: &(dyn Fn(Value) + Sync)) -> Result<Mat
         node.ports.iter().filter(|p| node.spec.port(&p.name).is_none()).map(|p| p.name.to_string()).collect();
     // A port is read when a consumer that runs, or the caller, takes it: its release count.
     let read = |k: usize| s.slots[i][k].remaining.load(Ordering::SeqCst) > 0;
-    let all_ports: Vec<&str> = node.ports.iter().map(|p| &*p.name).collect();
-    let read_ports: Vec<&str> = all_ports.iter().enumerate().filter(|&(k, _)| read(k)).map(|(_, n)| *n).collect();
+    let unread_ports: Vec<&str> =
+        node.ports.iter().enumerate().filter(|&(k, _)| !read(k)).map(|(_, p)| &*p.name).collect();
     let mut ctx = OpContext {
         node: &node.name,
         params: &node.params,
@@ -169,8 +169,7 @@ fn evaluate(s: &State, i: usize, release: &(dyn Fn(Value) + Sync)) -> Result<Mat
         base_dir: &s.p.base_dir,
         content_key: s.content[i].as_deref(),
         wanted_ports: &open_ports,
-        read_ports: &read_ports,
-        all_ports: &all_ports,
+        unread_ports: &unread_ports,
         savers: s.p.registry.savers(),
         warnings: Vec::new(),
         release_to: Some(release),

@@ -55,7 +55,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::geometry::{latlong, unit};
-use crate::maths::fit::sun::{colour_channels, level, luminances, neighbours};
+use crate::maths::fit::sun::{colour_channels, level, luminances, luminous_integral, neighbours};
 use crate::values::{Image, Light, Lights};
 
 /// What [`extract_lights`] found, with the quantities of the module documentation.
@@ -190,7 +190,7 @@ pub fn extract_lights(env: &Image, max_lights: usize, threshold_stops: f64) -> L
         return none(0.0, 0.0, 0);
     }
     let lum = luminances(env);
-    let level = level(&lum, w, h);
+    let level = level(&lum, w, h, luminous_integral(&lum, w, h));
     let threshold = level * 2f64.powf(threshold_stops);
     if !(level > 0.0) || !threshold.is_finite() {
         return none(level.max(0.0), threshold.max(0.0), 0);

@@ -146,7 +146,8 @@ pub fn extract_sun_by(env: Image, rule: &SunRule) -> SunExtraction {
     let lum = luminances(&env);
     let brightest = lum.iter().enumerate().fold(0usize, |b, (i, &y)| if y > lum[b] { i } else { b });
     let brightest_dir = latlong::texel_direction(brightest % w, brightest / w, w, h);
-    let level = level(&lum, w, h);
+    let total = luminous_integral(&lum, w, h);
+    let level = level(&lum, w, h, total);
     let threshold = level * 2f64.powf(threshold_stops);
     if !(level > 0.0) || !(lum[brightest] > threshold) {
         return none(env, brightest_dir, level.max(0.0), threshold.max(0.0));
@@ -219,7 +220,6 @@ pub fn extract_sun_by(env: Image, rule: &SunRule) -> SunExtraction {
         centroid += (lum[i] - y_fill) * d_omega * DVec3::from(latlong::texel_direction(x, y, w, h));
     }
     let direction = unit(centroid).map(|d| d.to_array()).unwrap_or(brightest_dir);
-    let total = luminous_integral(&lum, w, h);
     let share = if total > 0.0 { removed_luminance / total } else { 0.0 };
     if let Some(rejection) = rule.judge(solid_angle, share) {
         let rejected =
@@ -246,8 +246,9 @@ pub fn extract_sun_by(env: Image, rule: &SunRule) -> SunExtraction {
     }
 }
 
-/// `sum_i Y_i dOmega_i` over a `w x h` map's luminances `lum`: the denominator of the share.
-fn luminous_integral(lum: &[f64], w: usize, h: usize) -> f64 {
+/// `sum_i Y_i dOmega_i` over a `w x h` map's luminances `lum`: the level's mean and the
+/// denominator of the share.
+pub(crate) fn luminous_integral(lum: &[f64], w: usize, h: usize) -> f64 {
     (0..h).map(|y| lum[y * w..(y + 1) * w].iter().sum::<f64>() * latlong::texel_solid_angle(y, w, h)).sum()
 }
 
@@ -257,17 +258,12 @@ pub(crate) fn luminances(env: &Image) -> Vec<f64> {
     (0..env.pixel_count()).into_par_iter().map(|i| luminance(env.rgb(i % w, i / w))).collect()
 }
 
-/// The reference level `m` of step 1 for the luminances `lum` of a `w x h` map (non-empty):
-/// their median (rank `floor(w h / 2)`, rounded to f32), or the solid-angle-weighted mean when
-/// the median is not positive.
-pub(crate) fn level(lum: &[f64], w: usize, h: usize) -> f64 {
-    let (mut weighted, mut area) = (0.0f64, 0.0f64);
-    for y in 0..h {
-        let d_omega = latlong::texel_solid_angle(y, w, h);
-        weighted += lum[y * w..(y + 1) * w].iter().sum::<f64>() * d_omega;
-        area += d_omega * w as f64;
-    }
-    let mean = weighted / area;
+/// The reference level `m` of step 1 for the luminances `lum` of a `w x h` map (non-empty) whose
+/// [`luminous_integral`] is `integral`: their median (rank `floor(w h / 2)`, rounded to f32), or
+/// the solid-angle-weighted mean when the median is not positive.
+pub(crate) fn level(lum: &[f64], w: usize, h: usize, integral: f64) -> f64 {
+    let area: f64 = (0..h).map(|y| latlong::texel_solid_angle(y, w, h) * w as f64).sum();
+    let mean = integral / area;
     // The median of the luminances rounded to f32 (half the memory of an f64 copy; the level
     // only sets the threshold).
     let median = {

@@ -29,7 +29,7 @@ use crate::engine::save::SaveOptions;
 use crate::engine::typed_op::Op;
 use crate::engine::value::{FileBlob, Value, ValueType, FILE};
 use crate::formats::babylon_env::{EnvIrradiance, Polynomial};
-use crate::formats::gltf_ibl::{self, GltfIrradiance};
+use crate::formats::gltf_ibl;
 use crate::formats::ktx1::{self, Ktx1Format};
 use crate::formats::ktx2::{Compression, KtxFormat, KtxSupercompression};
 use crate::formats::png::PngFormat;
@@ -38,6 +38,9 @@ use crate::formats::save::brackets;
 use crate::formats::save::image::{channels_not_kept, channels_not_kept_in};
 use crate::values::Image;
 use crate::values::{FilamentSh, ShCoefficients};
+
+/// The files that hold a whole mip chain (every other format writes one file per level).
+const CHAIN_FILES: [&str; 4] = ["ktx2", "ktx", "env", "gltf"];
 
 crate::params! {
     pub struct SaveParams {
@@ -138,10 +141,7 @@ fn check(ctx: &CheckContext, p: SaveParams<Check>) -> Result<(), CheckProblem> {
             "png_format applies to .png files of images and cube maps only",
         ));
     }
-    if t == crate::values::ty::MIP_CHAIN_T
-        && !["ktx2", "ktx", "env", "gltf"].contains(&ext.as_str())
-        && !p.path.0.contains("{level}")
-    {
+    if t == crate::values::ty::MIP_CHAIN_T && !CHAIN_FILES.contains(&ext.as_str()) && !p.path.0.contains("{level}") {
         return Err(CheckProblem::at(
             SaveParams::path,
             "a mip chain is saved one file per level: put {level} in the path (e.g. \"spec_{level}.exr\"), or save it as one .ktx2",
@@ -254,7 +254,7 @@ fn eval(ctx: &mut OpContext, p: SaveParams) -> Result<Value, OpError> {
         }
     }
     let mut env_irradiance = EnvIrradiance::default();
-    let mut gltf_irradiance = GltfIrradiance::default();
+    let mut gltf_irradiance = None;
     let mut key_values = ktx1::KeyValues::default();
     if let (Some(sh), "env" | "gltf") = (&p.sh, ext.as_str()) {
         let c = sh
@@ -265,7 +265,7 @@ fn eval(ctx: &mut OpContext, p: SaveParams) -> Result<Value, OpError> {
         if ext == "env" {
             env_irradiance.0 = Some(Polynomial::from_sh(&c.rgb).map_err(sh_error)?);
         } else {
-            gltf_irradiance.0 = Some(gltf_ibl::irradiance_coefficients(&c.rgb).map_err(sh_error)?);
+            gltf_irradiance = Some(gltf_ibl::irradiance_coefficients(&c.rgb).map_err(sh_error)?);
         }
     } else if let Some(sh) = &p.sh {
         let rgb = match sh.value().get::<FilamentSh>() {
@@ -281,21 +281,18 @@ fn eval(ctx: &mut OpContext, p: SaveParams) -> Result<Value, OpError> {
         .with(p.ktx1_format)
         .with(key_values)
         .with(env_irradiance)
-        .with(gltf_irradiance)
         .with(p.png_format)
         .with(crate::formats::exr::EncodeOptions { compression: p.compression, half: p.half });
     options.exposure = exposure;
     options.plot_size = (p.plot_size[0] as u32, p.plot_size[1] as u32);
-    if let Some(chain) = value
-        .get::<crate::values::MipChain>()
-        .filter(|_| !["ktx2", "ktx", "env", "gltf"].contains(&options.ext.as_str()))
+    if let Some(chain) = value.get::<crate::values::MipChain>().filter(|_| !CHAIN_FILES.contains(&options.ext.as_str()))
     {
         let mut files =
             crate::formats::save::cubemap::save_levels(chain, &rel_path, &options).map_err(fail)?.into_iter();
         let (first_path, first) = files.next().ok_or_else(|| fail("an empty mip chain".into()))?;
         return Ok(Value::new(FileBlob { rel_path: first_path, bytes: first, more: files.collect() }));
     }
-    if let (Some(chain), GltfIrradiance(Some(c))) = (value.get::<crate::values::MipChain>(), options.get_or_default()) {
+    if let (Some(chain), Some(c)) = (value.get::<crate::values::MipChain>(), gltf_irradiance) {
         // The .gltf, then its images (`formats::gltf_ibl`).
         let (mut files, _) = gltf_ibl::encode(&chain.levels, &c, &rel_path).map_err(fail)?;
         let (first_path, first) = files.remove(0);

@@ -82,16 +82,14 @@ fn eval(ctx: &mut OpContext, p: SunExtractParams) -> Result<Outputs, OpError> {
     if let Some(r) = &s.rejected {
         ctx.warn(r.to_string());
     }
-    let found = s.light.solid_angle > 0.0;
-    let (region_share, region_radius) = match &s.rejected {
-        Some(r) => (r.share, r.radius_deg),
-        None => (s.share, cone_radius_deg(s.light.solid_angle)),
-    };
+    let radius = cone_radius_deg(s.light.solid_angle);
+    // The brightest region's numbers, taken or not.
+    let (region_share, region_radius) = s.rejected.map_or((s.share, radius), |r| (r.share, r.radius_deg));
     let metrics = Metrics {
         fields: vec![
-            ("found".into(), if found { 1.0 } else { 0.0 }),
+            ("found".into(), if s.texels > 0 { 1.0 } else { 0.0 }),
             ("share".into(), s.share),
-            ("radius_deg".into(), cone_radius_deg(s.light.solid_angle)),
+            ("radius_deg".into(), radius),
             ("texels".into(), s.texels as f64),
             ("region_share".into(), region_share),
             ("region_radius_deg".into(), region_radius),
