@@ -212,6 +212,8 @@ where
 
 /// [`main_with`] plus the subcommands `E` (the `hdrflow` binary passes its `bench`).
 pub fn main_with_extra<E: ExtraCommands>(registry: Registry) -> ExitCode {
+    // The process's allocator policy, set before any thread starts (see `memory`).
+    crate::memory::fix_mmap_threshold();
     main_from_with_extra::<E, _, _>(registry, std::env::args_os())
 }
 
