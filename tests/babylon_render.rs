@@ -177,3 +177,104 @@ fn the_babylon_readme_code_is_the_render_pages_code() {
     let (manifest, images) = babylon_env::decode(&bytes).expect("a .env");
     assert_eq!((manifest["width"].as_u64(), images.len()), (Some(128), 6 * 8));
 }
+
+/// The bake against Babylon's own prefiltering of the same panorama (issue 36): the same Radiance
+/// `.hdr` (the test map, and the park map at 512 x 256 with its sun) baked by hdrflow into a `.env`,
+/// and loaded by Babylon as an `HDRCubeTexture` prefiltered on load (its GPU `HDRFiltering`, 4096
+/// samples, and the polynomial of its CPU harmonics), both in memory (half or full floats) and
+/// written by Babylon's `CreateEnvTextureAsync` into a `.env` (RGBD PNG, as hdrflow's), all
+/// rendered in the same page. Per sphere, the relative RMSE against Babylon's formula fed exact
+/// values (what a perfect prefiltering gives in this engine) and against the exact integral,
+/// printed as the table of docs/src/guides/baking/babylon.md; the frames are kept as PNG pictures
+/// beside the page's results (target/tmp/babylon-render/own-prefiltering). Asserted: on the test
+/// map hdrflow's spheres meet the test-map bounds, and hdrflow's `.env` is at least as close to the
+/// formula as Babylon's own `.env` on every sphere of both maps but one, [`OPEN_FINDING`].
+/// Not yet explained, so not asserted (docs/src/guides/baking/babylon.md, "Against Babylon's own
+/// prefiltering"): on the park, the roughness-0.25 sphere, whose sun highlight near the rim both
+/// bakes read low, hdrflow's more (0.089 against Babylon's 0.058). Printed either way.
+const OPEN_FINDING: (&str, &str) = ("park", "metal_0.25");
+
+#[test]
+fn the_bake_is_at_least_as_close_as_babylons_own_prefiltering() {
+    let Some(browser) = browser() else { return };
+    let sandbox = common::Sandbox::new();
+    let park = hdrflow::formats::decode_by_extension(
+        &common::read_file(&Path::new(common::MANIFEST_DIR).join("assets/maps/rooitou_park_1k.hdr")),
+        "hdr",
+    )
+    .expect("the park map");
+    let park = hdrflow::maths::resample::area_resize::resize(&park, 512, 256);
+    let maps = [("test_map", test_map::test_map()), ("park", park)];
+    const WHO: [&str; 3] = ["hdrflow", "babylon_env", "babylon_memory"];
+    let mut renders = Vec::new();
+    let mut read_back = Vec::new();
+    for (name, img) in &maps {
+        let hdr = sandbox.write(&format!("{name}.hdr"), hdrflow::formats::rgbe::encode(img));
+        // The reference is the map both engines read: the .hdr's RGBE values.
+        let stored = hdrflow::formats::decode_by_extension(&common::read_file(&hdr), "hdr").expect("RGBE");
+        read_back.push(stored);
+        let env = bake(&sandbox, &hdr, name, &[]);
+        let hdr = rel(&sandbox, &hdr);
+        renders.push(json!({ "name": format!("{name}_{}", WHO[0]), "kind": "spheres", "env": rel(&sandbox, &env) }));
+        renders.push(json!({ "name": format!("{name}_{}", WHO[1]), "kind": "spheres", "hdr": hdr, "via_env": true }));
+        renders.push(json!({ "name": format!("{name}_{}", WHO[2]), "kind": "spheres", "hdr": hdr }));
+    }
+    let page = run_page(browser, &sandbox, "own-prefiltering", &json!({ "renders": renders }));
+    let geometry = scene::Geometry::read(&page.results.join("scene.json"));
+    let (w, h) = (geometry.width, geometry.height);
+    let mut problems = Vec::new();
+    for ((name, _), stored) in maps.iter().zip(read_back) {
+        let (manifest, _) =
+            babylon_env::decode(&common::read_file(&page.results.join(format!("{name}_babylon_env.env"))))
+                .expect("Babylon's own .env");
+        assert_eq!(manifest["width"], 256, "{manifest}");
+        let map = reference::Map::new(stored);
+        let poly = babylon_reference::sh_polynomial(&map);
+        let refs: Vec<_> = (0..geometry.spheres.len())
+            .map(|k| {
+                babylon_reference::sphere_reference(
+                    &map,
+                    &poly,
+                    &geometry.spheres[k],
+                    &geometry.pixels(k, 0.9, 2),
+                    babylon_page::CAMERA,
+                    Levels::env(256),
+                )
+            })
+            .collect();
+        let frames = WHO.map(|who| page.frame(&format!("{name}_{who}"), w, h));
+        let formula =
+            frames.each_ref().map(|f| babylon_page::errors(&format!("{name}, {}", WHO[0]), f, &geometry, &refs));
+        let exact = frames.each_ref().map(|f| -> Vec<f64> {
+            refs.iter().map(|r| reference::relative_rmse(f, 1.0, &r.pixels, &r.exact)).collect()
+        });
+        eprintln!("{name}: relative RMSE against Babylon's formula fed exact values (against the exact integral)");
+        eprintln!("| sphere | hdrflow .env | Babylon's .env | Babylon in memory |");
+        for (k, s) in SPHERES.iter().enumerate() {
+            let cell = |i: usize| format!("{:.4} ({:.4})", formula[i][k], exact[i][k]);
+            eprintln!("| {s} | {} | {} | {} |", cell(0), cell(1), cell(2));
+        }
+        let kept = Path::new(env!("CARGO_TARGET_TMPDIR")).join("babylon-render/own-prefiltering");
+        for (f, who) in frames.iter().zip(WHO) {
+            babylon_page::save_picture(f, &kept.join(format!("{name}_{who}.png")));
+        }
+        if *name == "test_map" {
+            let failing = geometry.failing(&formula[0], &babylon_page::TEST_MAP_BOUNDS);
+            problems.extend(failing.into_iter().map(|p| format!("{name}: {p}")));
+        }
+        for (k, s) in SPHERES.iter().enumerate() {
+            if (*name, *s) == OPEN_FINDING {
+                eprintln!(
+                    "{name} {s} (open finding, not asserted): hdrflow {:.4}, Babylon's own .env {:.4}",
+                    formula[0][k], formula[1][k]
+                );
+            } else if formula[0][k] > formula[1][k] {
+                problems.push(format!(
+                    "{name} {s}: hdrflow {:.4} > Babylon's own .env {:.4}",
+                    formula[0][k], formula[1][k]
+                ));
+            }
+        }
+    }
+    assert!(problems.is_empty(), "{}", problems.join("\n"));
+}

@@ -3,9 +3,13 @@
 // frames back as 32-bit floats.
 //
 // The job (GET ../work/job.json) lists renders; paths are relative to ../work/; each render's
-// lighting is a .env ("env") or a glTF asset with an EXT_lights_image_based light ("gltf"):
+// lighting is a .env ("env"), a glTF asset with an EXT_lights_image_based light ("gltf"), or a
+// Radiance .hdr panorama that Babylon prefilters itself ("hdr": `HDRCubeTexture` with
+// `prefilterOnLoad`, its GPU `HDRFiltering`, and the polynomial it computes from the cube; with
+// "via_env", written by `CreateEnvTextureAsync` into a .env, POSTed as NAME.env, and that loaded):
 //   { "renders": [
-//       { "name", "kind": "spheres", "env": "good/test.env" | "gltf": "good/test.gltf", "loader_gamma"? }
+//       { "name", "kind": "spheres", "env": "good/test.env" | "gltf": "good/test.gltf" | "hdr": "map.hdr",
+//         "via_env"?, "loader_gamma"? }
 //     | { "name", "kind": "sky", "env" | "gltf", "forward": [x, y, z], "fov_deg", "size" } ] }
 // Results are POSTed to ../result/NAME: NAME.f32 (RGBA f32 rows, top row first) per render,
 // scene.json (clients/web-common/scene.js's geometry), shaders.txt (the PBR fragment shader Babylon
@@ -31,6 +35,7 @@
 import { CubeTexture } from '@babylonjs/core';
 import { AppendSceneAsync } from '@babylonjs/core';
 import '@babylonjs/loaders/glTF';
+import { CreateEnvTextureAsync, HDRCubeTexture } from '@babylonjs/core';
 import { Camera, Color3, Color4, Constants, Engine, FreeCamera, MeshBuilder, PBRMaterial, RenderTargetTexture, Scene, Vector3 } from '@babylonjs/core';
 import { getJson, log, post, run } from '../common/page.js';
 import * as Spheres from '../common/scene.js';
@@ -64,8 +69,32 @@ async function loadGltf(scene, path, loaderGamma) {
     return await whenLoaded(scene.environmentTexture, path);
 }
 
-/// The lighting of a render: its .env or its .gltf.
+// Babylon's own prefiltering of a panorama, for the comparison of tests/babylon_render.rs: a cube
+// of 256 (the size Babylon's tools give a .env), mipmapped, harmonics generated, linear, prefiltered
+// on load (lodGenerationScale 0.8, as a .env).
+// With `viaEnv`, Babylon's own way to a .env file: the prefiltered texture written by
+// `CreateEnvTextureAsync` (RGBD PNG faces, the polynomial), then loaded as a .env is.
+async function loadHdr(scene, path, viaEnv, name) {
+    const hdr = new HDRCubeTexture('../work/' + path, scene, 256, false, true, false, true);
+    scene.environmentTexture = hdr;
+    const loaded = await whenLoaded(hdr, path);
+    if (!viaEnv) {
+        return loaded;
+    }
+    await scene.whenReadyAsync();
+    const env = await CreateEnvTextureAsync(hdr);
+    await post(name + '.env', env);
+    hdr.dispose();
+    const url = URL.createObjectURL(new Blob([env]));
+    scene.environmentTexture = CubeTexture.CreateFromPrefilteredData(url, scene, '.env');
+    return await whenLoaded(scene.environmentTexture, name + '.env');
+}
+
+/// The lighting of a render: its .env, its .gltf or its .hdr.
 async function loadLighting(scene, job) {
+    if (job.hdr) {
+        return await loadHdr(scene, job.hdr, job.via_env, job.name);
+    }
     return job.gltf ? await loadGltf(scene, job.gltf, job.loader_gamma) : await loadEnv(scene, job.env);
 }
 

@@ -13,7 +13,7 @@
 //!      map itself (bilinear) and `P_k` the exact GGX prefiltered radiance (`ggx_reference::
 //!      prefiltered`) at the `alphaG_k = 2^(k / s) / W` the shader reads at level k (for a `.env`
 //!      Babylon's own `HDRFiltering`: what a correct chain holds; hdrflow caps the roughness at 1,
-//!      which levels 7 and 8 of a 256 cube exceed). Faces of at most 16 texels: the exact values at the level's texel centres,
+//!      which levels 7 and 8 of a 256 cube exceed). Faces of at most 32 texels: the exact values at the level's texel centres,
 //!      interpolated bilinearly across face edges, as the GPU reads a perfect level;
 //!   2. `MIX_IBL_RADIANCE_WITH_IRRADIANCE` (Babylon's default): the radiance becomes
 //!      `mix(P, I(n), alphaG)`, I the irradiance term at the normal;
@@ -78,7 +78,7 @@ pub struct SphereReference {
 }
 
 /// Faces this small or smaller are modelled texel by texel (module doc, step 1).
-const COARSE: usize = 16;
+const COARSE: usize = 32;
 
 /// The exact content of level `k` of the chain `levels` in each direction of `dirs`.
 fn level_values(map: &Map, k: usize, levels: Levels, dirs: &[DVec3]) -> Vec<[f64; 3]> {

@@ -54,11 +54,12 @@ pub fn run(browser: &str, app: &Path, sandbox: &common::Sandbox, job: &Json, kee
     let mut cmd = Command::new(browser);
     // --no-sandbox: CI runs as root. No network of its own, a fresh profile. SwiftShader: the
     // same CPU WebGL2 everywhere. Virtual time: the page's timers run as fast as the work allows;
-    // the dump waits for the budget or the end.
+    // the dump waits for the budget (a virtual day: Babylon's readbacks poll with timers while the
+    // CPU renderer works, which spends virtual time fast) or the end.
     cmd.args(["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run"])
         .args(["--disable-background-networking", "--disable-component-update", "--disable-sync"])
         .args(["--use-angle=swiftshader", "--enable-unsafe-swiftshader"])
-        .args(["--enable-logging=stderr", "--v=0", "--virtual-time-budget=3600000", "--dump-dom"])
+        .args(["--enable-logging=stderr", "--v=0", "--virtual-time-budget=86400000", "--dump-dom"])
         .arg(format!("--user-data-dir={}", profile.display()))
         .arg(server.url("app/index.html"));
     let out = common::run_command(cmd, timeout);
