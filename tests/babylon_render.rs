@@ -209,7 +209,7 @@ fn the_bake_is_at_least_as_close_as_babylons_own_prefiltering() {
     let mut renders = Vec::new();
     let mut read_back = Vec::new();
     for (name, img) in &maps {
-        let hdr = sandbox.write(&format!("{name}.hdr"), hdrflow::formats::rgbe::encode(img));
+        let hdr = sandbox.write(format!("{name}.hdr"), hdrflow::formats::rgbe::encode(img));
         // The reference is the map both engines read: the .hdr's RGBE values.
         let stored = hdrflow::formats::decode_by_extension(&common::read_file(&hdr), "hdr").expect("RGBE");
         read_back.push(stored);
