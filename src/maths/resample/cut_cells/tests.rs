@@ -6,6 +6,7 @@ use std::f64::consts::PI;
 use glam::DVec3;
 
 use super::*;
+use crate::geometry::latlong;
 use crate::geometry::rotation::Rotation;
 use crate::maths::resample::layouts::{latlong_integral, to_latlong_precise};
 use crate::maths::resample::rotation::Rotated;
