@@ -34,7 +34,10 @@
 //! and `disc_image`'s tests).
 //!
 //! Speed: the source angles come from `resample::angles` (a polynomial `atan2`, 2e-15 rad, not
-//! libm's `acos` and `atan2`); a rotated lat-long map's rows share their edges' grid points.
+//! libm's `acos` and `atan2`); a rotated lat-long map's rows share their edges' grid points; a
+//! cell more than twice as long as wide in the source's angles (a mirror ball's rim pixels,
+//! long radially and thin tangentially, or a lat-long texel near a pole) is halved across its
+//! length only, its depth still counting the halvings of its longest extent.
 
 use std::f64::consts::{PI, SQRT_2, TAU};
 
@@ -92,6 +95,15 @@ fn wrap(d: f64) -> f64 {
     } else {
         d
     }
+}
+
+/// The angle between two grid points, to first order (`d theta` and `sin theta d phi`): a
+/// cell's extent for choosing how to split it.
+#[inline]
+fn extent(a: Pt, b: Pt) -> f64 {
+    let along = (0.5 * (a.theta + b.theta)).sin() * wrap(a.phi - b.phi);
+    let across = a.theta - b.theta;
+    (along * along + across * across).sqrt()
 }
 
 /// A plane `a + b u + c v` over the cell's unit square.
@@ -302,8 +314,22 @@ impl<'a, 'b, F: Footprint> Cells<'a, 'b, F> {
     ) {
         let [p0, p1, q0, q1] = r;
         let (pm, qm) = (0.5 * (p0 + p1), 0.5 * (q0 + q1));
-        let (eb, el, er, et) = (self.point(pm, q0), self.point(p0, qm), self.point(p1, qm), self.point(pm, q1));
         let [c00, c10, c01, c11] = corners;
+        // A cell more than twice as long (in the source's angles) one way as the other, like a
+        // mirror ball's rim pixels, is halved across its length only: its longest extent halves
+        // as in a split into four, with half the cells.
+        let (along_p, along_q) = (extent(c00, c10) + extent(c01, c11), extent(c00, c01) + extent(c10, c11));
+        if along_p > 2.0 * along_q {
+            let (eb, et) = (self.point(pm, q0), self.point(pm, q1));
+            self.integrate([p0, pm, q0, q1], [c00, eb, c01, et], None, depth + 1, lim, acc, weight);
+            return self.integrate([pm, p1, q0, q1], [eb, c10, et, c11], None, depth + 1, lim, acc, weight);
+        }
+        if along_q > 2.0 * along_p {
+            let (el, er) = (self.point(p0, qm), self.point(p1, qm));
+            self.integrate([p0, p1, q0, qm], [c00, c10, el, er], None, depth + 1, lim, acc, weight);
+            return self.integrate([p0, p1, qm, q1], [el, er, c01, c11], None, depth + 1, lim, acc, weight);
+        }
+        let (eb, el, er, et) = (self.point(pm, q0), self.point(p0, qm), self.point(p1, qm), self.point(pm, q1));
         for (rr, cc) in [
             ([p0, pm, q0, qm], [c00, eb, el, m]),
             ([pm, p1, q0, qm], [eb, c10, m, er]),

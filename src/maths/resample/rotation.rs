@@ -149,9 +149,10 @@ mod tests {
     /// cells are off, not the blend: their cells touching the pole have a corner whose source
     /// azimuth is undefined (`atan2(0, 0)`), so the azimuth plane is wrong there and its large
     /// bend splits them only until `spread * Omega * bend` meets the tolerance, 1e-9 of the map's
-    /// magnitude, a large share of a pole texel's small solid angle. Measured here 6.1e-5, falling
-    /// with the tolerance (1.5e-5 at 1e-10, 2.6e-6 at 1e-11, 6.5e-7 at 1e-12; no change from depth
-    /// 12 to 16), and 1.7e-4 on `cut_cells`' noise map whose sun raises the magnitude.
+    /// magnitude, a large share of a pole texel's small solid angle. Measured when those thin
+    /// cells were still split into four: 6.1e-5 here, falling with the tolerance (1.5e-5 at 1e-10,
+    /// 2.6e-6 at 1e-11, 6.5e-7 at 1e-12; no change from depth 12 to 16), and 1.7e-4 on
+    /// `cut_cells`' noise map whose sun raises the magnitude (4.9e-6 with them halved across).
     #[test]
     fn a_fractional_yaw_blends_two_columns_as_the_cut_cells_integrate_them() {
         use crate::maths::resample::cut_cells::rotated_latlong;
