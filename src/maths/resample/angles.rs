@@ -40,7 +40,8 @@ fn atan_small(t: f64) -> f64 {
     let x = t * t;
     let mut p = P[10];
     for &c in P[..10].iter().rev() {
-        p = p.mul_add(x, c);
+        // Not `mul_add`: without the FMA target feature it is a call to a software fma.
+        p = p * x + c;
     }
     t * p
 }
