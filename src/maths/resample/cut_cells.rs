@@ -32,13 +32,19 @@
 //! `layouts::integrate` and, at the depth limit, takes the source texel at its centre. Tested
 //! against brute-force footprint means, the midpoint subdivision and the sphere integral (`tests`,
 //! and `disc_image`'s tests).
+//!
+//! Speed: the source angles come from `resample::angles` (a polynomial `atan2`, 2e-15 rad, not
+//! libm's `acos` and `atan2`); a rotated lat-long map's rows share their edges' grid points; a
+//! cell more than twice as long as wide in the source's angles (a mirror ball's rim pixels,
+//! long radially and thin tangentially, or a lat-long texel near a pole) is halved across its
+//! length only, its depth still counting the halvings of its longest extent.
 
 use std::f64::consts::{PI, SQRT_2, TAU};
 
 use glam::{DMat3, DVec3};
 use rayon::prelude::*;
 
-use crate::geometry::latlong;
+use crate::maths::resample::angles;
 use crate::maths::resample::layouts::{normalised, Footprint, LatLongDomain, LatLongSource, Limits};
 use crate::values::Image;
 
@@ -52,6 +58,9 @@ struct Pt {
     row: usize,
 }
 
+/// Rows of a rotated lat-long map computed together, sharing their edges' corners.
+const BAND: usize = 8;
+
 /// The most source texels a cut cell may cover (more are split first).
 const MAX_TEXELS: usize = 64;
 
@@ -64,6 +73,18 @@ struct Cut {
     bend: f64,
 }
 
+/// `x.floor() as isize` without a call to libm's `floor` (which the baseline x86-64 target
+/// cannot inline): the same value for every f64, NaN giving 0 and the infinities saturating.
+#[inline]
+fn floor_i(x: f64) -> isize {
+    let i = x as isize;
+    if (i as f64) > x {
+        i.saturating_sub(1)
+    } else {
+        i
+    }
+}
+
 /// An azimuth difference wrapped to [-pi, pi].
 #[inline]
 fn wrap(d: f64) -> f64 {
@@ -74,6 +95,15 @@ fn wrap(d: f64) -> f64 {
     } else {
         d
     }
+}
+
+/// The angle between two grid points, to first order (`d theta` and `sin theta d phi`): a
+/// cell's extent for choosing how to split it.
+#[inline]
+fn extent(a: Pt, b: Pt) -> f64 {
+    let along = (0.5 * (a.theta + b.theta)).sin() * wrap(a.phi - b.phi);
+    let across = a.theta - b.theta;
+    (along * along + across * across).sqrt()
 }
 
 /// A plane `a + b u + c v` over the cell's unit square.
@@ -104,12 +134,27 @@ const SQUARE: Poly = Poly {
 };
 
 impl Poly {
+    /// The index after `i`, cyclically (without a division).
+    #[inline]
+    fn next(&self, i: usize) -> usize {
+        if i + 1 == self.n {
+            0
+        } else {
+            i + 1
+        }
+    }
+
     /// The part where `line >= 0`.
     fn clip(&self, line: Line) -> Poly {
         let mut out = Poly { n: 0, p: [(0.0, 0.0); 8] };
+        let mut f = [0.0; 8];
+        for (fi, &p) in f.iter_mut().zip(&self.p[..self.n]) {
+            *fi = line.at(p);
+        }
         for i in 0..self.n {
-            let (a, b) = (self.p[i], self.p[(i + 1) % self.n]);
-            let (fa, fb) = (line.at(a), line.at(b));
+            let j = self.next(i);
+            let (a, b) = (self.p[i], self.p[j]);
+            let (fa, fb) = (f[i], f[j]);
             if fa >= 0.0 {
                 out.p[out.n] = a;
                 out.n += 1;
@@ -127,7 +172,7 @@ impl Poly {
     fn weight(&self, [beta_u, beta_v]: [f64; 2]) -> f64 {
         let (mut area, mut mu, mut mv) = (0.0, 0.0, 0.0);
         for i in 0..self.n {
-            let (a, b) = (self.p[i], self.p[(i + 1) % self.n]);
+            let (a, b) = (self.p[i], self.p[self.next(i)]);
             let cross = a.0 * b.1 - b.0 * a.1;
             area += cross;
             mu += (a.0 + b.0) * cross;
@@ -166,7 +211,9 @@ impl<'a, 'b, F: Footprint> Cells<'a, 'b, F> {
         normalised(acc, weight)
     }
 
-    /// The grid point at (p, q); its texel is `latlong::texel_of_direction`'s.
+    /// The grid point at (p, q); its angles are `latlong::angles`' to 2e-15 rad
+    /// (`resample::angles`), its texel `latlong::texel_of_direction`'s but within that of a
+    /// boundary.
     fn point(&self, p: f64, q: f64) -> Pt {
         self.point_towards(self.fp.dir(p, q))
     }
@@ -174,9 +221,9 @@ impl<'a, 'b, F: Footprint> Cells<'a, 'b, F> {
     /// The grid point whose footprint direction is `d`.
     fn point_towards(&self, d: DVec3) -> Pt {
         let s = self.inverse * d;
-        let (theta, phi) = latlong::angles(s.into());
-        let col = ((phi / TAU) * self.w as f64).floor() as isize;
-        let row = ((theta / PI) * self.h as f64).floor() as isize;
+        let (theta, phi) = angles::latlong_angles(s.into());
+        let col = floor_i((phi / TAU) * self.w as f64);
+        let row = floor_i((theta / PI) * self.h as f64);
         let (col, row) = (col.clamp(0, self.w as isize - 1) as usize, row.clamp(0, self.h as isize - 1) as usize);
         Pt { theta, phi, col, row }
     }
@@ -194,7 +241,7 @@ impl<'a, 'b, F: Footprint> Cells<'a, 'b, F> {
         let line =
             Line { a: (2.0 * gm + mean) / 3.0, b: 0.5 * (g10 - g00 + g11 - g01), c: 0.5 * (g01 - g00 + g11 - g10) };
         let bend = (gm - mean).abs() + 0.25 * (g00 - g10 - g01 + g11).abs();
-        (line, bend, line.b.hypot(line.c))
+        (line, bend, (line.b * line.b + line.c * line.c).sqrt())
     }
 
     /// Adds the integral over the cell `r` to `acc` and its solid angle to `weight`.
@@ -267,8 +314,22 @@ impl<'a, 'b, F: Footprint> Cells<'a, 'b, F> {
     ) {
         let [p0, p1, q0, q1] = r;
         let (pm, qm) = (0.5 * (p0 + p1), 0.5 * (q0 + q1));
-        let (eb, el, er, et) = (self.point(pm, q0), self.point(p0, qm), self.point(p1, qm), self.point(pm, q1));
         let [c00, c10, c01, c11] = corners;
+        // A cell more than twice as long (in the source's angles) one way as the other, like a
+        // mirror ball's rim pixels, is halved across its length only: its longest extent halves
+        // as in a split into four, with half the cells.
+        let (along_p, along_q) = (extent(c00, c10) + extent(c01, c11), extent(c00, c01) + extent(c10, c11));
+        if along_p > 2.0 * along_q {
+            let (eb, et) = (self.point(pm, q0), self.point(pm, q1));
+            self.integrate([p0, pm, q0, q1], [c00, eb, c01, et], None, depth + 1, lim, acc, weight);
+            return self.integrate([pm, p1, q0, q1], [eb, c10, et, c11], None, depth + 1, lim, acc, weight);
+        }
+        if along_q > 2.0 * along_p {
+            let (el, er) = (self.point(p0, qm), self.point(p1, qm));
+            self.integrate([p0, p1, q0, qm], [c00, c10, el, er], None, depth + 1, lim, acc, weight);
+            return self.integrate([p0, p1, qm, q1], [el, er, c01, c11], None, depth + 1, lim, acc, weight);
+        }
+        let (eb, el, er, et) = (self.point(pm, q0), self.point(p0, qm), self.point(p1, qm), self.point(pm, q1));
         for (rr, cc) in [
             ([p0, pm, q0, qm], [c00, eb, el, m]),
             ([pm, p1, q0, qm], [eb, c10, m, er]),
@@ -291,10 +352,10 @@ impl<'a, 'b, F: Footprint> Cells<'a, 'b, F> {
         let t_half = 0.5 * (t.b.abs() + t.c.abs()) + t_bend;
         let f_half = 0.5 * (f.b.abs() + f.c.abs()) + f_bend;
         let last_row = self.h as isize - 1;
-        let row0 = (((t.a - t_half) / dt).floor() as isize).clamp(0, last_row);
-        let row1 = (((t.a + t_half) / dt).floor() as isize).clamp(0, last_row);
-        let col0 = ((m.phi + f.a - f_half) / df).floor() as isize;
-        let col1 = ((m.phi + f.a + f_half) / df).floor() as isize;
+        let row0 = floor_i((t.a - t_half) / dt).clamp(0, last_row);
+        let row1 = floor_i((t.a + t_half) / dt).clamp(0, last_row);
+        let col0 = floor_i((m.phi + f.a - f_half) / df);
+        let col1 = floor_i((m.phi + f.a + f_half) / df);
         let (rows, cols) = ((row1 - row0 + 1) as usize, (col1 - col0 + 1) as usize);
         if rows * cols > MAX_TEXELS || cols > self.w {
             return None;
@@ -356,22 +417,28 @@ pub fn rotated_latlong(src: &LatLongSource, inverse: DMat3, rel_tol: f64, depth:
     let (dp, dq) = (TAU / w as f64, PI / h as f64);
     // (sin, cos) of the columns' edges (2k) and centres (2k + 1), shared by every row.
     let columns: Vec<(f64, f64)> = (0..=2 * w).map(|k| (0.5 * dp * k as f64).sin_cos()).collect();
-    out.data.par_chunks_mut(3 * w).enumerate().for_each(|(y, row)| {
-        let (q0, q1) = (dq * y as f64, dq * (y + 1) as f64);
-        let points = |q: f64, parity: usize| -> Vec<Pt> {
-            let (st, ct) = q.sin_cos();
-            (0..w + 1 - parity)
-                .map(|x| {
-                    let (sp, cp) = columns[2 * x + parity];
-                    cells.point_towards(DVec3::new(-st * sp, ct, st * cp))
-                })
-                .collect()
-        };
-        let (top, bottom, centres) = (points(q0, 0), points(q1, 0), points(0.5 * (q0 + q1), 1));
-        for x in 0..w {
-            let r = [dp * x as f64, dp * (x + 1) as f64, q0, q1];
-            let corners = [top[x], top[x + 1], bottom[x], bottom[x + 1]];
-            row[3 * x..3 * x + 3].copy_from_slice(&cells.average_from(r, corners, Some(centres[x]), &lim));
+    let points = |q: f64, parity: usize| -> Vec<Pt> {
+        let (st, ct) = q.sin_cos();
+        (0..w + 1 - parity)
+            .map(|x| {
+                let (sp, cp) = columns[2 * x + parity];
+                cells.point_towards(DVec3::new(-st * sp, ct, st * cp))
+            })
+            .collect()
+    };
+    // Bands of rows, each row's bottom edge the next one's top: one row of corners a row.
+    out.data.par_chunks_mut(3 * w * BAND).enumerate().for_each(|(band, rows)| {
+        let mut top = points(dq * (band * BAND) as f64, 0);
+        for (i, row) in rows.chunks_mut(3 * w).enumerate() {
+            let y = band * BAND + i;
+            let (q0, q1) = (dq * y as f64, dq * (y + 1) as f64);
+            let (bottom, centres) = (points(q1, 0), points(0.5 * (q0 + q1), 1));
+            for x in 0..w {
+                let r = [dp * x as f64, dp * (x + 1) as f64, q0, q1];
+                let corners = [top[x], top[x + 1], bottom[x], bottom[x + 1]];
+                row[3 * x..3 * x + 3].copy_from_slice(&cells.average_from(r, corners, Some(centres[x]), &lim));
+            }
+            top = bottom;
         }
     });
     out

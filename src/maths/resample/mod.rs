@@ -2,6 +2,7 @@
 //! lat-long, cube and octahedral maps, area resizing, bilinear lookups, disc images (mirror ball,
 //! angular), and rotated maps. Imports no other `maths` domain.
 
+pub mod angles;
 pub mod area_resize;
 pub mod bilinear;
 pub mod cut_cells;

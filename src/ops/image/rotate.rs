@@ -3,8 +3,10 @@
 //!
 //! Angles in degrees about hdrflow's world axes, `R = R_y(yaw) R_x(pitch) R_z(roll)`; the matrix
 //! is row-major, world to world; the content seen in direction v moves to R v (see
-//! `maths::resample::rotation`). A whole-column yaw of a lat-long map is an exact column roll; any other
-//! rotation averages the rotated map over each output texel's footprint.
+//! `maths::resample::rotation`). A whole-column yaw of a lat-long map is an exact column roll, any
+//! other yaw alone the exact blend of two columns (version 3; version 2 integrated it by cut
+//! cells, off by up to 1.7e-4 in the pole rows); any other rotation averages the rotated map over
+//! each output texel's footprint.
 
 use crate::engine::fields::{AnyValue, Check, Input};
 use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec};
@@ -37,7 +39,7 @@ crate::params! {
 }
 
 pub fn spec() -> OpSpec {
-    Op::new("Rotate", 2, "Rotate a lat-long or cube map on the sphere (energy-preserving)", eval)
+    Op::new("Rotate", 3, "Rotate a lat-long or cube map on the sphere (energy-preserving)", eval)
         .output_like("image", |p| p.image, "the rotated map")
         .size(|_, p| p.image.size)
         .check(check)

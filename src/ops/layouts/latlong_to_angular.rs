@@ -31,7 +31,7 @@ crate::params! {
 pub fn spec() -> OpSpec {
     Op::new(
         "LatLongToAngular",
-        2,
+        3,
         "A lat-long map as a Debevec angular probe (footprint-averaged; outside the disc 0)",
         eval,
     )

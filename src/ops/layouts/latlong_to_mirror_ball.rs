@@ -37,7 +37,7 @@ ball_params! {
 pub fn spec() -> OpSpec {
     Op::new(
         "LatLongToMirrorBall",
-        2,
+        3,
         "The orthographic chrome-ball image of a lat-long map (footprint-averaged; outside the disc 0)",
         eval,
     )

@@ -33,7 +33,7 @@ crate::params! {
 pub fn spec() -> OpSpec {
     Op::new(
         "LatLongToSkyAngular",
-        2,
+        3,
         "The upper hemisphere as a disc seen from below (zenith at the centre, -Z at the bottom, r = theta / 90 deg)",
         eval,
     )
