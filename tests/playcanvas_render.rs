@@ -7,7 +7,8 @@
 //! - The spheres (mirror, specular 0.25 to 1, a diffuse one) against PlayCanvas' formula fed exact
 //!   values (`playcanvas_render/reference.rs`): relative RMSE over their inner pixels, asserted;
 //!   against the exact GGX integral, reported. On the asymmetric test map of tests/bevy_render.rs
-//!   each classic mistake fails: the map mirrored, RGBP written without its half power, the
+//!   each classic mistake fails: the map mirrored, RGBP written without its half power (atlas and
+//!   skybox), the
 //!   levels holding alpha = 2k / 11 where PlayCanvas reads roughness, the ambient holding E
 //!   instead of E / pi.
 //! - Orientation and handedness: a map of coloured markers (`common/markers.rs`) through
@@ -53,9 +54,9 @@ const PACKAGE_VERSION: &str = "2.23.3";
 /// The orthographic camera of the sphere renders (clients/web-common/scene.js: on +Z at CAMERA_Z).
 const CAMERA: DVec3 = DVec3::new(0.0, 0.0, 10.0);
 /// Relative RMSE bounds per sphere (mirror, specular 0.25, 0.5, 0.75, 1, diffuse) on the test
-/// map: about twice what the correct bake measures (docs/src/guides/baking/playcanvas.md), at
-/// least 0.005.
-const TEST_MAP_BOUNDS: [f64; 6] = [0.08, 0.03, 0.02, 0.02, 0.02, 0.01];
+/// map: about twice what the correct bake measures (0.0175, 0.0167, 0.0201, 0.0175, 0.0298,
+/// 0.0025: docs/src/guides/baking/playcanvas.md).
+const TEST_MAP_BOUNDS: [f64; 6] = [0.035, 0.035, 0.04, 0.035, 0.06, 0.005];
 /// SwiftShader is a CPU renderer on a shared machine: a minute is possible, ten are a hang.
 const BROWSER_TIMEOUT: Duration = Duration::from_secs(600);
 /// The orientation views: 256 x 256, 90 degrees (`markers::SkyCamera`).
@@ -67,8 +68,9 @@ const MARKER_TOLERANCE: f64 = 2.0;
 const SPHERES: [&str; 6] = ["mirror", "metal_0.25", "metal_0.5", "metal_0.75", "metal_1", "diffuse"];
 /// The pieces of PlayCanvas' shader the reference models, in the GLSL it compiled (an upgrade
 /// that changes them must revisit the reference).
-const SPHERE_SHADER: [&str; 3] = [
+const SPHERE_SHADER: [&str; 4] = [
     "float level = saturate(1.0 - gloss) * 5.0;",
+    "return processEnvironment(mix(sharp, mix(roughA, roughB, flevel), min(level, 1.0)));",
     "vec3 color = raw.rgb * (-raw.a * 7.0 + 8.0);",
     "vec2 uv = mapUv(toSphericalUv(dir), vec4(128.0, 256.0 + 128.0, 64.0, 32.0) / atlasSize);",
 ];
@@ -103,19 +105,23 @@ fn bake(sandbox: &common::Sandbox, map: &Path, dir: &str, extra: &[&str]) -> Fil
     Files { atlas: out.join(format!("{stem}_envAtlas.png")), sky: out.join(format!("{stem}_skybox.png")) }
 }
 
-/// The atlas PNG at `path` with each texel's decoded value (and its position) passed through
-/// `edit`, which returns the RGBA bytes to store; written to `dir/` in the sandbox with the
-/// skybox of `files`.
-fn edited(sandbox: &common::Sandbox, files: &Files, dir: &str, edit: impl Fn(usize, usize, [f32; 3]) -> [u8; 4]) -> Files {
-    let mut img = image::load_from_memory(&common::read_file(&files.atlas)).expect("the atlas PNG").to_rgba8();
+/// The RGBP PNG at `path` with each texel's decoded value (and its position) passed through
+/// `edit`, which returns the RGBA bytes to store, written to `dir/` in the sandbox.
+fn edit_png(sandbox: &common::Sandbox, path: &Path, dir: &str, edit: &impl Fn(usize, usize, [f32; 3]) -> [u8; 4]) -> PathBuf {
+    let mut img = image::load_from_memory(&common::read_file(path)).expect("an RGBP PNG").to_rgba8();
     for (x, y, p) in img.enumerate_pixels_mut() {
         p.0 = edit(x as usize, y as usize, from_rgbp(p.0));
     }
     let mut png = Vec::new();
     img.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png).expect("PNG");
-    let name = files.atlas.file_name().expect("a name");
-    let atlas = sandbox.write(Path::new(dir).join(name), png);
-    Files { atlas, sky: files.sky.clone() }
+    sandbox.write(Path::new(dir).join(path.file_name().expect("a name")), png)
+}
+
+/// `files` with the atlas, and with `sky` the skybox too, passed through `edit` (`edit_png`).
+fn edited(sandbox: &common::Sandbox, files: &Files, dir: &str, sky: bool, edit: impl Fn(usize, usize, [f32; 3]) -> [u8; 4]) -> Files {
+    let atlas = edit_png(sandbox, &files.atlas, dir, &edit);
+    let sky = if sky { edit_png(sandbox, &files.sky, dir, &edit) } else { files.sky.clone() };
+    Files { atlas, sky }
 }
 
 /// RGBP as if the encoder had left out the half power: the bytes of `c / (8 - 7 v)`, which
@@ -171,9 +177,9 @@ fn playcanvas_shows_the_test_map_and_each_mistake_fails() {
     let alpha: Vec<String> =
         std::iter::once(0.0).chain((1..7).map(|k| playcanvas_atlas::level_roughness(k).sqrt())).map(|r| format!("{r:?}")).collect();
     let alpha = bake(&sandbox, &plain, "alpha", &["--set", &format!("spec.roughness_list=[{}]", alpha.join(", "))]);
-    let no_sqrt = edited(&sandbox, &good, "no_sqrt", |_, _, c| without_sqrt(c));
+    let no_sqrt = edited(&sandbox, &good, "no_sqrt", true, |_, _, c| without_sqrt(c));
     let a = playcanvas_atlas::AMBIENT;
-    let times_pi = edited(&sandbox, &good, "times_pi", |x, y, c| {
+    let times_pi = edited(&sandbox, &good, "times_pi", false, |x, y, c| {
         let inside = (a.x..a.x + a.w).contains(&x) && (a.y..a.y + a.h).contains(&y);
         rgbp(if inside { c.map(|v| v * std::f32::consts::PI) } else { c }).0
     });
@@ -195,7 +201,8 @@ fn playcanvas_shows_the_test_map_and_each_mistake_fails() {
     let good_failing = geometry.failing(&good_errors, &TEST_MAP_BOUNDS);
     let mistakes: [(&str, &[&str]); 4] = [
         ("mirrored", &SPHERES[..]),
-        ("alpha", &SPHERES[1..5]),
+        // Roughness 1 reads level 5 alone, whose blur the 14 x 6 texels of its rect hide.
+        ("alpha", &SPHERES[1..4]),
         ("no_sqrt", &SPHERES[..]),
         ("times_pi", &SPHERES[5..]),
     ];
@@ -224,22 +231,15 @@ fn playcanvas_shows_the_marker_map_as_a_360_viewer_does() {
         ("yaw_front", &turned, DVec3::NEG_Z, 0.0, true),
         ("mirrored", &bad, DVec3::NEG_Z, 0.0, true),
     ];
-    let renders: Vec<Json> = views
-        .iter()
-        .map(|(name, f, forward, _, _)| {
-            json!({ "name": name, "kind": "sky", "atlas": rel(&sandbox, &f.atlas), "sky": rel(&sandbox, &f.sky),
-                    "forward": forward.to_array(), "fov_deg": SKY_FOV, "size": SKY_SIZE })
-        })
-        .collect();
-    let page = run_page(browser, &sandbox, "markers", &json!({ "renders": renders }));
+    // One page per view: each builds its skybox cube (1024 samples per texel on SwiftShader),
+    // and the page's virtual-time budget is per page.
     let seen: Vec<markers::View> = views
         .iter()
-        .map(|(name, _, forward, yaw, mistake)| markers::View {
-            name,
-            img: page.frame(name, SKY_SIZE, SKY_SIZE),
-            forward: *forward,
-            yaw: *yaw,
-            mistake: *mistake,
+        .map(|(name, f, forward, yaw, mistake)| {
+            let render = json!({ "name": name, "kind": "sky", "atlas": rel(&sandbox, &f.atlas), "sky": rel(&sandbox, &f.sky),
+                                 "forward": forward.to_array(), "fov_deg": SKY_FOV, "size": SKY_SIZE });
+            let page = run_page(browser, &sandbox, &format!("markers-{name}"), &json!({ "renders": [render] }));
+            markers::View { name, img: page.frame(name, SKY_SIZE, SKY_SIZE), forward: *forward, yaw: *yaw, mistake: *mistake }
         })
         .collect();
     markers::assert_views(&seen, "mirrored", MARKER_TOLERANCE);

@@ -48,18 +48,13 @@ async function loadLighting(job) {
     return { width: atlas.width, height: atlas.height, type: atlas.type, encoding: atlas.encoding, skybox: app.scene.skybox.width };
 }
 
-/// Waits for `n` frames of the running application.
+/// Draws `n` frames by hand (the page never starts PlayCanvas' requestAnimationFrame loop, which
+/// headless Chromium's virtual time does not wait for): what the loop's `tick` does per frame.
 function frames(n) {
-    return new Promise(resolve => {
-        let left = n;
-        const tick = () => {
-            if (--left <= 0) {
-                app.off('frameend', tick);
-                resolve();
-            }
-        };
-        app.on('frameend', tick);
-    });
+    for (let k = 0; k < n; k++) {
+        app.update(0);
+        app.render();
+    }
 }
 
 /// Renders through `cameraEntity` into a new RGBA32F target of w x h twice (the second frame must
@@ -75,7 +70,7 @@ async function renderFloat(cameraEntity, w, h) {
     const gl = device.gl;
     const out = [];
     for (let k = 0; k < 2; k++) {
-        await frames(2);
+        frames(2);
         const buf = new Float32Array(w * h * 4);
         gl.bindFramebuffer(gl.FRAMEBUFFER, target.impl._glFrameBuffer);
         gl.readPixels(0, 0, w, h, gl.RGBA, gl.FLOAT, buf);
@@ -172,6 +167,8 @@ async function main() {
     report.package = (await (await fetch('node_modules/playcanvas/package.json')).json()).version;
     const canvas = document.getElementById('canvas');
     app = new pc.Application(canvas, { graphicsDeviceOptions: { antialias: false, alpha: false, preserveDrawingBuffer: true, deviceTypes: ['webgl2'] } });
+    // No frame loop: frames are drawn by hand (`frames`).
+    app.requestAnimationFrame = () => {};
     app.start();
     const gl = app.graphicsDevice.gl;
     report.webgl = { version: app.graphicsDevice.isWebGL2 ? 2 : 1, renderer: gl.getParameter(gl.RENDERER), textureFloatRenderable: app.graphicsDevice.textureFloatRenderable };

@@ -2,14 +2,18 @@
 //! `envAtlas` (the fragment shader the page records, `shaders.txt`; PlayCanvas'
 //! `lit/frag/reflectionEnv.js`, `lit/frag/ambient.js`), in two forms:
 //!
-//! - `engine`: PlayCanvas' formula with every atlas read replaced by its exact value. Per pixel
+//! - `engine`: PlayCanvas' formula with every texture read replaced by its exact value. With
+//!   `app.scene.skybox` set, as the README's lines set it, PlayCanvas compiles the atlas' "HQ"
+//!   reflection (`lit/frag/reflectionEnvHQ.js`): the sharp reflection is the skybox cube, and
+//!   `mix(sharp, mix(A, B, f), min(level, 1))` with A, B the atlas levels `floor(level)` and the
+//!   next (level 0 being the map). Per pixel
 //!   (normal n, surface point p, `v = normalize(camera - p)`: PlayCanvas takes the view vector from
 //!   the camera's position also for an orthographic camera):
 //!   1. the lookup direction `-reflect(v, n)` and the level `5 r` (`saturate(1 - gloss) * 5`,
 //!      gloss = 1 - r); levels 1..5 hold the exact GGX prefiltered radiance (`ggx_reference::
 //!      prefiltered`, n = v = r) at PlayCanvas' roughness `2k / 11` (`playcanvas_atlas::
-//!      level_roughness`), mixed linearly by the level's fraction; level 0 is the map itself
-//!      (bilinear; the shader's shiny mip, picked by screen derivatives, is a box-filtered copy);
+//!      level_roughness`), mixed linearly by the level's fraction; level 0 and the skybox are the
+//!      map itself (bilinear);
 //!   2. the metal spheres have specular white and no Fresnel (`FRESNEL_NONE`), no diffuse: the
 //!      pixel is the reflection of step 1; the diffuse sphere (diffuse white, specular black) the
 //!      ambient rect's value: the exact `E(n) / pi`.
@@ -75,6 +79,15 @@ pub fn sphere_reference(map: &Map, s: &Sphere, pixels: &[(usize, DVec3)], camera
         for (b, next) in blended.iter_mut().zip(level_values(map, base + 1, level_roughness, &mirror)) {
             for c in 0..3 {
                 b[c] = (1.0 - f) * b[c] + f * next[c];
+            }
+        }
+    }
+    if base == 0 {
+        // HQ: mix(sharp, mix(level 0, level 1, f), min(level, 1)), the sharp read and level 0 both the map.
+        let sharp: Vec<[f64; 3]> = mirror.iter().map(|&d| lookup(&map.full, d)).collect();
+        for (b, s) in blended.iter_mut().zip(&sharp) {
+            for c in 0..3 {
+                b[c] = (1.0 - level) * s[c] + level * b[c];
             }
         }
     }

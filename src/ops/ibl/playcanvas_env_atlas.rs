@@ -6,9 +6,9 @@
 //! - The six shiny mips: level 0 of `chain` (roughness 0, the map itself) averaged over each
 //!   equirect texel's footprint (`maths::resample::layouts::to_latlong`, energy-preserving): the
 //!   box mips PlayCanvas' one-sample reprojection of its mipmapped source gives.
-//! - The six rough rects: levels 1..=6 of `chain`, which must hold roughness 2/11, 4/11, 6/11,
+//! - The six rough rects: levels 1..=6 of `chain`, which should hold roughness 2/11, 4/11, 6/11,
 //!   8/11, 10/11 and 1 (PlayCanvas' specularPower 512 ... 1: `playcanvas_atlas::chain_roughness`;
-//!   checked), read bilinearly, seamlessly across faces, at each texel's direction, as a GPU
+//!   other roughness is a warning, the mistake tests/playcanvas_render.rs makes), read bilinearly, seamlessly across faces, at each texel's direction, as a GPU
 //!   reads a cube level.
 //! - The ambient rect: `irradiance` (a cube of E / pi, `IrradianceCubemap`), read the same way.
 //!
@@ -28,7 +28,7 @@ use crate::values::{Cubemap, Image, MipChain};
 
 crate::params! {
     pub struct PlayCanvasEnvAtlasParams {
-        /// the specular chain: 7 levels of roughness 0, 2/11, 4/11, 6/11, 8/11, 10/11, 1 (PrefilterSpecular, roughness_map: List)
+        /// the specular chain: 7 levels, of roughness 0, 2/11, 4/11, 6/11, 8/11, 10/11, 1 (PrefilterSpecular, roughness_map: List; other roughness: a warning)
         #[input(&[MIP_CHAIN_T])]
         pub chain: Input<MipChain>,
         /// the ambient: a cube map of E / pi (IrradianceCubemap)
@@ -73,17 +73,13 @@ fn fill_bilinear(out: &mut Image, rect: Rect, c: &Cubemap) {
     }
 }
 
-/// The atlas of `chain` and `irradiance` (module doc).
+/// The atlas of `chain` (7 levels) and `irradiance` (module doc).
 pub fn env_atlas(chain: &MipChain, irradiance: &Cubemap) -> Result<Image, String> {
-    let want = atlas::chain_roughness();
-    if chain.levels.len() != want.len()
-        || chain.roughness.iter().zip(&want).any(|(a, b)| (a - b).abs() > 1e-6)
-    {
+    if chain.levels.len() != 7 {
         return Err(format!(
-            "the chain must have {} levels of roughness {:?} (PlayCanvas' atlas levels), not {:?}",
-            want.len(),
-            want,
-            chain.roughness
+            "the chain has {} levels: PlayCanvas' atlas takes 7 (the map, then roughness {:?})",
+            chain.levels.len(),
+            &atlas::chain_roughness()[1..]
         ));
     }
     let mut out = Image::new(atlas::SIZE, atlas::SIZE, 3);
@@ -98,9 +94,22 @@ pub fn env_atlas(chain: &MipChain, irradiance: &Cubemap) -> Result<Image, String
     Ok(out)
 }
 
-fn eval(_: &mut OpContext, p: PlayCanvasEnvAtlasParams) -> Result<Value, OpError> {
+/// Whether `chain`'s levels hold the roughness PlayCanvas reads from the atlas' levels.
+pub fn has_playcanvas_roughness(chain: &MipChain) -> bool {
+    let want = atlas::chain_roughness();
+    chain.roughness.len() == want.len() && chain.roughness.iter().zip(&want).all(|(a, b)| (a - b).abs() <= 1e-6)
+}
+
+fn eval(ctx: &mut OpContext, p: PlayCanvasEnvAtlasParams) -> Result<Value, OpError> {
     for c in p.chain.levels.iter().chain(std::iter::once(&*p.irradiance)) {
         super::check_cube_finite(c)?;
+    }
+    if !has_playcanvas_roughness(&p.chain) {
+        ctx.warn(format!(
+            "the chain's levels hold roughness {:?}, where PlayCanvas' shader reads {:?}: its spheres will show the wrong blur",
+            p.chain.roughness,
+            atlas::chain_roughness()
+        ));
     }
     env_atlas(&p.chain, &p.irradiance).map(Value::new).map_err(OpError::Invalid)
 }
@@ -125,7 +134,10 @@ mod tests {
         }
         assert!((img.pixel(atlas::AMBIENT.x, atlas::AMBIENT.y)[1] - 0.25).abs() < 1e-6);
         assert_eq!(img.pixel(200, 400), &[0.0, 0.0, 0.0]);
+        assert!(has_playcanvas_roughness(&chain));
         let wrong = MipChain { levels: chain.levels.clone(), roughness: vec![0.0; 7] };
-        assert!(env_atlas(&wrong, &cube(0.25, 8)).unwrap_err().contains("levels of roughness"));
+        assert!(!has_playcanvas_roughness(&wrong));
+        let short = MipChain { levels: chain.levels[..6].to_vec(), roughness: vec![0.0; 6] };
+        assert!(env_atlas(&short, &cube(0.25, 8)).unwrap_err().contains("takes 7"));
     }
 }
