@@ -59,6 +59,9 @@ const CAMERA: DVec3 = DVec3::new(0.0, 0.0, 10.0);
 const TEST_MAP_BOUNDS: [f64; 6] = [0.035, 0.035, 0.04, 0.035, 0.06, 0.005];
 /// SwiftShader is a CPU renderer on a shared machine: a minute is possible, ten are a hang.
 const BROWSER_TIMEOUT: Duration = Duration::from_secs(600);
+/// Chromium's virtual-time budget for a page: 100 hours, since virtual time runs about 50 times
+/// faster than the wall clock while PlayCanvas filters its skybox (`web_page::run_with_budget`).
+const VIRTUAL_TIME_BUDGET_MS: u64 = 360_000_000;
 /// The orientation views: 256 x 256, 90 degrees (`markers::SkyCamera`).
 const SKY_SIZE: usize = 256;
 const SKY_FOV: f64 = 90.0;
@@ -107,7 +110,12 @@ fn bake(sandbox: &common::Sandbox, map: &Path, dir: &str, extra: &[&str]) -> Fil
 
 /// The RGBP PNG at `path` with each texel's decoded value (and its position) passed through
 /// `edit`, which returns the RGBA bytes to store, written to `dir/` in the sandbox.
-fn edit_png(sandbox: &common::Sandbox, path: &Path, dir: &str, edit: &impl Fn(usize, usize, [f32; 3]) -> [u8; 4]) -> PathBuf {
+fn edit_png(
+    sandbox: &common::Sandbox,
+    path: &Path,
+    dir: &str,
+    edit: &impl Fn(usize, usize, [f32; 3]) -> [u8; 4],
+) -> PathBuf {
     let mut img = image::load_from_memory(&common::read_file(path)).expect("an RGBP PNG").to_rgba8();
     for (x, y, p) in img.enumerate_pixels_mut() {
         p.0 = edit(x as usize, y as usize, from_rgbp(p.0));
@@ -118,7 +126,13 @@ fn edit_png(sandbox: &common::Sandbox, path: &Path, dir: &str, edit: &impl Fn(us
 }
 
 /// `files` with the atlas, and with `sky` the skybox too, passed through `edit` (`edit_png`).
-fn edited(sandbox: &common::Sandbox, files: &Files, dir: &str, sky: bool, edit: impl Fn(usize, usize, [f32; 3]) -> [u8; 4]) -> Files {
+fn edited(
+    sandbox: &common::Sandbox,
+    files: &Files,
+    dir: &str,
+    sky: bool,
+    edit: impl Fn(usize, usize, [f32; 3]) -> [u8; 4],
+) -> Files {
     let atlas = edit_png(sandbox, &files.atlas, dir, &edit);
     let sky = if sky { edit_png(sandbox, &files.sky, dir, &edit) } else { files.sky.clone() };
     Files { atlas, sky }
@@ -139,7 +153,9 @@ fn job_entry(sandbox: &common::Sandbox, name: &str, files: &Files) -> Json {
 
 /// The page run on `job`: the pinned engine, each render stable.
 fn run_page(browser: &str, sandbox: &common::Sandbox, label: &str, job: &Json) -> web_page::Page {
-    let page = web_page::run(browser, &app_dir(), sandbox, job, &format!("playcanvas-render/{label}"), BROWSER_TIMEOUT);
+    let keep = format!("playcanvas-render/{label}");
+    let page =
+        web_page::run_with_budget(browser, &app_dir(), sandbox, job, &keep, BROWSER_TIMEOUT, VIRTUAL_TIME_BUDGET_MS);
     assert_eq!(page.report["package"], PACKAGE_VERSION, "the pinned engine (clients/playcanvas-web/package-lock.json)");
     for r in page.report["renders"].as_array().expect("the renders") {
         assert_eq!(r["stable"], true, "{}: the second frame differs from the first", r["name"]);
@@ -150,7 +166,9 @@ fn run_page(browser: &str, sandbox: &common::Sandbox, label: &str, job: &Json) -
 
 /// Relative RMSE per sphere against the engine references (printed with the exact ones).
 fn errors(label: &str, frame: &Image, geometry: &Geometry, refs: &[SphereReference]) -> Vec<f64> {
-    eprintln!("{label}: relative RMSE per sphere (vs PlayCanvas' formula on exact lookups | vs exact GGX and irradiance)");
+    eprintln!(
+        "{label}: relative RMSE per sphere (vs PlayCanvas' formula on exact lookups | vs exact GGX and irradiance)"
+    );
     let mut out = Vec::new();
     for (s, r) in geometry.spheres.iter().zip(refs) {
         let e = relative_rmse(frame, 1.0, &r.pixels, &r.engine);
@@ -158,7 +176,12 @@ fn errors(label: &str, frame: &Image, geometry: &Geometry, refs: &[SphereReferen
         eprintln!("  {:<11} {:>8.4} | {:>8.4}   ({} pixels)", s.name, e, x, r.pixels.len());
         for q in [0, r.pixels.len() / 3, r.pixels.len() / 2, r.pixels.len() - 1] {
             let p = r.pixels[q];
-            eprintln!("     px {p}: got {:?} engine {:?} exact {:?}", &frame.data[p * 4..p * 4 + 3], r.engine[q], r.exact[q]);
+            eprintln!(
+                "     px {p}: got {:?} engine {:?} exact {:?}",
+                &frame.data[p * 4..p * 4 + 3],
+                r.engine[q],
+                r.exact[q]
+            );
         }
         out.push(e);
     }
@@ -174,8 +197,10 @@ fn playcanvas_shows_the_test_map_and_each_mistake_fails() {
     let good = bake(&sandbox, &plain, "good", &[]);
     let mirrored = bake(&sandbox, &write_map(&sandbox, "test_mirrored.pfm", &markers::mirror_x(&map)), "mirrored", &[]);
     // The levels holding alpha = 2k / 11 (roughness sqrt(2k / 11)) where PlayCanvas reads roughness 2k / 11.
-    let alpha: Vec<String> =
-        std::iter::once(0.0).chain((1..7).map(|k| playcanvas_atlas::level_roughness(k).sqrt())).map(|r| format!("{r:?}")).collect();
+    let alpha: Vec<String> = std::iter::once(0.0)
+        .chain((1..7).map(|k| playcanvas_atlas::level_roughness(k).sqrt()))
+        .map(|r| format!("{r:?}"))
+        .collect();
     let alpha = bake(&sandbox, &plain, "alpha", &["--set", &format!("spec.roughness_list=[{}]", alpha.join(", "))]);
     let no_sqrt = edited(&sandbox, &good, "no_sqrt", true, |_, _, c| without_sqrt(c));
     let a = playcanvas_atlas::AMBIENT;
@@ -296,7 +321,8 @@ fn the_playcanvas_readme_code_is_the_render_pages_code() {
     }
     assert_eq!((checked, files), (9, 2), "{code}");
     // The atlas: 512 x 512 RGBA, black between the rects, the map's grey in the ambient rect.
-    let atlas = image::load_from_memory(&common::read_file(&out.join("bright_envAtlas.png"))).expect("a PNG").to_rgba8();
+    let atlas =
+        image::load_from_memory(&common::read_file(&out.join("bright_envAtlas.png"))).expect("a PNG").to_rgba8();
     assert_eq!(atlas.dimensions(), (512, 512));
     assert_eq!(from_rgbp(atlas.get_pixel(300, 450).0), [0.0; 3]);
     let a = playcanvas_atlas::AMBIENT;

@@ -118,8 +118,8 @@ pub fn source_texel(rect: Rect, i: usize, j: usize) -> (usize, usize) {
     let (iw, ih) = (rect.w - 2, rect.h - 2);
     let c = (i + iw - 1) % iw; // PlayCanvas' column, the side seams wrapped
     let (c, row) = match j {
-        0 => (c + iw / 2, 0),                            // beyond the top pole
-        j if j == ih + 1 => (c + iw / 2, ih - 1),        // beyond the bottom pole
+        0 => (c + iw / 2, 0),                     // beyond the top pole
+        j if j == ih + 1 => (c + iw / 2, ih - 1), // beyond the bottom pole
         j => (c, j - 1),
     };
     ((c + iw / 2) % iw, row)
@@ -150,11 +150,25 @@ mod tests {
         let r = |x, y, w, h| Rect { x, y, w, h };
         assert_eq!(
             shiny_rects(),
-            [r(0, 0, 512, 256), r(256, 256, 256, 128), r(384, 384, 128, 64), r(448, 448, 64, 32), r(480, 480, 32, 16), r(496, 496, 16, 8)]
+            [
+                r(0, 0, 512, 256),
+                r(256, 256, 256, 128),
+                r(384, 384, 128, 64),
+                r(448, 448, 64, 32),
+                r(480, 480, 32, 16),
+                r(496, 496, 16, 8)
+            ]
         );
         assert_eq!(
             rough_rects(),
-            [r(0, 256, 256, 128), r(0, 384, 128, 64), r(0, 448, 64, 32), r(0, 480, 32, 16), r(0, 496, 16, 8), r(0, 504, 8, 4)]
+            [
+                r(0, 256, 256, 128),
+                r(0, 384, 128, 64),
+                r(0, 448, 64, 32),
+                r(0, 480, 32, 16),
+                r(0, 496, 16, 8),
+                r(0, 504, 8, 4)
+            ]
         );
         // The shader's rects: t = 2^-level; shiny (1 - t, 1 - t, t, t / 2), rough (0, 1 - t, t, t / 2).
         for (k, s) in shiny_rects().iter().enumerate() {
@@ -196,7 +210,9 @@ mod tests {
     #[test]
     fn world_axes_land_where_playcanvas_reads_them() {
         let r = shiny_rects()[0];
-        let at = |u: f64, v: f64| direction(r, (1.0 + u * 510.0 - 0.5).round() as usize, (1.0 + v * 254.0 - 0.5).round() as usize);
+        let at = |u: f64, v: f64| {
+            direction(r, (1.0 + u * 510.0 - 0.5).round() as usize, (1.0 + v * 254.0 - 0.5).round() as usize)
+        };
         assert!(at(0.5, 0.5).distance(DVec3::Z) < 0.01);
         assert!(at(0.25, 0.5).distance(DVec3::X) < 0.01);
         assert!(at(0.75, 0.5).distance(DVec3::NEG_X) < 0.01);
