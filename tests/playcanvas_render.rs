@@ -212,6 +212,9 @@ fn playcanvas_shows_the_test_map_and_each_mistake_fails() {
         [("good", &good), ("mirrored", &mirrored), ("alpha", &alpha), ("no_sqrt", &no_sqrt), ("times_pi", &times_pi)];
     let renders: Vec<Json> = bakes.iter().map(|(name, f)| job_entry(&sandbox, name, f)).collect();
     let page = run_page(browser, &sandbox, "test-map", &json!({ "renders": renders }));
+    // generateSkyboxCubemap's default size: a quarter of the panorama's width.
+    let loaded = &page.render_report("good")["loaded"];
+    assert_eq!(loaded["skybox"], 128, "{loaded}");
     let shaders = std::fs::read_to_string(page.results.join("shaders.txt")).expect("the recorded shader");
     for piece in SPHERE_SHADER {
         assert!(shaders.contains(piece), "the recorded shader has no {piece:?}");
