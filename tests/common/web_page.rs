@@ -42,6 +42,7 @@ pub struct Page {
 /// Serves `job` (paths relative to the sandbox), the client folder `app` and the clients' shared
 /// `clients/web-common` to the page `app/index.html` in headless Chromium, waits for its report (at most `timeout`), fails on any
 /// error the page reports, and keeps the results in `target/tmp/KEEP` (RGBA f32 rows, top first).
+#[allow(dead_code)] // tests/playcanvas_render.rs calls run_with_budget only
 pub fn run(browser: &str, app: &Path, sandbox: &common::Sandbox, job: &Json, keep: &str, timeout: Duration) -> Page {
     run_with_budget(browser, app, sandbox, job, keep, timeout, 3_600_000)
 }
