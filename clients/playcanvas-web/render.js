@@ -3,7 +3,7 @@
 //
 // The job (GET ../work/job.json) lists renders; paths are relative to ../work/:
 //   { "renders": [
-//       { "name", "kind": "spheres", "atlas": "good/test_envAtlas.png", "sky": "good/test_skybox.png" }
+//       { "name", "kind": "spheres", "atlas": "good/test_envAtlas.png", "sky": "good/test_skybox.png", "own"? }
 //     | { "name", "kind": "sky", "atlas", "sky", "forward": [x, y, z], "fov_deg", "size" } ] }
 // Results are POSTed to ../result/NAME: NAME.f32 (RGBA f32 rows, top row first) per render,
 // scene.json (clients/web-common/scene.js's geometry), shaders.txt (the standard material's
@@ -17,7 +17,8 @@
 // used as they are.
 //
 // - spheres: the six spheres of scene.js seen by an orthographic camera on +Z looking down -Z, lit
-//   only by app.scene.envAtlas, loaded as the README's lines load it. Metal spheres: a
+//   only by app.scene.envAtlas, loaded as the README's lines load it (with `own`, the atlas
+//   PlayCanvas' EnvLighting.generateAtlas makes from the skybox PNG instead, for comparison). Metal spheres: a
 //   StandardMaterial with no diffuse, specular white and no Fresnel (FRESNEL_NONE), gloss 1 -
 //   roughness, so each pixel is the atlas' reflection itself; the diffuse sphere: diffuse white,
 //   specular black, so each pixel is the atlas' ambient.
@@ -44,6 +45,12 @@ async function loadLighting(job) {
     });
     app.scene.envAtlas = await loadRgbp(atlasUrl);
     app.scene.skybox = pc.EnvLighting.generateSkyboxCubemap(await loadRgbp(skyUrl));
+    if (job.own) {
+        // PlayCanvas' own prefiltering of the same panorama instead of the bake's atlas: the skybox
+        // PNG is the map as PlayCanvas' equirect, which its EnvLighting filters at run time.
+        const lightingSource = pc.EnvLighting.generateLightingSource(await loadRgbp(skyUrl));
+        app.scene.envAtlas = pc.EnvLighting.generateAtlas(lightingSource);
+    }
     const atlas = app.scene.envAtlas;
     return { width: atlas.width, height: atlas.height, type: atlas.type, encoding: atlas.encoding, skybox: app.scene.skybox.width };
 }
