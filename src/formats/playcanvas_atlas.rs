@@ -1,6 +1,7 @@
 //! PlayCanvas' environment atlas (`app.scene.envAtlas`): one 512 x 512 RGBP texture
 //! (`formats::rgbp`) holding equirectangular reflection levels and the ambient light, as
-//! PlayCanvas' own `EnvLighting.generateAtlas` renders it (engine 2.23.3;
+//! PlayCanvas' own `EnvLighting.generateAtlas` renders it (line numbers: playcanvas/engine at
+//! commit 0aaef5e, whose code ships unchanged in npm 2.23.3's build, checked by grep;
 //! `src/scene/graphics/env-lighting.js` lines 137-209, `reproject-texture.js` lines 391-514).
 //! Every rect is an equirect of `(w - 2) x (h - 2)` texels inside a 1-texel seam:
 //!
