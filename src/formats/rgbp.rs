@@ -1,7 +1,7 @@
 //! RGBP, the 8-bit packing of HDR texels PlayCanvas reads from its `envAtlas` and skybox PNGs
 //! (`TEXTURETYPE_RGBP`, `type: 'rgbp'` of a texture asset). PlayCanvas' shader chunks
-//! (playcanvas/engine at commit 0aaef5e, as npm 2.23.3 ships them; `src/scene/shader-lib/glsl/chunks/common/frag/encode.js` lines 22-36, `decode.js`
-//! lines 27-30):
+//! (playcanvas/engine at commit 0aaef5e, as npm 2.23.3 ships them;
+//! `src/scene/shader-lib/glsl/chunks/common/frag/encode.js` lines 22-36, `decode.js` lines 27-30):
 //!
 //! ```text
 //! encodeRGBP(c): g = sqrt(c)                          (the "gamma(ish)" half power)
