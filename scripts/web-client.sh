@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # A web client of the engine render tests (clients/filament-web for tests/filament_render.rs,
 # clients/three-web for tests/three_render.rs, clients/khronos-web for tests/khronos_render.rs,
-# clients/babylon-web for tests/babylon_render.rs and tests/gltf_render.rs),
+# clients/babylon-web for tests/babylon_render.rs and tests/gltf_render.rs, clients/playcanvas-web
+# for tests/playcanvas_render.rs),
 # through its own script (scripts/filament-web.sh, scripts/three-web.sh, scripts/khronos-web.sh,
-# scripts/babylon-web.sh),
+# scripts/babylon-web.sh, scripts/playcanvas-web.sh),
 # which passes its folder and port:
 #
 #   scripts/web-client.sh CLIENT PORT install    npm ci in clients/CLIENT (the packages pinned by its

@@ -32,7 +32,7 @@ fn bake(sb: &Sandbox, args: &[&str]) -> common::Output {
 fn an_unknown_engine_is_refused_with_the_list_of_engines() {
     let sb = Sandbox::new();
     bake(&sb, &["builtin:sky", "--for", "unity"]).assert_code(2).assert_stderr_contains(
-        "--for \"unity\": no such engine; hdrflow bake writes for babylon, bevy, filament, gltf, khronos, three",
+        "--for \"unity\": no such engine; hdrflow bake writes for babylon, bevy, filament, gltf, khronos, playcanvas, three",
     );
     bake(&sb, &["builtin:sky", "--for", "babylonjs"]).assert_code(2).assert_stderr_contains(
         "--for \"babylonjs\": no such engine; did you mean \"babylon\"? hdrflow bake writes for babylon, bevy",

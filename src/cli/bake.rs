@@ -44,7 +44,7 @@ pub(super) struct BakeArgs {
     #[arg(required_unless_present = "print_pipeline")]
     pub(super) map: Option<String>,
     /// The engine: babylon (a Babylon.js .env), bevy, filament, gltf (a glTF 2.0 asset with an
-    /// EXT_lights_image_based light), khronos or three.
+    /// EXT_lights_image_based light), khronos, playcanvas (its envAtlas and skybox) or three.
     #[arg(long = "for", value_name = "ENGINE")]
     pub(super) engine: String,
     /// Output folder (default: out/bake/ENGINE); one holding another engine's bake is refused,

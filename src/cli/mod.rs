@@ -123,8 +123,8 @@ enum Command<E: ExtraCommands> {
     Run(RunArgs),
     /// Show what a run would do per node: compute, cached, or not needed.
     Plan(RunArgs),
-    /// Bake image-based lighting for an engine (babylon, bevy, filament, gltf, khronos, three): exactly the
-    /// files it loads, and a README.txt with the code that loads them.
+    /// Bake image-based lighting for an engine (babylon, bevy, filament, gltf, khronos, playcanvas,
+    /// three): exactly the files it loads, and a README.txt with the code that loads them.
     Bake(bake::BakeArgs),
     /// Run a pipeline over a library of maps and parameter sweeps, one output folder per item.
     Batch(batch::BatchArgs),

@@ -8,6 +8,8 @@
 //! | [`ktx2`]    | Khronos KTX 2.0 `.ktx2`          | no   | yes   | RGBA16F/RGBA32F/RGB9E5/B10G11R11/RG16F, 2D or cube, mip levels in one file, optional Zstandard |
 //! | [`ktx1`]    | Khronos KTX 1.1 `.ktx`           | no   | yes   | Filament's: R11F_G11F_B10F/RGBA16F cube with mips, the `sh` key |
 //! | [`babylon_env`] | Babylon.js `.env`            | no   | yes   | RGBD PNG faces of every level, the irradiance polynomial, `EnvironmentTextureTools` v2 |
+//! | [`playcanvas_atlas`] | PlayCanvas `envAtlas` layout | no | yes | 512 x 512: equirect reflection levels and ambient with 1-texel seams, as `EnvLighting.generateAtlas` lays them out |
+//! | [`rgbp`]    | RGBP (PlayCanvas)               | no   | yes   | 8-bit HDR packing up to 64, as RGBA PNG (`Save(png_format: Rgbp)`) |
 //! | [`packed_float`] | rgb9e5, 11/10-bit floats    | -    | -     | the packed texel encodings and their error bounds |
 //! | [`png`]     | PNG (8-bit sRGB preview, 16-bit linear) | no   | yes   | exposure + sRGB OETF, or linear 16-bit, through the `image` crate |
 //! | [`photo`]   | photographs: PNG, JPEG, TIFF of 8/16-bit codes with EXIF | yes | yes | `LoadImage`, `LoadBrackets`, saved brackets; `image` codecs, `kamadak-exif` |
@@ -42,9 +44,11 @@ pub mod ktx2;
 pub mod packed_float;
 pub mod pfm;
 pub mod photo;
+pub mod playcanvas_atlas;
 pub mod png;
 pub mod rgbd;
 pub mod rgbe;
+pub mod rgbp;
 pub mod save;
 pub mod srgb8;
 pub mod yca;

@@ -1,5 +1,6 @@
 //! PNG writers (write only): 8-bit sRGB previews of linear HDR images ([`PngFormat::Srgb8`], the
-//! default) and 16-bit linear data textures ([`PngFormat::Linear16`], a BRDF LUT).
+//! default), 16-bit linear data textures ([`PngFormat::Linear16`], a BRDF LUT) and PlayCanvas'
+//! RGBP textures ([`PngFormat::Rgbp`], written by `formats::rgbp`).
 //!
 //! Pipeline per sample: `c * 2^stops` (exposure), the sRGB OETF of IEC 61966-2-1:1999
 //!
@@ -38,6 +39,8 @@ crate::choice! {
         Srgb8,
         /// 16-bit linear values clamped to [0, 1], no transfer (data such as a BRDF LUT; two channels as R, G, B = 0)
         Linear16,
+        /// PlayCanvas' RGBP (8-bit RGBA, values up to 64, `formats::rgbp`; exposure not applied): its envAtlas and skybox textures
+        Rgbp,
     }
 }
 

@@ -15,7 +15,9 @@
 //! engine: only the cube lookup (`geometry::cube_frame`) and, for three.js, its own lat-long
 //! mapping differ. Babylon.js is left-handed by default (+Z forward): its `(x, y, z)` is hdrflow's
 //! `(X, Y, -Z)`, so the map's centre faces its default camera (`babylon.rs`); so is the glTF
-//! asset's light, which Babylon's glTF loader makes its environment (`gltf.rs`).
+//! asset's light, which Babylon's glTF loader makes its environment (`gltf.rs`). PlayCanvas is
+//! right-handed with +Y up too, but its equirect puts +Z at the centre: its atlas is written by
+//! world direction and its skybox turned by half a turn (`playcanvas.rs`).
 
 pub mod babylon;
 pub mod bake;
@@ -24,6 +26,7 @@ pub mod filament;
 pub mod gltf;
 pub mod khronos;
 pub mod notes;
+pub mod playcanvas;
 pub mod three;
 
 use crate::geometry::cube_frame::CubeFrame;
@@ -42,6 +45,8 @@ crate::choice! {
         Gltf,
         /// the Khronos glTF Sample Viewer and Vulkan samples (glTF-IBL-Sampler's files)
         Khronos,
+        /// PlayCanvas (app.scene.envAtlas: its RGBP atlas of reflection levels and ambient, and a skybox)
+        Playcanvas,
         /// three.js (an equirectangular map it prefilters itself, and SH for a LightProbe)
         Three,
     }
@@ -76,6 +81,8 @@ pub enum Chain {
     ToSize(usize),
     /// no cube chain (three.js prefilters the equirectangular map itself)
     None,
+    /// this many levels, whatever the size (PlayCanvas' atlas: the map and 6 rough levels)
+    Levels(usize),
 }
 
 impl Chain {
@@ -88,6 +95,7 @@ impl Chain {
             Chain::ToSize(min) if min.max(1) < size => log2(size) - log2(min.max(1)) + 1,
             Chain::ToSize(_) => log2(size) + 1,
             Chain::None => 1,
+            Chain::Levels(n) => n,
         }
     }
 }
@@ -161,8 +169,15 @@ pub struct Preset {
 }
 
 /// Every preset, in `Engine` order.
-pub const PRESETS: [&Preset; 6] =
-    [&babylon::PRESET, &bevy::PRESET, &filament::PRESET, &gltf::PRESET, &khronos::PRESET, &three::PRESET];
+pub const PRESETS: [&Preset; 7] = [
+    &babylon::PRESET,
+    &bevy::PRESET,
+    &filament::PRESET,
+    &gltf::PRESET,
+    &khronos::PRESET,
+    &playcanvas::PRESET,
+    &three::PRESET,
+];
 
 /// The preset `--for NAME` names (any case), or `None`.
 pub fn preset(name: &str) -> Option<&'static Preset> {

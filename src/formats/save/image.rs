@@ -45,10 +45,12 @@ pub fn encode_image(img: &Image, o: &SaveOptions) -> Result<Vec<u8>, String> {
     let ext = o.ext.as_str();
     match ext {
         "png" => match o.get_or_default() {
-            formats::png::PngFormat::Srgb8 => formats::png::encode(img, o.exposure),
-            formats::png::PngFormat::Linear16 => formats::png::encode_linear16(img, o.exposure),
-        }
-        .map_err(|e| e.to_string()),
+            formats::png::PngFormat::Srgb8 => formats::png::encode(img, o.exposure).map_err(|e| e.to_string()),
+            formats::png::PngFormat::Linear16 => {
+                formats::png::encode_linear16(img, o.exposure).map_err(|e| e.to_string())
+            }
+            formats::png::PngFormat::Rgbp => formats::rgbp::encode_png(img).map(|(png, _)| png),
+        },
         "exr" => formats::exr::encode_with(img, &o.get_or_default()).map_err(|e| e.to_string()),
         "hdr" | "pfm" => {
             // RGBE and PFM hold RGB (PFM also grey): alpha and further channels are dropped

@@ -15,6 +15,7 @@ pub mod latlong_to_cubemap;
 pub mod latlong_to_octahedral;
 pub mod layout_to_cubemap;
 pub mod octahedral_to_latlong;
+pub mod playcanvas_env_atlas;
 pub mod prefilter_specular;
 
 use crate::engine::fields::{AnyValue, Input};
@@ -58,6 +59,7 @@ pub fn register(r: &mut Registry) -> Result<(), RegistryError> {
     r.register(prefilter_specular::spec())?;
     r.register(irradiance_cubemap::spec())?;
     r.register(brdf_lut::spec())?;
+    r.register(playcanvas_env_atlas::spec())?;
     Ok(())
 }
 

@@ -6,7 +6,7 @@
 //!
 //! | value                 | extensions                         |
 //! |-----------------------|------------------------------------|
-//! | image, scalar field   | `.png` (exposure, sRGB, clamped; or 16-bit linear, `png_format`), `.exr`, `.hdr`, `.pfm` |
+//! | image, scalar field   | `.png` (exposure, sRGB, clamped; or 16-bit linear, or PlayCanvas' RGBP, `png_format`), `.exr`, `.hdr`, `.pfm` |
 //! | distribution          | the same, of its solid-angle pdf per texel |
 //! | sample set            | `.csv` (`index,x,y,theta,phi,dx,dy,dz,pdf`), `.json` |
 //! | curves                | `.json`, `.csv`, `.png`, `.svg` (a plot) |
@@ -71,7 +71,7 @@ crate::params! {
         /// (.ktx) 3-band SH written under the key "sh" as Filament's cmgen writes them (9 lines "r g b"), as given: Filament expects its pre-scaled irradiance SH, ShIrradiance's filament port; (.env) ShIrradiance's coefficients, written as Babylon's irradiance polynomial; (.gltf, required) ShIrradiance's coefficients, written as the light's irradianceCoefficients
         #[input(&[crate::values::ty::FILAMENT_SH_T, crate::values::ty::SH_COEFFICIENTS_T])]
         pub sh: Option<Input<AnyValue>>,
-        /// (.png of an image or cube map) Srgb8 (an 8-bit sRGB preview) or Linear16 (16-bit linear values clamped to [0, 1], for data such as a BRDF LUT: two channels as R, G with B = 0)
+        /// (.png of an image or cube map) Srgb8 (an 8-bit sRGB preview), Linear16 (16-bit linear values clamped to [0, 1], for data such as a BRDF LUT: two channels as R, G with B = 0) or Rgbp (PlayCanvas' 8-bit RGBP, values up to 64, beyond that clamped with one warning; exposure not applied)
         pub png_format: PngFormat = PngFormat::Srgb8,
         /// (.exr) Zip (lossless, 16-line blocks), Piz (lossless wavelet), Dwaa (lossy DCT, 32-line blocks) or None
         pub compression: crate::formats::exr::ExrCompression = crate::formats::exr::ExrCompression::Zip,
@@ -242,6 +242,15 @@ fn eval(ctx: &mut OpContext, p: SaveParams) -> Result<Value, OpError> {
             exposure += auto_exposure(&c.to_strip());
         } else if let Some(c) = value.get::<crate::values::MipChain>().and_then(|c| c.levels.first()) {
             exposure += auto_exposure(&c.to_strip());
+        }
+    }
+    if let (Some(img), PngFormat::Rgbp) = (value.get::<Image>(), p.png_format) {
+        let count = crate::formats::rgbp::beyond_rgbp(img);
+        if count > 0 {
+            ctx.warn(format!(
+                "{rel_path}: {count} texel{} beyond RGBP's range (64) clamped to it (colour kept)",
+                if count == 1 { " is" } else { "s are" }
+            ));
         }
     }
     if ext == "env" || ext == "gltf" {
