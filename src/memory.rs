@@ -44,11 +44,13 @@ pub const MMAP_THRESHOLD: usize = 32 << 20;
 /// and systems do nothing.
 #[cfg(all(target_os = "linux", target_env = "gnu"))]
 pub fn fix_mmap_threshold() {
-    if std::env::var("GLIBC_TUNABLES").is_ok_and(|t| t.contains("glibc.malloc.")) {
+    if std::env::var_os("GLIBC_TUNABLES").is_some_and(|t| t.to_string_lossy().contains("glibc.malloc.")) {
         return;
     }
-    // SAFETY: mallopt only sets an allocator parameter; it is called before other threads exist.
-    // A refusal (return 0) leaves glibc's default, which is still correct, only larger.
+    // SAFETY: mallopt has no memory-safety preconditions: it sets an allocator parameter under
+    // glibc's arena lock, and its one initialisation concern (malloc not yet set up) cannot arise
+    // once the Rust runtime has allocated, as it has before main. A refusal (return 0) leaves
+    // glibc's default, which is still correct, only larger.
     unsafe {
         libc::mallopt(libc::M_MMAP_THRESHOLD, MMAP_THRESHOLD as libc::c_int);
     }

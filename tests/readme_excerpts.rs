@@ -146,3 +146,76 @@ fn command_inputs_are_found_and_outputs_left_out() {
                 ```sh\nhdrflow run /tmp/m.ron\n```\n";
     assert_eq!(command_inputs(made), vec!["g/s.ron".to_string(), "/tmp/m.ron".to_string()]);
 }
+
+/// The client page that runs a JavaScript block of the book (the engines' loading code), by the
+/// block's first import: the render page of that engine's test.
+fn page_for(block: &str) -> Option<&'static str> {
+    if block.contains("from '@babylonjs/core'") {
+        Some("clients/babylon-web/render.js")
+    } else if block.contains("from 'playcanvas'") {
+        Some("clients/playcanvas-web/render.js")
+    } else {
+        None
+    }
+}
+
+/// The lines of a book ```js block that a render page must hold: every code line, its trailing
+/// `//` comment cut, except `const ...Url = '...'`, which names the user's file.
+fn js_code_lines(block: &str) -> Vec<String> {
+    block
+        .lines()
+        .map(|l| l.split("  //").next().unwrap_or_default().trim().to_string())
+        .filter(|l| !l.is_empty() && !l.starts_with("//"))
+        .filter(|l| !(l.starts_with("const ") && l.contains("Url = '")))
+        .collect()
+}
+
+/// Every ```js block of the book (the engines' loading code in the baking guides) is code the render
+/// tests run: each of its lines is a line of the engine's render page (tests/babylon_render.rs,
+/// tests/gltf_render.rs and tests/playcanvas_render.rs load the bakes with those pages), so the
+/// book cannot show loading code that no engine ran.
+#[test]
+fn every_javascript_block_of_the_book_is_a_render_pages_code() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut problems = Vec::new();
+    let mut checked = 0;
+    for (doc, text) in documents() {
+        let mut block: Option<String> = None;
+        for line in text.lines() {
+            match (&mut block, line.trim_start()) {
+                (None, "```js") => block = Some(String::new()),
+                (Some(b), "```") => {
+                    let Some(page) = page_for(b) else {
+                        problems.push(format!("{doc}: a ```js block of no known engine:\n{b}"));
+                        block = None;
+                        continue;
+                    };
+                    let source = std::fs::read_to_string(root.join(page)).expect("the render page");
+                    let page_lines: Vec<&str> = source.lines().map(str::trim).collect();
+                    for l in js_code_lines(b) {
+                        if !page_lines.contains(&l.as_str()) {
+                            problems.push(format!("{doc}: not a line of {page}: {l}"));
+                        }
+                    }
+                    checked += 1;
+                    block = None;
+                }
+                (Some(b), _) => {
+                    b.push_str(line);
+                    b.push('\n');
+                }
+                (None, _) => {}
+            }
+        }
+    }
+    assert!(checked >= 3, "the baking guides' loading code was found ({checked} blocks)");
+    assert!(problems.is_empty(), "{}", problems.join("\n"));
+}
+
+#[test]
+fn a_javascript_line_no_page_runs_is_caught() {
+    let lines = js_code_lines(
+        "import { CubeTexture } from '@babylonjs/core';\nconst envUrl = 'a.env';\nscene.foo = 1;   // why\n// note\n",
+    );
+    assert_eq!(lines, ["import { CubeTexture } from '@babylonjs/core';", "scene.foo = 1;"]);
+}

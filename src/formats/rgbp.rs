@@ -71,7 +71,8 @@ pub fn encode_png(img: &Image) -> Result<(Vec<u8>, usize), String> {
 
 /// How many texels of `img` are beyond [`RGBP_MAX`] (what [`encode_png`] clamps).
 pub fn beyond_rgbp(img: &Image) -> usize {
-    img.data.chunks_exact(img.channels.max(1)).filter(|p| p.iter().take(3).any(|&v| v > RGBP_MAX)).count()
+    let rgb = |p: &[f32]| [0, 1, 2].map(|k| p[k.min(p.len() - 1)]);
+    img.data.chunks_exact(img.channels.max(1)).filter(|p| rgbp(rgb(p)).1).count()
 }
 
 #[cfg(test)]

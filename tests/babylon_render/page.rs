@@ -23,9 +23,9 @@ pub const PACKAGE_VERSION: &str = "9.37.1";
 /// The orthographic camera of the sphere renders (clients/web-common/scene.js: on +Z at CAMERA_Z).
 pub const CAMERA: DVec3 = DVec3::new(0.0, 0.0, 10.0);
 /// Relative RMSE bounds per sphere (mirror, metals 0.25, 0.5, 0.75, 1, diffuse) on the test map:
-/// about twice what the correct bake measures (0.0146, 0.0038, 0.0017, 0.0009, 0.0002, 0.0002:
-/// docs/src/guides/baking/babylon.md), at least 0.002.
-pub const TEST_MAP_BOUNDS: [f64; 6] = [0.03, 0.02, 0.005, 0.003, 0.002, 0.002];
+/// about twice what the correct bakes measure (the `.env`: docs/src/guides/baking/babylon.md; the
+/// glTF light, whose chain stops at 16: docs/src/guides/baking/gltf.md), at least 0.002.
+pub const TEST_MAP_BOUNDS: [f64; 6] = [0.03, 0.01, 0.005, 0.003, 0.002, 0.002];
 /// SwiftShader is a CPU renderer on a shared machine: a minute is possible, ten are a hang.
 pub const BROWSER_TIMEOUT: Duration = Duration::from_secs(600);
 /// The orientation views: 256 x 256, 90 degrees (`markers::SkyCamera`).

@@ -181,6 +181,8 @@ mod tests {
             }
         }
         eprintln!("blend against cut cells: rows 1 to H - 2 {inside:e}, pole rows {poles:e}");
+        assert!(inside <= 1e-6, "the blend and the cut cells away from the poles: {inside:e}");
+        assert!(poles <= 1e-5, "the blend and the cut cells in the pole rows: {poles:e}");
         // Any yaw, negative or past a turn, keeps each channel's integral.
         let img = test_map(96, 48, 4);
         let want = integral(&img);

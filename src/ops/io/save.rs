@@ -244,7 +244,7 @@ fn eval(ctx: &mut OpContext, p: SaveParams) -> Result<Value, OpError> {
             exposure += auto_exposure(&c.to_strip());
         }
     }
-    if let (Some(img), PngFormat::Rgbp) = (value.get::<Image>(), p.png_format) {
+    if let (Some(img), PngFormat::Rgbp, "png") = (value.get::<Image>(), p.png_format, ext.as_str()) {
         let count = crate::formats::rgbp::beyond_rgbp(img);
         if count > 0 {
             ctx.warn(format!(
