@@ -44,9 +44,10 @@ use hdrflow::formats::playcanvas_atlas;
 use hdrflow::formats::rgbp::{from_rgbp, rgbp};
 use hdrflow::values::Image;
 use playcanvas_reference::{sphere_reference, SphereReference};
-use reference::{relative_rmse, Map};
+use reference::Map;
 use scene::Geometry;
 use serde_json::{json, Value as Json};
+use web_page::{rel, write_map};
 
 const REQUIRE: &str = "HDRFLOW_REQUIRE_PLAYCANVAS";
 /// The pinned engine (clients/playcanvas-web/package-lock.json).
@@ -85,14 +86,6 @@ fn app_dir() -> PathBuf {
 /// Chromium, or `None` after a visible skip when it or the npm package is missing.
 fn browser() -> Option<&'static str> {
     web_page::browser(REQUIRE, &app_dir(), &["playcanvas/build/playcanvas.mjs"], "scripts/playcanvas-web.sh install")
-}
-
-fn write_map(sandbox: &common::Sandbox, name: &str, img: &Image) -> PathBuf {
-    sandbox.write(name, hdrflow::formats::pfm::encode(img))
-}
-
-fn rel(sandbox: &common::Sandbox, p: &Path) -> String {
-    p.strip_prefix(sandbox.path()).expect("inside the sandbox").to_str().expect("UTF-8").to_string()
 }
 
 /// A bake's two files (relative to the sandbox, for the job): the atlas and the skybox.
@@ -166,26 +159,7 @@ fn run_page(browser: &str, sandbox: &common::Sandbox, label: &str, job: &Json) -
 
 /// Relative RMSE per sphere against the engine references (printed with the exact ones).
 fn errors(label: &str, frame: &Image, geometry: &Geometry, refs: &[SphereReference]) -> Vec<f64> {
-    eprintln!(
-        "{label}: relative RMSE per sphere (vs PlayCanvas' formula on exact lookups | vs exact GGX and irradiance)"
-    );
-    let mut out = Vec::new();
-    for (s, r) in geometry.spheres.iter().zip(refs) {
-        let e = relative_rmse(frame, 1.0, &r.pixels, &r.engine);
-        let x = relative_rmse(frame, 1.0, &r.pixels, &r.exact);
-        eprintln!("  {:<11} {:>8.4} | {:>8.4}   ({} pixels)", s.name, e, x, r.pixels.len());
-        for q in [0, r.pixels.len() / 3, r.pixels.len() / 2, r.pixels.len() - 1] {
-            let p = r.pixels[q];
-            eprintln!(
-                "     px {p}: got {:?} engine {:?} exact {:?}",
-                &frame.data[p * 4..p * 4 + 3],
-                r.engine[q],
-                r.exact[q]
-            );
-        }
-        out.push(e);
-    }
-    out
+    reference::engine_errors(label, "PlayCanvas'", frame, &geometry.spheres, refs)
 }
 
 #[test]

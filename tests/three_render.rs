@@ -48,11 +48,11 @@ use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use glam::DVec3;
-use hdrflow::values::Image;
 use reference::{relative_rmse, sphere_reference, Map};
 use scene::{Geometry, Sphere};
 use serde_json::{json, Value as Json};
 use three_reference::ProbeReference;
+use web_page::{rel, write_map};
 
 const REQUIRE: &str = "HDRFLOW_REQUIRE_THREE";
 /// The pinned three.js (clients/three-web/package-lock.json).
@@ -108,14 +108,6 @@ fn run_page(browser: &str, sandbox: &common::Sandbox, label: &str, job: &Json) -
         assert_eq!(r["stable"], true, "{}: the second frame differs from the first", r["name"]);
     }
     page
-}
-
-fn write_map(sandbox: &common::Sandbox, name: &str, img: &Image) -> PathBuf {
-    sandbox.write(name, hdrflow::formats::pfm::encode(img))
-}
-
-fn rel(sandbox: &common::Sandbox, p: &Path) -> String {
-    p.strip_prefix(sandbox.path()).expect("inside the sandbox").to_str().expect("UTF-8").to_string()
 }
 
 /// A sky view: the orientation map baked into `dir` as `scene.background`, looking along `forward`.

@@ -13,8 +13,9 @@ use hdrflow::values::Image;
 use serde_json::{json, Value as Json};
 
 use crate::babylon_reference::{sh_polynomial, sphere_reference, Levels, SphereReference};
-use crate::reference::{relative_rmse, Map};
+use crate::reference::Map;
 use crate::scene::Geometry;
+pub use crate::web_page::{rel, write_map};
 use crate::{common, markers, web_page};
 
 pub const REQUIRE: &str = "HDRFLOW_REQUIRE_BABYLON";
@@ -59,14 +60,6 @@ pub fn without_gamma(png: &[u8]) -> Vec<u8> {
     out
 }
 
-pub fn write_map(sandbox: &common::Sandbox, name: &str, img: &Image) -> PathBuf {
-    sandbox.write(name, hdrflow::formats::pfm::encode(img))
-}
-
-pub fn rel(sandbox: &common::Sandbox, p: &Path) -> String {
-    p.strip_prefix(sandbox.path()).expect("inside the sandbox").to_str().expect("UTF-8").to_string()
-}
-
 /// The pieces of Babylon's PBR shader `babylon_render/reference.rs` models, in the GLSL it
 /// compiled (an upgrade that changes them must revisit the reference).
 pub const SPHERE_SHADER: [&str; 4] = [
@@ -95,48 +88,9 @@ pub fn run_page(
     page
 }
 
-/// Relative RMSE per sphere against the `engine` references (printed with the exact ones; with
-/// `HDRFLOW_DEBUG_WORST` set, also each sphere's worst pixel against the formula).
+/// Relative RMSE per sphere against the `engine` references (printed with the exact ones).
 pub fn errors(label: &str, frame: &Image, geometry: &Geometry, refs: &[SphereReference]) -> Vec<f64> {
-    eprintln!(
-        "{label}: relative RMSE per sphere (vs Babylon's formula on exact lookups | vs exact GGX and irradiance)"
-    );
-    let mut out = Vec::new();
-    for (s, r) in geometry.spheres.iter().zip(refs) {
-        let e = relative_rmse(frame, 1.0, &r.pixels, &r.engine);
-        let x = relative_rmse(frame, 1.0, &r.pixels, &r.exact);
-        eprintln!("  {:<11} {:>8.4} | {:>8.4}   ({} pixels)", s.name, e, x, r.pixels.len());
-        for q in [0, r.pixels.len() / 3, r.pixels.len() / 2, r.pixels.len() - 1] {
-            let p = r.pixels[q];
-            eprintln!(
-                "     px {p}: got {:?} engine {:?} exact {:?}",
-                &frame.data[p * 4..p * 4 + 3],
-                r.engine[q],
-                r.exact[q]
-            );
-        }
-        if std::env::var_os("HDRFLOW_DEBUG_WORST").is_some() {
-            let worst = (0..r.pixels.len())
-                .max_by(|&a, &b| {
-                    let d = |q: usize| {
-                        (0..3).map(|c| (frame.data[r.pixels[q] * 4 + c] as f64 - r.engine[q][c]).abs()).sum::<f64>()
-                    };
-                    d(a).total_cmp(&d(b))
-                })
-                .unwrap();
-            let p = r.pixels[worst];
-            eprintln!(
-                "     WORST px {p} ({}, {}): got {:?} engine {:?} exact {:?}",
-                p % geometry.width,
-                p / geometry.width,
-                &frame.data[p * 4..p * 4 + 3],
-                r.engine[worst],
-                r.exact[worst]
-            );
-        }
-        out.push(e);
-    }
-    out
+    crate::reference::engine_errors(label, "Babylon's", frame, &geometry.spheres, refs)
 }
 
 /// The six spheres, in the scene's order.

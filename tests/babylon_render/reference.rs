@@ -70,12 +70,8 @@ impl Levels {
     }
 }
 
-/// The references of one sphere at its chosen pixels.
-pub struct SphereReference {
-    pub pixels: Vec<usize>,
-    pub engine: Vec<[f64; 3]>,
-    pub exact: Vec<[f64; 3]>,
-}
+/// A sphere's two references (the formula fed exact values, the exact material).
+pub type SphereReference = super::reference::EngineReference;
 
 /// Faces this small or smaller are modelled texel by texel (module doc, step 1).
 const COARSE: usize = 32;

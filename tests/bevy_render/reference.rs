@@ -145,3 +145,45 @@ pub fn cube_bilinear(values: &[[f64; 3]], size: usize, d: DVec3) -> [f64; 3] {
     let (v00, v10, v01, v11) = (at(x0, y0), at(x0 + 1, y0), at(x0, y0 + 1), at(x0 + 1, y0 + 1));
     [0, 1, 2].map(|k| (v00[k] * (1.0 - tx) + v10[k] * tx) * (1.0 - ty) + (v01[k] * (1.0 - tx) + v11[k] * tx) * ty)
 }
+
+/// A sphere's pixels with the two references of the web engines' tests (tests/babylon_render,
+/// tests/gltf_render, tests/playcanvas_render): the engine's formula fed exact values, and the
+/// exact material.
+#[allow(dead_code)] // the web engines' tests, not Bevy's
+pub struct EngineReference {
+    pub pixels: Vec<usize>,
+    pub engine: Vec<[f64; 3]>,
+    pub exact: Vec<[f64; 3]>,
+}
+
+/// Relative RMSE per sphere of `frame` against the `engine` references of `engine_name`'s formula,
+/// printed under `label` with the error against the exact ones and four pixels a sphere.
+#[allow(dead_code)] // the web engines' tests, not Bevy's
+pub fn engine_errors(
+    label: &str,
+    engine_name: &str,
+    frame: &Image,
+    spheres: &[Sphere],
+    refs: &[EngineReference],
+) -> Vec<f64> {
+    eprintln!(
+        "{label}: relative RMSE per sphere (vs {engine_name} formula on exact lookups | vs exact GGX and irradiance)"
+    );
+    let mut out = Vec::new();
+    for (s, r) in spheres.iter().zip(refs) {
+        let e = relative_rmse(frame, 1.0, &r.pixels, &r.engine);
+        let x = relative_rmse(frame, 1.0, &r.pixels, &r.exact);
+        eprintln!("  {:<11} {:>8.4} | {:>8.4}   ({} pixels)", s.name, e, x, r.pixels.len());
+        for q in [0, r.pixels.len() / 3, r.pixels.len() / 2, r.pixels.len() - 1] {
+            let p = r.pixels[q];
+            eprintln!(
+                "     px {p}: got {:?} engine {:?} exact {:?}",
+                &frame.data[p * 4..p * 4 + 3],
+                r.engine[q],
+                r.exact[q]
+            );
+        }
+        out.push(e);
+    }
+    out
+}

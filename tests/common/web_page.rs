@@ -137,3 +137,15 @@ pub fn bake(sandbox: &common::Sandbox, map: &Path, engine: &str, dir: &str, extr
     common::run_hdrflow(args).assert_success();
     out
 }
+
+/// `img` written as a PFM map named `name` in the sandbox.
+#[allow(dead_code)] // not every render test writes maps
+pub fn write_map(sandbox: &common::Sandbox, name: &str, img: &Image) -> PathBuf {
+    sandbox.write(name, hdrflow::formats::pfm::encode(img))
+}
+
+/// `p` relative to the sandbox, as the page's job names files.
+#[allow(dead_code)]
+pub fn rel(sandbox: &common::Sandbox, p: &Path) -> String {
+    p.strip_prefix(sandbox.path()).expect("inside the sandbox").to_str().expect("UTF-8").to_string()
+}

@@ -35,12 +35,8 @@ use rayon::prelude::*;
 use super::reference::{lookup, Map};
 use super::scene::Sphere;
 
-/// The references of one sphere at its chosen pixels.
-pub struct SphereReference {
-    pub pixels: Vec<usize>,
-    pub engine: Vec<[f64; 3]>,
-    pub exact: Vec<[f64; 3]>,
-}
+/// A sphere's two references (the formula fed exact values, the exact material).
+pub type SphereReference = super::reference::EngineReference;
 
 /// The exact content of rough level `k` (1..=6) of a correct atlas in each direction of `dirs`,
 /// with `roughness(k)` the roughness each level holds.
