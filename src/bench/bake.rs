@@ -99,7 +99,7 @@ fn preset_times(
             .arg("bake")
             .arg(map)
             .args(["--for", preset.name, "--no-cache", "-q", "--out"])
-            .arg(work.join(preset.name));
+            .arg(work.join(out_folder(map, preset.name)));
         let t0 = Instant::now();
         let (ok, peak) = super::peak_memory::run_for_peak(&mut command)?;
         let seconds = t0.elapsed().as_secs_f64();
@@ -112,6 +112,13 @@ fn preset_times(
     }
     md.push('\n');
     Ok(md)
+}
+
+/// One output folder per map and preset: a glTF bake refuses a folder that holds another map's
+/// asset, and the files of two sizes must not mix.
+fn out_folder(map: &Path, preset: &str) -> String {
+    let stem = map.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    format!("{stem}_{preset}")
 }
 
 /// The Bevy chain's error per level for every estimator, on the map's residual.
