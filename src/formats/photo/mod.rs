@@ -1,7 +1,8 @@
 //! Photographs: PNG, JPEG and TIFF files of 8 or 16 bits per channel, as cameras and raw
 //! converters write them, read as integer codes (what `LoadImage` and `LoadBrackets` start from).
 //!
-//! Decoding goes through the `image` crate's codecs. The file's EXIF orientation (tags 1-8, as
+//! Decoding goes through the `image` crate's codecs, colour JPEGs through the one it wraps
+//! ([`jpeg`], without `image`'s copy of the file). The file's EXIF orientation (tags 1-8, as
 //! the decoder reports it) is applied, so row 0 is the top of the scene as the camera was held;
 //! grey is expanded to RGB and alpha dropped, so every photograph is RGB interleaved. Floating
 //! point TIFFs are refused (`LoadHdr` reads HDR files). The camera settings come from the EXIF
@@ -14,6 +15,7 @@
 
 pub mod encode;
 pub mod exif;
+mod jpeg;
 
 use std::io::{BufReader, Cursor};
 use std::path::Path;
@@ -70,6 +72,12 @@ fn oriented(width: u32, height: u32, o: Orientation) -> (usize, usize) {
 /// The size (orientation applied) and bit depth from the file's header, without decoding pixels.
 /// Errors are phrased to follow the file's name ("is not an image ...").
 pub fn header(path: &Path) -> Result<Header, String> {
+    if starts_as_jpeg(path)? {
+        if let Some(s) = jpeg::header(path)? {
+            let (width, height) = oriented(s.width as u32, s.height as u32, s.orientation);
+            return Ok(Header { width, height, bit_depth: 8 });
+        }
+    }
     let file = std::fs::File::open(path).map_err(|e| format!("cannot be read: {e}"))?;
     let reader =
         ImageReader::new(BufReader::new(file)).with_guessed_format().map_err(|e| format!("cannot be read: {e}"))?;
@@ -80,6 +88,15 @@ pub fn header(path: &Path) -> Result<Header, String> {
     let (w, h) = decoder.dimensions();
     let (width, height) = oriented(w, h, orientation);
     Ok(Header { width, height, bit_depth })
+}
+
+/// Whether the file at `path` starts as a JPEG does.
+fn starts_as_jpeg(path: &Path) -> Result<bool, String> {
+    use std::io::Read;
+    let mut magic = [0u8; 3];
+    let file = std::fs::File::open(path).map_err(|e| format!("cannot be read: {e}"))?;
+    let n = file.take(3).read(&mut magic).map_err(|e| format!("cannot be read: {e}"))?;
+    Ok(jpeg::is_jpeg(&magic[..n]))
 }
 
 /// PNG, JPEG or TIFF by the file's first bytes, else why not.
@@ -94,6 +111,22 @@ fn format_of_reader<R: std::io::BufRead + std::io::Seek>(reader: &ImageReader<R>
 /// Decodes a photograph's bytes: RGB codes (grey expanded, alpha dropped), orientation applied,
 /// and its EXIF settings. Errors are phrased to follow the file's name.
 pub fn decode(bytes: &[u8]) -> Result<Photo, String> {
+    if jpeg::is_jpeg(bytes) {
+        if let Some((s, codes)) = jpeg::decode(bytes)? {
+            let (width, height) = oriented(s.width as u32, s.height as u32, s.orientation);
+            let codes = match s.orientation {
+                Orientation::NoTransforms => codes,
+                o => {
+                    let stored = image::RgbImage::from_raw(s.width as u32, s.height as u32, codes)
+                        .ok_or("is not a readable image: its size does not match its data")?;
+                    let mut img = DynamicImage::ImageRgb8(stored);
+                    img.apply_orientation(o);
+                    img.into_rgb8().into_raw()
+                }
+            };
+            return Ok(Photo { width, height, codes: Codes::U8(codes), exif: exif::read(bytes) });
+        }
+    }
     let reader =
         ImageReader::new(Cursor::new(bytes)).with_guessed_format().map_err(|e| format!("cannot be read: {e}"))?;
     format_of_reader(&reader)?;

@@ -68,7 +68,8 @@ fn problem(blame: Blame, message: String) -> CheckProblem {
 fn facts(file: &BracketFile, need_time: bool) -> Result<FrameFacts, String> {
     let h = photo::header(&file.path).map_err(|m| format!("file {} {m}", file.name))?;
     let exif_time = if need_time {
-        let bytes = std::fs::read(&file.path).map_err(|e| format!("file {} cannot be read: {e}", file.name))?;
+        let bytes = crate::memory::read_file_unpooled(&file.path)
+            .map_err(|e| format!("file {} cannot be read: {e}", file.name))?;
         photo::exif::read(&bytes).exposure_time
     } else {
         None
@@ -110,7 +111,8 @@ fn content_key(p: LoadBracketsParams<Check>, base_dir: &Path) -> Result<Vec<u8>,
     let parts = files
         .par_iter()
         .map(|f| {
-            let bytes = std::fs::read(&f.path).map_err(|source| OpError::Io { path: f.path.clone(), source })?;
+            let bytes = crate::memory::read_file_unpooled(&f.path)
+                .map_err(|source| OpError::Io { path: f.path.clone(), source })?;
             Ok((f.name.clone(), blake3::hash(&bytes)))
         })
         .collect::<Result<Vec<_>, OpError>>()?;
@@ -122,7 +124,8 @@ fn eval(ctx: &mut OpContext, p: LoadBracketsParams) -> Result<Value, OpError> {
     let decoded = files
         .par_iter()
         .map(|f| {
-            let bytes = std::fs::read(&f.path).map_err(|source| OpError::Io { path: f.path.clone(), source })?;
+            let bytes = crate::memory::read_file_unpooled(&f.path)
+                .map_err(|source| OpError::Io { path: f.path.clone(), source })?;
             let hash = blake3::hash(&bytes);
             let photo = photo::decode(&bytes)
                 .map_err(|m| OpError::Format { path: f.path.clone(), message: format!("the file {m}") })?;

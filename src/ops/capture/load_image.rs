@@ -87,13 +87,15 @@ pub fn to_floats(codes: &Codes, scale: CodeScale) -> Vec<f32> {
 
 fn content_key(p: LoadImageParams<Check>, base_dir: &Path) -> Result<Vec<u8>, OpError> {
     let full = resolve_path(base_dir, &p.path.0);
-    let bytes = std::fs::read(&full).map_err(|source| OpError::Io { path: full.clone(), source })?;
+    let bytes =
+        crate::memory::read_file_unpooled(&full).map_err(|source| OpError::Io { path: full.clone(), source })?;
     Ok(blake3::hash(&bytes).as_bytes().to_vec())
 }
 
 fn eval(ctx: &mut OpContext, p: LoadImageParams) -> Result<Outputs, OpError> {
     let full = ctx.path(&p.path.0);
-    let bytes = std::fs::read(&full).map_err(|source| OpError::Io { path: full.clone(), source })?;
+    let bytes =
+        crate::memory::read_file_unpooled(&full).map_err(|source| OpError::Io { path: full.clone(), source })?;
     // The key was made from the file's hash before the run; decoding other bytes would cache
     // them under that key.
     if ctx.content_key.is_some_and(|key| key != blake3::hash(&bytes).as_bytes()) {
