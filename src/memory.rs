@@ -37,9 +37,8 @@ pub const MMAP_THRESHOLD: usize = 32 << 20;
 /// threshold from moving (glibc's `mallopt`: setting one disables the dynamic adjustment of
 /// both). By default each freed mapped block raises the mmap threshold and doubles the trim
 /// threshold, so the tops of the heaps that held the JPEG decoder's buffers stay resident after
-/// they are freed: a 24-megapixel merge of seven frames peaked 39 MiB over its frames and image,
-/// 19 MiB with the threshold fixed (docs/src/benchmarks/capture.md gives the runs and the bakes'
-/// times, which did not change). Called once by the CLI before any thread starts; if the user set
+/// they are freed (docs/src/benchmarks/capture.md gives the peaks of a 24-megapixel merge either
+/// way, and the bakes' times, which did not change). Called once by the CLI before any thread starts; if the user set
 /// any malloc tunable in `GLIBC_TUNABLES`, theirs wins and nothing is changed; other allocators
 /// and systems do nothing.
 #[cfg(all(target_os = "linux", target_env = "gnu"))]
