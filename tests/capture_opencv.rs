@@ -16,13 +16,18 @@ use serde_json::Value as Json;
 const MAP: &str = "assets/maps/st_fagans_interior_1k.hdr";
 
 fn make_frames(sb: &Sandbox, times: &str, shifts: &str) {
+    make_frames_with(sb, times, shifts, "response: Srgb");
+}
+
+/// `make_frames` with other `SimulateBrackets` fields (a response, noise).
+fn make_frames_with(sb: &Sandbox, times: &str, shifts: &str, camera: &str) {
     let path = ron_path(&Path::new(MANIFEST_DIR).join(MAP));
     let graph = sb.write(
         "make.ron",
         format!(
             r#"(nodes: {{
     "env":   LoadHdr(path: {path}),
-    "sim":   SimulateBrackets(env: "env", times: [{times}], response: Srgb, scale: 100, shifts: [{shifts}]),
+    "sim":   SimulateBrackets(env: "env", times: [{times}], {camera}, scale: 100, shifts: [{shifts}]),
     "shots": Save(input: "sim", path: "frames/shot_{{frame}}.png"),
     "truth": Save(input: "env", path: "truth.pfm"),
 }})"#
@@ -46,6 +51,22 @@ fn the_merge_is_at_least_as_exact_as_opencv_on_the_same_frames() {
     let Some(python) = peer_python() else { return };
     let sb = Sandbox::new();
     make_frames(&sb, "0.00025, 0.001, 0.004, 0.016, 0.064", "");
+    merge_against_opencv(&python, &sb);
+}
+
+/// The same through a film-like S curve with shot and read noise (a 32768-electron full well, 4
+/// electrons of read noise): measured 2.8% against OpenCV's 4.1% (docs/src/benchmarks/capture.md).
+#[test]
+fn the_merge_of_noisy_frames_is_at_least_as_exact_as_opencv() {
+    let Some(python) = peer_python() else { return };
+    let sb = Sandbox::new();
+    make_frames_with(&sb, "0.00025, 0.001, 0.004, 0.016, 0.064", "", "response: SCurve, noise: 1");
+    merge_against_opencv(&python, &sb);
+}
+
+/// Merges the sandbox's frames with hdrflow and OpenCV (Debevec's calibration for both) and
+/// requires hdrflow's median error against the map to be at most OpenCV's and under 3%.
+fn merge_against_opencv(python: &Path, sb: &Sandbox) {
     let graph = sb.write(
         "merge.ron",
         r#"(nodes: {
@@ -58,7 +79,7 @@ fn the_merge_is_at_least_as_exact_as_opencv_on_the_same_frames() {
     sb.run_ok(&graph, &[]);
     let truth = sb.out().join("truth.pfm").display().to_string();
     let ours = format!("hdrflow={}", sb.out().join("merged.pfm").display());
-    let r = opencv(&python, &sb, &["--no-align", "--truth", &truth, "--also", &ours]);
+    let r = opencv(python, sb, &["--no-align", "--truth", &truth, "--also", &ours]);
     let theirs = r["merge_error_debevec"]["median_rel"].as_f64().unwrap();
     let mine = r["also"]["hdrflow"]["merge_error"]["median_rel"].as_f64().unwrap();
     assert_eq!(r["also"]["hdrflow"]["nonfinite"].as_u64(), Some(0));
