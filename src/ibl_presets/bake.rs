@@ -194,6 +194,18 @@ fn derived_overrides(preset: &Preset, p: &Pipeline, options: &BakeOptions) -> Re
             }
         }
     }
+    // A Resize in a bake pipeline is a cap, the largest map an engine should load as a texture:
+    // a smaller map keeps its own size (and passes through unchanged).
+    if let Some((w, h)) = size {
+        for (i, n) in p.nodes.iter().enumerate().filter(|(_, n)| n.spec.name == "Resize") {
+            for (field, side) in [("width", w as usize), ("height", h as usize)] {
+                let cap = int_param(p, i, field);
+                if cap.is_some_and(|cap| side < cap) && !user_sets(user, &n.name, field) {
+                    out.push(set(&n.name, field, side.to_string()));
+                }
+            }
+        }
+    }
     let Some(rows) = preset.quality else { return Ok(out) };
     let row = rows[options.quality as usize];
     let quality_size = match row.spec_size {
@@ -310,6 +322,39 @@ mod tests {
         assert!(e.contains("512x256") && e.contains("upsampled 4x") && e.contains("--set spec.size=128"), "{e}");
         options.user = vec![set("spec", "size", "512")];
         assert_eq!(bevy.bake(&registry, &options).unwrap().resolution_warning(&options), None, "the user's size");
+    }
+
+    /// The texture caps (a Resize in the pipeline): a smaller map keeps its size, a larger one is
+    /// shrunk to the cap, and the user's size wins.
+    #[test]
+    fn the_texture_caps_never_enlarge_a_map() {
+        let registry = crate::ops::builtin_registry();
+        let dir = std::env::temp_dir().join(format!("hdrflow-bake-cap-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        // Only the header is read before running: a 16384 x 8192 map's header and no pixels.
+        let big = dir.join("big.hdr");
+        std::fs::write(&big, b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 8192 +X 16384\n").unwrap();
+        let size_of = |preset: &str, map: &str, node: &str, user: Vec<Override>| {
+            let options = BakeOptions {
+                map: map.into(),
+                quality: QualityLevel::Default,
+                yaw: 0.0,
+                sun: Sun::Extract,
+                sanitize: false,
+                user,
+            };
+            let bake = crate::ibl_presets::preset(preset).unwrap().bake(&registry, &options).unwrap();
+            let i = bake.pipeline.index_of(node).unwrap();
+            (int_param(&bake.pipeline, i, "width").unwrap(), int_param(&bake.pipeline, i, "height").unwrap())
+        };
+        let big = big.display().to_string();
+        assert_eq!(size_of("playcanvas", "builtin:sky", "sky_fit", vec![]), (512, 256));
+        assert_eq!(size_of("playcanvas", &big, "sky_fit", vec![]), (4096, 2048));
+        assert_eq!(size_of("three", "builtin:sky", "map_fit", vec![]), (512, 256));
+        assert_eq!(size_of("three", &big, "map_fit", vec![]), (4096, 2048));
+        let mine = vec![set("map_fit", "width", "8192"), set("map_fit", "height", "4096")];
+        assert_eq!(size_of("three", &big, "map_fit", mine), (8192, 4096));
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]
