@@ -51,6 +51,7 @@ use rayon::prelude::*;
 use crate::maths::resample::angles;
 use crate::maths::resample::layouts::{normalised, Footprint, LatLongDomain, LatLongSource, Limits};
 use crate::values::Image;
+use polygon::{Clipped, Line, Poly, SQUARE};
 
 /// A grid point of the subdivision: its polar angle and azimuth in the source, and its source
 /// texel.
@@ -128,100 +129,6 @@ fn extent(a: Pt, b: Pt) -> f64 {
     let along = (0.5 * (a.theta + b.theta)).sin() * wrap(a.phi - b.phi);
     let across = a.theta - b.theta;
     (along * along + across * across).sqrt()
-}
-
-/// A plane `a + b u + c v` over the cell's unit square.
-#[derive(Clone, Copy)]
-struct Line {
-    a: f64,
-    b: f64,
-    c: f64,
-}
-
-impl Line {
-    #[inline]
-    fn at(&self, (u, v): (f64, f64)) -> f64 {
-        self.a + self.b * u + self.c * v
-    }
-}
-
-/// A convex polygon of at most 6 vertices (the square clipped twice), counter-clockwise in (u, v).
-#[derive(Clone, Copy)]
-struct Poly {
-    n: usize,
-    p: [(f64, f64); 6],
-}
-
-/// A polygon clipped by a line.
-enum Clipped {
-    All,
-    Nothing,
-    Part(Poly),
-}
-
-const SQUARE: Poly = Poly { n: 4, p: [(-0.5, -0.5), (0.5, -0.5), (0.5, 0.5), (-0.5, 0.5), (0.0, 0.0), (0.0, 0.0)] };
-
-impl Poly {
-    /// The part where `line >= 0`, telling apart the cases where it is all or nothing (as
-    /// [`Poly::clip`] would give them).
-    #[inline]
-    fn clipped(&self, line: Line) -> Clipped {
-        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-        for &p in &self.p[..self.n] {
-            let v = line.at(p);
-            lo = lo.min(v);
-            hi = hi.max(v);
-        }
-        if lo >= 0.0 {
-            Clipped::All
-        } else if hi < 0.0 {
-            Clipped::Nothing
-        } else {
-            Clipped::Part(self.clip(line))
-        }
-    }
-
-    /// The part where `line >= 0`.
-    fn clip(&self, line: Line) -> Poly {
-        let mut out = Poly { n: 0, p: [(0.0, 0.0); 6] };
-        if self.n == 0 {
-            return out;
-        }
-        // Each edge a -> b adds its crossing, if any, then b if it is kept.
-        let mut a = self.p[self.n - 1];
-        let mut fa = line.at(a);
-        for &b in &self.p[..self.n] {
-            let fb = line.at(b);
-            if (fa > 0.0 && fb < 0.0) || (fa < 0.0 && fb > 0.0) {
-                let t = fa / (fa - fb);
-                out.p[out.n] = (a.0 + t * (b.0 - a.0), a.1 + t * (b.1 - a.1));
-                out.n += 1;
-            }
-            if fb >= 0.0 {
-                out.p[out.n] = b;
-                out.n += 1;
-            }
-            (a, fa) = (b, fb);
-        }
-        out
-    }
-
-    /// `integral over the polygon of (1 + beta_u u + beta_v v) du dv`.
-    fn weight(&self, [beta_u, beta_v]: [f64; 2]) -> f64 {
-        if self.n == 0 {
-            return 0.0;
-        }
-        let (mut area, mut mu, mut mv) = (0.0, 0.0, 0.0);
-        let mut a = self.p[self.n - 1];
-        for &b in &self.p[..self.n] {
-            let cross = a.0 * b.1 - b.0 * a.1;
-            area += cross;
-            mu += (a.0 + b.0) * cross;
-            mv += (a.1 + b.1) * cross;
-            a = b;
-        }
-        0.5 * area + (beta_u * mu + beta_v * mv) * (1.0 / 6.0)
-    }
 }
 
 /// A lat-long source seen through `R^T` from the cells of a footprint parametrisation, with the
@@ -453,10 +360,10 @@ impl<'a, 'b, F: Footprint> Cells<'a, 'b, F> {
     }
 
     /// The cut cell's mean value: each texel weighted by its share of the cell's solid angle, the
-    /// density `1 + beta . (u, v)`. The share of texel (row, col) is `C(row, col) - C(row - 1, col)
-    /// - C(row, col - 1) + C(row - 1, col - 1)`, `C(i, j)` the weight of the square's part in rows
-    /// up to i and columns up to j: a clip a grid point (none where the line misses the part), the
-    /// whole square's weight 1.
+    /// density `1 + beta . (u, v)`. Texel (row, col)'s share is
+    /// `C(row, col) - C(row - 1, col) - C(row, col - 1) + C(row - 1, col - 1)`, `C(i, j)` the
+    /// weight of the square's part in rows up to i and columns up to j: a clip a grid point (none
+    /// where the line misses the part), the whole square's weight 1.
     fn cut_mean(&self, plan: &Plan, beta: [f64; 2]) -> [f64; 3] {
         let (t, f) = (plan.t, plan.f);
         let ((row0, row1), (col0, col1)) = (plan.rows, plan.cols);
@@ -544,5 +451,6 @@ pub fn rotated_latlong(src: &LatLongSource, inverse: DMat3, rel_tol: f64, depth:
     out
 }
 
+mod polygon;
 #[cfg(test)]
 mod tests;
