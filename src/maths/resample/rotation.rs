@@ -12,7 +12,7 @@ use glam::{DMat3, DVec3};
 use rayon::prelude::*;
 
 use crate::geometry::rotation::Rotation;
-use crate::maths::resample::cut_cells::rotated_latlong;
+use crate::maths::resample::cut_cells::{rotated_latlong, ROTATION_TOLERANCE};
 use crate::maths::resample::layouts::{per_channel_triples, SphereSource};
 use crate::values::Image;
 
@@ -89,7 +89,8 @@ pub fn yaw_columns(img: &Image, columns: f64) -> Image {
 /// A whole-column yaw is an exact roll of the columns (the same bits); any other pure yaw the
 /// exact blend of two columns ([`yaw_columns`]). Any other rotation gives
 /// each output texel the solid-angle mean of the rotated map over its footprint
-/// (`resample::cut_cells`, each cell's error below 1e-9 of the map's magnitude), which keeps the
+/// (`resample::cut_cells`, each cell's error bound below `ROTATION_TOLERANCE`, 4e-9, of the map's
+/// magnitude), which keeps the
 /// sphere integral (tested: 1e-6 relative) and agrees with a brute-force footprint mean to the
 /// brute force's own error.
 pub fn rotate_latlong(img: &Image, r: Rotation) -> Image {
@@ -103,7 +104,7 @@ pub fn rotate_latlong(img: &Image, r: Rotation) -> Image {
         return yaw_columns(img, yaw * w as f64 / 360.0);
     }
     let inverse = r.0.transpose();
-    per_channel_triples(img, w, h, |src| rotated_latlong(src, inverse, 1e-9, 12))
+    per_channel_triples(img, w, h, |src| rotated_latlong(src, inverse, ROTATION_TOLERANCE, 12))
 }
 
 #[cfg(test)]

@@ -6,7 +6,8 @@
 //! `maths::resample::rotation`). A whole-column yaw of a lat-long map is an exact column roll, any
 //! other yaw alone the exact blend of two columns (version 3; version 2 integrated it by cut
 //! cells, off by up to 1.7e-4 in the pole rows); any other rotation averages the rotated map over
-//! each output texel's footprint.
+//! each output texel's footprint (version 4: by cut cells to a tolerance of 4e-9 of the map's
+//! magnitude instead of 1e-9, the same accuracy against a brute force on the tests' noise map).
 
 use crate::engine::fields::{AnyValue, Check, Input};
 use crate::engine::op::{CheckContext, CheckProblem, OpContext, OpError, OpSpec};
@@ -39,7 +40,7 @@ crate::params! {
 }
 
 pub fn spec() -> OpSpec {
-    Op::new("Rotate", 3, "Rotate a lat-long or cube map on the sphere (energy-preserving)", eval)
+    Op::new("Rotate", 4, "Rotate a lat-long or cube map on the sphere (energy-preserving)", eval)
         .output_like("image", |p| p.image, "the rotated map")
         .size(|_, p| p.image.size)
         .check(check)

@@ -71,7 +71,7 @@ fn agrees_with_a_brute_force_footprint_mean_as_closely_as_the_midpoint_subdivisi
     {
         let r = Rotation::from_yaw_pitch_roll(33.0, 21.0, -12.0);
         let want: Vec<_> = probes.iter().map(|&(x, y)| ((x, y), brute_force(&img, r, x, y, 512))).collect();
-        let new = rotated_latlong(&src, r.0.transpose(), 1e-9, 12);
+        let new = rotated_latlong(&src, r.0.transpose(), ROTATION_TOLERANCE, 12);
         let old = to_latlong_precise(&Rotated::new(&src, r), w, h, 1e-9, 12);
         let (new_worst, new_mean) = errors(&new, &want);
         let (old_worst, old_mean) = errors(&old, &want);
@@ -127,13 +127,15 @@ fn keeps_the_integral_and_a_constant() {
     let img = noise_map(96, 48);
     let want = latlong_integral(&img);
     for r in [Rotation::from_yaw_pitch_roll(12.5, -30.0, 7.0), Rotation::from_yaw_pitch_roll(0.0, 90.0, 0.0)] {
-        let got = latlong_integral(&rotated_latlong(&LatLongSource::new(&img), r.0.transpose(), 1e-9, 12));
+        let got =
+            latlong_integral(&rotated_latlong(&LatLongSource::new(&img), r.0.transpose(), ROTATION_TOLERANCE, 12));
         for k in 0..3 {
             assert!(((got[k] - want[k]) / want[k]).abs() < 1e-6, "{r:?}: {got:?} vs {want:?}");
         }
     }
     let one = Image::from_vec(64, 32, 3, vec![1.0; 64 * 32 * 3]);
-    let out = rotated_latlong(&LatLongSource::new(&one), Rotation::from_yaw_pitch_roll(10.0, 20.0, 30.0).0, 1e-9, 12);
+    let r = Rotation::from_yaw_pitch_roll(10.0, 20.0, 30.0);
+    let out = rotated_latlong(&LatLongSource::new(&one), r.0, ROTATION_TOLERANCE, 12);
     assert!(out.data.iter().all(|&v| (v - 1.0).abs() < 1e-6));
 }
 
