@@ -6,12 +6,22 @@
 //! bilinear filtering) spends most of its time on bounds checks, the neighbour face's lookup and
 //! a `log2` per read. Here each face of each level is stored with a border ring copied once from
 //! the texels the f64 lookup reads beyond its edges (the texel containing the direction of the
-//! neighbour's centre in the face's plane, `geometry::cubemap`), so a bilinear read is four
-//! loads with no branch and reads the same texels as before; the per-read level offset
+//! neighbour's centre in the face's plane, `geometry::cubemap`), so a bilinear read needs no
+//! branch and reads the same texels as before; the per-read level offset
 //! `0.75 log2(1 + a^2 + b^2)` (the texel's solid angle against a face-centre one) uses a cubic
 //! for `log2` on [1, 3] (error below 1.5e-3, test). The result matches the f64 lookup within
 //! 4e-3 relative on a random map, at every level (test; measured 1.9e-3, the cubic's shift of
 //! the level between two levels' reads).
+//!
+//! How the loop is laid out (issue 36: on AVX2 without AVX-512 the per-read scalar work, not
+//! the memory, was most of the time): 16 samples a batch; their face points, levels, 2 x 2
+//! blocks and bilinear weights are computed as arithmetic over arrays of u32 and f32 lanes
+//! (vectorised; the per-level tables read into arrays first); each sample has a read at its
+//! level with weight `w (1 - t)` and, when between two levels, one at the next with `w t`, listed
+//! without a branch (whether a sample is between two levels is random at the middle levels);
+//! a listed read is two 8-float loads (a block row's two RGBA texels, adjacent), weighted and
+//! added to running sums of each row, with no branch. The same bits at every instruction-set
+//! level (test): no fused multiply-add, sums in a fixed order.
 
 use glam::{DVec3, Vec3};
 
@@ -137,11 +147,11 @@ impl PaddedPyramid {
         let (face, a, b) = face_point_branchless(d);
         let last = self.levels - 1;
         let lod = (lod_centre + 0.75 * log2_1_to_3(1.0 + a * a + b * b)).clamp(0.0, last as f32);
-        let l0 = lod as usize;
+        let l0 = round_to_int(lod - 0.5).clamp(0, last as i32) as usize;
         let t = lod - l0 as f32;
         let (u, v) = ((a + 1.0) * 0.5, (b + 1.0) * 0.5);
         let read = |l: usize, w: f32| {
-            let (upper, lower, [w00, w10, w01, w11]) = self.block(l as u32, face, u, v, w);
+            let (upper, lower, [w00, w10, w01, w11]) = block(self.level(l as u32), face, u, v, w);
             let (mut up, mut low) = ([0.0f32; 8], [0.0f32; 8]);
             self.accumulate(upper, lower, [w00, w10], [w01, w11], &mut up, &mut low);
             Vec3::from_array([0, 1, 2].map(|c| (up[c] + up[c + 4]) + (low[c] + low[c + 4])))
@@ -182,12 +192,12 @@ impl PaddedPyramid {
         };
         for k in 0..lobe.weight.len() {
             let (lx, ly, lz, lw, llod) = (&lobe.x[k], &lobe.y[k], &lobe.z[k], &lobe.weight[k], &lobe.lod[k]);
-            let mut faces = [0u32; BATCH];
-            let (mut u, mut v) = ([0.0f32; BATCH], [0.0f32; BATCH]);
-            let mut level_t = [0.0f32; BATCH];
-            // per slot (as `Reads`): its level and its weight
+            // per slot (as `Reads`, the lane's face point in both slots): its level and weight
+            let mut faces = [0u32; 2 * BATCH];
+            let (mut u, mut v) = ([0.0f32; 2 * BATCH], [0.0f32; 2 * BATCH]);
             let mut level = [0u32; 2 * BATCH];
             let mut weight = [0.0f32; 2 * BATCH];
+            let mut level_t = [0.0f32; BATCH];
             let (mut dx, mut dy, mut dz) = ([0.0f32; BATCH], [0.0f32; BATCH], [0.0f32; BATCH]);
             for i in 0..BATCH {
                 dx[i] = t.x * lx[i] + b.x * ly[i] + n.x * lz[i];
@@ -197,19 +207,25 @@ impl PaddedPyramid {
             for i in 0..BATCH {
                 let (face, fa, fb) = face_point_branchless(Vec3::new(dx[i], dy[i], dz[i]));
                 let lod = (llod[i] + 0.75 * log2_1_to_3(1.0 + fa * fa + fb * fb)).clamp(0.0, top);
-                let l0 = lod as i32 as u32;
+                // The level below (or at a whole `lod`, possibly the one below that, read with weight 0).
+                let l0 = round_to_int(lod - 0.5).max(0).min(last as i32) as u32;
                 let tl = lod - l0 as f32;
                 level_t[i] = tl;
                 level[i] = l0;
                 level[BATCH + i] = (l0 + 1).min(last);
                 weight[i] = lw[i] * (1.0 - tl);
                 weight[BATCH + i] = lw[i] * tl;
-                faces[i] = face;
+                (faces[i], faces[BATCH + i]) = (face, face);
                 (u[i], v[i]) = ((fa + 1.0) * 0.5, (fb + 1.0) * 0.5);
+                (u[BATCH + i], v[BATCH + i]) = (u[i], v[i]);
+            }
+            // Each slot's level from the tables, then the blocks as arithmetic over the slots.
+            let mut levels = [LevelShape { size: 1.0, last_corner: 0, stride: 0, offset: 0 }; 2 * BATCH];
+            for r in 0..2 * BATCH {
+                levels[r] = self.level(level[r]);
             }
             for r in 0..2 * BATCH {
-                let i = r % BATCH;
-                let (up, low, w) = self.block(level[r], faces[i], u[i], v[i], weight[r]);
+                let (up, low, w) = block(levels[r], faces[r], u[r], v[r], weight[r]);
                 (reads.upper[r], reads.lower[r]) = (up, low);
                 (reads.w00[r], reads.w10[r], reads.w01[r], reads.w11[r]) = (w[0], w[1], w[2], w[3]);
             }
@@ -234,22 +250,16 @@ impl PaddedPyramid {
         }
     }
 
-    /// The 2 x 2 block of a bilinear read of level `l` at face point (face, u, v) (u, v in [0,
-    /// 1] keep it inside the padded face) with weight `w`: the first texels of its upper and
-    /// lower rows and the weights of its texels (upper left, upper right, lower left, lower
-    /// right).
+    /// Level `l`'s shape, from the tables.
     #[inline(always)]
-    fn block(&self, l: u32, face: u32, u: f32, v: f32, w: f32) -> (u32, u32, [f32; 4]) {
+    fn level(&self, l: u32) -> LevelShape {
         let l = l as usize % MAX_LEVELS;
-        let (s, smax, stride) = (self.sizes[l], self.sizes_int[l], self.strides[l]);
-        let fx = u * s + 0.5;
-        let fy = v * s + 0.5;
-        let x0 = (fx as i32).min(smax);
-        let y0 = (fy as i32).min(smax);
-        let (tx, ty) = (fx - x0 as f32, fy - y0 as f32);
-        let upper = self.offsets[l] + (face * stride + y0 as u32) * stride + x0 as u32;
-        let (w0, w1) = (w * (1.0 - ty), w * ty);
-        (upper, upper + stride, [w0 * (1.0 - tx), w0 * tx, w1 * (1.0 - tx), w1 * tx])
+        LevelShape {
+            size: self.sizes[l],
+            last_corner: self.sizes_int[l],
+            stride: self.strides[l],
+            offset: self.offsets[l],
+        }
     }
 
     /// Adds the 2 x 2 block whose rows start at texels `upper` and `lower`, weighted by `wu`
@@ -264,6 +274,34 @@ impl PaddedPyramid {
             low[c] += wl[c / 4] * bottom[c];
         }
     }
+}
+
+/// A pyramid level as the blocks need it: its face size, the last first column (or row) of a
+/// block (the size: a block then reaches the border), its padded stride and its first texel.
+#[derive(Clone, Copy)]
+struct LevelShape {
+    size: f32,
+    last_corner: i32,
+    stride: u32,
+    offset: u32,
+}
+
+/// The 2 x 2 block of a bilinear read of `level` at face point (face, u, v) (u, v in [0, 1] keep
+/// it inside the padded face) with weight `w`: the first texels of its upper and lower rows and
+/// the weights of its texels (upper left, upper right, lower left, lower right).
+#[inline(always)]
+fn block(level: LevelShape, face: u32, u: f32, v: f32, w: f32) -> (u32, u32, [f32; 4]) {
+    let LevelShape { size, last_corner, stride, offset } = level;
+    let fx = u * size + 0.5;
+    let fy = v * size + 0.5;
+    // floor(fx), or fx - 1 at a whole fx (then read with weight 0): the same value. `max` and
+    // `min`, not `clamp` (whose check that min <= max is a branch that stops the vectorising).
+    let x0 = round_to_int(u * size).max(0).min(last_corner);
+    let y0 = round_to_int(v * size).max(0).min(last_corner);
+    let (tx, ty) = (fx - x0 as f32, fy - y0 as f32);
+    let upper = offset + (face * stride + y0 as u32) * stride + x0 as u32;
+    let (w0, w1) = (w * (1.0 - ty), w * ty);
+    (upper, upper + stride, [w0 * (1.0 - tx), w0 * tx, w1 * (1.0 - tx), w1 * tx])
 }
 
 crate::cpu::dispatch! {
@@ -292,6 +330,14 @@ fn face_point_branchless(d: Vec3) -> (u32, f32, f32) {
     let b = sel(x_major, -d.y, sel(y_major, sel(d.y > 0.0, d.z, -d.z), -d.y));
     let inv = sel(m > 0.0, 1.0 / m, 0.0);
     (face as u32, (a * inv).clamp(-1.0, 1.0), (b * inv).clamp(-1.0, 1.0))
+}
+
+/// `x` rounded to an integer (ties to even) for |x| < 2^22, by the float's bits: `x + 1.5 2^23`
+/// has a unit last place, so its mantissa holds the rounded value. A float-to-integer `as`
+/// conversion (saturating, NaN to 0) is not vectorised at AVX2 and cost a quarter of the loop.
+#[inline(always)]
+fn round_to_int(x: f32) -> i32 {
+    (x + 12_582_912.0).to_bits() as i32 - 0x4b40_0000
 }
 
 /// log2 of x in [1, 3]: the exponent plus a cubic in the mantissa m in [1, 2) (least-squares
