@@ -174,8 +174,8 @@ impl PaddedPyramid {
     /// points and levels, then each lane's two reads (its level's with weight `w (1 - t)`, the
     /// next level's with weight `w t`), their blocks and bilinear weights. Then the reads are
     /// listed without a branch (the next level's only when `t > 0`: most reads of the sharp
-    /// levels are at level 0 exactly) and summed without one, two 8-float loads (a row's two
-    /// texels) and two multiply-adds each.
+    /// levels are at level 0 exactly) and summed without one: two 8-float loads (a row's two
+    /// texels) each, weighted into the two rows' sums.
     #[inline(always)]
     fn lobe_mean_lanes(&self, [t, b, n]: [Vec3; 3], lobe: &Lobe) -> [f32; 3] {
         let last = (self.levels - 1) as u32;
