@@ -70,8 +70,11 @@ pub fn fix_mmap_threshold() {}
 pub fn read_file_unpooled(path: &std::path::Path) -> std::io::Result<Vec<u8>> {
     use std::io::Read;
     let mut file = std::fs::File::open(path)?;
-    let len = usize::try_from(file.metadata()?.len()).unwrap_or(usize::MAX);
-    let mut bytes = Vec::with_capacity(len.saturating_add(1).max(MMAP_THRESHOLD));
+    // A size that cannot be allocated is an error, as `std::fs::read` makes it, not an abort.
+    let too_large = || std::io::Error::from(std::io::ErrorKind::OutOfMemory);
+    let len = usize::try_from(file.metadata()?.len()).map_err(|_| too_large())?;
+    let mut bytes = Vec::new();
+    bytes.try_reserve_exact(len.saturating_add(1).max(MMAP_THRESHOLD)).map_err(|_| too_large())?;
     file.read_to_end(&mut bytes)?;
     Ok(bytes)
 }

@@ -195,12 +195,13 @@ fn derived_overrides(preset: &Preset, p: &Pipeline, options: &BakeOptions) -> Re
         }
     }
     // A Resize in a bake pipeline is a cap, the largest map an engine should load as a texture:
-    // a smaller map keeps its own size (and passes through unchanged).
+    // a smaller map keeps its own size (and passes through unchanged). A size the user sets, on
+    // either side, leaves both as given. (Every map `LoadHdr` reads has its size before running.)
     if let Some((w, h)) = size {
-        for (i, n) in p.nodes.iter().enumerate().filter(|(_, n)| n.spec.name == "Resize") {
+        let caps = p.nodes.iter().enumerate().filter(|(_, n)| n.spec.name == "Resize");
+        for (i, n) in caps.filter(|(_, n)| !user_sets(user, &n.name, "width") && !user_sets(user, &n.name, "height")) {
             for (field, side) in [("width", w as usize), ("height", h as usize)] {
-                let cap = int_param(p, i, field);
-                if cap.is_some_and(|cap| side < cap) && !user_sets(user, &n.name, field) {
+                if int_param(p, i, field).is_some_and(|cap| side < cap) {
                     out.push(set(&n.name, field, side.to_string()));
                 }
             }
@@ -354,6 +355,8 @@ mod tests {
         assert_eq!(size_of("three", &big, "map_fit", vec![]), (4096, 2048));
         let mine = vec![set("map_fit", "width", "8192"), set("map_fit", "height", "4096")];
         assert_eq!(size_of("three", &big, "map_fit", mine), (8192, 4096));
+        // One side set by the user leaves the other as the pipeline gives it.
+        assert_eq!(size_of("three", "builtin:sky", "map_fit", vec![set("map_fit", "width", "256")]), (256, 2048));
         std::fs::remove_dir_all(&dir).unwrap();
     }
 

@@ -40,6 +40,9 @@ impl Poly {
     /// [`Poly::clip`] would give them).
     #[inline]
     pub(super) fn clipped(&self, line: Line) -> Clipped {
+        if self.n == 0 {
+            return Clipped::Nothing;
+        }
         let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
         for &p in &self.p[..self.n] {
             let v = line.at(p);
