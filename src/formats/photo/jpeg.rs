@@ -1,5 +1,5 @@
 //! Colour JPEGs decoded by `zune-jpeg`, the decoder the `image` crate wraps, straight from the
-//! file's bytes (or, for the header, from the file).
+//! file's bytes (or, for the header, from the open file).
 //!
 //! Why not through `image`: its `JpegDecoder` first copies the whole file into a buffer of its own,
 //! for the header too, and that buffer, once freed, stays resident in the decoding thread's heap
@@ -7,19 +7,13 @@
 //! this path, with the options `image` gives the decoder, so they decode to the same codes (test);
 //! grey and CMYK files are left to `image`.
 
-use std::io::BufReader;
-use std::path::Path;
+use std::io::{BufRead, Seek};
 
 use image::metadata::Orientation;
 use zune_core::bytestream::{ZByteReaderTrait, ZCursor};
 use zune_core::colorspace::ColorSpace;
 use zune_core::options::DecoderOptions;
 use zune_jpeg::JpegDecoder;
-
-/// A JPEG file starts with these bytes (as `image::guess_format` tests).
-pub fn is_jpeg(bytes: &[u8]) -> bool {
-    bytes.starts_with(&[0xFF, 0xD8, 0xFF])
-}
 
 /// The stored size of a colour JPEG and the orientation its EXIF block gives.
 pub struct Stored {
@@ -50,10 +44,9 @@ fn stored<T: ZByteReaderTrait>(decoder: &mut JpegDecoder<T>) -> Result<Option<St
     Ok(Some(Stored { width, height, orientation }))
 }
 
-/// The header of the colour JPEG at `path`, read from the file without loading it.
-pub fn header(path: &Path) -> Result<Option<Stored>, String> {
-    let file = std::fs::File::open(path).map_err(|e| format!("cannot be read: {e}"))?;
-    stored(&mut JpegDecoder::new_with_options(BufReader::new(file), options()))
+/// The header of a colour JPEG, read from `reader` without loading the file.
+pub fn header<R: BufRead + Seek>(reader: R) -> Result<Option<Stored>, String> {
+    stored(&mut JpegDecoder::new_with_options(reader, options()))
 }
 
 /// A colour JPEG's RGB codes as stored (orientation not applied) and its header, or `None`.
@@ -81,7 +74,7 @@ mod tests {
         let rgb = RgbImage::from_fn(w, h, |x, y| image::Rgb([(x * 7) as u8, (y * 11) as u8, ((x + y) * 5) as u8]));
         let mut file = Vec::new();
         DynamicImage::ImageRgb8(rgb).write_to(&mut std::io::Cursor::new(&mut file), ImageFormat::Jpeg).unwrap();
-        assert!(is_jpeg(&file));
+        assert!(super::super::is_jpeg(&file));
         let (s, codes) = decode(&file).unwrap().unwrap();
         assert_eq!((s.width, s.height), (w as usize, h as usize));
         assert!(matches!(s.orientation, Orientation::NoTransforms));

@@ -17,7 +17,7 @@ pub mod encode;
 pub mod exif;
 mod jpeg;
 
-use std::io::{BufReader, Cursor};
+use std::io::{BufRead, BufReader, Cursor, Seek};
 use std::path::Path;
 
 use image::metadata::Orientation;
@@ -72,15 +72,16 @@ fn oriented(width: u32, height: u32, o: Orientation) -> (usize, usize) {
 /// The size (orientation applied) and bit depth from the file's header, without decoding pixels.
 /// Errors are phrased to follow the file's name ("is not an image ...").
 pub fn header(path: &Path) -> Result<Header, String> {
-    if starts_as_jpeg(path)? {
-        if let Some(s) = jpeg::header(path)? {
+    let unreadable = |e: std::io::Error| format!("cannot be read: {e}");
+    let mut reader = BufReader::new(std::fs::File::open(path).map_err(unreadable)?);
+    if is_jpeg(reader.fill_buf().map_err(unreadable)?) {
+        if let Some(s) = jpeg::header(&mut reader)? {
             let (width, height) = oriented(s.width as u32, s.height as u32, s.orientation);
             return Ok(Header { width, height, bit_depth: 8 });
         }
+        reader.rewind().map_err(unreadable)?;
     }
-    let file = std::fs::File::open(path).map_err(|e| format!("cannot be read: {e}"))?;
-    let reader =
-        ImageReader::new(BufReader::new(file)).with_guessed_format().map_err(|e| format!("cannot be read: {e}"))?;
+    let reader = ImageReader::new(reader).with_guessed_format().map_err(unreadable)?;
     format_of_reader(&reader)?;
     let mut decoder = reader.into_decoder().map_err(|e| format!("is not a readable image: {e}"))?;
     let bit_depth = bit_depth(decoder.color_type())?;
@@ -90,13 +91,9 @@ pub fn header(path: &Path) -> Result<Header, String> {
     Ok(Header { width, height, bit_depth })
 }
 
-/// Whether the file at `path` starts as a JPEG does.
-fn starts_as_jpeg(path: &Path) -> Result<bool, String> {
-    use std::io::Read;
-    let mut magic = [0u8; 3];
-    let file = std::fs::File::open(path).map_err(|e| format!("cannot be read: {e}"))?;
-    let n = file.take(3).read(&mut magic).map_err(|e| format!("cannot be read: {e}"))?;
-    Ok(jpeg::is_jpeg(&magic[..n]))
+/// Whether `bytes` (a file's first ones) are a JPEG's, by `image`'s own test.
+fn is_jpeg(bytes: &[u8]) -> bool {
+    matches!(image::guess_format(bytes), Ok(ImageFormat::Jpeg))
 }
 
 /// PNG, JPEG or TIFF by the file's first bytes, else why not.
@@ -111,29 +108,25 @@ fn format_of_reader<R: std::io::BufRead + std::io::Seek>(reader: &ImageReader<R>
 /// Decodes a photograph's bytes: RGB codes (grey expanded, alpha dropped), orientation applied,
 /// and its EXIF settings. Errors are phrased to follow the file's name.
 pub fn decode(bytes: &[u8]) -> Result<Photo, String> {
-    if jpeg::is_jpeg(bytes) {
-        if let Some((s, codes)) = jpeg::decode(bytes)? {
-            let (width, height) = oriented(s.width as u32, s.height as u32, s.orientation);
-            let codes = match s.orientation {
-                Orientation::NoTransforms => codes,
-                o => {
-                    let stored = image::RgbImage::from_raw(s.width as u32, s.height as u32, codes)
-                        .ok_or("is not a readable image: its size does not match its data")?;
-                    let mut img = DynamicImage::ImageRgb8(stored);
-                    img.apply_orientation(o);
-                    img.into_rgb8().into_raw()
-                }
-            };
-            return Ok(Photo { width, height, codes: Codes::U8(codes), exif: exif::read(bytes) });
+    let colour_jpeg = if is_jpeg(bytes) { jpeg::decode(bytes)? } else { None };
+    let (mut img, bits, orientation) = match colour_jpeg {
+        Some((s, codes)) => {
+            let stored = image::RgbImage::from_raw(s.width as u32, s.height as u32, codes)
+                .ok_or("is not a readable image: its size does not match its data")?;
+            (DynamicImage::ImageRgb8(stored), 8, s.orientation)
         }
-    }
-    let reader =
-        ImageReader::new(Cursor::new(bytes)).with_guessed_format().map_err(|e| format!("cannot be read: {e}"))?;
-    format_of_reader(&reader)?;
-    let mut decoder = reader.into_decoder().map_err(|e| format!("is not a readable image: {e}"))?;
-    let bits = bit_depth(decoder.color_type())?;
-    let orientation = decoder.orientation().unwrap_or(Orientation::NoTransforms);
-    let mut img = DynamicImage::from_decoder(decoder).map_err(|e| format!("is not a readable image: {e}"))?;
+        None => {
+            let reader = ImageReader::new(Cursor::new(bytes))
+                .with_guessed_format()
+                .map_err(|e| format!("cannot be read: {e}"))?;
+            format_of_reader(&reader)?;
+            let mut decoder = reader.into_decoder().map_err(|e| format!("is not a readable image: {e}"))?;
+            let bits = bit_depth(decoder.color_type())?;
+            let orientation = decoder.orientation().unwrap_or(Orientation::NoTransforms);
+            let img = DynamicImage::from_decoder(decoder).map_err(|e| format!("is not a readable image: {e}"))?;
+            (img, bits, orientation)
+        }
+    };
     img.apply_orientation(orientation);
     let (width, height) = (img.width() as usize, img.height() as usize);
     let codes = match bits {
