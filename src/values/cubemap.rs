@@ -62,6 +62,27 @@ impl Cubemap {
         self.texel(cube::texel_index_of_direction(d, self.size))
     }
 
+    /// Bilinear lookup at face point `(face, a, b)` (`a`, `b` in [-1, 1]), seamless: the texels
+    /// past a face's edge are its neighbours' (`geometry::cubemap::seamless_texel_index`), so
+    /// lookups are continuous across edges, even on 1 x 1 faces. In f64: the reference the
+    /// vectorised prefilter kernel is tested against, and PlayCanvas' atlas rects.
+    pub fn bilinear_at(&self, (face, a, b): (usize, f64, f64)) -> [f64; 3] {
+        let s = self.size;
+        let fx = (a + 1.0) * 0.5 * s as f64 - 0.5;
+        let fy = (b + 1.0) * 0.5 * s as f64 - 0.5;
+        let (x0, y0) = (fx.floor(), fy.floor());
+        let (tx, ty) = (fx - x0, fy - y0);
+        let (x0, y0) = (x0 as i64, y0 as i64);
+        let at = |x: i64, y: i64| self.texel(cube::seamless_texel_index(face, x, y, s)).map(f64::from);
+        let (v00, v10, v01, v11) = (at(x0, y0), at(x0 + 1, y0), at(x0, y0 + 1), at(x0 + 1, y0 + 1));
+        [0, 1, 2].map(|k| (v00[k] * (1.0 - tx) + v10[k] * tx) * (1.0 - ty) + (v01[k] * (1.0 - tx) + v11[k] * tx) * ty)
+    }
+
+    /// [`Cubemap::bilinear_at`] at direction `d`.
+    pub fn bilinear(&self, d: DVec3) -> [f64; 3] {
+        self.bilinear_at(cube::direction_to_face(d))
+    }
+
     /// The six faces side by side as one 6S x S RGB image (+X first): the strip `Save` writes.
     pub fn to_strip(&self) -> Image {
         self.to_layout(CubeLayout::Strip)

@@ -355,25 +355,6 @@ mod tests {
     use super::*;
     use crate::cpu::Level;
 
-    /// The f64 lookup the kernel replaces: bilinear lookup of a cube map at face point (face, a,
-    /// b), seamless (`geometry::cubemap::seamless_texel_index`), so lookups are continuous across
-    /// edges even on 1 x 1 faces.
-    fn reference_bilinear(c: &Cubemap, (f, a, b): (usize, f64, f64)) -> [f64; 3] {
-        let s = c.size;
-        let fx = (a + 1.0) * 0.5 * s as f64 - 0.5;
-        let fy = (b + 1.0) * 0.5 * s as f64 - 0.5;
-        let (x0, y0) = (fx.floor(), fy.floor());
-        let (tx, ty) = (fx - x0, fy - y0);
-        let (x0, y0) = (x0 as i64, y0 as i64);
-        let at = |x: i64, y: i64| -> [f64; 3] { c.texel(cube::seamless_texel_index(f, x, y, s)).map(f64::from) };
-        let (v00, v10, v01, v11) = (at(x0, y0), at(x0 + 1, y0), at(x0, y0 + 1), at(x0 + 1, y0 + 1));
-        let mut out = [0.0; 3];
-        for k in 0..3 {
-            out[k] = (v00[k] * (1.0 - tx) + v10[k] * tx) * (1.0 - ty) + (v01[k] * (1.0 - tx) + v11[k] * tx) * ty;
-        }
-        out
-    }
-
     /// Trilinear lookup in a pyramid (level 0 the finest) at a fractional level.
     fn reference_trilinear(pyr: &[Cubemap], d: DVec3, lod_centre: f64) -> [f64; 3] {
         let top = (pyr.len() - 1) as f64;
@@ -382,11 +363,11 @@ mod tests {
         let lod = (lod_centre + 0.75 * (1.0 + fab.1 * fab.1 + fab.2 * fab.2).log2()).clamp(0.0, top);
         let l0 = lod.floor() as usize;
         let t = lod - l0 as f64;
-        let a = reference_bilinear(&pyr[l0], fab);
+        let a = pyr[l0].bilinear_at(fab);
         if t == 0.0 || l0 + 1 >= pyr.len() {
             return a;
         }
-        let b = reference_bilinear(&pyr[l0 + 1], fab);
+        let b = pyr[l0 + 1].bilinear_at(fab);
         [0, 1, 2].map(|k| a[k] * (1.0 - t) + b[k] * t)
     }
 

@@ -14,14 +14,11 @@
 //!
 //! Texels outside every rect are black, as in PlayCanvas' own atlas.
 
-use glam::DVec3;
-
 use crate::engine::fields::Input;
 use crate::engine::op::{OpContext, OpError, OpSpec};
 use crate::engine::typed_op::Op;
 use crate::engine::value::Value;
 use crate::formats::playcanvas_atlas::{self as atlas, Rect};
-use crate::geometry::cubemap as cube;
 use crate::maths::resample::layouts::{to_latlong, CubeSource};
 use crate::values::ty::*;
 use crate::values::{Cubemap, Image, MipChain};
@@ -40,7 +37,7 @@ crate::params! {
 pub fn spec() -> OpSpec {
     Op::new(
         "PlayCanvasEnvAtlas",
-        1,
+        2,
         "PlayCanvas' envAtlas (512 x 512): the chain and the irradiance as equirect rects with seams, as EnvLighting.generateAtlas lays them out",
         eval,
     )
@@ -49,25 +46,11 @@ pub fn spec() -> OpSpec {
     .into()
 }
 
-/// Bilinear, seamless lookup of cube `c` at direction `d`.
-fn bilinear(c: &Cubemap, d: DVec3) -> [f32; 3] {
-    let size = c.size;
-    let (f, a, b) = cube::direction_to_face(d);
-    let fx = (a + 1.0) * 0.5 * size as f64 - 0.5;
-    let fy = (b + 1.0) * 0.5 * size as f64 - 0.5;
-    let (x0, y0) = (fx.floor(), fy.floor());
-    let (tx, ty) = ((fx - x0) as f32, (fy - y0) as f32);
-    let (x0, y0) = (x0 as i64, y0 as i64);
-    let at = |x: i64, y: i64| c.texel(cube::seamless_texel_index(f, x, y, size));
-    let (v00, v10, v01, v11) = (at(x0, y0), at(x0 + 1, y0), at(x0, y0 + 1), at(x0 + 1, y0 + 1));
-    [0, 1, 2].map(|k| (v00[k] * (1.0 - tx) + v10[k] * tx) * (1.0 - ty) + (v01[k] * (1.0 - tx) + v11[k] * tx) * ty)
-}
-
 /// `rect` of `out` filled with `c` read bilinearly at each texel's direction.
 fn fill_bilinear(out: &mut Image, rect: Rect, c: &Cubemap) {
     for j in 0..rect.h {
         for i in 0..rect.w {
-            let v = bilinear(c, atlas::direction(rect, i, j));
+            let v = c.bilinear(atlas::direction(rect, i, j)).map(|v| v as f32);
             out.pixel_mut(rect.x + i, rect.y + j)[..3].copy_from_slice(&v);
         }
     }
@@ -117,6 +100,8 @@ fn eval(ctx: &mut OpContext, p: PlayCanvasEnvAtlasParams) -> Result<Value, OpErr
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geometry::cubemap as cube;
+    use glam::DVec3;
 
     /// A constant environment gives the constant in every rect, seams included, and black
     /// between them; a chain of other roughness is refused.
