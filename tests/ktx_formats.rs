@@ -420,3 +420,37 @@ fn hdrflow_ops_save_documents_the_choices() {
         o.assert_stdout_contains(word);
     }
 }
+
+/// An RGBP `.png` (PlayCanvas) clamps values beyond 64 with one warning counting them, for a cube
+/// map (written as its strip) as for an image.
+#[test]
+fn rgbp_pngs_of_images_and_cube_maps_count_their_clamped_texels() {
+    let sb = Sandbox::new();
+    let graph = sb.write(
+        "graph.ron",
+        r#"(
+    nodes: {
+        "hot":  Constant(width: 8, height: 4, color: 100),
+        "cube": LatLongToCubemap(image: "hot", size: 2),
+        "a": Save(input: "hot", path: "hot.png", png_format: Rgbp),
+        "b": Save(input: "cube", path: "cube.png", png_format: Rgbp),
+    },
+)"#,
+    );
+    let (out, _) = sb.run_ok(&graph, &[]);
+    let lines = |node: &str| -> Vec<&str> {
+        out.stderr.lines().filter(|l| l.starts_with(&format!("warning: node \"{node}\""))).collect()
+    };
+    assert_eq!(
+        lines("a"),
+        ["warning: node \"a\": hot.png: 32 texels are beyond RGBP's range (64) clamped to it (colour kept)"],
+        "{}",
+        out.describe()
+    );
+    assert_eq!(
+        lines("b"),
+        ["warning: node \"b\": cube.png: 24 texels are beyond RGBP's range (64) clamped to it (colour kept)"],
+        "{}",
+        out.describe()
+    );
+}

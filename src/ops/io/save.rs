@@ -244,8 +244,8 @@ fn eval(ctx: &mut OpContext, p: SaveParams) -> Result<Value, OpError> {
             exposure += auto_exposure(&c.to_strip());
         }
     }
-    if let (Some(img), PngFormat::Rgbp, "png") = (value.get::<Image>(), p.png_format, ext.as_str()) {
-        let count = crate::formats::rgbp::beyond_rgbp(img);
+    if let (PngFormat::Rgbp, "png") = (p.png_format, ext.as_str()) {
+        let count = beyond_rgbp(value);
         if count > 0 {
             ctx.warn(format!(
                 "{rel_path}: {count} texel{} beyond RGBP's range (64) clamped to it (colour kept)",
@@ -343,6 +343,21 @@ fn beyond_half(value: &Value) -> (usize, f32) {
         }
     }
     found
+}
+
+/// How many texels of an image, a cube map or a mip chain (every level: `Save` writes each) an
+/// RGBP `.png` clamps (`formats::rgbp`): the cube's as its strip, as it is written.
+fn beyond_rgbp(value: &Value) -> usize {
+    use crate::formats::rgbp::beyond_rgbp as in_image;
+    if let Some(img) = value.get::<Image>() {
+        in_image(img)
+    } else if let Some(c) = value.get::<crate::values::Cubemap>() {
+        in_image(&c.to_strip())
+    } else if let Some(chain) = value.get::<crate::values::MipChain>() {
+        chain.levels.iter().map(|c| in_image(&c.to_strip())).sum()
+    } else {
+        0
+    }
 }
 
 /// How many texels of a mip chain have a channel beyond RGBD's range (`formats::babylon_env`).
