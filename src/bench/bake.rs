@@ -92,7 +92,9 @@ fn preset_times(
     log: &dyn Fn(&str),
 ) -> Result<String, String> {
     let bin = super::peak_memory::hdrflow_binary()?;
-    let mut md = String::from("| preset | wall | peak RSS | peak / map floats |\n|---|---|---|---|\n");
+    let mut md = String::from(
+        "| preset | wall | peak RSS | peak / map floats | load average (1 min) before, after |\n|---|---|---|---|---|\n",
+    );
     for preset in PRESETS.iter().filter(|p| only.is_empty() || only.iter().any(|o| o == p.name)) {
         let mut command = std::process::Command::new(&bin);
         command
@@ -100,6 +102,7 @@ fn preset_times(
             .arg(map)
             .args(["--for", preset.name, "--no-cache", "-q", "--out"])
             .arg(work.join(out_folder(map, preset.name)));
+        let load_before = load_average();
         let t0 = Instant::now();
         let (ok, peak) = super::peak_memory::run_for_peak(&mut command)?;
         let seconds = t0.elapsed().as_secs_f64();
@@ -107,11 +110,24 @@ fn preset_times(
             return Err(format!("hdrflow bake {} --for {} failed", map.display(), preset.name));
         }
         let (mib, ratio) = (peak as f64 / 1048576.0, peak as f64 / map_bytes);
-        log(&format!("bake --for {}: {seconds:.2} s, peak {mib:.0} MiB ({ratio:.2}x the map's floats)", preset.name));
-        let _ = writeln!(md, "| {} | {seconds:.2} s | {mib:.0} MiB | {ratio:.2}x |", preset.name);
+        let load = format!("{}, {}", load_before, load_average());
+        log(&format!(
+            "bake --for {}: {seconds:.2} s, peak {mib:.0} MiB ({ratio:.2}x the map's floats), load average {load}",
+            preset.name
+        ));
+        let _ = writeln!(md, "| {} | {seconds:.2} s | {mib:.0} MiB | {ratio:.2}x | {load} |", preset.name);
     }
     md.push('\n');
     Ok(md)
+}
+
+/// The machine's one-minute load average (`/proc/loadavg`), so that a time measured while other
+/// work ran says so; "n/a" where the file does not exist.
+fn load_average() -> String {
+    std::fs::read_to_string("/proc/loadavg")
+        .ok()
+        .and_then(|s| s.split_whitespace().next().map(str::to_owned))
+        .unwrap_or_else(|| "n/a".into())
 }
 
 /// One output folder per map and preset: a glTF bake refuses a folder that holds another map's
