@@ -13,6 +13,7 @@ use image::metadata::Orientation;
 use zune_core::bytestream::{ZByteReaderTrait, ZCursor};
 use zune_core::colorspace::ColorSpace;
 use zune_core::options::DecoderOptions;
+use zune_jpeg::errors::DecodeErrors;
 use zune_jpeg::JpegDecoder;
 
 /// The stored size of a colour JPEG and the orientation its EXIF block gives.
@@ -30,9 +31,20 @@ fn options() -> DecoderOptions {
         .jpeg_set_out_colorspace(ColorSpace::RGB)
 }
 
+/// zune's error as a sentence: its `Display` of a format error is the quoted `Debug` of the
+/// message, so those two are unwrapped.
+fn unreadable(e: DecodeErrors) -> String {
+    let message = match e {
+        DecodeErrors::Format(m) => m,
+        DecodeErrors::FormatStatic(m) => m.to_owned(),
+        other => other.to_string(),
+    };
+    format!("is not a readable image: {message}")
+}
+
 /// Reads the headers: `None` for a grey or CMYK file, which `image` decodes instead.
 fn stored<T: ZByteReaderTrait>(decoder: &mut JpegDecoder<T>) -> Result<Option<Stored>, String> {
-    decoder.decode_headers().map_err(|e| format!("is not a readable image: {e:?}"))?;
+    decoder.decode_headers().map_err(unreadable)?;
     if !matches!(decoder.input_colorspace(), Some(ColorSpace::YCbCr | ColorSpace::RGB)) {
         return Ok(None);
     }
@@ -57,7 +69,7 @@ pub fn decode(bytes: &[u8]) -> Result<Option<(Stored, Vec<u8>)>, String> {
     };
     let len = s.width.checked_mul(s.height).and_then(|n| n.checked_mul(3)).ok_or("is too large to decode")?;
     let mut codes = vec![0u8; len];
-    decoder.decode_into(&mut codes).map_err(|e| format!("is not a readable image: {e:?}"))?;
+    decoder.decode_into(&mut codes).map_err(unreadable)?;
     Ok(Some((s, codes)))
 }
 
@@ -129,5 +141,15 @@ mod tests {
         let header = super::super::header(&path);
         std::fs::remove_file(&path).unwrap();
         assert_eq!(header.unwrap(), super::super::Header { width: h as usize, height: w as usize, bit_depth: 8 });
+    }
+
+    /// A file that starts as a JPEG and breaks off is an error in plain words (zune's format
+    /// errors used to reach the user in quotes).
+    #[test]
+    fn a_broken_jpeg_is_an_error_without_quotes() {
+        for bytes in [&b"\xFF\xD8\xFF\xD9"[..], &b"\xFF\xD8\xFF\xC0\x00\x11\x08"[..]] {
+            let e = decode(bytes).err().expect("a broken JPEG is an error");
+            assert!(e.starts_with("is not a readable image: ") && !e.contains('"'), "{e}");
+        }
     }
 }
