@@ -14,6 +14,10 @@
 //! - Orientation and handedness: a map of coloured markers (`common/markers.rs`) through
 //!   `app.scene.skybox` must show each marker where a 360-degree viewer facing the map's centre
 //!   does, looking along -Z and, baked with `--yaw -90`, along +X; a mirrored map fails.
+//! - The sun's lines (`common/sun_lines.rs`): the park map baked with `--sun extract`, its README's
+//!   lines under "The sun:" run by the page as they are, against the `--sun keep` bake and the
+//!   map's exact E / pi on the diffuse sphere; no sun lines, the intensity times pi and the
+//!   direction negated fail.
 //!
 //! Needs Chromium and the client's npm package (`scripts/playcanvas-web.sh install`: `npm ci` in
 //! clients/playcanvas-web); without them the tests skip visibly, and fail under

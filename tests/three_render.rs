@@ -22,6 +22,10 @@
 //!   against the exact GGX integral with the energy single scattering loses (the `exact` column of
 //!   `bevy_render/reference.rs`: three's multiscattering with F0 = 1 is the same model). Only a
 //!   loose bound is asserted, which the mirrored map breaks on every sphere.
+//! - The sun's lines (`common/sun_lines.rs`): the park map baked with `--sun extract`, its README's
+//!   lines under "The sun:" run by the page as they are, against the `--sun keep` bake and the
+//!   map's exact E / pi on the diffuse sphere; no sun lines, the intensity times pi and the
+//!   direction negated fail.
 //!
 //! Needs Chromium and the client's npm package (`scripts/three-web.sh install`: `npm ci` in
 //! clients/three-web); without them the tests skip visibly, and fail under

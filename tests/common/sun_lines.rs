@@ -107,15 +107,7 @@ pub fn exact_diffuse(sandbox: &common::Sandbox, pixels: &[(usize, glam::DVec3)])
 
 /// `frame` against `reference` values at `pixels` (relative RMSE).
 pub fn against(frame: &Image, pixels: &[usize], reference: &[[f64; 3]]) -> f64 {
-    let (mut err, mut norm) = (0.0, 0.0);
-    for (&p, r) in pixels.iter().zip(reference) {
-        for k in 0..3 {
-            let d = frame.data[p * frame.channels + k] as f64 - r[k];
-            err += d * d;
-            norm += r[k] * r[k];
-        }
-    }
-    (err / norm.max(f64::MIN_POSITIVE)).sqrt()
+    crate::reference::relative_rmse(frame, 1.0, pixels, reference)
 }
 
 /// `frame`'s pixels against `reference`'s (the keep bake's render) as relative RMSE over `pixels`.
@@ -130,6 +122,10 @@ pub fn difference(frame: &Image, reference: &Image, pixels: &[usize]) -> f64 {
     }
     (err / norm.max(f64::MIN_POSITIVE)).sqrt()
 }
+
+/// A reported sphere of [`assert_sun`]: its name, and its difference from the keep bake's render
+/// by render name.
+pub type Rough<'a> = (&'a str, &'a dyn Fn(&str) -> f64);
 
 /// The bounds of an engine's sun test, relative RMSE on the diffuse sphere: `keep`, against the
 /// same engine's render of the `--sun keep` bake (whose own approximation of a sun held in the map
@@ -150,7 +146,7 @@ pub fn assert_sun(
     bound: Option<SunBound>,
     diffuse: impl Fn(&str) -> f64,
     exact: impl Fn(&str) -> f64,
-    rough: Option<(&str, &dyn Fn(&str) -> f64)>,
+    rough: Option<Rough>,
 ) {
     eprintln!("{label}: the extracted bake with the README's sun lines against the --sun keep bake, relative RMSE:");
     let rough_head = rough.map(|(n, _)| format!(" {n} vs keep (reported) |")).unwrap_or_default();
