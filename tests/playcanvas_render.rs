@@ -14,6 +14,10 @@
 //! - Orientation and handedness: a map of coloured markers (`common/markers.rs`) through
 //!   `app.scene.skybox` must show each marker where a 360-degree viewer facing the map's centre
 //!   does, looking along -Z and, baked with `--yaw -90`, along +X; a mirrored map fails.
+//! - The sun's lines (`common/sun_lines.rs`): the park map baked with `--sun extract`, its README's
+//!   lines under "The sun:" run by the page as they are, against the `--sun keep` bake and the
+//!   map's exact E / pi on the diffuse sphere; no sun lines, the intensity times pi and the
+//!   direction negated fail.
 //!
 //! Needs Chromium and the client's npm package (`scripts/playcanvas-web.sh install`: `npm ci` in
 //! clients/playcanvas-web); without them the tests skip visibly, and fail under
@@ -31,6 +35,8 @@ mod reference;
 #[allow(dead_code)]
 #[path = "bevy_render/scene.rs"]
 mod scene;
+#[path = "common/sun_lines.rs"]
+mod sun_lines;
 #[path = "bevy_render/test_map.rs"]
 mod test_map;
 #[path = "common/web_page.rs"]
@@ -58,6 +64,11 @@ const CAMERA: DVec3 = DVec3::new(0.0, 0.0, 10.0);
 /// map: about twice what the correct bake measures (0.0175, 0.0167, 0.0201, 0.0175, 0.0298,
 /// 0.0025: docs/src/guides/baking/playcanvas.md).
 const TEST_MAP_BOUNDS: [f64; 6] = [0.035, 0.035, 0.04, 0.035, 0.06, 0.005];
+/// The diffuse sphere lit by the extracted bake and the README's sun lines
+/// (`playcanvas_adds_the_readmes_sun_as_the_map_held_it`), relative RMSE: against the keep bake's,
+/// 0.014 measured, what the keep bake's ambient is off exact E / pi (0.014); against exact E / pi,
+/// 0.0008 measured (the lines before the light's colour was gamma-encoded: 0.144).
+const SUN_BOUND: sun_lines::SunBound = sun_lines::SunBound { keep: 0.03, exact: 0.005 };
 /// SwiftShader is a CPU renderer on a shared machine: a minute is possible, ten are a hang.
 const BROWSER_TIMEOUT: Duration = Duration::from_secs(600);
 /// Chromium's virtual-time budget for a page: 100 hours, since virtual time runs about 50 times
@@ -311,4 +322,33 @@ fn the_playcanvas_readme_code_is_the_render_pages_code() {
     let a = playcanvas_atlas::AMBIENT;
     let ambient = from_rgbp(atlas.get_pixel((a.x + a.w / 2) as u32, (a.y + 2) as u32).0);
     assert!(ambient[0] > 0.45, "{ambient:?}");
+}
+
+/// The sun the README adds back (issue 36, `common/sun_lines.rs`): the park map baked with `--sun
+/// extract`, the atlas and skybox loaded by the README's lines and its sun lines run as they are,
+/// against the `--sun keep` bake in the same page: the diffuse sphere within [`SUN_BOUND`], each
+/// mistake beyond it; the metal of roughness 0.5 reported.
+#[test]
+fn playcanvas_adds_the_readmes_sun_as_the_map_held_it() {
+    let Some(browser) = browser() else { return };
+    let sandbox = common::Sandbox::new();
+    let bakes = sun_lines::bake_park(&sandbox, "playcanvas");
+    let renders = sun_lines::scene_renders(&sandbox, &bakes, |name, dir| {
+        let files = Files { atlas: dir.join("park_envAtlas.png"), sky: dir.join("park_skybox.png") };
+        job_entry(&sandbox, name, &files)
+    });
+    let job = json!({ "renders": renders });
+    let page = web_page::run_with_budget(
+        browser,
+        &app_dir(),
+        &sandbox,
+        &job,
+        "playcanvas-render/sun",
+        BROWSER_TIMEOUT,
+        VIRTUAL_TIME_BUDGET_MS,
+    );
+    for r in page.report["renders"].as_array().expect("the renders") {
+        assert_eq!(r["stable"], true, "{}: the second frame differs from the first", r["name"]);
+    }
+    sun_lines::assert_scene_sun("PlayCanvas", &sandbox, &page, &bakes, SUN_BOUND);
 }

@@ -9,7 +9,7 @@
 // "via_env", written by `CreateEnvTextureAsync` into a .env, POSTed as NAME.env, and that loaded):
 //   { "renders": [
 //       { "name", "kind": "spheres", "env": "good/test.env" | "gltf": "good/test.gltf" | "hdr": "map.hdr",
-//         "via_env"?, "loader_gamma"? }
+//         "via_env"?, "loader_gamma"?, "sun"? }
 //     | { "name", "kind": "sky", "env" | "gltf", "forward": [x, y, z], "fov_deg", "size" } ] }
 // Results are POSTed to ../result/NAME: NAME.f32 (RGBA f32 rows, top row first) per render,
 // scene.json (clients/web-common/scene.js's geometry), shaders.txt (the PBR fragment shader Babylon
@@ -27,7 +27,9 @@
 //   default, EON, is Lambert at diffuse roughness 0 too; metallic 1 with roughness 0 to 1, and
 //   the diffuse one with no specular at all, `metallicF0Factor` 0), seen by an orthographic camera
 //   on hdrflow's +Z looking down -Z, lit only by `scene.environmentTexture` = the .env, or the
-//   light of the .gltf (its glTF loader sets it), loaded as the README's lines load it.
+//   light of the .gltf (its glTF loader sets it), loaded as the README's lines load it. With
+//   `"sun": "x/README.txt"`, the sun's lines of that README (a `--sun extract` bake) run as they
+//   are (page.js, `runSunLines`, with the render's `scene`).
 // - sky: `scene.createDefaultSkybox(env, true, 1000, 0)` (the .env's level 0) seen by a
 //   perspective camera at the origin looking along `forward` (hdrflow's axes), +Y up, `fov_deg`
 //   vertical, square frame.
@@ -36,8 +38,8 @@ import { CubeTexture } from '@babylonjs/core';
 import { AppendSceneAsync } from '@babylonjs/core';
 import '@babylonjs/loaders/glTF';
 import { CreateEnvTextureAsync, HDRCubeTexture } from '@babylonjs/core';
-import { Camera, Color3, Color4, Constants, Engine, FreeCamera, MeshBuilder, PBRMaterial, RenderTargetTexture, Scene, Vector3 } from '@babylonjs/core';
-import { getJson, log, post, run } from '../common/page.js';
+import { Camera, Color3, Color4, Constants, DirectionalLight, Engine, FreeCamera, MeshBuilder, PBRMaterial, RenderTargetTexture, Scene, Vector3 } from '@babylonjs/core';
+import { getJson, log, post, run, runSunLines } from '../common/page.js';
 import * as Spheres from '../common/scene.js';
 
 /// hdrflow's direction (x, y, z) as Babylon's left-handed world sees it.
@@ -166,6 +168,11 @@ async function renderFloat(scene, camera, meshes, w, h) {
 async function renderSpheres(engine, job) {
     const scene = newScene(engine);
     const loaded = await loadLighting(scene, job);
+    // What the sun's lines import, by name: with a namespace import of the whole package the
+    // own-prefiltering page of tests/babylon_render.rs ended without a report, twice (cause not
+    // found), and passed with this.
+    const core = { Color3, DirectionalLight, Vector3 };
+    const sun = job.sun ? await runSunLines(job.sun, { '@babylonjs/core': core }, { scene }) : null;
     const meshes = Spheres.SPHERES.map((s, k) => {
         const mesh = MeshBuilder.CreateSphere(s.name, { diameter: 2 * Spheres.RADIUS, segments: 128 }, scene);
         mesh.position = babylon([Spheres.centreX(k), 0, 0]);
@@ -189,7 +196,7 @@ async function renderSpheres(engine, job) {
     const effect = meshes[1].material.getEffect();
     const shader = effect ? effect.fragmentSourceCode : '';
     scene.dispose();
-    return { ...out, loaded, shader };
+    return { ...out, loaded, shader, sun };
 }
 
 async function renderSky(engine, job) {
@@ -226,7 +233,7 @@ async function main() {
             const out = await kinds[entry.kind](engine, entry);
             await post(entry.name + '.f32', out.pixels.buffer);
             shader = out.shader || shader;
-            report.renders.push({ name: entry.name, ms: performance.now() - start, stable: out.stable, loaded: out.loaded });
+            report.renders.push({ name: entry.name, ms: performance.now() - start, stable: out.stable, loaded: out.loaded, sun: out.sun || null });
             log(`${entry.name}: ${(performance.now() - start).toFixed(0)} ms`);
         } catch (e) {
             report.errors.push(`${entry.name}: ${e}\n${e.stack || ''}`);

@@ -3,7 +3,7 @@
 //
 // The job (GET ../work/job.json) lists renders; paths are relative to ../work/:
 //   { "renders": [
-//       { "name", "kind": "spheres", "atlas": "good/test_envAtlas.png", "sky": "good/test_skybox.png", "own"? }
+//       { "name", "kind": "spheres", "atlas": "good/test_envAtlas.png", "sky": "good/test_skybox.png", "own"?, "sun"? }
 //     | { "name", "kind": "sky", "atlas", "sky", "forward": [x, y, z], "fov_deg", "size" } ] }
 // Results are POSTed to ../result/NAME: NAME.f32 (RGBA f32 rows, top row first) per render,
 // scene.json (clients/web-common/scene.js's geometry), shaders.txt (the standard material's
@@ -21,12 +21,14 @@
 //   PlayCanvas' EnvLighting.generateAtlas makes from the skybox PNG instead, for comparison). Metal spheres: a
 //   StandardMaterial with no diffuse, specular white and no Fresnel (FRESNEL_NONE), gloss 1 -
 //   roughness, so each pixel is the atlas' reflection itself; the diffuse sphere: diffuse white,
-//   specular black, so each pixel is the atlas' ambient.
+//   specular black, so each pixel is the atlas' ambient. With `"sun": "x/README.txt"`, the sun's
+//   lines of that README (a `--sun extract` bake) run as they are (page.js, `runSunLines`, with
+//   `pc` and `app`), and what they add to the scene is removed after the render.
 // - sky: app.scene.skybox (EnvLighting.generateSkyboxCubemap of the skybox PNG) seen by a
 //   perspective camera at the origin looking along `forward`, +Y up, `fov_deg` vertical, square.
 
 import * as pc from 'playcanvas';
-import { getJson, log, post, run } from '../common/page.js';
+import { getJson, log, post, run, runSunLines } from '../common/page.js';
 import * as Spheres from '../common/scene.js';
 
 let app = null;
@@ -131,6 +133,9 @@ function material(s) {
 
 async function renderSpheres(job) {
     const loaded = await loadLighting(job);
+    const before = new Set(app.root.children);
+    const sun = job.sun ? await runSunLines(job.sun, { playcanvas: pc }, { pc, app }) : null;
+    const added = app.root.children.filter(e => !before.has(e));
     const device = app.graphicsDevice;
     const mesh = pc.Mesh.fromGeometry(device, new pc.SphereGeometry({ radius: Spheres.RADIUS, latitudeBands: 128, longitudeBands: 256 }));
     const entities = Spheres.SPHERES.map((s, k) => {
@@ -154,8 +159,9 @@ async function renderSpheres(job) {
     const variants = mi.material.variants ? [...mi.material.variants.values()] : [];
     const shader = variants.map(s => s.definition?.fshader || '').join('\n');
     entities.forEach(e => e.destroy());
+    added.forEach(e => e.destroy());
     camera.destroy();
-    return { ...out, loaded, shader };
+    return { ...out, loaded, shader, sun };
 }
 
 async function renderSky(job) {
@@ -188,7 +194,7 @@ async function main() {
             const out = await kinds[entry.kind](entry);
             await post(entry.name + '.f32', out.pixels.buffer);
             shader = out.shader || shader;
-            report.renders.push({ name: entry.name, ms: performance.now() - start, stable: out.stable, loaded: out.loaded });
+            report.renders.push({ name: entry.name, ms: performance.now() - start, stable: out.stable, loaded: out.loaded, sun: out.sun || null });
             log(`${entry.name}: ${(performance.now() - start).toFixed(0)} ms`);
         } catch (e) {
             report.errors.push(`${entry.name}: ${e}\n${e.stack || ''}`);

@@ -5,9 +5,9 @@
 //   { "renders": [
 //       { "name", "kind": "sky", "map": "x_three.hdr", "forward": [x, y, z], "fov_deg", "size" }
 //     | { "name", "kind": "probe", "sh": "x_sh.json", "material": "standard" | "lambert",
-//         "size", "view_width", "radius" }
+//         "size", "view_width", "radius", "sun"? }
 //     | { "name", "kind": "spheres", "map": "x_three.hdr", "spheres": [{ "name", "centre",
-//         "radius", "metallic", "roughness" }], "width", "height", "view_width" } ] }
+//         "radius", "metallic", "roughness" }], "width", "height", "view_width", "sun"? } ] }
 // Results are POSTed to ../result/NAME: NAME.f32 (RGBA f32 rows, top row first) per render, and
 // last report.json (three's revision, the WebGL renderer, per render what was loaded and handed
 // to three; errors).
@@ -30,10 +30,13 @@
 //   `"sh": "furnace"` gives the probe of a constant radiance 1 (L00 = 2 sqrt(pi)).
 // - spheres: the same camera over a row of white MeshStandardMaterial spheres lit only by
 //   `scene.environment` = the map (three's own PMREMGenerator prefilters it).
+// - probe and spheres with `"sun": "x/README.txt"`: the sun's lines of that README (a `--sun
+//   extract` bake) run as they are in the same module (page.js, `runSunLines`), with `THREE` and
+//   the render's `scene`: the sun added as the README adds it.
 
 import * as THREE from 'three';
 import { HDRLoader } from 'three/addons/loaders/HDRLoader.js';
-import { getJson, log, post, run } from '../common/page.js';
+import { getJson, log, post, run, runSunLines } from '../common/page.js';
 
 // The lines that load the files are those of the README.txt hdrflow bake writes
 // (src/ibl_presets/three.rs, `loading_code`; tests/bake.rs checks that each is a line here).
@@ -115,6 +118,7 @@ async function renderProbe(renderer, job) {
         scene.add(new THREE.LightProbe(new THREE.SphericalHarmonics3().fromArray(json.coefficients.flat())));
     }
     const probe = scene.children[0];
+    const sun = job.sun ? await runSunLines(job.sun, { three: THREE }, { THREE, scene }) : null;
     const white = new THREE.Color(1, 1, 1);
     const material = job.material === 'lambert'
         ? new THREE.MeshLambertMaterial({ color: white })
@@ -122,13 +126,14 @@ async function renderProbe(renderer, job) {
     const sphere = new THREE.Mesh(new THREE.SphereGeometry(job.radius, 256, 128), material);
     scene.add(sphere);
     const out = renderFloat(renderer, scene, orthographic(job.view_width, job.size, job.size), job.size, job.size);
-    return { ...out, sh: Array.from(probe.sh.toArray()), frame, material: material.type };
+    return { ...out, sh: Array.from(probe.sh.toArray()), frame, material: material.type, sun };
 }
 
 async function renderSpheres(renderer, job) {
     const texture = await loadMap(job.map);
     const scene = new THREE.Scene();
     scene.environment = texture;
+    const sun = job.sun ? await runSunLines(job.sun, { three: THREE }, { THREE, scene }) : null;
     const geometry = new THREE.SphereGeometry(1, 256, 128);
     for (const s of job.spheres) {
         const material = new THREE.MeshStandardMaterial({ color: 0xffffff, roughness: s.roughness, metalness: s.metallic });
@@ -139,7 +144,7 @@ async function renderSpheres(renderer, job) {
     }
     const out = renderFloat(renderer, scene, orthographic(job.view_width, job.width, job.height), job.width, job.height);
     texture.dispose();
-    return out;
+    return { ...out, sun };
 }
 
 async function main() {

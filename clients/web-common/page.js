@@ -49,3 +49,37 @@ export function run(main) {
         document.body.dataset.status = 'failed';
     });
 }
+
+/// The engine code under "The sun:" at the end of a bake's README.txt (`hdrflow bake --sun
+/// extract`: the lines that add the extracted sun as the engine's directional light), fetched from
+/// ../work/`readme` and run as the user's module runs it, so that the render tests check the lines
+/// users read (tests/common/sun_lines.rs): each `import` line is bound to the module the page
+/// imported under that name (`modules`: specifier to the module's namespace or the names the lines
+/// import from it), and the rest runs as the
+/// body of an async function of `scope`'s names (the engine's namespace and `scene` or `app`).
+/// A README without the sun's lines, or a module the page did not give, is an error.
+export async function runSunLines(readme, modules, scope) {
+    const text = new TextDecoder().decode(await getBytes(readme));
+    const at = text.indexOf('\nThe sun:\n');
+    if (at < 0) {
+        throw new Error(`${readme}: no "The sun:" lines`);
+    }
+    const body = text.slice(at + '\nThe sun:\n'.length).split('\n').map(line => {
+        const m = line.match(/^import\s+(.+?)\s+from\s+'([^']+)';?\s*$/);
+        if (!m) {
+            return line;
+        }
+        if (!(m[2] in modules)) {
+            throw new Error(`${readme}: the sun's lines import ${m[2]}, which the page does not give`);
+        }
+        const binding = m[1].startsWith('* as ') ? m[1].slice(5) : m[1];
+        const missing = binding.startsWith('{') ? binding.slice(1, -1).split(',').map(n => n.trim()).filter(n => n && !(n in modules[m[2]])) : [];
+        if (missing.length) {
+            throw new Error(`${readme}: the sun's lines import ${missing.join(', ')} from ${m[2]}, which the page does not give`);
+        }
+        return `const ${binding} = __modules[${JSON.stringify(m[2])}];`;
+    }).join('\n');
+    const AsyncFunction = (async () => {}).constructor;
+    await new AsyncFunction('__modules', ...Object.keys(scope), body)(modules, ...Object.values(scope));
+    return body;
+}

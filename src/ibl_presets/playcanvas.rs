@@ -76,9 +76,11 @@ app.scene.envAtlas = await loadRgbp(atlasUrl);
 app.scene.skybox = pc.EnvLighting.generateSkyboxCubemap(await loadRgbp(skyUrl));
 "#,
     sun_code: r#"// The sun taken out of the map ({file:save_sun}): PlayCanvas adds a light's colour x intensity x n.l to the
-// diffuse light without a 1 / pi, so intensity = its irradiance / pi; it shines along the entity's -Y.
+// diffuse light without a 1 / pi, so the light is its irradiance / pi; it shines along the entity's -Y. PlayCanvas
+// takes a light's colour gamma-encoded (it raises it to 2.2, and the colour times the intensity when the intensity
+// is below 1), so the irradiance / pi goes into the colour, encoded, with intensity 1.
 const sun = new pc.Entity('sun');
-sun.addComponent('light', { type: 'directional', color: new pc.Color({sun:color}), intensity: {sun:illuminance} / Math.PI });
+sun.addComponent('light', { type: 'directional', color: new pc.Color({sun:color}).mulScalar({sun:illuminance} / Math.PI).gamma(), intensity: 1 });
 sun.setRotation(new pc.Quat().setFromDirections(pc.Vec3.DOWN, new pc.Vec3({sun:from_light})));
 app.root.addChild(sun);
 "#,

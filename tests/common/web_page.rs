@@ -127,10 +127,24 @@ impl Page {
 
 /// `hdrflow bake MAP --for ENGINE --sun keep --out SANDBOX/DIR -q` plus `extra`, into the sandbox's
 /// cache; the bake's folder.
+#[allow(dead_code)] // not every render test bakes with the sun kept
 pub fn bake(sandbox: &common::Sandbox, map: &Path, engine: &str, dir: &str, extra: &[&str]) -> PathBuf {
+    bake_with_sun(sandbox, map, engine, dir, "keep", extra)
+}
+
+/// [`bake`] with `--sun SUN` (`keep` or `extract`).
+#[allow(dead_code)]
+pub fn bake_with_sun(
+    sandbox: &common::Sandbox,
+    map: &Path,
+    engine: &str,
+    dir: &str,
+    sun: &str,
+    extra: &[&str],
+) -> PathBuf {
     let out = sandbox.join(dir);
     let cache = sandbox.cache();
-    let mut args = vec!["bake", map.to_str().expect("UTF-8 paths"), "--for", engine, "--sun", "keep"];
+    let mut args = vec!["bake", map.to_str().expect("UTF-8 paths"), "--for", engine, "--sun", sun];
     args.extend_from_slice(&["--out", out.to_str().expect("UTF-8"), "--cache-dir", cache.to_str().expect("UTF-8")]);
     args.push("-q");
     args.extend_from_slice(extra);
