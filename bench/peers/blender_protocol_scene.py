@@ -71,10 +71,12 @@ def set_principled(node, base_color, metallic, specular, roughness):
     node.inputs["Roughness"].default_value = roughness
 
 
-def build_scene(scene, map_path, material, percent, samples):
+def protocol_sphere():
+    """The protocol's `utils.create_smooth_sphere()`, alone in the scene: every object removed, a
+    UV sphere of radius 1 with smooth shading and a level-1 Catmull-Clark subdivision surface
+    (also what blender_sphere_mesh.py dumps for ProbeSphere)."""
     for item in list(bpy.data.objects):
         bpy.data.objects.remove(item)
-
     bpy.ops.mesh.primitive_uv_sphere_add(radius=1.0, location=(0.0, 0.0, 0.0), calc_uvs=True)
     sphere = bpy.context.object
     for polygon in sphere.data.polygons:
@@ -83,6 +85,11 @@ def build_scene(scene, map_path, material, percent, samples):
     subsurf.levels = 1
     subsurf.render_levels = 1
     subsurf.subdivision_type = "CATMULL_CLARK"
+    return sphere
+
+
+def build_scene(scene, map_path, material, percent, samples):
+    sphere = protocol_sphere()
 
     mat = bpy.data.materials.new("protocol_" + material)
     mat.use_nodes = True
@@ -180,4 +187,5 @@ def main():
                   % (material, seed, time.time() - start, bpy.app.version_string))
 
 
-main()
+if __name__ == "__main__":
+    main()

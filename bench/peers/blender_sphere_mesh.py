@@ -12,6 +12,9 @@
 # Format, little-endian: b"HFSPHERE", u32 vertex count, u32 triangle count, then per vertex six f32
 # (x, y, z, nx, ny, nz; Blender world coordinates, Z up), then per triangle three u32 vertex indices
 # in Blender's loop-triangle order. Made with Debian's Blender 3.4.1.
+# Blender evaluates the modifier on several threads: two runs list the vertices in other orders and
+# their normals differ by up to 3.3e-6 (2026-12-07), the same sphere, so the file is not bit-reproducible.
+import os
 import struct
 import sys
 
@@ -19,16 +22,10 @@ import bpy
 
 out_path = sys.argv[sys.argv.index("--") + 1]
 
-for item in list(bpy.data.objects):
-    bpy.data.objects.remove(item)
-bpy.ops.mesh.primitive_uv_sphere_add(radius=1.0, location=(0.0, 0.0, 0.0), calc_uvs=True)
-obj = bpy.context.object
-for polygon in obj.data.polygons:
-    polygon.use_smooth = True
-modifier = obj.modifiers.new(name="Subsurf", type="SUBSURF")
-modifier.levels = 1
-modifier.render_levels = 1
-modifier.subdivision_type = "CATMULL_CLARK"
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from blender_protocol_scene import protocol_sphere  # noqa: E402
+
+obj = protocol_sphere()
 
 depsgraph = bpy.context.evaluated_depsgraph_get()
 mesh = obj.evaluated_get(depsgraph).to_mesh()
