@@ -16,6 +16,8 @@
 
 use std::f64::consts::{FRAC_PI_2, FRAC_PI_4, PI, TAU};
 
+pub mod lanes;
+
 /// tan(pi / 8) = sqrt(2) - 1.
 const TAN_PI_8: f64 = 0.414_213_562_373_095_03;
 

@@ -25,11 +25,13 @@ pub(super) struct Poly {
     pub(super) p: [(f64, f64); 6],
 }
 
-/// A polygon clipped by a line.
+/// Where a line leaves a polygon: wholly kept, wholly cut away, or cut (the kept part then
+/// written out by [`Poly::cut`]).
+#[derive(Clone, Copy, PartialEq, Eq)]
 pub(super) enum Clipped {
     All,
     Nothing,
-    Part(Poly),
+    Part,
 }
 
 pub(super) const SQUARE: Poly =
@@ -37,38 +39,53 @@ pub(super) const SQUARE: Poly =
 
 impl Poly {
     /// The part where `line >= 0`, telling apart the cases where it is all or nothing (as
-    /// [`Poly::clip`] would give them).
+    /// [`Poly::clip`] would give them); only a `Part` is written to `out`. The line is evaluated
+    /// once a vertex, and no polygon is copied where it is all or nothing.
     #[inline]
-    pub(super) fn clipped(&self, line: Line) -> Clipped {
+    pub(super) fn cut(&self, line: Line, out: &mut Poly) -> Clipped {
         if self.n == 0 {
             return Clipped::Nothing;
         }
+        let mut f = [0.0; 6];
         let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-        for &p in &self.p[..self.n] {
-            let v = line.at(p);
-            lo = lo.min(v);
-            hi = hi.max(v);
+        for (v, &p) in f.iter_mut().zip(&self.p[..self.n]) {
+            *v = line.at(p);
+            lo = lo.min(*v);
+            hi = hi.max(*v);
         }
         if lo >= 0.0 {
             Clipped::All
         } else if hi < 0.0 {
             Clipped::Nothing
         } else {
-            Clipped::Part(self.clip(line))
+            self.clip_values(&f, out);
+            Clipped::Part
         }
     }
 
-    /// The part where `line >= 0`.
+    /// The part where `line >= 0` (the tests' shorthand for [`Poly::cut`]).
+    #[cfg(test)]
     pub(super) fn clip(&self, line: Line) -> Poly {
         let mut out = Poly { n: 0, p: [(0.0, 0.0); 6] };
+        let mut f = [0.0; 6];
+        for (v, &p) in f.iter_mut().zip(&self.p[..self.n]) {
+            *v = line.at(p);
+        }
+        self.clip_values(&f, &mut out);
+        out
+    }
+
+    /// The part where the line, whose values at the vertices are `f`, is `>= 0`, into `out`.
+    #[inline]
+    fn clip_values(&self, f: &[f64; 6], out: &mut Poly) {
+        out.n = 0;
         if self.n == 0 {
-            return out;
+            return;
         }
         // Each edge a -> b adds its crossing, if any, then b if it is kept.
         let mut a = self.p[self.n - 1];
-        let mut fa = line.at(a);
-        for &b in &self.p[..self.n] {
-            let fb = line.at(b);
+        let mut fa = f[self.n - 1];
+        for (&b, &fb) in self.p[..self.n].iter().zip(f) {
             if (fa > 0.0 && fb < 0.0) || (fa < 0.0 && fb > 0.0) {
                 let t = fa / (fa - fb);
                 out.p[out.n] = (a.0 + t * (b.0 - a.0), a.1 + t * (b.1 - a.1));
@@ -80,7 +97,6 @@ impl Poly {
             }
             (a, fa) = (b, fb);
         }
-        out
     }
 
     /// `integral over the polygon of (1 + beta_u u + beta_v v) du dv`.

@@ -5,6 +5,7 @@ use std::f64::consts::PI;
 
 use glam::DVec3;
 
+use super::polygon::SQUARE;
 use super::*;
 use crate::geometry::latlong;
 use crate::geometry::rotation::Rotation;
