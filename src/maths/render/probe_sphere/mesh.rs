@@ -17,6 +17,7 @@
 //! a cell) meets the directions of points along the segment are tested exactly (Moller-Trumbore,
 //! f64), and the nearest hit wins.
 
+use std::collections::HashMap;
 use std::sync::OnceLock;
 
 use glam::DVec3;
@@ -199,7 +200,7 @@ impl SphereMesh {
                 }
             }
         }
-        let rings = super::mesh_search::rings(&triangles, positions.len());
+        let rings = rings(&triangles, positions.len());
         SphereMesh { positions, normals, triangles, face_normals, outer, inner, cells, rings }
     }
 
@@ -239,6 +240,46 @@ impl SphereMesh {
         let t = e2.dot(qv) * inv;
         (t > 0.0).then_some((t, u, v))
     }
+}
+
+/// Per triangle, the triangles that share a vertex with it: those sharing an edge first.
+fn rings(triangles: &[[u32; 3]], vertices: usize) -> Vec<Vec<u32>> {
+    let mut at_vertex = vec![Vec::new(); vertices];
+    for (id, t) in triangles.iter().enumerate() {
+        for &v in t {
+            at_vertex[v as usize].push(id as u32);
+        }
+    }
+    let mut edges: HashMap<(u32, u32), Vec<u32>> = HashMap::new();
+    for (id, t) in triangles.iter().enumerate() {
+        for k in 0..3 {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            edges.entry((a.min(b), a.max(b))).or_default().push(id as u32);
+        }
+    }
+    triangles
+        .iter()
+        .enumerate()
+        .map(|(id, t)| {
+            let mut ring: Vec<u32> = Vec::new();
+            for k in 0..3 {
+                let (a, b) = (t[k], t[(k + 1) % 3]);
+                for &n in &edges[&(a.min(b), a.max(b))] {
+                    if n as usize != id && !ring.contains(&n) {
+                        ring.push(n);
+                    }
+                }
+            }
+            for &v in t {
+                for &n in &at_vertex[v as usize] {
+                    if n as usize != id && !ring.contains(&n) {
+                        ring.push(n);
+                    }
+                }
+            }
+            ring
+        })
+        .collect()
 }
 
 /// The part `[t0, t1]` of a ray inside the sphere of radius `outer` and before the sphere of radius

@@ -20,7 +20,6 @@
 //! stops at the first (ring or grid), whatever its steepness.
 
 use std::cell::RefCell;
-use std::collections::HashMap;
 
 use super::camera::Ray;
 use super::mesh::{shell_segment, Hit, SphereMesh, SEGMENT_STEP};
@@ -33,46 +32,6 @@ pub const HINT_MIN_COS: f64 = 0.2;
 thread_local! {
     /// Per triangle, the query that last tested it, and the current query's number.
     static STAMPS: RefCell<(u32, Vec<u32>)> = const { RefCell::new((0, Vec::new())) };
-}
-
-/// Per triangle, the triangles that share a vertex with it: those sharing an edge first.
-pub(super) fn rings(triangles: &[[u32; 3]], vertices: usize) -> Vec<Vec<u32>> {
-    let mut at_vertex = vec![Vec::new(); vertices];
-    for (id, t) in triangles.iter().enumerate() {
-        for &v in t {
-            at_vertex[v as usize].push(id as u32);
-        }
-    }
-    let mut edges: HashMap<(u32, u32), Vec<u32>> = HashMap::new();
-    for (id, t) in triangles.iter().enumerate() {
-        for k in 0..3 {
-            let (a, b) = (t[k], t[(k + 1) % 3]);
-            edges.entry((a.min(b), a.max(b))).or_default().push(id as u32);
-        }
-    }
-    triangles
-        .iter()
-        .enumerate()
-        .map(|(id, t)| {
-            let mut ring: Vec<u32> = Vec::new();
-            for k in 0..3 {
-                let (a, b) = (t[k], t[(k + 1) % 3]);
-                for &n in &edges[&(a.min(b), a.max(b))] {
-                    if n as usize != id && !ring.contains(&n) {
-                        ring.push(n);
-                    }
-                }
-            }
-            for &v in t {
-                for &n in &at_vertex[v as usize] {
-                    if n as usize != id && !ring.contains(&n) {
-                        ring.push(n);
-                    }
-                }
-            }
-            ring
-        })
-        .collect()
 }
 
 impl SphereMesh {

@@ -90,7 +90,9 @@ fn difference(a: &ProbeRender, reference: &ProbeRender) -> (f64, f64) {
 fn tiles_stay_as_close_to_a_four_times_finer_cut_as_each_pixels_own_cut() {
     // The tiles' cut is at least as fine as each pixel's: against the pixels' own sums at cut/4 its
     // error is no larger (mean and worst), and it departs from the pixels' own sums at the default
-    // cut by less than that cut's own error.
+    // cut by less than that cut's own error (measured on the mesh: MatteSilver 0.23% mean, 1.4%
+    // worst against cut/4 where the pixels' own cuts give 0.36% and 1.6%, 0.14% and 0.95% from
+    // them; Diffuse 0.055% and 7.3% against 0.057% and 7.3%, 0.006% and 0.16% from them).
     let map = sky_with_sun(256, 128);
     for material in [ProbeMaterial::MatteSilver, ProbeMaterial::Diffuse] {
         let s = ProbeSettings {
