@@ -60,11 +60,28 @@ impl Environment {
         let (tx, ty) = (fx - x0, fy - y0);
         let (w, h) = (self.width as isize, self.height as isize);
         let (x0, y0) = (x0 as isize, y0 as isize);
+        // The wrap: an index is at most one period out (u and the polar angle are within [0, 1]),
+        // so a comparison does what `rem_euclid`'s division would (kept for anything else).
+        let wrap = |i: isize, n: isize| {
+            let j = if i < 0 {
+                i + n
+            } else if i >= n {
+                i - n
+            } else {
+                i
+            };
+            if (0..n).contains(&j) {
+                j as usize
+            } else {
+                i.rem_euclid(n) as usize
+            }
+        };
+        let (xs, ys) = ([wrap(x0, w), wrap(x0 + 1, w)], [wrap(y0, h), wrap(y0 + 1, h)]);
         let mut out = [0.0; 3];
         for (dx, dy, wgt) in
             [(0, 0, (1.0 - tx) * (1.0 - ty)), (1, 0, tx * (1.0 - ty)), (0, 1, (1.0 - tx) * ty), (1, 1, tx * ty)]
         {
-            let p = self.rgb[(y0 + dy).rem_euclid(h) as usize * self.width + (x0 + dx).rem_euclid(w) as usize];
+            let p = self.rgb[ys[dy] * self.width + xs[dx]];
             for c in 0..3 {
                 out[c] += wgt * p[c];
             }

@@ -10,13 +10,14 @@
 //! normal at a hit is the barycentric interpolation of the three vertex normals, normalised, and the
 //! geometric normal `Ng` the triangle's.
 //!
-//! Intersection: every triangle lies in the shell between the sphere through the farthest vertex
+//! Intersection ([`super::mesh_search`]): every triangle lies in the shell between the sphere through the farthest vertex
 //! and the sphere tangent to the nearest triangle plane, and covers a small patch of directions
 //! from the origin (the mesh is star-shaped about it). A ray's hit, if any, lies on its segment
 //! inside that shell; the triangles whose patch of directions (an azimuth-polar box, padded by half
 //! a cell) meets the directions of points along the segment are tested exactly (Moller-Trumbore,
 //! f64), and the nearest hit wins.
 
+use std::collections::HashMap;
 use std::sync::OnceLock;
 
 use glam::DVec3;
@@ -57,13 +58,15 @@ pub struct SphereMesh {
     pub positions: Vec<DVec3>,
     pub normals: Vec<DVec3>,
     pub triangles: Vec<[u32; 3]>,
-    face_normals: Vec<DVec3>,
+    pub(super) face_normals: Vec<DVec3>,
     /// radius of the sphere through the farthest vertex
     pub outer: f64,
     /// distance of the nearest triangle plane from the origin
     pub inner: f64,
     /// triangle ids per grid cell, `cells[polar * AZIMUTH_CELLS + azimuth]`
-    cells: Vec<Vec<u32>>,
+    pub(super) cells: Vec<Vec<u32>>,
+    /// per triangle, the triangles sharing a vertex with it, edge neighbours first
+    pub(super) rings: Vec<Vec<u32>>,
 }
 
 const AZIMUTH_CELLS: usize = 64;
@@ -71,12 +74,7 @@ const POLAR_CELLS: usize = 32;
 /// The largest angle, in radians, between the directions of consecutive points along a ray's
 /// segment in the shell whose cells are looked up: 1 degree, well within the half-cell (2.8 degree)
 /// padding of the triangles' boxes. A segment spans at most ~18 degrees (a ray grazing the shell).
-const SEGMENT_STEP: f64 = std::f64::consts::PI / 180.0;
-
-/// The steepness (cosine from the triangle's plane normal) above which a hit on the hinted
-/// triangle is taken without a search: 11.5 degrees from grazing, twice the steepest slope a dent
-/// can hide a nearer hit under (atan(2 * 2.2e-3 / 0.05)).
-const HINT_MIN_COS: f64 = 0.2;
+pub(super) const SEGMENT_STEP: f64 = std::f64::consts::PI / 180.0;
 
 static MESH: OnceLock<SphereMesh> = OnceLock::new();
 
@@ -91,6 +89,14 @@ fn cell_of(d: DVec3) -> (usize, usize) {
     let a = ((az / std::f64::consts::TAU) * AZIMUTH_CELLS as f64).floor() as isize;
     let p = ((pol / std::f64::consts::PI) * POLAR_CELLS as f64).floor() as isize;
     (a.rem_euclid(AZIMUTH_CELLS as isize) as usize, p.clamp(0, POLAR_CELLS as isize - 1) as usize)
+}
+
+impl SphereMesh {
+    /// The grid cell of direction `d`, `polar * AZIMUTH_CELLS + azimuth`.
+    pub(super) fn cell_index(&self, d: DVec3) -> usize {
+        let (a, p) = cell_of(d);
+        p * AZIMUTH_CELLS + a
+    }
 }
 
 /// Azimuth in [0, 2 pi) about +Z from +X, and polar angle from +Z.
@@ -194,7 +200,8 @@ impl SphereMesh {
                 }
             }
         }
-        SphereMesh { positions, normals, triangles, face_normals, outer, inner, cells }
+        let rings = rings(&triangles, positions.len());
+        SphereMesh { positions, normals, triangles, face_normals, outer, inner, cells, rings }
     }
 
     /// The nearest hit of `ray` on the mesh.
@@ -202,75 +209,7 @@ impl SphereMesh {
         self.hit_near(ray, &mut None)
     }
 
-    /// [`SphereMesh::hit`], trying first the triangle `hint` names (the last one hit, for rays
-    /// close together) and leaving in it the triangle hit. The mesh is convex but for dents at most
-    /// 2.2e-3 deep where a non-planar quad is split across its valley (tested), under triangles
-    /// about 0.1 wide: a ray that enters a triangle from its front more steeply than
-    /// [`HINT_MIN_COS`] cannot have left and re-entered the sphere before, so that hit is the
-    /// nearest; a grazing ray takes the full search.
-    pub fn hit_near(&self, ray: &Ray, hint: &mut Option<usize>) -> Option<Hit> {
-        if let Some(id) = *hint {
-            if self.face_normals[id].dot(ray.dir) < -HINT_MIN_COS {
-                if let Some((t, u, v)) = self.intersect(id, ray) {
-                    return Some(self.hit_at(ray, id, t, u, v));
-                }
-            }
-        }
-        let (t0, t1) = shell_segment(ray, self.outer, self.inner)?;
-        // Candidates from the cells of points along the segment (on the stack; a cell near a pole
-        // holds the whole polar fan, a grazing ray crosses up to ~20 cells).
-        let mut candidates = [0u32; 1024];
-        let mut count = 0;
-        let mut last_cell = usize::MAX;
-        let (d0, d1) = (ray.origin + t0 * ray.dir, ray.origin + t1 * ray.dir);
-        let span = d0.angle_between(d1);
-        let points = ((span / SEGMENT_STEP).ceil() as usize + 1).max(2);
-        for k in 0..points {
-            let t = t0 + (t1 - t0) * k as f64 / (points - 1) as f64;
-            let (a, p) = cell_of(ray.origin + t * ray.dir);
-            let cell = p * AZIMUTH_CELLS + a;
-            if cell != last_cell {
-                let ids = &self.cells[cell];
-                let room = (candidates.len() - count).min(ids.len());
-                candidates[count..count + room].copy_from_slice(&ids[..room]);
-                count += room;
-                last_cell = cell;
-            }
-        }
-        if count == candidates.len() {
-            // Never seen (the fullest ray sees a few hundred): test every triangle rather than lose one.
-            return self.hit_brute(ray, hint);
-        }
-        let candidates = &mut candidates[..count];
-        candidates.sort_unstable();
-        let mut best: Option<(f64, usize, f64, f64)> = None;
-        let mut previous = u32::MAX;
-        for &id in candidates.iter() {
-            if id == previous {
-                continue;
-            }
-            previous = id;
-            let id = id as usize;
-            if let Some((t, u, v)) = self.intersect(id, ray) {
-                if best.is_none_or(|b| t < b.0) {
-                    best = Some((t, id, u, v));
-                }
-            }
-        }
-        let (t, id, u, v) = best?;
-        *hint = Some(id);
-        Some(self.hit_at(ray, id, t, u, v))
-    }
-
-    fn hit_brute(&self, ray: &Ray, hint: &mut Option<usize>) -> Option<Hit> {
-        let (t, id, u, v) = (0..self.triangles.len())
-            .filter_map(|id| self.intersect(id, ray).map(|(t, u, v)| (t, id, u, v)))
-            .min_by(|a, b| a.0.total_cmp(&b.0))?;
-        *hint = Some(id);
-        Some(self.hit_at(ray, id, t, u, v))
-    }
-
-    fn hit_at(&self, ray: &Ray, id: usize, t: f64, u: f64, v: f64) -> Hit {
+    pub(super) fn hit_at(&self, ray: &Ray, id: usize, t: f64, u: f64, v: f64) -> Hit {
         let [a, b, c] = self.triangles[id].map(|i| i as usize);
         let n = (1.0 - u - v) * self.normals[a] + u * self.normals[b] + v * self.normals[c];
         let ng = self.face_normals[id];
@@ -279,7 +218,7 @@ impl SphereMesh {
     }
 
     /// Moller-Trumbore: `(t, u, v)` with the hit at `(1 - u - v) p0 + u p1 + v p2`.
-    fn intersect(&self, id: usize, ray: &Ray) -> Option<(f64, f64, f64)> {
+    pub(super) fn intersect(&self, id: usize, ray: &Ray) -> Option<(f64, f64, f64)> {
         let t = &self.triangles[id];
         let (a, b, c) = (self.positions[t[0] as usize], self.positions[t[1] as usize], self.positions[t[2] as usize]);
         let (e1, e2) = (b - a, c - a);
@@ -303,9 +242,49 @@ impl SphereMesh {
     }
 }
 
+/// Per triangle, the triangles that share a vertex with it: those sharing an edge first.
+fn rings(triangles: &[[u32; 3]], vertices: usize) -> Vec<Vec<u32>> {
+    let mut at_vertex = vec![Vec::new(); vertices];
+    for (id, t) in triangles.iter().enumerate() {
+        for &v in t {
+            at_vertex[v as usize].push(id as u32);
+        }
+    }
+    let mut edges: HashMap<(u32, u32), Vec<u32>> = HashMap::new();
+    for (id, t) in triangles.iter().enumerate() {
+        for k in 0..3 {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            edges.entry((a.min(b), a.max(b))).or_default().push(id as u32);
+        }
+    }
+    triangles
+        .iter()
+        .enumerate()
+        .map(|(id, t)| {
+            let mut ring: Vec<u32> = Vec::new();
+            for k in 0..3 {
+                let (a, b) = (t[k], t[(k + 1) % 3]);
+                for &n in &edges[&(a.min(b), a.max(b))] {
+                    if n as usize != id && !ring.contains(&n) {
+                        ring.push(n);
+                    }
+                }
+            }
+            for &v in t {
+                for &n in &at_vertex[v as usize] {
+                    if n as usize != id && !ring.contains(&n) {
+                        ring.push(n);
+                    }
+                }
+            }
+            ring
+        })
+        .collect()
+}
+
 /// The part `[t0, t1]` of a ray inside the sphere of radius `outer` and before the sphere of radius
 /// `inner` (where it reaches it).
-fn shell_segment(ray: &Ray, outer: f64, inner: f64) -> Option<(f64, f64)> {
+pub(super) fn shell_segment(ray: &Ray, outer: f64, inner: f64) -> Option<(f64, f64)> {
     let b = ray.origin.dot(ray.dir);
     let c0 = ray.origin.length_squared();
     let disc = b * b - (c0 - outer * outer);

@@ -26,15 +26,23 @@
 //!   rays all lie within the silhouette of a sphere inside the mesh (its nearest triangle plane's
 //!   distance) is not traced: coverage 1, shaded at the pattern's mean offset, the same result.
 //!
-//! Rows run in parallel (rayon); every pixel is a pure function of the inputs, so the image is
-//! the same bit for bit whatever the number of threads.
+//! The rough lobes are shaded by tiles of pixels ([`tiles`]): a tile's pixels share one cut of the
+//! texel tree, at least as fine as each pixel's own ([`tile_cut`]), and each sums its own lobes over
+//! it ([`lobe_kernel`], vectorised).
+//!
+//! Bands of rows run in parallel (rayon); every pixel is a pure function of the inputs and of its
+//! tile's pixels, so the image is the same bit for bit whatever the number of threads.
 
 pub mod camera;
 pub mod environment;
+pub mod lobe_kernel;
 pub mod mesh;
+mod mesh_search;
 pub mod principled;
 pub mod shading;
 pub mod texel_tree;
+pub mod tile_cut;
+mod tiles;
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -122,7 +130,6 @@ fn pattern(n: usize, filter: &FilterTable) -> Vec<PixelSample> {
 
 struct Scene<'a> {
     env: &'a Environment,
-    tree: Option<&'a TexelTree>,
     camera: Camera,
     bsdf: Principled,
     shape: ProbeShape,
@@ -146,67 +153,97 @@ impl Scene<'_> {
         }
     }
 
-    /// `(rgb premultiplied, coverage)` of pixel `(c, r)` with the rays of `pattern`.
-    fn pixel(&self, c: usize, r: usize, pattern: &[PixelSample], hint: &mut Option<usize>) -> ([f64; 3], f64) {
+    /// Whether the ray hits the sphere; `hint` as in [`Scene::hit`].
+    fn hits(&self, ray: &Ray, hint: &mut Option<usize>) -> bool {
+        match self.shape {
+            ProbeShape::Ideal => mesh::hit_ideal(ray).is_some(),
+            ProbeShape::Subdivided => mesh::subdivided().hits(ray, hint),
+        }
+    }
+
+    /// Pixel `(c, r)` with the rays of `pattern`: the mirror's `(rgb premultiplied, coverage)`, or
+    /// where the rough lobes are to be shaded and the coverage.
+    fn pixel(&self, c: usize, r: usize, pattern: &[PixelSample], hint: &mut Option<usize>) -> Stage {
         let (cf, rf) = (c as f64, r as f64);
         let (dx, dy) = (cf + 0.5 - 0.5 * self.camera.width as f64, rf + 0.5 - 0.5 * self.camera.height as f64);
         let from_centre = dx.hypot(dy);
         if from_centre > self.reach {
-            return ([0.0; 3], 0.0);
+            return Stage::Done([0.0; 3], 0.0);
         }
         if !self.bsdf.is_mirror() && from_centre < self.inside {
             // Every ray hits: the rough lobes at the pattern's mean offset, full coverage.
             let [ox, oy] = self.mean_offset;
             let ray = self.camera.pinhole(cf, rf, ox, oy);
             if let Some(hit) = self.hit(&ray, hint) {
-                return (self.rough(&hit, -ray.dir), 1.0);
+                return Stage::Shade(hit, -ray.dir, 1.0);
             }
         }
         let n = pattern.len();
         let mut rgb = [0.0; 3];
         let (mut hits, mut sum_ox, mut sum_oy) = (0usize, 0.0, 0.0);
-        let mut first_hit: Option<(Hit, DVec3)> = None;
+        let mut first_hit: Option<Ray> = None;
         for s in pattern {
             let [ox, oy] = s.offset;
             let ray = self.camera.ray_through(cf, rf, ox, oy, s.lens);
-            let Some(hit) = self.hit(&ray, hint) else { continue };
-            hits += 1;
             if self.bsdf.is_mirror() {
+                let Some(hit) = self.hit(&ray, hint) else { continue };
                 let l = shading::mirror(self.env, &self.bsdf, &hit, -ray.dir);
                 (0..3).for_each(|k| rgb[k] += l[k]);
             } else {
+                // The rough lobes need only whether the ray hits.
+                if !self.hits(&ray, hint) {
+                    continue;
+                }
                 sum_ox += ox;
                 sum_oy += oy;
-                if first_hit.is_none() {
-                    first_hit = Some((hit, -ray.dir));
-                }
+                first_hit.get_or_insert(ray);
             }
+            hits += 1;
         }
         if hits == 0 {
-            return ([0.0; 3], 0.0);
+            return Stage::Done([0.0; 3], 0.0);
         }
         let coverage = hits as f64 / n as f64;
         if self.bsdf.is_mirror() {
-            return (rgb.map(|v| v / n as f64), coverage);
+            return Stage::Done(rgb.map(|v| v / n as f64), coverage);
         }
-        // The rough lobes once, at the pinhole ray through the hitting rays' mean offset.
+        // The rough lobes once, at the pinhole ray through the hitting rays' mean offset (or the
+        // first hitting ray where that one misses).
         let ray = self.camera.pinhole(cf, rf, sum_ox / hits as f64, sum_oy / hits as f64);
-        let (hit, v) = match self.hit(&ray, hint) {
-            Some(h) => (h, -ray.dir),
-            None => first_hit.expect("a hitting ray was counted"),
-        };
-        (self.rough(&hit, v).map(|v| v * coverage), coverage)
+        let ray = if self.hits(&ray, hint) { ray } else { first_hit.unwrap_or(ray) };
+        match self.hit(&ray, hint) {
+            Some(hit) => Stage::Shade(hit, -ray.dir, coverage),
+            None => Stage::Done([0.0; 3], coverage),
+        }
     }
+}
 
-    fn rough(&self, hit: &Hit, v: DVec3) -> [f64; 3] {
-        let tree = self.tree.expect("rough materials have a texel tree");
-        shading::rough(tree, &self.bsdf, hit, v)
+/// A pixel after its rays: done (the mirror, or no hit), or to be shaded with the rough lobes at a
+/// hit seen along `v`, then multiplied by the coverage.
+#[derive(Clone, Copy)]
+enum Stage {
+    Done([f64; 3], f64),
+    Shade(Hit, DVec3, f64),
+}
+
+impl Stage {
+    fn coverage(&self) -> f64 {
+        match *self {
+            Stage::Done(_, a) | Stage::Shade(_, _, a) => a,
+        }
     }
 }
 
 /// Renders the protocol's sphere of `settings.material` under `env` (a lat-long map, hdrflow's
 /// convention; see [`environment`] for how Blender reads the same file).
 pub fn render(env: &Image, settings: &ProbeSettings) -> ProbeRender {
+    render_tiled(env, settings, tiles::TILE)
+}
+
+/// [`render`] with the rough lobes shaded by tiles of `tile` x `tile` pixels (1: each pixel's own
+/// cut of the texel tree, [`texel_tree::TexelTree::sum`]'s).
+fn render_tiled(env: &Image, settings: &ProbeSettings, tile: usize) -> ProbeRender {
+    let tile = tile.max(1);
     let environment = Environment::new(env);
     let bsdf = settings.material.principled(settings.smith);
     // The texel tree only serves the rough lobes.
@@ -228,7 +265,6 @@ pub fn render(env: &Image, settings: &ProbeSettings) -> ProbeRender {
     let mean_offset = [0, 1].map(|k| rays.iter().map(|s| s.offset[k]).sum::<f64>() / n as f64);
     let scene = Scene {
         env: &environment,
-        tree: tree.as_ref(),
         camera,
         bsdf,
         shape: settings.shape,
@@ -239,25 +275,49 @@ pub fn render(env: &Image, settings: &ProbeSettings) -> ProbeRender {
         mean_offset,
     };
     let (w, h) = (settings.width, settings.height);
-    let rows: Vec<Vec<([f64; 3], f64)>> = (0..h)
-        .into_par_iter()
-        .map(|r| {
-            let mut hint = None;
-            (0..w)
-                .map(|c| {
-                    let (rgb, a) = scene.pixel(c, r, &scene.rays, &mut hint);
-                    if a > 0.0 && a < 1.0 {
-                        scene.pixel(c, r, &scene.edge_rays, &mut hint)
-                    } else {
-                        (rgb, a)
-                    }
-                })
-                .collect()
+    // A row's pixels after their rays; the hint carries along the row.
+    let row = |r: usize| -> Vec<Stage> {
+        let mut hint = None;
+        (0..w)
+            .map(|c| {
+                let first = scene.pixel(c, r, &scene.rays, &mut hint);
+                let a = first.coverage();
+                if a > 0.0 && a < 1.0 {
+                    scene.pixel(c, r, &scene.edge_rays, &mut hint)
+                } else {
+                    first
+                }
+            })
+            .collect()
+    };
+    let finish = |stages: Vec<Stage>, shaded: Vec<[f64; 3]>| {
+        stages.into_iter().zip(shaded).map(|(s, rgb)| match s {
+            Stage::Done(done, a) => (done, a),
+            Stage::Shade(_, _, a) => (rgb, a),
         })
-        .collect();
+    };
+    let pixels: Vec<([f64; 3], f64)> = match &tree {
+        None => (0..h)
+            .into_par_iter()
+            .flat_map_iter(|r| {
+                let stages = row(r);
+                let none = vec![[0.0; 3]; stages.len()];
+                finish(stages, none)
+            })
+            .collect(),
+        // Bands of `tile` rows: their tiles' rough lobes once the band's rays are traced.
+        Some(tree) => (0..h.div_ceil(tile))
+            .into_par_iter()
+            .flat_map_iter(|band| {
+                let stages: Vec<Stage> = (band * tile..((band + 1) * tile).min(h)).flat_map(row).collect();
+                let shaded = tiles::shade_band(tree, &bsdf, w, &stages, tile);
+                finish(stages, shaded)
+            })
+            .collect(),
+    };
     let mut rgba = Vec::with_capacity(w * h * 4);
     let mut alpha = Vec::with_capacity(w * h);
-    for (rgb, a) in rows.into_iter().flatten() {
+    for (rgb, a) in pixels {
         rgba.extend_from_slice(&[rgb[0] as f32, rgb[1] as f32, rgb[2] as f32, a as f32]);
         alpha.push(a as f32);
     }
@@ -266,3 +326,5 @@ pub fn render(env: &Image, settings: &ProbeSettings) -> ProbeRender {
 
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod tiles_tests;

@@ -92,6 +92,11 @@ impl Principled {
         self.alpha * self.alpha <= 1e-7
     }
 
+    /// The dielectric reflectance at normal incidence, `F_d(1, ior)`, that Fresnel's remap uses.
+    pub fn dielectric_f0(&self) -> f64 {
+        self.f0
+    }
+
     /// Principled v1's Fresnel at `cos = l.m`.
     pub fn fresnel(&self, cos: f64) -> f64 {
         if self.ior == 1.0 {

@@ -39,42 +39,46 @@ use crate::values::Image;
 /// The coarsest level visited has at most this many nodes across.
 const TOP_WIDTH: usize = 16;
 /// The finest split of one texel, per side.
-const MAX_SPLIT: usize = 32;
+pub(super) const MAX_SPLIT: usize = 32;
 
-struct Level {
-    width: usize,
-    height: usize,
-    power: Vec<[f64; 3]>,
-    centre: Vec<DVec3>,
-    radius: Vec<f64>,
+pub(super) struct Level {
+    pub(super) width: usize,
+    pub(super) height: usize,
+    pub(super) power: Vec<[f64; 3]>,
+    pub(super) centre: Vec<DVec3>,
+    pub(super) radius: Vec<f64>,
     /// `sin(min(radius, pi / 2))`: the cone is below a horizon when its axis is that far below
-    sin_radius: Vec<f64>,
+    pub(super) sin_radius: Vec<f64>,
+    /// `cos(min(radius, pi / 2))`, for the horizons of a tile ([`super::tile_cut`])
+    pub(super) cos_radius: Vec<f64>,
     /// the node is taken whole when `centre . peak <= accept_cos` (the refinement test, see
     /// [`TexelTree::new`]); 2 for always, -2 for never
-    accept_cos: Vec<f64>,
+    pub(super) accept_cos: Vec<f64>,
+    /// the sine of the angle whose cosine `accept_cos` is (0 for always and never)
+    pub(super) accept_sin: Vec<f64>,
 }
 
 /// The map's texels as a tree of blocks.
 pub struct TexelTree {
-    levels: Vec<Level>,
+    pub(super) levels: Vec<Level>,
     /// level 0's texel size
-    width: usize,
-    height: usize,
+    pub(super) width: usize,
+    pub(super) height: usize,
     /// the refinement ratio and lobe width the tree was made for
-    cut: f64,
-    w: f64,
+    pub(super) cut: f64,
+    pub(super) w: f64,
 }
 
 /// The Blender direction at texture coordinate `u` and polar angle `theta` (from +Z): the inverse
 /// of Cycles' `u = 0.5 - atan2(y, x) / (2 pi)`.
-fn direction(u: f64, theta: f64) -> DVec3 {
+pub(super) fn direction(u: f64, theta: f64) -> DVec3 {
     let phi = PI * (1.0 - 2.0 * u);
     let (st, ct) = theta.sin_cos();
     DVec3::new(st * phi.cos(), st * phi.sin(), ct)
 }
 
 /// The exact solid angle of the box `[u0, u1] x [theta0, theta1]`.
-fn box_solid_angle(du: f64, theta0: f64, theta1: f64) -> f64 {
+pub(super) fn box_solid_angle(du: f64, theta0: f64, theta1: f64) -> f64 {
     2.0 * PI * du * (theta0.cos() - theta1.cos())
 }
 
@@ -104,7 +108,17 @@ impl TexelTree {
                 radius.push(r);
             }
         }
-        let level = Level { width, height, power, centre, radius, sin_radius: Vec::new(), accept_cos: Vec::new() };
+        let level = Level {
+            width,
+            height,
+            power,
+            centre,
+            radius,
+            sin_radius: Vec::new(),
+            cos_radius: Vec::new(),
+            accept_cos: Vec::new(),
+            accept_sin: Vec::new(),
+        };
         let mut levels = vec![level];
         while levels.last().is_some_and(|l| l.width > TOP_WIDTH || l.height > TOP_WIDTH / 2) {
             let next = group(levels.last().unwrap());
@@ -112,6 +126,7 @@ impl TexelTree {
         }
         for l in &mut levels {
             l.sin_radius = l.radius.iter().map(|&r| r.min(0.5 * PI).sin()).collect();
+            l.cos_radius = l.radius.iter().map(|&r| r.min(0.5 * PI).cos()).collect();
             l.accept_cos = l
                 .radius
                 .iter()
@@ -130,6 +145,8 @@ impl TexelTree {
                     }
                 })
                 .collect();
+            l.accept_sin =
+                l.accept_cos.iter().map(|&c| if c.abs() <= 1.0 { (1.0 - c * c).sqrt() } else { 0.0 }).collect();
         }
         TexelTree { levels, width, height, cut, w }
     }
@@ -202,7 +219,9 @@ fn group(l: &Level) -> Level {
         centre: Vec::with_capacity(w * h),
         radius: Vec::with_capacity(w * h),
         sin_radius: Vec::new(),
+        cos_radius: Vec::new(),
         accept_cos: Vec::new(),
+        accept_sin: Vec::new(),
     };
     for y in 0..h {
         for x in 0..w {
