@@ -38,9 +38,9 @@ const BLENDER_SAMPLES: usize = 256;
 
 /// Per material: the largest ratio of hdrflow's RMSE against Blender's noise, and the largest
 /// relative difference of the mean over the covered pixels. Measured when set (2026-12-07, the
-/// park, the interior, the studio): mirror 1.43, 1.07, 1.02 and means within 0.007%; matte silver
-/// 0.97, 1.48, 2.24 and -0.33 to -0.38% (the texel sum's known deficit, docs/src/guides/
-/// evaluation-protocol.md); diffuse 1.12, 1.15, 1.15 and -0.04 to -0.17%. The studio's matte
+/// park, the interior, the studio; ProbeSphere version 2): mirror 1.43, 1.07, 1.02 and means
+/// within 0.007%; matte silver 0.95, 1.47, about 2.2 and -0.17 to -0.23% (the texel sum's known
+/// deficit, docs/src/guides/evaluation-protocol.md); diffuse 1.11, 1.15, 1.15 and -0.03 to -0.17%. The studio's matte
 /// silver is the one beyond the noise: at 10% a pixel spans about 2 degrees of normals, and its
 /// softboxes' highlights, narrower than that, are shaded once per pixel where Cycles averages them
 /// over the pixel (at 50% the pixel is five times smaller; the protocol's table there is within
