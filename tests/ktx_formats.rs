@@ -16,7 +16,7 @@
 
 mod common;
 
-use common::Sandbox;
+use common::{Output, Sandbox};
 use exr::prelude::f16;
 use hdrflow::formats::ktx2::KtxFormat;
 use hdrflow::formats::packed_float::{decode_b10g11r11, decode_rgb9e5, RGB9E5_MAX, UF10_MAX, UF11_MAX};
@@ -321,6 +321,11 @@ fn every_engine_format_reads_back_within_its_bound() {
     assert!(!out.stderr.contains("warning"), "no texel is out of range here:\n{}", out.describe());
 }
 
+/// The warning lines of node `node` on a run's stderr.
+fn warnings_of<'a>(out: &'a Output, node: &str) -> Vec<&'a str> {
+    out.stderr.lines().filter(|l| l.starts_with(&format!("warning: node \"{node}\""))).collect()
+}
+
 #[test]
 fn out_of_range_texels_are_clamped_with_one_warning_naming_their_count() {
     let sb = Sandbox::new();
@@ -340,9 +345,7 @@ fn out_of_range_texels_are_clamped_with_one_warning_naming_their_count() {
 )"#,
     );
     let (out, _) = sb.run_ok(&graph, &[]);
-    let lines = |node: &str| -> Vec<&str> {
-        out.stderr.lines().filter(|l| l.starts_with(&format!("warning: node \"{node}\""))).collect()
-    };
+    let lines = |node: &str| warnings_of(&out, node);
     assert_eq!(
         lines("a"),
         ["warning: node \"a\": hot.ktx2: 32 texels have values that ktx_format Rgb9e5 cannot hold: values outside [0, 65408] are clamped to it (NaN to 0)"],
@@ -438,9 +441,7 @@ fn rgbp_pngs_of_images_and_cube_maps_count_their_clamped_texels() {
 )"#,
     );
     let (out, _) = sb.run_ok(&graph, &[]);
-    let lines = |node: &str| -> Vec<&str> {
-        out.stderr.lines().filter(|l| l.starts_with(&format!("warning: node \"{node}\""))).collect()
-    };
+    let lines = |node: &str| warnings_of(&out, node);
     assert_eq!(
         lines("a"),
         ["warning: node \"a\": hot.png: 32 texels are beyond RGBP's range (64) clamped to it (colour kept)"],

@@ -28,7 +28,7 @@ command -v "$blender" >/dev/null || { echo "blender not found (apt-get install b
 mkdir -p "$out"
 for material in mirror matte_silver diffuse; do
     start=$(date +%s.%N)
-    "$blender" --background --factory-startup --python "$here/blender_probe_setup.py" -- \
+    "$blender" --background --factory-startup --python-exit-code 1 --python "$here/blender_probe_setup.py" -- \
         "$protocol/stylelight" "$material" "$percent" "$samples" "$map" "$out" "$seed" >"$out/$material.log" 2>&1 \
         || { echo "$material: blender failed, see $out/$material.log" >&2; exit 1; }
     end=$(date +%s.%N)

@@ -162,6 +162,12 @@ def main():
     if len(args) != 6:
         usage("expected 6 arguments, got %d" % len(args))
     map_path, out_dir, percent, samples, seeds, materials = args
+    if bpy.app.version >= (4, 0, 0):
+        # Blender 4 replaced the Principled BSDF (v2: "Specular" became "Specular IOR Level", the
+        # sheen and coat changed): the protocol's materials, and ProbeSphere's model of them, are
+        # Principled v1's, as Blender 3.x evaluates it.
+        usage("the protocol's materials are Blender 3.x's Principled BSDF; this is Blender %s"
+              % bpy.app.version_string)
     if not os.path.isfile(map_path):
         usage("%s: no such file" % map_path)
     try:

@@ -27,6 +27,8 @@ blender=${BLENDER:-blender}
 pred=$protocol/example/hdr/stylelight/abandoned_bakery_4k.exr
 gt=$protocol/example/ground_truth/stylelight
 [ -f "$pred" ] || { echo "$pred: not a DiffusionLight-evaluation checkout" >&2; exit 1; }
+# The paths go into RON strings as they are.
+case "$protocol$out" in *'"'* | *'\'*) echo "paths with \" or \\ are not supported" >&2; exit 1 ;; esac
 mkdir -p "$out"
 
 # hdrflow: the prepared map (saved for Blender), the spheres and their scores.
@@ -45,9 +47,10 @@ mkdir -p "$out"
     done
     echo '})'
 } >"$out/hdrflow.ron"
-start=$(date +%s.%N)
+start=$EPOCHREALTIME
 "$hdrflow" run "$out/hdrflow.ron" --out "$out" --no-cache -q
-printf 'hdrflow: %.1f s for the map and three spheres\n' "$(echo "$(date +%s.%N) - $start" | bc)"
+python3 -c 'import sys; print("hdrflow: %.1f s for the map and three spheres" % (float(sys.argv[2]) - float(sys.argv[1])))' \
+    "$start" "$EPOCHREALTIME"
 
 # Blender at each sample count, then the same scores of its renders.
 {
@@ -56,9 +59,14 @@ printf 'hdrflow: %.1f s for the map and three spheres\n' "$(echo "$(date +%s.%N)
         echo "\"gt_$file\": LoadHdr(path: \"$gt/$file/abandoned_bakery_4k.exr\"),"
     done
     for s in "${samples[@]}"; do
-        "$blender" --background --factory-startup --python "$here/blender_protocol_scene.py" -- \
-            "$out/toned.exr" "$out/blender-$s" 50 "$s" 0,1 mirror,matte_silver,diffuse 2>&1 \
-            | grep '^blender_protocol_scene:' | sed "s/^blender_protocol_scene:/blender $s samples:/" >&2
+        if ! "$blender" --background --factory-startup --python-exit-code 1 \
+            --python "$here/blender_protocol_scene.py" -- \
+            "$out/toned.exr" "$out/blender-$s" 50 "$s" 0,1 mirror,matte_silver,diffuse >"$out/blender-$s.log" 2>&1; then
+            echo "blender failed at $s samples:" >&2
+            tail -n 30 "$out/blender-$s.log" >&2
+            exit 1
+        fi
+        grep '^blender_protocol_scene:' "$out/blender-$s.log" | sed "s/^blender_protocol_scene:/blender $s samples:/" >&2
         for seed in 0 1; do
             for file in mirror matte_silver diffuse; do
                 k="${s}_${seed}_$file"

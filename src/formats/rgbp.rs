@@ -69,6 +69,11 @@ pub fn encode_png(img: &Image) -> Result<(Vec<u8>, usize), String> {
     Ok((png, overflow))
 }
 
+/// [`beyond_rgbp`] of interleaved RGB texels (a cube map's data).
+pub fn beyond_rgbp_rgb(rgb: &[f32]) -> usize {
+    rgb.chunks_exact(3).filter(|p| rgbp([p[0], p[1], p[2]]).1).count()
+}
+
 /// How many texels of `img` are beyond [`RGBP_MAX`] (what [`encode_png`] clamps).
 pub fn beyond_rgbp(img: &Image) -> usize {
     let rgb = |p: &[f32]| [0, 1, 2].map(|k| p[k.min(p.len() - 1)]);

@@ -346,15 +346,15 @@ fn beyond_half(value: &Value) -> (usize, f32) {
 }
 
 /// How many texels of an image, a cube map or a mip chain (every level: `Save` writes each) an
-/// RGBP `.png` clamps (`formats::rgbp`): the cube's as its strip, as it is written.
+/// RGBP `.png` clamps (`formats::rgbp`), counted on the RGB data without the strip's copy.
 fn beyond_rgbp(value: &Value) -> usize {
-    use crate::formats::rgbp::beyond_rgbp as in_image;
+    use crate::formats::rgbp::{beyond_rgbp as in_image, beyond_rgbp_rgb as in_rgb};
     if let Some(img) = value.get::<Image>() {
         in_image(img)
     } else if let Some(c) = value.get::<crate::values::Cubemap>() {
-        in_image(&c.to_strip())
+        in_rgb(&c.data)
     } else if let Some(chain) = value.get::<crate::values::MipChain>() {
-        chain.levels.iter().map(|c| in_image(&c.to_strip())).sum()
+        chain.levels.iter().map(|c| in_rgb(&c.data)).sum()
     } else {
         0
     }

@@ -213,7 +213,11 @@ impl Scene<'_> {
         let ray = if self.hits(&ray, hint) { ray } else { first_hit.unwrap_or(ray) };
         match self.hit(&ray, hint) {
             Some(hit) => Stage::Shade(hit, -ray.dir, coverage),
-            None => Stage::Done([0.0; 3], coverage),
+            None => {
+                // `hits` and `hit` search the same candidates: a ray one says hits, the other finds.
+                debug_assert!(false, "a ray counted as hitting found no hit at pixel ({c}, {r})");
+                Stage::Done([0.0; 3], coverage)
+            }
         }
     }
 }

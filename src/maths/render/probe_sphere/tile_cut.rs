@@ -40,8 +40,8 @@ struct Cone {
 }
 
 impl Cone {
-    /// The cone about the normalised mean of `dirs` (unit) that holds them all, with a hair of margin
-    /// for rounding; `None` when the mean vanishes. One direction is its own axis, as it is.
+    /// The cone about the normalised mean of `dirs` (unit) that holds them all, with 1e-9 rad of
+    /// margin for rounding; `None` when the mean vanishes. One direction is its own axis, as it is.
     fn around(dirs: impl Iterator<Item = DVec3> + Clone) -> Option<Cone> {
         let mut it = dirs.clone();
         let first = it.next()?;
@@ -49,8 +49,10 @@ impl Cone {
             return Some(Cone { axis: first, angle: 0.0, cos: 1.0, sin: 0.0 });
         }
         let axis = dirs.clone().fold(DVec3::ZERO, |a, d| a + d).try_normalize()?;
-        let angle = dirs.map(|d| axis.dot(d).clamp(-1.0, 1.0).acos()).fold(0.0, f64::max);
-        let angle = if angle == 0.0 { 0.0 } else { (angle + 1e-12).min(PI) };
+        // atan2 of the cross and dot products: exact to rounding at small angles, where acos of a
+        // dot product near 1 is not; the margin covers that rounding and the mean's.
+        let angle = dirs.map(|d| axis.cross(d).length().atan2(axis.dot(d))).fold(0.0, f64::max);
+        let angle = (angle + 1e-9).min(PI);
         let (sin, cos) = angle.sin_cos();
         Some(Cone { axis, angle, cos, sin })
     }
