@@ -158,6 +158,36 @@ impl TexelTree {
         let (cut, w) = (self.cut, self.w);
         let allowed = |c: DVec3, r: f64| r <= cut * ((c.angle_between(peak) - r).max(0.0) + w).min(1.0);
         let mut acc = [0.0; 3];
+        self.walk(|l, k, x, y, i| {
+            let (c, p) = (l.centre[i], l.power[i]);
+            if p == [0.0; 3] || horizons.iter().any(|n| c.dot(*n) < -l.sin_radius[i]) {
+                return false;
+            }
+            if c.dot(peak) <= l.accept_cos[i] {
+                let v = g(c);
+                (0..3).for_each(|ch| acc[ch] += v * p[ch]);
+                false
+            } else if k > 0 {
+                true
+            } else {
+                // A texel larger than the lobe allows: split it into cells of its radiance.
+                let r = l.radius[i];
+                let s = (2..=MAX_SPLIT).find(|&s| allowed(c, r / s as f64)).unwrap_or(MAX_SPLIT);
+                let mut weight = 0.0;
+                self.texel_cells(x, y, s, |d, omega| weight += g(d) * omega);
+                let texel_omega = self.texel_omega(y);
+                (0..3).for_each(|ch| acc[ch] += weight / texel_omega * p[ch]);
+                false
+            }
+        });
+        acc
+    }
+
+    /// Walks the tree from its top level down: `visit(level, k, x, y, i)` handles node `i` at
+    /// `(x, y)` of level `k` and says whether to visit its children (ignored at level 0, whose
+    /// texels the visitor splits itself). Children are visited depth first, in a fixed order, so a
+    /// sum over the walk is deterministic.
+    pub(super) fn walk(&self, mut visit: impl FnMut(&Level, usize, usize, usize, usize) -> bool) {
         let top = self.levels.len() - 1;
         let mut stack: Vec<(usize, usize, usize)> = Vec::with_capacity(64);
         let t = &self.levels[top];
@@ -168,44 +198,37 @@ impl TexelTree {
         }
         while let Some((k, x, y)) = stack.pop() {
             let l = &self.levels[k];
-            let i = y * l.width + x;
-            let (c, p) = (l.centre[i], l.power[i]);
-            if p == [0.0; 3] || horizons.iter().any(|n| c.dot(*n) < -l.sin_radius[i]) {
-                continue;
-            }
-            if c.dot(peak) <= l.accept_cos[i] {
-                let v = g(c);
-                (0..3).for_each(|ch| acc[ch] += v * p[ch]);
-            } else if k > 0 {
+            if visit(l, k, x, y, y * l.width + x) && k > 0 {
                 let f = &self.levels[k - 1];
                 for cy in 2 * y..(2 * y + 2).min(f.height) {
                     for cx in 2 * x..(2 * x + 2).min(f.width) {
                         stack.push((k - 1, cx, cy));
                     }
                 }
-            } else {
-                // A texel larger than the lobe allows: split it into cells of its radiance.
-                let r = l.radius[i];
-                let s = (2..=MAX_SPLIT).find(|&s| allowed(c, r / s as f64)).unwrap_or(MAX_SPLIT);
-                let (w0, h0) = (self.width as f64, self.height as f64);
-                let du = 1.0 / (w0 * s as f64);
-                let t_top = PI * y as f64 / h0;
-                let t_bottom = PI * (y + 1) as f64 / h0;
-                let texel_omega = box_solid_angle(1.0 / w0, t_top, t_bottom);
-                let mut weight = 0.0;
-                for sy in 0..s {
-                    let t0 = PI * (y as f64 + sy as f64 / s as f64) / h0;
-                    let t1 = PI * (y as f64 + (sy + 1) as f64 / s as f64) / h0;
-                    let omega = box_solid_angle(du, t0, t1);
-                    for sx in 0..s {
-                        let u = (x as f64 + (sx as f64 + 0.5) / s as f64) / w0;
-                        weight += g(direction(u, 0.5 * (t0 + t1))) * omega;
-                    }
-                }
-                (0..3).for_each(|ch| acc[ch] += weight / texel_omega * p[ch]);
             }
         }
-        acc
+    }
+
+    /// The exact solid angle of a texel of row `y`.
+    pub(super) fn texel_omega(&self, y: usize) -> f64 {
+        let h0 = self.height as f64;
+        box_solid_angle(1.0 / self.width as f64, PI * y as f64 / h0, PI * (y + 1) as f64 / h0)
+    }
+
+    /// The `s x s` cells of texel `(x, y)`'s `(u, theta)` box: `cell(direction of its centre, its
+    /// exact solid angle)` for each, row by row.
+    pub(super) fn texel_cells(&self, x: usize, y: usize, s: usize, mut cell: impl FnMut(DVec3, f64)) {
+        let (w0, h0) = (self.width as f64, self.height as f64);
+        let du = 1.0 / (w0 * s as f64);
+        for sy in 0..s {
+            let t0 = PI * (y as f64 + sy as f64 / s as f64) / h0;
+            let t1 = PI * (y as f64 + (sy + 1) as f64 / s as f64) / h0;
+            let omega = box_solid_angle(du, t0, t1);
+            for sx in 0..s {
+                let u = (x as f64 + (sx as f64 + 0.5) / s as f64) / w0;
+                cell(direction(u, 0.5 * (t0 + t1)), omega);
+            }
+        }
     }
 }
 

@@ -28,7 +28,7 @@ use std::f64::consts::PI;
 use glam::DVec3;
 
 use super::lobe_kernel::{FlatCut, PixelLobe};
-use super::texel_tree::{box_solid_angle, direction, TexelTree, MAX_SPLIT};
+use super::texel_tree::{TexelTree, MAX_SPLIT};
 
 /// A unit axis and the cosine and sine of a half-angle about it.
 #[derive(Clone, Copy, Debug)]
@@ -86,25 +86,15 @@ impl TexelTree {
     pub fn tile_cut(&self, cones: &TileCones, out: &mut FlatCut) {
         out.clear();
         let (a, beta) = (cones.peak.axis, cones.peak.angle);
-        let top = self.levels.len() - 1;
-        let mut stack: Vec<(usize, usize, usize)> = Vec::with_capacity(64);
-        let t = &self.levels[top];
-        for y in 0..t.height {
-            for x in 0..t.width {
-                stack.push((top, x, y));
-            }
-        }
-        while let Some((k, x, y)) = stack.pop() {
-            let l = &self.levels[k];
-            let i = y * l.width + x;
+        self.walk(|l, k, x, y, i| {
             let (c, p) = (l.centre[i], l.power[i]);
             if p == [0.0; 3] {
-                continue;
+                return false;
             }
             let (sr, cr) = (l.sin_radius[i], l.cos_radius[i]);
             let below = |h: &Cone| l.radius[i] + h.angle < 0.5 * PI && c.dot(h.axis) < -(sr * h.cos + cr * h.sin);
             if cones.horizons.iter().any(below) {
-                continue;
+                return false;
             }
             let accept = l.accept_cos[i];
             let whole = if accept > 1.0 {
@@ -119,17 +109,14 @@ impl TexelTree {
             };
             if whole {
                 out.push(c, p);
+                false
             } else if k > 0 {
-                let f = &self.levels[k - 1];
-                for cy in 2 * y..(2 * y + 2).min(f.height) {
-                    for cx in 2 * x..(2 * x + 2).min(f.width) {
-                        stack.push((k - 1, cx, cy));
-                    }
-                }
+                true
             } else {
                 self.split_texel(x, y, l.radius[i], p, (c.angle_between(a) - beta).max(0.0), out);
+                false
             }
-        }
+        });
         out.pad();
     }
 
@@ -139,17 +126,10 @@ impl TexelTree {
         let (cut, w) = (self.cut, self.w);
         let allowed = |r: f64| r <= cut * ((delta - r).max(0.0) + w).min(1.0);
         let s = (2..=MAX_SPLIT).find(|&s| allowed(r / s as f64)).unwrap_or(MAX_SPLIT);
-        let (w0, h0) = (self.width as f64, self.height as f64);
-        let du = 1.0 / (w0 * s as f64);
-        let texel_omega = box_solid_angle(1.0 / w0, PI * y as f64 / h0, PI * (y + 1) as f64 / h0);
-        for sy in 0..s {
-            let t0 = PI * (y as f64 + sy as f64 / s as f64) / h0;
-            let t1 = PI * (y as f64 + (sy + 1) as f64 / s as f64) / h0;
-            let share = box_solid_angle(du, t0, t1) / texel_omega;
-            for sx in 0..s {
-                let u = (x as f64 + (sx as f64 + 0.5) / s as f64) / w0;
-                out.push(direction(u, 0.5 * (t0 + t1)), p.map(|v| v * share));
-            }
-        }
+        let texel_omega = self.texel_omega(y);
+        self.texel_cells(x, y, s, |d, omega| {
+            let share = omega / texel_omega;
+            out.push(d, p.map(|v| v * share));
+        });
     }
 }
