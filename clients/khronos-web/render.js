@@ -3,7 +3,7 @@
 // WebGL2, lit by a `hdrflow bake --for khronos` folder, and reads the frames back as 32-bit floats.
 //
 // The job (GET ../work/job.json); paths are relative to ../work/:
-//   { "renders": [ { "name", "kind": "spheres", "ibl": DIR, "environment_rotation": DEGREES }
+//   { "renders": [ { "name", "kind": "spheres", "ibl": DIR, "environment_rotation": DEGREES, "sun": README? }
 //                | { "name", "kind": "sky", "ibl": DIR, "forward": [x, 0, z], "fov_deg", "size",
 //                    "environment_rotation": DEGREES } ],
 //     "ktx2": [ paths ] }
@@ -35,11 +35,16 @@
 // transparent black. Sky: only the environment, the renderer's skybox pass (`drawEnvironmentMap`,
 // the specular chain's level 0 with blur off) through a perspective glTF camera at the origin.
 // Each render is drawn twice; the two frames must be equal.
+//
+// The sun. A spheres render with "sun" (a bake's README.txt, `hdrflow bake --sun extract`) adds the
+// light its lines under "The sun:" give (src/ibl_presets/khronos.rs, `sun_code`): the
+// KHR_lights_punctual "lights" array as written, on a node whose rotation turns its -Z onto the
+// direction the lines name, with the renderer's punctual lights on (tests/common/sun_lines.rs).
 
 import { GltfView, GltfState } from './node_modules/@khronosgroup/gltf-viewer/dist/gltf-viewer.module.js';
 import { read as readKtx2 } from './node_modules/ktx-parse/dist/index.mjs';
 import * as Scene from '../common/scene.js';
-import { getBytes, getJson, log, post, run } from '../common/page.js';
+import { getBytes, getJson, log, post, readSunLines, run } from '../common/page.js';
 
 const LIBS = 'node_modules/@khronosgroup/gltf-viewer/dist/libs/';
 
@@ -180,9 +185,34 @@ async function loadBake(gl, view, dir) {
     return env;
 }
 
+/// The sun of a README's lines under "The sun:" (`text`): the KHR_lights_punctual "lights" array
+/// and the direction its node's -Z points along, both read as the lines write them.
+function khrSun(text) {
+    const lights = text.match(/"lights":\s*(\[.*\])/);
+    const along = text.match(/-Z axis points along \(([^)]*)\)/);
+    if (!lights || !along) {
+        throw new Error('the sun lines name no KHR_lights_punctual "lights" array or no -Z direction:\n' + text);
+    }
+    const d = along[1].split(',').map(Number);
+    const len = Math.hypot(...d);
+    if (d.length !== 3 || !(len > 0)) {
+        throw new Error('the sun lines\' direction is not a vector: ' + along[1]);
+    }
+    return { lights: JSON.parse(lights[1]), along: d.map(v => v / len) };
+}
+
+/// The unit quaternion (x, y, z, w) that turns -Z onto the unit vector `f`: half the angle about
+/// -Z x f, (f_y, -f_x, 0) with w = 1 - f_z before normalising; f = +Z, a half turn about +Y.
+function negativeZOnto(f) {
+    const q = [f[1], -f[0], 0, 1 - f[2]];
+    const n = Math.hypot(...q);
+    return n > 1e-9 ? q.map(v => v / n) : [0, 1, 0, 0];
+}
+
 /// The glTF of a render: the spheres (scene 0) with an orthographic camera on +Z, or (scene 1)
-/// a perspective camera at the origin looking along the horizontal `forward`.
-function sceneGlb(job) {
+/// a perspective camera at the origin looking along the horizontal `forward`; `sun`: khrSun's
+/// light, on a node of scene 0.
+function sceneGlb(job, sun) {
     const { gltf, bin } = Scene.spheresGltf();
     gltf.asset.generator = 'hdrflow clients/khronos-web';
     const halfH = Scene.VIEW_WIDTH * Scene.HEIGHT / Scene.WIDTH / 2;
@@ -191,6 +221,12 @@ function sceneGlb(job) {
     ];
     gltf.nodes.push({ name: 'spheres camera', camera: 0, translation: [0, 0, Scene.CAMERA_Z] });
     gltf.scenes[0].nodes.push(gltf.nodes.length - 1);
+    if (sun) {
+        gltf.extensionsUsed = [...(gltf.extensionsUsed || []), 'KHR_lights_punctual'];
+        gltf.extensions = { ...(gltf.extensions || {}), KHR_lights_punctual: { lights: sun.lights } };
+        gltf.nodes.push({ name: 'sun', rotation: negativeZOnto(sun.along), extensions: { KHR_lights_punctual: { light: 0 } } });
+        gltf.scenes[0].nodes.push(gltf.nodes.length - 1);
+    }
     if (job.kind === 'sky') {
         // A glTF camera looks along -Z; turned by theta about +Y it looks along (-sin, 0, -cos).
         const [fx, , fz] = job.forward;
@@ -204,7 +240,9 @@ function sceneGlb(job) {
 
 async function render(gl, redirect, view, loader, job, environments) {
     const state = view.createState();
-    state.gltf = await loader.loadGltf(sceneGlb(job).buffer);
+    const lines = job.sun ? await readSunLines(job.sun) : null;
+    const sun = lines === null ? null : khrSun(lines);
+    state.gltf = await loader.loadGltf(sceneGlb(job, sun).buffer);
     const sky = job.kind === 'sky';
     state.sceneIndex = sky ? 1 : 0;
     state.cameraIndex = sky ? 1 : 0;
@@ -217,7 +255,7 @@ async function render(gl, redirect, view, loader, job, environments) {
     p.exposure = 1.0;
     p.iblIntensity = 1.0;
     p.useIBL = true;
-    p.usePunctual = false;
+    p.usePunctual = sun !== null;
     p.renderEnvironmentMap = sky;
     p.blurEnvironmentMap = false;
     p.environmentRotation = job.environment_rotation;
@@ -237,6 +275,8 @@ async function render(gl, redirect, view, loader, job, environments) {
     return {
         pixels: b.pixels,
         stable,
+        sun: lines,
+        lights: (state.gltf.lights || []).map(l => ({ type: l.type, color: Array.from(l.color), intensity: l.intensity })),
         settings: { toneMap: p.toneMap, exposure: p.exposure, iblIntensity: p.iblIntensity, environmentRotation: p.environmentRotation, mipCount: state.environment.mipCount, iblIntensityScale: state.environment.iblIntensityScale },
     };
 }
@@ -264,7 +304,7 @@ async function main() {
         try {
             const out = await render(gl, redirect, view, loader, entry, environments);
             await post(entry.name + '.f32', out.pixels.buffer);
-            report.renders.push({ name: entry.name, stable: out.stable, settings: out.settings });
+            report.renders.push({ name: entry.name, stable: out.stable, settings: out.settings, sun: out.sun, lights: out.lights });
             log(`${entry.name}: done`);
         } catch (e) {
             report.errors.push(`${entry.name}: ${e}\n${e.stack || ''}`);

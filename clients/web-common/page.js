@@ -50,6 +50,18 @@ export function run(main) {
     });
 }
 
+/// The text under "The sun:" at the end of the bake's README.txt at ../work/`readme`, as written
+/// (an error when there is none): what runSunLines runs, and what a page whose sun is data rather
+/// than code (the Khronos page's KHR_lights_punctual snippet) reads.
+export async function readSunLines(readme) {
+    const text = new TextDecoder().decode(await getBytes(readme));
+    const at = text.indexOf('\nThe sun:\n');
+    if (at < 0) {
+        throw new Error(`${readme}: no "The sun:" lines`);
+    }
+    return text.slice(at + '\nThe sun:\n'.length);
+}
+
 /// The engine code under "The sun:" at the end of a bake's README.txt (`hdrflow bake --sun
 /// extract`: the lines that add the extracted sun as the engine's directional light), fetched from
 /// ../work/`readme` and run as the user's module runs it, so that the render tests check the lines
@@ -59,12 +71,7 @@ export function run(main) {
 /// body of an async function of `scope`'s names (the engine's namespace and `scene` or `app`).
 /// A README without the sun's lines, or a module the page did not give, is an error.
 export async function runSunLines(readme, modules, scope) {
-    const text = new TextDecoder().decode(await getBytes(readme));
-    const at = text.indexOf('\nThe sun:\n');
-    if (at < 0) {
-        throw new Error(`${readme}: no "The sun:" lines`);
-    }
-    const body = text.slice(at + '\nThe sun:\n'.length).split('\n').map(line => {
+    const body = (await readSunLines(readme)).split('\n').map(line => {
         const m = line.match(/^import\s+(.+?)\s+from\s+'([^']+)';?\s*$/);
         if (!m) {
             return line;

@@ -60,8 +60,14 @@ pub fn bake_park(sandbox: &common::Sandbox, engine: &str) -> SunBakes {
     let (head, lines) = text.split_at(at);
     let sun = read_sun(&extract.join("park_sun.json"));
     let fill = |key: &str| fill_sun(&format!("{{sun:{key}}}"), &sun);
-    let illuminance = fill("illuminance");
-    let brighter = format!("{:.6}", illuminance.parse::<f64>().expect("a number") * std::f64::consts::PI);
+    // The intensity as the README gives it: the illuminance (a light of unit luminance colour)
+    // or the largest channel (KHR_lights_punctual's colour in [0, 1]); both times pi.
+    let times_pi = |key: &str| {
+        let value = fill(key);
+        let brighter = format!("{:.6}", value.parse::<f64>().expect("a number") * std::f64::consts::PI);
+        (value, brighter)
+    };
+    let ((illuminance, brighter), (peak, brighter_peak)) = (times_pi("illuminance"), times_pi("peak"));
     // The direction as the README gives it, towards the light or from it: swapped, it is negated.
     let (to, from) = (fill("to_light"), fill("from_light"));
     let negated = if lines.contains(&to) { lines.replace(&to, &from) } else { lines.replace(&from, &to) };
@@ -72,7 +78,7 @@ pub fn bake_park(sandbox: &common::Sandbox, engine: &str) -> SunBakes {
     let renders = vec![
         ("sun", Some(readme.clone())),
         ("no_sun", None),
-        ("times_pi", write("times_pi", lines.replace(&illuminance, &brighter))),
+        ("times_pi", write("times_pi", lines.replace(&illuminance, &brighter).replace(&peak, &brighter_peak))),
         ("negated", write("negated", negated)),
     ];
     SunBakes { keep, extract, renders }
