@@ -232,7 +232,7 @@ fn sum_with<const CORRELATED: bool, const FRESNEL: u8, const DIFFUSE: bool, cons
     cut: &FlatCut,
     w: &mut Vec<f64>,
 ) -> [f64; 3] {
-    debug_assert!(cut.len() % LANES == 0, "a flat cut is padded to whole lanes");
+    debug_assert!(cut.len().is_multiple_of(LANES), "a flat cut is padded to whole lanes");
     let n = cut.len() / LANES * LANES;
     w.clear();
     w.resize(n, 0.0);
