@@ -72,7 +72,7 @@ fn a_tile_of_one_pixel_sums_the_pixels_own_cut_at_every_level() {
 }
 
 /// The mean and largest relative difference of `a` from `reference` over fully covered pixels.
-fn difference(a: &ProbeRender, reference: &ProbeRender) -> (f64, f64) {
+pub(super) fn difference(a: &ProbeRender, reference: &ProbeRender) -> (f64, f64) {
     let (mut sum, mut worst, mut count) = (0.0, 0.0f64, 0);
     for (pa, pb) in a.image.data.chunks(4).zip(reference.image.data.chunks(4)) {
         if pb[3] < 1.0 {
