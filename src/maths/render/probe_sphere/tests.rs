@@ -19,7 +19,7 @@ fn constant(w: usize, h: usize, v: f32) -> Image {
 /// A sky brighter towards its zenith and a sun of a few texels, in hdrflow's orientation; the sun
 /// sits behind the camera and above it, where the mirror and the lobes of the front of the sphere
 /// see it.
-fn sky_with_sun(w: usize, h: usize) -> Image {
+pub(super) fn sky_with_sun(w: usize, h: usize) -> Image {
     let sun = environment::to_hdrflow(DVec3::new(0.3, -1.0, 0.6).normalize());
     Image::from_fn_rgb(w, h, |x, y| {
         let d = DVec3::from(crate::geometry::latlong::texel_direction(x, y, w, h));

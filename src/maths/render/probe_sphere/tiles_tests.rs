@@ -1,28 +1,15 @@
 //! The tiled sum of the rough lobes against each pixel's own ([`super::shading::rough`]) and a
 //! finer cut; the lobe kernel's levels against each other.
 
-use glam::DVec3;
-
 use super::camera::Camera;
 use super::lobe_kernel::{self, FlatCut, PixelLobe};
 use super::mesh::{self, hit_ideal};
 use super::principled::Smith;
 use super::shading::{self, rough};
+use super::tests::sky_with_sun;
 use super::texel_tree::TexelTree;
 use super::tile_cut::TileCones;
 use super::*;
-
-/// A sky brighter towards its zenith and a sun of 4 degrees, 500 times the sky, where the lobes
-/// of the front of the sphere see it (as `tests::sky_with_sun`).
-fn sky_with_sun(w: usize, h: usize) -> Image {
-    let sun = environment::to_hdrflow(DVec3::new(0.3, -1.0, 0.6).normalize());
-    Image::from_fn_rgb(w, h, |x, y| {
-        let d = DVec3::from(crate::geometry::latlong::texel_direction(x, y, w, h));
-        let sky = 0.2 + 0.8 * d.y.max(0.0);
-        let s = if d.dot(sun) > (2.0f64).to_radians().cos() { 500.0 } else { 0.0 };
-        [(sky * 0.6 + s) as f32, (sky * 0.8 + s) as f32, (sky + 0.9 * s) as f32]
-    })
-}
 
 const MATERIALS: [(ProbeMaterial, Smith); 4] = [
     (ProbeMaterial::MatteSilver, Smith::Separable),
