@@ -92,13 +92,8 @@ mod tests {
     #[test]
     fn atan2_and_the_angles_agree_with_libm_to_2e_15() {
         let (mut worst_atan, mut worst_angles) = (0.0f64, 0.0f64);
-        let mut s = 0x2545_f491_4f6c_dd1du64;
-        let mut next = || {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            (s >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        };
+        let mut rng = crate::maths::sampling::sequences::SplitMix64::new(0x2545_f491_4f6c_dd1d);
+        let mut next = || rng.next_f64() * 2.0 - 1.0;
         let specials = [0.0, 1e-300, 1e-9, TAN_PI_8, 1.0, 1.0 - 1e-16];
         for i in 0..200_000 {
             let (mut y, mut x) = (next(), next());

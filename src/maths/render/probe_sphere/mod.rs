@@ -210,9 +210,9 @@ impl Scene<'_> {
         // The rough lobes once, at the pinhole ray through the hitting rays' mean offset (or the
         // first hitting ray where that one misses).
         let ray = self.camera.pinhole(cf, rf, sum_ox / hits as f64, sum_oy / hits as f64);
-        let ray = if self.hits(&ray, hint) { ray } else { first_hit.unwrap_or(ray) };
-        match self.hit(&ray, hint) {
-            Some(hit) => Stage::Shade(hit, -ray.dir, coverage),
+        let found = self.hit(&ray, hint).map(|h| (h, ray));
+        match found.or_else(|| first_hit.and_then(|f| self.hit(&f, hint).map(|h| (h, f)))) {
+            Some((hit, ray)) => Stage::Shade(hit, -ray.dir, coverage),
             None => {
                 // `hits` and `hit` search the same candidates: a ray one says hits, the other finds.
                 debug_assert!(false, "a ray counted as hitting found no hit at pixel ({c}, {r})");

@@ -107,13 +107,8 @@ mod tests {
 
     #[test]
     fn every_level_gives_the_scalar_bits() {
-        let mut s = 0x9e37_79b9_7f4a_7c15u64;
-        let mut next = || {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            (s >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        };
+        let mut rng = crate::maths::sampling::sequences::SplitMix64::new(0x9e37_79b9_7f4a_7c15);
+        let mut next = || rng.next_f64() * 2.0 - 1.0;
         let mut dirs: Vec<[f64; 3]> = (0..4001)
             .map(|i| {
                 let near = if i % 5 == 0 { 1e-9 } else { 1.0 };
