@@ -238,6 +238,14 @@ impl Stage {
     }
 }
 
+/// Each pixel's `(rgb premultiplied, coverage)`: a done stage's own, a shaded one's from `shaded`.
+fn finish(stages: Vec<Stage>, shaded: impl IntoIterator<Item = [f64; 3]>) -> impl Iterator<Item = ([f64; 3], f64)> {
+    stages.into_iter().zip(shaded).map(|(s, rgb)| match s {
+        Stage::Done(done, a) => (done, a),
+        Stage::Shade(_, _, a) => (rgb, a),
+    })
+}
+
 /// Renders the protocol's sphere of `settings.material` under `env` (a lat-long map, hdrflow's
 /// convention; see [`environment`] for how Blender reads the same file).
 pub fn render(env: &Image, settings: &ProbeSettings) -> ProbeRender {
@@ -294,21 +302,8 @@ fn render_tiled(env: &Image, settings: &ProbeSettings, tile: usize) -> ProbeRend
             })
             .collect()
     };
-    let finish = |stages: Vec<Stage>, shaded: Vec<[f64; 3]>| {
-        stages.into_iter().zip(shaded).map(|(s, rgb)| match s {
-            Stage::Done(done, a) => (done, a),
-            Stage::Shade(_, _, a) => (rgb, a),
-        })
-    };
     let pixels: Vec<([f64; 3], f64)> = match &tree {
-        None => (0..h)
-            .into_par_iter()
-            .flat_map_iter(|r| {
-                let stages = row(r);
-                let none = vec![[0.0; 3]; stages.len()];
-                finish(stages, none)
-            })
-            .collect(),
+        None => (0..h).into_par_iter().flat_map_iter(|r| finish(row(r), std::iter::repeat([0.0; 3]))).collect(),
         // Bands of `tile` rows: their tiles' rough lobes once the band's rays are traced.
         Some(tree) => (0..h.div_ceil(tile))
             .into_par_iter()
