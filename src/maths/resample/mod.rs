@@ -5,6 +5,7 @@
 pub mod angles;
 pub mod area_resize;
 pub mod bilinear;
+pub mod cell_clip;
 pub mod cut_cells;
 pub mod disc_image;
 pub mod latlong_cube;

@@ -54,7 +54,7 @@ const METRICS: Port<Metrics> = Port::new("metrics");
 pub fn spec() -> OpSpec {
     Op::new(
         "IrradianceCubemap",
-        1,
+        2,
         "Diffuse irradiance / pi as a cube map, exactly or by windowed SH (Deringing: Sloan 2017); constant 1 gives 1",
         eval,
     )

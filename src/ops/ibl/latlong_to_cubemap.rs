@@ -6,7 +6,8 @@
 //!
 //! Energy-preserving: each cube texel is the solid-angle-weighted average of the lat-long map
 //! (read as piecewise constant) over the texel's footprint, gathered from whole map texels and
-//! adaptively split straddling ones with exact cell solid angles (`maths::resample::latlong_cube`). A constant map gives the same constant to rounding; the
+//! straddling ones clipped by the texel's edges with a bounded error, split where the bound asks
+//! (`maths::resample::latlong_cube`). A constant map gives the same constant to rounding; the
 //! sphere integral is kept to 1e-3 relative on the built-in sky (2-degree sun), and texels on
 //! both sides of a face edge agree as neighbours inside a face do (tests).
 
@@ -37,7 +38,7 @@ crate::params! {
 pub fn spec() -> OpSpec {
     Op::new(
         "LatLongToCubemap",
-        1,
+        2,
         "Lat-long map to cube map (+X -X +Y -Y +Z -Z), each texel the solid-angle-weighted mean of its footprint",
         eval,
     )

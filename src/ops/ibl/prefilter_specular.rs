@@ -70,7 +70,7 @@ crate::params! {
 pub fn spec() -> OpSpec {
     Op::new(
         "PrefilterSpecular",
-        2,
+        3,
         "GGX (or Charlie) prefiltered cube-map chain, level k at the roughness roughness_map gives it, by filtered importance sampling, or exactly",
         eval,
     )
