@@ -64,10 +64,12 @@ const TEST_MAP_BOUNDS: [f64; 6] = [0.015, 0.015, 0.016, 0.04, 0.05, 0.0015];
 /// renders far less accurately.
 const PARK_BOUNDS: [f64; 6] = [0.09, 0.23, 0.24, 0.14, 0.11, 0.003];
 /// The diffuse sphere lit by the extracted bake and the README's sun lines
-/// (`filament_adds_the_readmes_sun_as_the_map_held_it`), relative RMSE against the keep bake's
-/// render and against exact E / pi: about twice what the README's lines measure
-/// (docs/src/guides/baking/filament.md, "The sun's lines"); the mistakes are far beyond.
-const SUN_BOUND: sun_lines::SunBound = sun_lines::SunBound { keep: 0.5, exact: 0.5 };
+/// (`filament_adds_the_readmes_sun_as_the_map_held_it`), relative RMSE: against the keep bake's,
+/// 0.045 measured, nearly all of it the order-2 SH's approximation of the sun kept in the map (the
+/// keep bake is 0.047 off exact E / pi); against exact E / pi, 0.012 measured, the dielectric's
+/// own specular (F0 0.04) under the sun, which Lambert's E / pi leaves out. About twice each
+/// (docs/src/guides/baking/filament.md, "The sun's lines"); the mistakes measure 0.77 and more.
+const SUN_BOUND: sun_lines::SunBound = sun_lines::SunBound { keep: 0.08, exact: 0.025 };
 /// SwiftShader is a CPU renderer on a shared machine: a minute is possible, ten are a hang.
 const BROWSER_TIMEOUT: Duration = Duration::from_secs(600);
 /// The orientation views: 256 x 256, 90 degrees vertical field of view.

@@ -17,7 +17,7 @@
 // an IndirectLight made of the KTX1 chain (Ktx1Bundle, ktx1reader) and 9 SH, from the file's
 // "sh" key unless the job names a text file (cmgen's sh.txt layout), intensity 1; camera
 // exposure 1 (aperture 1, 1.2 s, ISO 100). With "ibl_intensity" I (the README's 30000 lux per
-// unit of the map), the IBL's intensity is I and the exposure 1 / I (ISO 100 / I): the frame is
+// unit of the map), the IBL's intensity is I and the exposure 1 / I: the frame is
 // still in the map's units, and a sun the README sizes for that intensity is lit as a user's
 // would be. With "sun", the sun's lines of that README (a `--sun extract` bake), C++, translated
 // token by token into filament.js (sun_lines.js, which throws on anything it does not know) and
@@ -300,7 +300,11 @@ async function renderSpheres(r, job, assetLoader, glb) {
     const halfW = Scene.VIEW_WIDTH / 2, halfH = Scene.VIEW_WIDTH * Scene.HEIGHT / Scene.WIDTH / 2;
     camera.setProjection(F.Camera$Projection.ORTHO, -halfW, halfW, -halfH, halfH, 1.0, 20.0);
     camera.lookAt([0, 0, Scene.CAMERA_Z], [0, 0, 0], [0, 1, 0]);
-    camera.setExposure(1.0, 1.2, 100.0 / intensity);
+    // Exposure 1 / intensity: f/N, 1.2 N^2 / I seconds, ISO 100 (EV100 = log2(I / 1.2)); N grows with
+    // I up to f/16 because Filament clamps the settings (ISO 10 to 204800, 1/25000 to 60 s, f/0.5
+    // to f/64): ISO 100 / 30000 became ISO 10, exposure 0.1.
+    const aperture = Math.min(Math.sqrt(intensity), 16);
+    camera.setExposure(aperture, 1.2 * aperture ** 2 / intensity, 100.0);
     const v = r.view(scene, camera, Scene.WIDTH, Scene.HEIGHT);
     const result = await r.settle(v);
     // Filament's exposure 1 / (1.2 2^EV100), EV100 = log2(N^2 / t 100 / S) (Exposure.cpp).
