@@ -17,13 +17,13 @@
 // an IndirectLight made of the KTX1 chain (Ktx1Bundle, ktx1reader) and 9 SH, from the file's
 // "sh" key unless the job names a text file (cmgen's sh.txt layout), intensity 1; camera
 // exposure 1 (aperture 1, 1.2 s, ISO 100). With "ibl_intensity" I (the README's 30000 lux per
-// unit of the map), the IBL's intensity is I and the exposure 1 / I: the frame is
-// still in the map's units, and a sun the README sizes for that intensity is lit as a user's
-// would be. With "sun", the sun's lines of that README (a `--sun extract` bake), C++, translated
-// token by token into filament.js (sun_lines.js, which throws on anything it does not know) and
-// run with the render's `engine` and `scene` (page.js, `runSunLines`). Post-processing off, so no tone mapping, colour
-// grading, dithering, anti-aliasing or MSAA: the colour pass writes linear radiance into an
-// RGBA32F render target. Sky: a Skybox of the KTX1 cube seen by a perspective camera at the
+// unit of the map), the IBL's intensity is I and the exposure 1 / I: the frame is still in the
+// map's units, and a sun the README sizes for that intensity is lit as a user's would be. With
+// "sun", the sun's lines of that README (a `--sun extract` bake), C++, translated token by token
+// into filament.js (sun_lines.js, which throws on anything it does not know) and run with the
+// render's `engine` and `scene` (page.js, `runSunLines`). Post-processing off, so no tone
+// mapping, colour grading, dithering, anti-aliasing or MSAA: the colour pass writes linear
+// radiance into an RGBA32F render target. Sky: a Skybox of the KTX1 cube seen by a perspective camera at the
 // origin.
 //
 // Float readback: Filament's JavaScript API has no readPixels, so the page creates the WebGL2
@@ -219,8 +219,8 @@ class Renderer {
         // No tone mapping, colour grading, dithering, FXAA, TAA, bloom or dynamic resolution: the
         // colour pass writes straight into the target (the web build binds no setDithering:
         // dithering is one of the post-processing passes turned off here). MSAA is off by default; so are SSAO,
-        // screen-space reflections and shadows (a light's castShadows is off by default: the README's sun
-        // casts none).
+        // screen-space reflections and shadows (a light's
+        // castShadows is off by default: the README's sun casts none).
         view.setPostProcessingEnabled(false);
         view.setAntiAliasing(F.View$AntiAliasing.NONE);
         view.setAmbientOcclusion(F.View$AmbientOcclusion.NONE);

@@ -16,7 +16,6 @@
 //!   default (`--sh-window=auto`); hdrflow does not.
 //! - Files: `<name>_ibl.ktx` (the chain), `<name>_skybox.ktx` (level 0), `sh.txt`; KTX1,
 //!   R11F_G11F_B10F. Size: a power of two ("output size must be a power of two").
-//!
 //! - The sun (`--sun extract`): a `SUN` light of `I E` lux, `I` the IBL's intensity (30000 in the
 //!   loading code) and `E` the sun's illuminance in the map's units (`{sun:illuminance}`). The
 //!   IBL's intensity multiplies the map's radiance (IndirectLight.h: "scale factor applied to the
@@ -29,7 +28,7 @@
 //! Checked in Filament itself (1.53.4's web build, tests/filament_render.rs): the frame, the
 //! roughness map and the SH scale as stated here, with the map's centre forward and unmirrored;
 //! the sun's lines, translated token by token into filament.js and run, light the diffuse sphere
-//! as the `--sun keep` bake does.
+//! as the `--sun keep` bake does (within 0.08 relative RMSE of it, and 0.025 of exact E / pi).
 
 use super::{Chain, Engine, Preset, Quality, SpecSize, ToolPlacement};
 use crate::geometry::cube_frame::CubeFrame;
