@@ -2,8 +2,9 @@
 // package.json) in WebGL2, and reads the frames back as 32-bit floats.
 //
 // The job (GET ../work/job.json) lists renders and KTX files:
-//   { "renders": [ { "name", "kind": "spheres", "ibl": "x_ibl.ktx", "sh": "sh.txt" (optional) }
-//                    "specular_aa": [variance, threshold] (optional)
+//   { "renders": [ { "name", "kind": "spheres", "ibl": "x_ibl.ktx", "sh": "sh.txt" (optional)
+//                    "specular_aa": [variance, threshold] (optional), "ibl_intensity" (optional, 1),
+//                    "sun": "x/README.txt" (optional) }
 //                  | { "name", "kind": "sky", "sky": "x_skybox.ktx", "forward": [x, y, z],
 //                      "up": [x, y, z], "fov_deg", "size" } ],
 //     "ktx1": [ paths ], "ktx2": [ paths ] }
@@ -15,9 +16,14 @@
 // Spheres: the glTF of scene.js through gltfio (createAssetLoader: its ubershaders), lit only by
 // an IndirectLight made of the KTX1 chain (Ktx1Bundle, ktx1reader) and 9 SH, from the file's
 // "sh" key unless the job names a text file (cmgen's sh.txt layout), intensity 1; camera
-// exposure 1 (aperture 1, 1.2 s, ISO 100); post-processing off, so no tone mapping, colour
-// grading, dithering, anti-aliasing or MSAA: the colour pass writes linear radiance into an
-// RGBA32F render target. Sky: a Skybox of the KTX1 cube seen by a perspective camera at the
+// exposure 1 (aperture 1, 1.2 s, ISO 100). With "ibl_intensity" I (the README's 30000 lux per
+// unit of the map), the IBL's intensity is I and the exposure 1 / I: the frame is still in the
+// map's units, and a sun the README sizes for that intensity is lit as a user's would be. With
+// "sun", the sun's lines of that README (a `--sun extract` bake), C++, translated token by token
+// into filament.js (sun_lines.js, which throws on anything it does not know) and run with the
+// render's `engine` and `scene` (page.js, `runSunLines`). Post-processing off, so no tone
+// mapping, colour grading, dithering, anti-aliasing or MSAA: the colour pass writes linear
+// radiance into an RGBA32F render target. Sky: a Skybox of the KTX1 cube seen by a perspective camera at the
 // origin.
 //
 // Float readback: Filament's JavaScript API has no readPixels, so the page creates the WebGL2
@@ -29,7 +35,8 @@
 
 import { read as readKtx2 } from './node_modules/ktx-parse/dist/index.mjs';
 import * as Scene from '../common/scene.js';
-import { getBytes, getJson, log, post, run } from '../common/page.js';
+import { getBytes, getJson, log, post, run, runSunLines } from '../common/page.js';
+import { translateSunLines } from './sun_lines.js';
 
 /// The WebGL2 context Filament will use, instrumented: textures allocated with texStorage2D and
 /// fragment shader sources.
@@ -212,7 +219,8 @@ class Renderer {
         // No tone mapping, colour grading, dithering, FXAA, TAA, bloom or dynamic resolution: the
         // colour pass writes straight into the target (the web build binds no setDithering:
         // dithering is one of the post-processing passes turned off here). MSAA is off by default; so are SSAO,
-        // screen-space reflections and shadows (the scene has no light).
+        // screen-space reflections and shadows (a light's
+        // castShadows is off by default: the README's sun casts none).
         view.setPostProcessingEnabled(false);
         view.setAntiAliasing(F.View$AntiAliasing.NONE);
         view.setAmbientOcclusion(F.View$AmbientOcclusion.NONE);
@@ -262,14 +270,16 @@ async function renderSpheres(r, job, assetLoader, glb) {
     const sh = job.sh
         ? parseShText(new TextDecoder().decode(await getBytes(job.sh)))
         : bundle.getMetadata('sh').split(/\s/, 27).map(parseFloat);
+    const intensity = job.ibl_intensity ?? 1.0;
     const ibl = F.IndirectLight.Builder().reflections(reflections).irradianceSh(3, new Float32Array(sh))
-        .intensity(1.0).build(engine);
+        .intensity(intensity).build(engine);
     scene.setIndirectLight(ibl);
 
     const asset = assetLoader.createAsset(glb);
     await new Promise(done => asset.loadResources(done, null, null, 1));
     asset.releaseSourceData && asset.releaseSourceData();
     scene.addEntities(asset.getEntities());
+    const sun = job.sun ? await runSunLines(job.sun, {}, { Filament: F, engine, scene }, translateSunLines) : null;
     // Geometric specular anti-aliasing (the ubershaders' `specularAntiAliasing : true`):
     // Filament widens each pixel's roughness by the screen-space variance of the normal,
     // alpha'^2 = alpha^2 + min(2 variance (|dn/dx|^2 + |dn/dy|^2), threshold^2). The job may pin
@@ -290,12 +300,16 @@ async function renderSpheres(r, job, assetLoader, glb) {
     const halfW = Scene.VIEW_WIDTH / 2, halfH = Scene.VIEW_WIDTH * Scene.HEIGHT / Scene.WIDTH / 2;
     camera.setProjection(F.Camera$Projection.ORTHO, -halfW, halfW, -halfH, halfH, 1.0, 20.0);
     camera.lookAt([0, 0, Scene.CAMERA_Z], [0, 0, 0], [0, 1, 0]);
-    camera.setExposure(1.0, 1.2, 100.0);
+    // Exposure 1 / intensity: f/N, 1.2 N^2 / I seconds, ISO 100 (EV100 = log2(I / 1.2)); N grows with
+    // I up to f/16 because Filament clamps the settings (ISO 10 to 204800, 1/25000 to 60 s, f/0.5
+    // to f/64): ISO 100 / 30000 became ISO 10, exposure 0.1.
+    const aperture = Math.min(Math.sqrt(intensity), 16);
+    camera.setExposure(aperture, 1.2 * aperture ** 2 / intensity, 100.0);
     const v = r.view(scene, camera, Scene.WIDTH, Scene.HEIGHT);
     const result = await r.settle(v);
     // Filament's exposure 1 / (1.2 2^EV100), EV100 = log2(N^2 / t 100 / S) (Exposure.cpp).
     const ev100 = Math.log2(camera.getAperture() ** 2 / camera.getShutterSpeed() * 100 / camera.getSensitivity());
-    return { result, sh, exposure: 1 / (1.2 * 2 ** ev100), levels: reflections.getLevels(engine) };
+    return { result, sh, exposure: 1 / (1.2 * 2 ** ev100), levels: reflections.getLevels(engine), ibl_intensity: intensity, sun };
 }
 
 async function renderSky(r, job) {
@@ -352,7 +366,7 @@ async function main() {
         try {
             const out = entry.kind === 'sky' ? await renderSky(r, entry) : await renderSpheres(r, entry, assetLoader, glb);
             await post(entry.name + '.f32', out.result.pixels.buffer);
-            report.renders.push({ name: entry.name, frames: out.result.frames, covered: out.result.covered, sh: out.sh || null, levels: out.levels || null, exposure: out.exposure || null, intensity: out.intensity || null });
+            report.renders.push({ name: entry.name, frames: out.result.frames, covered: out.result.covered, sh: out.sh || null, levels: out.levels || null, exposure: out.exposure || null, intensity: out.intensity || null, ibl_intensity: out.ibl_intensity || null, sun: out.sun || null });
             log(`${entry.name}: ${out.result.frames} frames`);
         } catch (e) {
             report.errors.push(`${entry.name}: ${e}\n${e.stack || ''}`);

@@ -69,9 +69,11 @@ export async function readSunLines(readme) {
 /// imported under that name (`modules`: specifier to the module's namespace or the names the lines
 /// import from it), and the rest runs as the
 /// body of an async function of `scope`'s names (the engine's namespace and `scene` or `app`).
-/// A README without the sun's lines, or a module the page did not give, is an error.
-export async function runSunLines(readme, modules, scope) {
-    const body = (await readSunLines(readme)).split('\n').map(line => {
+/// A README without the sun's lines, or a module the page did not give, is an error. `translate`
+/// turns lines in another language into JavaScript first (the Filament page's C++: its
+/// sun_lines.js, which throws on what it does not know); the JavaScript run is returned.
+export async function runSunLines(readme, modules, scope, translate = lines => lines) {
+    const body = translate(await readSunLines(readme)).split('\n').map(line => {
         const m = line.match(/^import\s+(.+?)\s+from\s+'([^']+)';?\s*$/);
         if (!m) {
             return line;

@@ -16,9 +16,19 @@
 //!   default (`--sh-window=auto`); hdrflow does not.
 //! - Files: `<name>_ibl.ktx` (the chain), `<name>_skybox.ktx` (level 0), `sh.txt`; KTX1,
 //!   R11F_G11F_B10F. Size: a power of two ("output size must be a power of two").
+//! - The sun (`--sun extract`): a `SUN` light of `I E` lux, `I` the IBL's intensity (30000 in the
+//!   loading code) and `E` the sun's illuminance in the map's units (`{sun:illuminance}`). The
+//!   IBL's intensity multiplies the map's radiance (IndirectLight.h: "scale factor applied to the
+//!   environment and irradiance such that the result is in lux"), and a directional light's
+//!   intensity is the illuminance it gives a surface facing it (LightManager.h, lux), which the
+//!   map's sun gave as `E` times the same scale: a user who changes the IBL's intensity scales
+//!   the sun with it. The lines create the light's entity and add it to the scene, as a user's
+//!   code must.
 //!
 //! Checked in Filament itself (1.53.4's web build, tests/filament_render.rs): the frame, the
-//! roughness map and the SH scale as stated here, with the map's centre forward and unmirrored.
+//! roughness map and the SH scale as stated here, with the map's centre forward and unmirrored;
+//! the sun's lines, translated token by token into filament.js and run, light the diffuse sphere
+//! as the `--sun keep` bake does (within 0.08 relative RMSE of it, and 0.025 of exact E / pi).
 
 use super::{Chain, Engine, Preset, Quality, SpecSize, ToolPlacement};
 use crate::geometry::cube_frame::CubeFrame;
@@ -69,12 +79,15 @@ IndirectLight* ibl = IndirectLight::Builder()
 scene->setIndirectLight(ibl);
 scene->setSkybox(Skybox::Builder().environment(skyTexture).build(*engine));
 "#,
-    sun_code: r#"// The sun taken out of the map ({file:save_sun}), in the same units (times the IBL intensity).
+    sun_code: r#"// The sun taken out of the map ({file:save_sun}): its illuminance in the map's units times the
+// IBL's intensity above (30000 lux per unit of the map), so the sun is the light the map held.
+utils::Entity sunEntity = utils::EntityManager::get().create();
 LightManager::Builder(LightManager::Type::SUN)
         .color({ {sun:color} })
         .intensity(30000.0f * {sun:illuminance})
         .direction({ {sun:from_light} })
         .sunAngularRadius({sun:radius_deg})
         .build(*engine, sunEntity);
+scene->addEntity(sunEntity);
 "#,
 };
