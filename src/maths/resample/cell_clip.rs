@@ -4,19 +4,19 @@
 //! centres.
 //!
 //! **The cell** is `theta in [theta0, theta0 + h_theta]`, `phi in [phi0, phi0 + h_phi]`, with
-//! local coordinates `(s, t)` in the unit square (`s` along theta, `t` along phi). A plane's value
-//! `f(s, t) = n . d(theta, phi)` is known exactly at the four corners; it is replaced by the plane
-//! `L(s, t)` that is the bilinear interpolant of the corners without its twist term, and the unit
-//! square is clipped by every `L_k >= 0` (a convex polygon, Sutherland-Hodgman).
+//! local coordinates `(u, v)` in the square `[-1/2, 1/2]^2` (`u` along theta, `v` along phi). A
+//! plane's value `f(u, v) = n . d(theta, phi)` is known exactly at the four corners; it is replaced
+//! by the plane `L(u, v)` that is the bilinear interpolant of the corners without its twist term,
+//! and the square is clipped by every `L_k >= 0` (a convex polygon, [`super::polygon`]).
 //!
 //! **The solid angle** of the polygon is `int sin(theta) dtheta dphi`: with `x = theta - theta_c`
 //! about the cell's centre, `sin(theta_c + x) = sin(theta_c) (1 - x^2 / 2) + cos(theta_c) x + r`,
 //! `|r| <= |x|^3 / 5` for `|x| <= 1/2`, integrated exactly over the polygon from its area and first
-//! and second moments in `x` (the shoelace formulas).
+//! and second moments in `x` ([`Poly::moments_u`]).
 //!
 //! **The error bound.** `|f - L| <= delta = |twist| / 4 + |n| (h_theta^2 + h_phi^2 sin_max) / 8`: the
 //! twist is the bilinear interpolant's departure from `L`, and the second term bounds the bilinear
-//! interpolant's own error, `(1/8)(max |f_ss| + max |f_tt|)`, with `|d_theta theta| = 1` and
+//! interpolant's own error, `(1/8)(max |f_uu| + max |f_vv|)`, with `|d_theta theta| = 1` and
 //! `|d_phi phi| = sin(theta) <= sin_max`. So the true and the clipped regions differ only within
 //! the bands `|L_k| <= delta_k`, each of area at most `2 sqrt(2) delta_k / |grad L_k|` in the unit
 //! square (its width times the square's longest chord), times `h_theta h_phi sin_max` of solid
@@ -24,76 +24,10 @@
 //! the bound adds the Taylor remainder `area (h_theta / 2)^3 / 5`. Tested against a fine
 //! subdivision on random cells and planes, the true error below the bound.
 
-/// One clipping line `a + b s + c t >= 0` in the unit square.
-pub type Line = [f64; 3];
+use super::polygon::{Clipped as Cut, Line, Poly};
 
-/// A convex polygon in the unit square: up to four lines cut a square into at most 8 vertices.
-#[derive(Clone, Copy, Debug)]
-pub struct Polygon {
-    points: [[f64; 2]; 8],
-    len: usize,
-}
-
-impl Polygon {
-    /// The unit square, counter-clockwise in `(s, t)`.
-    pub fn unit_square() -> Polygon {
-        let mut points = [[0.0; 2]; 8];
-        points[..4].copy_from_slice(&[[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]);
-        Polygon { points, len: 4 }
-    }
-
-    /// The vertices.
-    pub fn points(&self) -> &[[f64; 2]] {
-        &self.points[..self.len]
-    }
-
-    /// The part where `line` is at least 0 (Sutherland-Hodgman against one line: a convex
-    /// polygon gains at most one vertex, and the result stays convex).
-    pub fn clip(&self, line: Line) -> Polygon {
-        let mut out = Polygon { points: [[0.0; 2]; 8], len: 0 };
-        self.clip_into(line, &mut out);
-        out
-    }
-
-    /// [`Polygon::clip`] into `out`.
-    #[inline]
-    fn clip_into(&self, [a, b, c]: Line, out: &mut Polygon) {
-        out.len = 0;
-        let value = |p: [f64; 2]| a + b * p[0] + c * p[1];
-        let mut push = |p: [f64; 2]| {
-            if out.len < out.points.len() {
-                out.points[out.len] = p;
-                out.len += 1;
-            }
-        };
-        for i in 0..self.len {
-            let (p, q) = (self.points[i], self.points[(i + 1) % self.len]);
-            let (vp, vq) = (value(p), value(q));
-            if vp >= 0.0 {
-                push(p);
-            }
-            if (vp >= 0.0) != (vq >= 0.0) {
-                let k = vp / (vp - vq);
-                push([p[0] + k * (q[0] - p[0]), p[1] + k * (q[1] - p[1])]);
-            }
-        }
-    }
-
-    /// The area, and the first and second moments in `x`, of the polygon mapped by
-    /// `x = (s - 1/2) sx`, `y = (t - 1/2) sy` (shoelace formulas).
-    fn moments(&self, sx: f64, sy: f64) -> [f64; 3] {
-        let (mut area, mut mx, mut mxx) = (0.0, 0.0, 0.0);
-        for i in 0..self.len {
-            let (p, q) = (self.points[i], self.points[(i + 1) % self.len]);
-            let (x0, y0, x1, y1) = ((p[0] - 0.5) * sx, (p[1] - 0.5) * sy, (q[0] - 0.5) * sx, (q[1] - 0.5) * sy);
-            let cross = x0 * y1 - x1 * y0;
-            area += cross;
-            mx += (x0 + x1) * cross;
-            mxx += (x0 * x0 + x0 * x1 + x1 * x1) * cross;
-        }
-        [area / 2.0, mx / 6.0, mxx / 12.0]
-    }
-}
+/// The polygons: the square clipped by up to four planes.
+type Poly8 = Poly<8>;
 
 /// A lat-long cell: its extents and the sine and cosine of its centre's polar angle, and the
 /// largest `sin(theta)` over it.
@@ -113,42 +47,41 @@ pub struct Clipped {
 }
 
 /// The solid angle of the part of `cell` where every plane `k` holds, from the planes' values at
-/// its corners `corners[k] = [f(0, 0), f(0, 1), f(1, 0), f(1, 1)]` (`(s, t)`) and their normals'
+/// its corners `corners[k] = [f(-, -), f(-, +), f(+, -), f(+, +)]` (`(u, v)`) and their normals'
 /// lengths `norms[k]` (see the module documentation).
 #[inline]
 pub fn clip_cell(cell: &CellShape, corners: &[[f64; 4]], norms: &[f64]) -> Clipped {
     let (h_theta, h_phi) = (cell.h_theta, cell.h_phi);
     let curvature = (h_theta * h_theta + h_phi * h_phi * cell.sin_max) / 8.0;
     // Two buffers, clipped from one into the other.
-    let mut polygons = [Polygon::unit_square(), Polygon::unit_square()];
+    let mut polygons = [Poly8::SQUARE, Poly8::SQUARE];
     let mut current = 0;
     let mut band = 0.0;
     for (f, norm) in corners.iter().zip(norms) {
         let [f00, f01, f10, f11] = *f;
         let b = 0.5 * ((f10 - f00) + (f11 - f01));
         let c = 0.5 * ((f01 - f00) + (f11 - f10));
-        let a = 0.25 * (f00 + f01 + f10 + f11) - 0.5 * (b + c);
+        let a = 0.25 * (f00 + f01 + f10 + f11);
         let delta = 0.25 * (f00 - f01 - f10 + f11).abs() + norm * curvature;
-        // L at the corners: the smallest and largest are its bounds over the square.
-        let at = [a, a + c, a + b, a + b + c];
-        let (lo, hi) = at.iter().fold((f64::MAX, f64::MIN), |(lo, hi), &v| (lo.min(v), hi.max(v)));
-        if lo >= delta {
+        // L's bounds over the square, at its corners.
+        let reach = 0.5 * (b.abs() + c.abs());
+        if a - reach >= delta {
             continue;
         }
-        if hi <= -delta {
+        if a + reach <= -delta {
             return Clipped { omega: 0.0, error: 0.0 };
         }
         let gradient = (b * b + c * c).sqrt();
         band += if gradient > 0.0 { (2.0 * std::f64::consts::SQRT_2 * delta / gradient).min(1.0) } else { 1.0 };
         let (first, second) = polygons.split_at_mut(1);
-        if current == 0 {
-            first[0].clip_into([a, b, c], &mut second[0]);
-        } else {
-            second[0].clip_into([a, b, c], &mut first[0]);
+        let (from, to) = if current == 0 { (&first[0], &mut second[0]) } else { (&second[0], &mut first[0]) };
+        match from.cut(Line { a, b, c }, to) {
+            Cut::All => continue,
+            Cut::Nothing => return Clipped { omega: 0.0, error: band.min(1.0) * h_theta * h_phi * cell.sin_max },
+            Cut::Part => current ^= 1,
         }
-        current ^= 1;
     }
-    let [area, mx, mxx] = polygons[current].moments(h_theta, h_phi);
+    let [area, mx, mxx] = polygons[current].moments_u(h_theta, h_phi);
     let (sin_c, cos_c) = cell.centre;
     let omega = (sin_c * (area - 0.5 * mxx) + cos_c * mx).max(0.0);
     let half = 0.5 * h_theta;
@@ -196,18 +129,17 @@ mod tests {
 
     fn corners(theta0: f64, phi0: f64, h_theta: f64, h_phi: f64, p: DVec3) -> [f64; 4] {
         [(0.0, 0.0), (0.0, 1.0), (1.0, 0.0), (1.0, 1.0)]
-            .map(|(s, t)| p.dot(direction(theta0 + s * h_theta, phi0 + t * h_phi)))
+            .map(|(u, v)| p.dot(direction(theta0 + u * h_theta, phi0 + v * h_phi)))
     }
 
+    /// The moments of the square's half `u >= 0`: area 1/2, `int u = 1/8`, `int u^2 = 1/24`.
     #[test]
-    fn a_square_clipped_by_a_diagonal_is_half() {
-        let p = Polygon::unit_square().clip([1.0, -1.0, -1.0]);
-        let [area, _, _] = p.moments(1.0, 1.0);
-        assert!((area - 0.5).abs() < 1e-15, "{area}");
-        let none = Polygon::unit_square().clip([-1.0, 0.0, 0.0]);
-        assert_eq!(none.points().len(), 0);
-        let all = Polygon::unit_square().clip([1.0, 0.0, 0.0]);
-        assert_eq!(all.points().len(), 4);
+    fn the_moments_of_a_half_square() {
+        let half = Poly8::SQUARE.clip(Line { a: 0.0, b: 1.0, c: 0.0 });
+        let [area, mu, muu] = half.moments_u(1.0, 1.0);
+        assert!((area - 0.5).abs() < 1e-15 && (mu - 0.125).abs() < 1e-15 && (muu - 1.0 / 24.0).abs() < 1e-15);
+        let [area, mu, muu] = half.moments_u(2.0, 3.0);
+        assert!((area - 3.0).abs() < 1e-14 && (mu - 1.5).abs() < 1e-14 && (muu - 1.0).abs() < 1e-14);
     }
 
     /// A cell with no clipping plane: its exact solid angle `h_phi (cos theta0 - cos theta1)` to

@@ -52,8 +52,8 @@ use rayon::prelude::*;
 
 use crate::maths::resample::angles;
 use crate::maths::resample::layouts::{normalised, Footprint, LatLongDomain, LatLongSource, Limits};
+use crate::maths::resample::polygon::Line;
 use crate::values::Image;
-use polygon::Line;
 
 /// A grid point of the subdivision: its polar angle and azimuth in the source, and its source
 /// texel.
@@ -415,6 +415,5 @@ pub fn rotated_latlong(src: &LatLongSource, inverse: DMat3, rel_tol: f64, depth:
 }
 
 mod cut;
-mod polygon;
 #[cfg(test)]
 mod tests;

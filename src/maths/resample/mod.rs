@@ -10,4 +10,5 @@ pub mod cut_cells;
 pub mod disc_image;
 pub mod latlong_cube;
 pub mod layouts;
+pub(crate) mod polygon;
 pub mod rotation;

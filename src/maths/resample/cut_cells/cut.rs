@@ -3,7 +3,11 @@
 
 use std::f64::consts::{PI, TAU};
 
-use super::polygon::{Clipped, Line, SQUARE};
+use crate::maths::resample::polygon::{Clipped, Line, Poly};
+
+/// A cut's polygons: the square clipped twice (a row's and a column's boundary).
+type Poly6 = Poly<6>;
+const SQUARE: Poly6 = Poly6::SQUARE;
 use super::{Cells, Plan, MAX_TEXELS};
 use crate::maths::resample::layouts::Footprint;
 

@@ -5,7 +5,7 @@ use std::f64::consts::PI;
 
 use glam::DVec3;
 
-use super::polygon::SQUARE;
+const SQUARE: crate::maths::resample::polygon::Poly<6> = crate::maths::resample::polygon::Poly::SQUARE;
 use super::*;
 use crate::geometry::latlong;
 use crate::geometry::rotation::Rotation;
