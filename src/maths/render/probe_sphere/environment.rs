@@ -34,6 +34,13 @@ pub fn from_hdrflow(d: DVec3) -> DVec3 {
     DVec3::new(-d.z, -d.x, d.y)
 }
 
+/// Where Cycles' Environment Texture reads Blender direction `d` (not zero): `u = 0.5 - atan2(y,
+/// x) / (2 pi)` and the polar angle from +Z over pi, both in `[0, 1]`.
+pub fn coordinates(d: DVec3) -> (f64, f64) {
+    let len = d.length();
+    (0.5 - d.y.atan2(d.x) / (2.0 * PI), (d.z / len).clamp(-1.0, 1.0).acos() / PI)
+}
+
 /// An environment map read as Cycles' Environment Texture reads it.
 pub struct Environment {
     width: usize,
@@ -52,9 +59,13 @@ impl Environment {
     /// Cycles' lookup in Blender direction `d` (need not be unit, must not be zero): bilinear on
     /// texel centres, `x = u W - 0.5` and `y = (1 - v) H - 0.5` from the top, both wrapping.
     pub fn cycles(&self, d: DVec3) -> [f64; 3] {
-        let len = d.length();
-        let u = 0.5 - d.y.atan2(d.x) / (2.0 * PI);
-        let t = (d.z / len).clamp(-1.0, 1.0).acos() / PI;
+        let (u, t) = coordinates(d);
+        self.at(u, t)
+    }
+
+    /// The bilinear lookup at `u` (along the width) and `t` (the polar angle over pi, from the
+    /// top), [`coordinates`] of a direction.
+    pub fn at(&self, u: f64, t: f64) -> [f64; 3] {
         let (fx, fy) = (u * self.width as f64 - 0.5, t * self.height as f64 - 0.5);
         let (x0, y0) = (fx.floor(), fy.floor());
         let (tx, ty) = (fx - x0, fy - y0);

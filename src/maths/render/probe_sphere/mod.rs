@@ -17,7 +17,8 @@
 //! again with [`EDGE_FACTOR`] times as many rays, so the coverage is resolved finely where it is
 //! fractional.
 //!
-//! - Mirror: each hitting ray's reflection is looked up ([`shading::mirror`]), as Cycles does.
+//! - Mirror: each hitting ray's reflection is looked up, weighted by its Fresnel term
+//!   ([`shading::mirror_ray`]), as Cycles does.
 //! - Rough materials: the radiance varies over the sphere on the scale of the lobes (degrees of
 //!   normal, many pixels), so it is integrated once per pixel, at the hit of the pinhole ray through
 //!   the mean filter offset of the hitting rays, and multiplied by the coverage. For a radiance
@@ -30,14 +31,18 @@
 //! texel tree, at least as fine as each pixel's own ([`tile_cut`]), and each sums its own lobes over
 //! it ([`lobe_kernel`], vectorised).
 //!
-//! Bands of rows run in parallel (rayon); every pixel is a pure function of the inputs and of its
-//! tile's pixels, so the image is the same bit for bit whatever the number of threads.
+//! Everything before the map is read (the rays, their hits, the coverage, the mirror's reflections
+//! and weights) is the frame's [`plan`], made once per process for each frame and shared by the
+//! renders of every map. Bands of rows run in parallel (rayon); every pixel is a pure function of
+//! the inputs and of its tile's pixels, so the image is the same bit for bit whatever the number
+//! of threads and whether the plan was stored.
 
 pub mod camera;
 pub mod environment;
 pub mod lobe_kernel;
 pub mod mesh;
 mod mesh_search;
+mod plan;
 pub mod principled;
 pub mod shading;
 pub mod texel_tree;
@@ -128,8 +133,7 @@ fn pattern(n: usize, filter: &FilterTable) -> Vec<PixelSample> {
         .collect()
 }
 
-struct Scene<'a> {
-    env: &'a Environment,
+struct Scene {
     camera: Camera,
     bsdf: Principled,
     shape: ProbeShape,
@@ -144,7 +148,7 @@ struct Scene<'a> {
     mean_offset: [f64; 2],
 }
 
-impl Scene<'_> {
+impl Scene {
     /// The sphere's hit; `hint` carries the last triangle hit between calls.
     fn hit(&self, ray: &Ray, hint: &mut Option<usize>) -> Option<Hit> {
         match self.shape {
@@ -161,14 +165,21 @@ impl Scene<'_> {
         }
     }
 
-    /// Pixel `(c, r)` with the rays of `pattern`: the mirror's `(rgb premultiplied, coverage)`, or
-    /// where the rough lobes are to be shaded and the coverage.
-    fn pixel(&self, c: usize, r: usize, pattern: &[PixelSample], hint: &mut Option<usize>) -> Stage {
+    /// Pixel `(c, r)` with the rays of `pattern`: the mirror's reflected rays (pushed to `rays`)
+    /// and coverage, or where the rough lobes are to be shaded and the coverage.
+    fn pixel(
+        &self,
+        c: usize,
+        r: usize,
+        pattern: &[PixelSample],
+        hint: &mut Option<usize>,
+        rays: &mut Vec<MirrorRay>,
+    ) -> Stage {
         let (cf, rf) = (c as f64, r as f64);
         let (dx, dy) = (cf + 0.5 - 0.5 * self.camera.width as f64, rf + 0.5 - 0.5 * self.camera.height as f64);
         let from_centre = dx.hypot(dy);
         if from_centre > self.reach {
-            return Stage::Done([0.0; 3], 0.0);
+            return Stage::Done(0.0);
         }
         if !self.bsdf.is_mirror() && from_centre < self.inside {
             // Every ray hits: the rough lobes at the pattern's mean offset, full coverage.
@@ -179,7 +190,7 @@ impl Scene<'_> {
             }
         }
         let n = pattern.len();
-        let mut rgb = [0.0; 3];
+        let start = rays.len();
         let (mut hits, mut sum_ox, mut sum_oy) = (0usize, 0.0, 0.0);
         let mut first_hit: Option<Ray> = None;
         for s in pattern {
@@ -187,8 +198,10 @@ impl Scene<'_> {
             let ray = self.camera.ray_through(cf, rf, ox, oy, s.lens);
             if self.bsdf.is_mirror() {
                 let Some(hit) = self.hit(&ray, hint) else { continue };
-                let l = shading::mirror(self.env, &self.bsdf, &hit, -ray.dir);
-                (0..3).for_each(|k| rgb[k] += l[k]);
+                if let Some((d, f)) = shading::mirror_ray(&self.bsdf, &hit, -ray.dir) {
+                    let (u, t) = environment::coordinates(d);
+                    rays.push(MirrorRay { u: u as f32, t: t as f32, weight: f as f32 });
+                }
             } else {
                 // The rough lobes need only whether the ray hits.
                 if !self.hits(&ray, hint) {
@@ -201,11 +214,11 @@ impl Scene<'_> {
             hits += 1;
         }
         if hits == 0 {
-            return Stage::Done([0.0; 3], 0.0);
+            return Stage::Done(0.0);
         }
         let coverage = hits as f64 / n as f64;
         if self.bsdf.is_mirror() {
-            return Stage::Done(rgb.map(|v| v / n as f64), coverage);
+            return Stage::Mirror { rays: (rays.len() - start) as u32, n: n as u32, coverage };
         }
         // The rough lobes once, at the pinhole ray through the hitting rays' mean offset (or the
         // first hitting ray where that one misses).
@@ -216,32 +229,60 @@ impl Scene<'_> {
             None => {
                 // `hits` and `hit` search the same candidates: a ray one says hits, the other finds.
                 debug_assert!(false, "a ray counted as hitting found no hit at pixel ({c}, {r})");
-                Stage::Done([0.0; 3], coverage)
+                Stage::Done(coverage)
             }
         }
     }
 }
 
-/// A pixel after its rays: done (the mirror, or no hit), or to be shaded with the rough lobes at a
-/// hit seen along `v`, then multiplied by the coverage.
+/// A pixel after its rays, before the map is read: done (no hit: black, its coverage), the
+/// mirror's next `rays` reflected rays of the row's list out of `n` (their weighted lookups summed
+/// and divided by `n`), or to be shaded with the rough lobes at a hit seen along `v`, then
+/// multiplied by the coverage.
 #[derive(Clone, Copy)]
 enum Stage {
-    Done([f64; 3], f64),
+    Done(f64),
+    Mirror { rays: u32, n: u32, coverage: f64 },
     Shade(Hit, DVec3, f64),
 }
 
 impl Stage {
     fn coverage(&self) -> f64 {
         match *self {
-            Stage::Done(_, a) | Stage::Shade(_, _, a) => a,
+            Stage::Done(a) | Stage::Mirror { coverage: a, .. } | Stage::Shade(_, _, a) => a,
         }
     }
 }
 
-/// Each pixel's `(rgb premultiplied, coverage)`: a done stage's own, a shaded one's from `shaded`.
-fn finish(stages: Vec<Stage>, shaded: impl IntoIterator<Item = [f64; 3]>) -> impl Iterator<Item = ([f64; 3], f64)> {
-    stages.into_iter().zip(shaded).map(|(s, rgb)| match s {
-        Stage::Done(done, a) => (done, a),
+/// One reflected ray of a mirror pixel: where it reads the map ([`environment::coordinates`]) and
+/// its Fresnel weight (single precision: a 960 x 540 mirror holds about 4.5 million).
+#[derive(Clone, Copy, Debug)]
+struct MirrorRay {
+    u: f32,
+    t: f32,
+    weight: f32,
+}
+
+/// Each pixel's `(rgb premultiplied, coverage)`: a mirror pixel's from its rays in `rays`, a
+/// shaded one's from `shaded`.
+fn finish<'a>(
+    stages: &'a [Stage],
+    rays: &'a [MirrorRay],
+    env: &'a Environment,
+    shaded: impl IntoIterator<Item = [f64; 3]> + 'a,
+) -> impl Iterator<Item = ([f64; 3], f64)> + 'a {
+    let mut next = 0;
+    stages.iter().zip(shaded).map(move |(s, rgb)| match *s {
+        Stage::Done(a) => ([0.0; 3], a),
+        Stage::Mirror { rays: count, n, coverage } => {
+            let mut sum = [0.0; 3];
+            for ray in &rays[next..next + count as usize] {
+                let l = env.at(ray.u as f64, ray.t as f64);
+                (0..3).for_each(|k| sum[k] += ray.weight as f64 * l[k]);
+            }
+            next += count as usize;
+            (sum.map(|v| v / n as f64), coverage)
+        }
         Stage::Shade(_, _, a) => (rgb, a),
     })
 }
@@ -256,10 +297,42 @@ pub fn render(env: &Image, settings: &ProbeSettings) -> ProbeRender {
 /// cut of the texel tree, [`texel_tree::TexelTree::sum`]'s).
 fn render_tiled(env: &Image, settings: &ProbeSettings, tile: usize) -> ProbeRender {
     let tile = tile.max(1);
+    let plan = plan::plan_for(settings);
     let environment = Environment::new(env);
     let bsdf = settings.material.principled(settings.smith);
-    // The texel tree only serves the rough lobes.
-    let tree = (!bsdf.is_mirror()).then(|| TexelTree::new(env, settings.cut, shading::lobe_width(&bsdf)));
+    let (w, h) = (settings.width, settings.height);
+    let row = |r: usize| &plan.stages[r * w..(r + 1) * w];
+    let pixels: Vec<([f64; 3], f64)> = if bsdf.is_mirror() {
+        (0..h)
+            .into_par_iter()
+            .flat_map_iter(|r| {
+                finish(row(r), &plan.rays[r], &environment, std::iter::repeat([0.0; 3])).collect::<Vec<_>>()
+            })
+            .collect()
+    } else {
+        // Bands of `tile` rows: their tiles' rough lobes.
+        let tree = TexelTree::new(env, settings.cut, shading::lobe_width(&bsdf));
+        (0..h.div_ceil(tile))
+            .into_par_iter()
+            .flat_map_iter(|band| {
+                let stages = &plan.stages[band * tile * w..((band + 1) * tile).min(h) * w];
+                let shaded = tiles::shade_band(&tree, &bsdf, w, stages, tile);
+                finish(stages, &[], &environment, shaded).collect::<Vec<_>>()
+            })
+            .collect()
+    };
+    let mut rgba = Vec::with_capacity(w * h * 4);
+    let mut alpha = Vec::with_capacity(w * h);
+    for (rgb, a) in pixels {
+        rgba.extend_from_slice(&[rgb[0] as f32, rgb[1] as f32, rgb[2] as f32, a as f32]);
+        alpha.push(a as f32);
+    }
+    ProbeRender { image: Image::from_vec(w, h, 4, rgba), mask: Image::from_vec(w, h, 1, alpha) }
+}
+
+/// The scene of `settings` (camera, sphere, ray patterns) that the pixels' rays are traced in.
+fn scene(settings: &ProbeSettings) -> Scene {
+    let bsdf = settings.material.principled(settings.smith);
     let filter = FilterTable::blackman_harris(FILTER_WIDTH);
     let n = settings.samples.max(1);
     let camera = Camera::new(settings.width, settings.height);
@@ -275,8 +348,7 @@ fn render_tiled(env: &Image, settings: &ProbeSettings, tile: usize) -> ProbeRend
     let inside = silhouette(inner) - FILTER_WIDTH - 2.0;
     let rays = pattern(n, &filter);
     let mean_offset = [0, 1].map(|k| rays.iter().map(|s| s.offset[k]).sum::<f64>() / n as f64);
-    let scene = Scene {
-        env: &environment,
+    Scene {
         camera,
         bsdf,
         shape: settings.shape,
@@ -285,42 +357,29 @@ fn render_tiled(env: &Image, settings: &ProbeSettings, tile: usize) -> ProbeRend
         reach,
         inside,
         mean_offset,
-    };
-    let (w, h) = (settings.width, settings.height);
-    // A row's pixels after their rays; the hint carries along the row.
-    let row = |r: usize| -> Vec<Stage> {
-        let mut hint = None;
-        (0..w)
-            .map(|c| {
-                let first = scene.pixel(c, r, &scene.rays, &mut hint);
-                let a = first.coverage();
-                if a > 0.0 && a < 1.0 {
-                    scene.pixel(c, r, &scene.edge_rays, &mut hint)
-                } else {
-                    first
-                }
-            })
-            .collect()
-    };
-    let pixels: Vec<([f64; 3], f64)> = match &tree {
-        None => (0..h).into_par_iter().flat_map_iter(|r| finish(row(r), std::iter::repeat([0.0; 3]))).collect(),
-        // Bands of `tile` rows: their tiles' rough lobes once the band's rays are traced.
-        Some(tree) => (0..h.div_ceil(tile))
-            .into_par_iter()
-            .flat_map_iter(|band| {
-                let stages: Vec<Stage> = (band * tile..((band + 1) * tile).min(h)).flat_map(row).collect();
-                let shaded = tiles::shade_band(tree, &bsdf, w, &stages, tile);
-                finish(stages, shaded)
-            })
-            .collect(),
-    };
-    let mut rgba = Vec::with_capacity(w * h * 4);
-    let mut alpha = Vec::with_capacity(w * h);
-    for (rgb, a) in pixels {
-        rgba.extend_from_slice(&[rgb[0] as f32, rgb[1] as f32, rgb[2] as f32, a as f32]);
-        alpha.push(a as f32);
     }
-    ProbeRender { image: Image::from_vec(w, h, 4, rgba), mask: Image::from_vec(w, h, 1, alpha) }
+}
+
+/// Row `r`'s pixels after their rays, and the mirror's reflected rays in pixel order; the hint
+/// carries along the row. A silhouette pixel is traced again with the edge pattern, its first
+/// rays dropped.
+fn trace_row(scene: &Scene, r: usize) -> (Vec<Stage>, Vec<MirrorRay>) {
+    let mut hint = None;
+    let mut rays = Vec::new();
+    let stages = (0..scene.camera.width)
+        .map(|c| {
+            let start = rays.len();
+            let first = scene.pixel(c, r, &scene.rays, &mut hint, &mut rays);
+            let a = first.coverage();
+            if a > 0.0 && a < 1.0 {
+                rays.truncate(start);
+                scene.pixel(c, r, &scene.edge_rays, &mut hint, &mut rays)
+            } else {
+                first
+            }
+        })
+        .collect();
+    (stages, rays)
 }
 
 #[cfg(test)]

@@ -15,7 +15,6 @@
 
 use glam::DVec3;
 
-use super::environment::Environment;
 use super::mesh::Hit;
 use super::principled::{ensure_valid_reflection, Principled};
 use super::texel_tree::TexelTree;
@@ -29,19 +28,20 @@ pub fn closure_normal(hit: &Hit, v: DVec3) -> DVec3 {
     }
 }
 
-/// A perfect mirror's radiance back along `v` (unit, towards the camera).
-pub fn mirror(env: &Environment, bsdf: &Principled, hit: &Hit, v: DVec3) -> [f64; 3] {
+/// A perfect mirror's reflection of `v` (unit, towards the camera) and its Fresnel weight: the
+/// radiance back along `v` is the weight times the map's radiance along the reflection (none
+/// when the reflection is rejected).
+pub fn mirror_ray(bsdf: &Principled, hit: &Hit, v: DVec3) -> Option<(DVec3, f64)> {
     let n = closure_normal(hit, v);
     let cos_o = n.dot(v);
     if !(cos_o > 0.0) {
-        return [0.0; 3];
+        return None;
     }
     let r = 2.0 * cos_o * n - v;
     if !(hit.ng.dot(r) > 0.0) {
-        return [0.0; 3];
+        return None;
     }
-    let f = bsdf.fresnel(cos_o);
-    env.cycles(r).map(|c| f * c)
+    Some((r, bsdf.fresnel(cos_o)))
 }
 
 /// The rough lobes' radiance back along `v`, summed over `tree` (made for this material's lobe

@@ -1,0 +1,111 @@
+//! What a render computes before it reads the map, kept for the next render of the same frame.
+//!
+//! A sphere's camera rays, their hits on the mesh, its coverage and, for the mirror, each ray's
+//! reflection and Fresnel weight depend on the frame (size, samples, shape, material) and not on
+//! the map. An evaluation renders the same three frames under every map (a prediction and a ground
+//! truth per scene, at every checkpoint), so the [`Plan`] of a frame is made once per process and
+//! shared: a later render reads the map along the stored rays (the mirror) or shades the stored
+//! hits (the rough lobes). The plan is the same whether it was stored or made afresh, so a render
+//! is the same bit for bit either way.
+//!
+//! The store holds at most [`KEPT`] plans of at most [`MAX_BYTES`] each (a 960 x 540 mirror's
+//! holds about 120 MB; the two rough materials share one plan). A plan is made on its own thread
+//! pool from a plain thread: a rayon worker that waits for it blocks rather than steals, so no
+//! worker can start another render that waits for the same plan on top of the one making it.
+
+use std::sync::{Arc, Mutex, OnceLock};
+
+use rayon::prelude::*;
+
+use super::{scene, trace_row, MirrorRay, ProbeSettings, ProbeShape, Stage};
+
+/// How many plans the process keeps (the least recently made dropped first).
+const KEPT: usize = 4;
+/// Plans larger than this are made for their render only.
+const MAX_BYTES: usize = 1 << 30;
+
+/// The stages of every pixel (row-major) and each row's mirror rays.
+pub(super) struct Plan {
+    pub(super) stages: Vec<Stage>,
+    pub(super) rays: Vec<Vec<MirrorRay>>,
+}
+
+/// What a plan depends on: the rough materials' plans differ only in being rough.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+struct Key {
+    mirror: bool,
+    shape: ProbeShape,
+    width: usize,
+    height: usize,
+    samples: usize,
+}
+
+type Slot = Arc<OnceLock<Arc<Plan>>>;
+
+static STORE: Mutex<Vec<(Key, Slot)>> = Mutex::new(Vec::new());
+
+/// The plan of `settings`' frame: the stored one, or made now (and stored when small enough).
+pub(super) fn plan_for(settings: &ProbeSettings) -> Arc<Plan> {
+    let mirror = settings.material.principled(settings.smith).is_mirror();
+    let key = Key {
+        mirror,
+        shape: settings.shape,
+        width: settings.width,
+        height: settings.height,
+        samples: settings.samples,
+    };
+    let pixels = settings.width.saturating_mul(settings.height);
+    let rays = if mirror { pixels.saturating_mul(settings.samples) } else { 0 };
+    let bytes = pixels
+        .saturating_mul(std::mem::size_of::<Stage>())
+        .saturating_add(rays.saturating_mul(std::mem::size_of::<MirrorRay>()));
+    if bytes > MAX_BYTES {
+        return Arc::new(make(settings));
+    }
+    let slot = {
+        // A poisoned store (a panic while it was held) is only a list of finished plans.
+        let mut store = STORE.lock().unwrap_or_else(|e| e.into_inner());
+        match store.iter().position(|(k, _)| *k == key) {
+            Some(i) => store[i].1.clone(),
+            None => {
+                if store.len() >= KEPT {
+                    store.remove(0);
+                }
+                let slot = Slot::default();
+                store.push((key, slot.clone()));
+                slot
+            }
+        }
+    };
+    slot.get_or_init(|| Arc::new(make(settings))).clone()
+}
+
+/// Traces every row of `settings`' frame, in parallel on a pool of as many threads as the
+/// caller's, from a thread that is no rayon worker (see the module documentation).
+fn make(settings: &ProbeSettings) -> Plan {
+    let threads = rayon::current_num_threads();
+    let trace = |parallel: bool| {
+        let scene = scene(settings);
+        let rows: Vec<(Vec<Stage>, Vec<MirrorRay>)> = if parallel {
+            (0..settings.height).into_par_iter().map(|r| trace_row(&scene, r)).collect()
+        } else {
+            (0..settings.height).map(|r| trace_row(&scene, r)).collect()
+        };
+        let mut stages = Vec::with_capacity(settings.width * settings.height);
+        let mut rays = Vec::with_capacity(rows.len());
+        for (row, row_rays) in rows {
+            stages.extend(row);
+            rays.push(row_rays);
+        }
+        Plan { stages, rays }
+    };
+    std::thread::scope(|s| {
+        s.spawn(|| match rayon::ThreadPoolBuilder::new().num_threads(threads).build() {
+            Ok(pool) => pool.install(|| trace(true)),
+            // No pool (the system refused its threads): the rows one after another here.
+            Err(_) => trace(false),
+        })
+        .join()
+        .unwrap_or_else(|panic| std::panic::resume_unwind(panic))
+    })
+}
