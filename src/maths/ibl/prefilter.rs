@@ -138,15 +138,18 @@ pub fn zonal_lobe(brdf: SpecularBrdf, alpha: f64) -> impl Fn(f64) -> f64 + Copy 
     move |c: f64| if c > 0.0 { brdf.d((0.5 * (1.0 + c)).sqrt(), alpha) * c } else { 0.0 }
 }
 
-/// How far apart (in output texels across a group) a group's texels may be against the lobe's
-/// alpha: a group of side g is used where `g (2 / size) <= alpha / GROUP_TEXELS_PER_ALPHA`.
-pub const GROUP_TEXELS_PER_ALPHA: f64 = 1.0;
+/// How wide a group may be against the lobe's alpha: a group of side g is used where its width
+/// at a face's centre, `g (2 / size)` radians, times this is at most alpha (0.8 alpha). Groups
+/// 0.5-0.8 alpha wide kept the error of every level of the 4096 Khronos chain's ratios (`bench
+/// --bake --bake-khronos-ratios`), and a group 4 alpha wide (a Bevy 256 chain's level 1 in 4 x 4
+/// groups) moved it by 4%; a group of a whole 4 x 4 face at alpha 0.56 is eight times worse.
+pub const GROUP_TEXELS_PER_ALPHA: f64 = 1.25;
 
 /// The side of the texel groups that share one set of reads (`maths::ibl::fis_group`) for a
 /// GGX level of face size `size` and perceptual roughness `roughness`: the largest of 4 and 2
 /// that divides `size` and whose group is narrow against the lobe ([`GROUP_TEXELS_PER_ALPHA`]),
-/// else 1 (every texel its own reads). Sharp levels of large chains only: a Bevy 256 chain's
-/// level 1 (alpha 0.016, 128 texels) has texels as wide as alpha and keeps 1.
+/// else 1 (every texel its own reads). Sharp levels of large chains: a 4096 chain's levels 1-7
+/// in groups of 4; a Bevy 256 chain keeps 1 (level 1: alpha 0.016 and 128 texels, as wide).
 pub fn group_side(size: usize, roughness: f64, brdf: SpecularBrdf) -> usize {
     let alpha = roughness * roughness;
     let texel = 2.0 / size as f64;
@@ -295,13 +298,15 @@ mod tests {
         let khronos: Vec<usize> =
             (1..8).map(|k| group_side(4096 >> k, level_roughness(k, 13), SpecularBrdf::Ggx)).collect();
         assert_eq!(khronos, vec![4; 7]);
-        assert_eq!(group_side(128, level_roughness(1, 9), SpecularBrdf::Ggx), 1);
+        let bevy: Vec<usize> = (1..4).map(|k| group_side(256 >> k, level_roughness(k, 9), SpecularBrdf::Ggx)).collect();
+        assert_eq!(bevy, vec![1; 3]);
         assert_eq!(group_side(2048, 0.5, SpecularBrdf::Charlie), 1);
         assert_eq!(group_side(6, 1.0, SpecularBrdf::Ggx), 2);
     }
 
     /// Grouped and per-texel estimates of a sharp level agree with the exact sum alike on a
-    /// smooth map.
+    /// smooth map (measured: worst 1.89e-2, 1.90e-2 and 1.91e-2 for groups of 1, 2 and 4: the
+    /// filter's blur of a 64 source, not the groups).
     #[test]
     fn grouped_levels_match_exact_on_a_smooth_map() {
         let env = builtin("linear").unwrap();
@@ -309,14 +314,14 @@ mod tests {
         let pyr = pyramid(&c);
         let padded = PaddedPyramid::new(&pyr.iter().collect::<Vec<_>>());
         let pts = points(LobeSequence::Sobol, 256);
-        let (size, rough) = (32, 0.55);
+        let (size, rough) = (32, 0.6);
         assert_eq!(group_side(size, rough, SpecularBrdf::Ggx), 4);
         let ex = prefilter_level_exact(&c, size, rough, SpecularBrdf::Ggx);
         for group in [1, 2, 4] {
             let got = prefilter_level_fis(&padded, size, rough, &pts, SpecularBrdf::Ggx, true, group);
             let worst = got.data.iter().zip(&ex.data).fold(0.0f64, |m, (x, y)| m.max((x - y).abs() as f64 / *y as f64));
             eprintln!("groups of {group}: worst relative difference {worst:.2e}");
-            assert!(worst < 2e-2, "groups of {group}: {worst}");
+            assert!(worst < 2.5e-2, "groups of {group}: {worst}");
         }
     }
 
