@@ -261,10 +261,10 @@ impl PaddedPyramid {
         }
         let mut list = [0u8; 2 * BATCH];
         let mut count = 0;
-        for i in 0..BATCH {
+        for (i, &tl) in level_t.iter().enumerate() {
             list[count] = i as u8;
             list[count + 1] = (BATCH + i) as u8;
-            count += 1 + usize::from(level_t[i] > 0.0);
+            count += 1 + usize::from(tl > 0.0);
         }
         (reads, list, count)
     }

@@ -115,7 +115,7 @@ pub fn prefilter_level_fis(
     // kernel's per-sample branch is then predicted); the sum's order is fixed either way.
     lobe.sort_by(|a, b| a.lod.total_cmp(&b.lod));
     let lobe = Lobe::new(&lobe);
-    if group > 1 && brdf == SpecularBrdf::Ggx && size % group == 0 && group * group <= MAX_GROUP {
+    if group > 1 && brdf == SpecularBrdf::Ggx && size.is_multiple_of(group) && group * group <= MAX_GROUP {
         return grouped_level(pyr, size, group, roughness * roughness, &lobe);
     }
     Cubemap::from_fn(size, |f, x, y| {
@@ -155,7 +155,9 @@ pub fn group_side(size: usize, roughness: f64, brdf: SpecularBrdf) -> usize {
     let texel = 2.0 / size as f64;
     [4, 2]
         .into_iter()
-        .find(|&g| brdf == SpecularBrdf::Ggx && size % g == 0 && g as f64 * texel * GROUP_TEXELS_PER_ALPHA <= alpha)
+        .find(|&g| {
+            brdf == SpecularBrdf::Ggx && size.is_multiple_of(g) && g as f64 * texel * GROUP_TEXELS_PER_ALPHA <= alpha
+        })
         .unwrap_or(1)
 }
 
