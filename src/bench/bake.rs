@@ -38,6 +38,9 @@ pub struct BakeBenchConfig {
     pub texels_per_level: usize,
     /// skip the child-process bakes (errors only)
     pub errors_only: bool,
+    /// the chain errors of the 4096 Khronos chain's sharp levels, scaled
+    /// (`khronos_ratio_errors`), instead of the Bevy chain's
+    pub khronos_ratios: bool,
     /// the presets baked (empty: all)
     pub presets: Vec<String>,
     pub out_dir: PathBuf,
@@ -68,7 +71,11 @@ pub fn run(config: &BakeBenchConfig, log: &dyn Fn(&str)) -> Result<String, Strin
                     .map_err(|e| format!("{}: {e}", path.display()))?;
                 md.push_str(&preset_times(&path, (width * (width / 2) * 3 * 4) as f64, &config.presets, &work, log)?);
             }
-            md.push_str(&bevy_chain_errors(&map, config, log));
+            if config.khronos_ratios {
+                md.push_str(&khronos_ratio_errors(&map, config, log));
+            } else {
+                md.push_str(&bevy_chain_errors(&map, config, log));
+            }
         }
         Ok::<(), String>(())
     })();
@@ -139,22 +146,52 @@ fn out_folder(map: &Path, preset: &str) -> String {
 
 /// The Bevy chain's error per level for every estimator, on the map's residual.
 fn bevy_chain_errors(map: &Image, config: &BakeBenchConfig, log: &dyn Fn(&str)) -> String {
+    let title = "Bevy chain (256 cube of the SunExtract residual, 9 levels, Linear)";
+    chain_table(map, 256, 9, &config.estimators, config.texels_per_level, title, log)
+}
+
+/// The estimators compared on the Khronos chain's ratios: the per-texel reads (every level of
+/// it before issue 36's groups), the default, and groups of 2 and 4 everywhere.
+pub fn khronos_ratio_estimators() -> Vec<Estimator> {
+    vec![Estimator::Fis(1024), Estimator::Default(1024), Estimator::Grouped(1024, 2), Estimator::Grouped(1024, 4)]
+}
+
+/// The sharp levels of a 16k map's Khronos chain (4096 cube, 13 levels, `Linear`) at a
+/// sixteenth of the cost: a 1024 cube with 7 `Linear` levels has, at its levels 1-3, the
+/// 4096 chain's ratios of the lobe (alpha) to its level's texels and to the pyramid's (alpha x
+/// size 14.2, 28.4 and 32 at levels 1-3 of both; the filtered reads' levels follow alpha x the
+/// top size), so the same group sizes and the same sampling errors.
+pub fn khronos_ratio_errors(map: &Image, config: &BakeBenchConfig, log: &dyn Fn(&str)) -> String {
+    let title = "The 4096 Khronos chain's sharp levels, scaled (1024 cube of the SunExtract residual, 7 levels, \
+                 Linear: levels 1-3 have the ratios of the 4096 chain's levels 1-3)";
+    chain_table(map, 1024, 7, &config.estimators, config.texels_per_level, title, log)
+}
+
+/// A chain's error per level for every estimator, on the map's residual resampled to a cube of
+/// face `size`, `levels` levels, `Linear`.
+fn chain_table(
+    map: &Image,
+    size: usize,
+    levels: usize,
+    estimators: &[Estimator],
+    texels_per_level: usize,
+    title: &str,
+    log: &dyn Fn(&str),
+) -> String {
     let residual = extract_sun(map, 8.0).residual;
     let t0 = Instant::now();
-    let cube = latlong_to_cube(&LatLongSource::new(&residual), 256);
+    let cube = latlong_to_cube(&LatLongSource::new(&residual), size);
     let resample = t0.elapsed().as_secs_f64();
-    let levels = 9;
     let roughness: Vec<f64> = (0..levels).map(|k| RoughnessMap::Linear.roughness(k, levels, &[])).collect();
-    let (rows, reference) = chain_errors(&cube, &roughness, &config.estimators, config.texels_per_level, log);
+    let (rows, reference) = chain_errors(&cube, &roughness, estimators, texels_per_level, log);
     let mut md = format!(
-        "Bevy chain (256 cube of the SunExtract residual, 9 levels, Linear): RMS relative error per level against \
-         `exact: true` ({} texels per level; references {reference:.1} s; lat-long to cube {resample:.2} s)\n\n",
-        config.texels_per_level
+        "{title}: RMS relative error per level against `exact: true` ({texels_per_level} texels per level; \
+         references {reference:.1} s; lat-long to cube {resample:.2} s)\n\n"
     );
     let _ = writeln!(
         md,
         "| estimator | chain time | {} |",
-        (1..levels).map(|k| format!("{} ({}, r {:.3})", k, 256 >> k, roughness[k])).collect::<Vec<_>>().join(" | ")
+        (1..levels).map(|k| format!("{} ({}, r {:.3})", k, size >> k, roughness[k])).collect::<Vec<_>>().join(" | ")
     );
     let _ = writeln!(md, "|---|---|{}", "---|".repeat(levels - 1));
     for row in rows {

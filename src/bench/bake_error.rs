@@ -19,7 +19,7 @@ use hdrflow::maths::brdf::ggx::{points, LobeSequence};
 use hdrflow::maths::brdf::specular_lobe::SpecularBrdf;
 use hdrflow::maths::ibl::fis_kernel::PaddedPyramid;
 use hdrflow::maths::ibl::prefilter::{
-    exact_source_level, prefilter_level_exact, prefilter_level_fis, pyramid, zonal_lobe,
+    exact_source_level, group_side, prefilter_level_exact, prefilter_level_fis, pyramid, zonal_lobe,
 };
 use hdrflow::maths::ibl::zonal_sum::ZonalSource;
 use hdrflow::values::Cubemap;
@@ -32,8 +32,12 @@ pub enum Estimator {
     /// plain Monte Carlo with this many samples per texel, every read from level 0
     Plain(usize),
     /// what `PrefilterSpecular` does by default: the rough levels summed exactly over a
-    /// coarser pyramid level (`rough_exact`), the others by filtered importance sampling
+    /// coarser pyramid level (`rough_exact`), the others by filtered importance sampling, the
+    /// sharp levels of large chains in texel groups sharing their reads (`prefilter::group_side`)
     Default(usize),
+    /// filtered importance sampling with this many samples, every level in groups of this side
+    /// where it divides the level (`maths::ibl::fis_group`)
+    Grouped(usize, usize),
 }
 
 impl Estimator {
@@ -42,6 +46,7 @@ impl Estimator {
             Estimator::Fis(n) => format!("FIS {n}"),
             Estimator::Plain(n) => format!("plain {n}"),
             Estimator::Default(n) => format!("hdrflow default ({n}; rough levels exact)"),
+            Estimator::Grouped(n, g) => format!("FIS {n}, groups of {g} x {g}"),
         }
     }
 }
@@ -87,7 +92,7 @@ pub fn rms_relative(level: &Cubemap, texels: &[usize], exact: &[[f32; 3]]) -> f6
 /// One estimator's chain: its seconds (levels 1 on; level 0 is the source) and its levels.
 pub fn estimate(pyr: &[Cubemap], padded: &PaddedPyramid, roughness: &[f64], e: Estimator) -> (f64, Vec<Cubemap>) {
     let (n, filtered) = match e {
-        Estimator::Fis(n) | Estimator::Default(n) => (n, true),
+        Estimator::Fis(n) | Estimator::Default(n) | Estimator::Grouped(n, _) => (n, true),
         Estimator::Plain(n) => (n, false),
     };
     let pts = points(LobeSequence::Sobol, n);
@@ -102,7 +107,14 @@ pub fn estimate(pyr: &[Cubemap], padded: &PaddedPyramid, roughness: &[f64], e: E
                 .filter(|_| matches!(e, Estimator::Default(_)))
             {
                 Some(m) => prefilter_level_exact(&pyr[m], size, r, SpecularBrdf::Ggx),
-                None => prefilter_level_fis(padded, size, r, &pts, SpecularBrdf::Ggx, filtered),
+                None => {
+                    let group = match e {
+                        Estimator::Default(_) => group_side(size, r, SpecularBrdf::Ggx),
+                        Estimator::Grouped(_, g) => g,
+                        Estimator::Fis(_) | Estimator::Plain(_) => 1,
+                    };
+                    prefilter_level_fis(padded, size, r, &pts, SpecularBrdf::Ggx, filtered, group)
+                }
             }
         })
         .collect();
@@ -176,8 +188,13 @@ mod tests {
         let mut c = Cubemap::new(8);
         c.data.iter_mut().for_each(|v| *v = 1.0);
         let r = [0.0, 0.3, 0.7];
-        let (rows, _) =
-            chain_errors(&c, &r, &[Estimator::Fis(64), Estimator::Plain(64), Estimator::Default(64)], 50, &|_| {});
+        let (rows, _) = chain_errors(
+            &c,
+            &r,
+            &[Estimator::Fis(64), Estimator::Plain(64), Estimator::Default(64), Estimator::Grouped(64, 2)],
+            50,
+            &|_| {},
+        );
         for row in rows {
             assert!(row.errors.iter().all(|&e| e < 1e-5), "{:?}: {:?}", row.estimator, row.errors);
         }

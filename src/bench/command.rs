@@ -108,10 +108,42 @@ pub struct BenchArgs {
     /// --bake: only the chain errors, not the presets' bakes.
     #[arg(long)]
     bake_errors_only: bool,
+    /// --bake: the chain errors of the 16k map's Khronos chain (4096 cube) at its sharp levels,
+    /// scaled to a 1024 cube with the same lobe-to-texel ratios, instead of the Bevy chain's.
+    #[arg(long)]
+    bake_khronos_ratios: bool,
+    /// --bake: the estimators compared (default: per chain), each `fis:N`, `plain:N`,
+    /// `default:N` or `grouped:N:G`.
+    #[arg(long, value_delimiter = ',')]
+    bake_estimators: Vec<String>,
     /// --bake: only these presets (default: all; a 16384x8192 map's Khronos chain is 4096 per
     /// face, the sampler's half the map's height, and takes hours).
     #[arg(long, value_delimiter = ',')]
     bake_presets: Vec<String>,
+}
+
+/// `--bake-estimators`: `fis:N`, `plain:N`, `default:N`, `grouped:N:G`.
+fn parse_estimators(list: &[String]) -> Result<Vec<crate::bench::bake_error::Estimator>, String> {
+    use crate::bench::bake_error::Estimator;
+    list.iter()
+        .map(|e| {
+            let parts: Vec<&str> = e.split(':').collect();
+            let num = |i: usize| -> Result<usize, String> {
+                parts
+                    .get(i)
+                    .and_then(|p| p.parse().ok())
+                    .filter(|&n| n > 0)
+                    .ok_or_else(|| format!("--bake-estimators: {e:?} needs a positive count"))
+            };
+            match parts[0] {
+                "fis" => Ok(Estimator::Fis(num(1)?)),
+                "plain" => Ok(Estimator::Plain(num(1)?)),
+                "default" => Ok(Estimator::Default(num(1)?)),
+                "grouped" => Ok(Estimator::Grouped(num(1)?, num(2)?)),
+                _ => Err(format!("--bake-estimators: {e:?} is none of fis:N, plain:N, default:N, grouped:N:G")),
+            }
+        })
+        .collect()
 }
 
 fn bench(args: &BenchArgs) -> ExitCode {
@@ -120,7 +152,16 @@ fn bench(args: &BenchArgs) -> ExitCode {
         let config = crate::bench::bake::BakeBenchConfig {
             source: args.bake_map.clone(),
             widths: args.bake_widths.clone(),
-            estimators: crate::bench::bake::default_estimators(),
+            estimators: match parse_estimators(&args.bake_estimators) {
+                Ok(e) if !e.is_empty() => e,
+                Ok(_) if args.bake_khronos_ratios => crate::bench::bake::khronos_ratio_estimators(),
+                Ok(_) => crate::bench::bake::default_estimators(),
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    return ExitCode::from(2);
+                }
+            },
+            khronos_ratios: args.bake_khronos_ratios,
             texels_per_level: args.bake_texels,
             errors_only: args.bake_errors_only,
             presets: args.bake_presets.clone(),

@@ -58,15 +58,15 @@ pub struct LobeSample {
 }
 
 /// Samples per batch of the lane loops.
-const BATCH: usize = 16;
+pub(super) const BATCH: usize = 16;
 
 /// A lobe as structure-of-arrays batches (the last one padded with weight-0 samples).
 pub struct Lobe {
-    x: Vec<[f32; BATCH]>,
-    y: Vec<[f32; BATCH]>,
-    z: Vec<[f32; BATCH]>,
-    weight: Vec<[f32; BATCH]>,
-    lod: Vec<[f32; BATCH]>,
+    pub(super) x: Vec<[f32; BATCH]>,
+    pub(super) y: Vec<[f32; BATCH]>,
+    pub(super) z: Vec<[f32; BATCH]>,
+    pub(super) weight: Vec<[f32; BATCH]>,
+    pub(super) lod: Vec<[f32; BATCH]>,
 }
 
 impl Lobe {
@@ -95,13 +95,13 @@ impl Lobe {
 /// at the next), each a 2 x 2 block of one level: the first texels of its upper and lower rows
 /// and the weights of its four texels (the sample's weight times the level's and the bilinear
 /// weights).
-struct Reads {
-    upper: [u32; 2 * BATCH],
-    lower: [u32; 2 * BATCH],
-    w00: [f32; 2 * BATCH],
-    w10: [f32; 2 * BATCH],
-    w01: [f32; 2 * BATCH],
-    w11: [f32; 2 * BATCH],
+pub(super) struct Reads {
+    pub(super) upper: [u32; 2 * BATCH],
+    pub(super) lower: [u32; 2 * BATCH],
+    pub(super) w00: [f32; 2 * BATCH],
+    pub(super) w10: [f32; 2 * BATCH],
+    pub(super) w01: [f32; 2 * BATCH],
+    pub(super) w11: [f32; 2 * BATCH],
 }
 
 impl PaddedPyramid {
@@ -178,64 +178,13 @@ impl PaddedPyramid {
     /// texels) each, weighted into the two rows' sums.
     #[inline(always)]
     fn lobe_mean_lanes(&self, [t, b, n]: [Vec3; 3], lobe: &Lobe) -> [f32; 3] {
-        let last = (self.levels - 1) as u32;
-        let top = last as f32;
         let (mut upper, mut lower) = ([0.0f32; 8], [0.0f32; 8]);
         let mut total = 0.0f32;
-        let mut reads = Reads {
-            upper: [0; 2 * BATCH],
-            lower: [0; 2 * BATCH],
-            w00: [0.0; 2 * BATCH],
-            w10: [0.0; 2 * BATCH],
-            w01: [0.0; 2 * BATCH],
-            w11: [0.0; 2 * BATCH],
-        };
         for k in 0..lobe.weight.len() {
-            let (lx, ly, lz, lw, llod) = (&lobe.x[k], &lobe.y[k], &lobe.z[k], &lobe.weight[k], &lobe.lod[k]);
-            // per slot (as `Reads`, the lane's face point in both slots): its level and weight
-            let mut faces = [0u32; 2 * BATCH];
-            let (mut u, mut v) = ([0.0f32; 2 * BATCH], [0.0f32; 2 * BATCH]);
-            let mut level = [0u32; 2 * BATCH];
-            let mut weight = [0.0f32; 2 * BATCH];
-            let mut level_t = [0.0f32; BATCH];
-            let (mut dx, mut dy, mut dz) = ([0.0f32; BATCH], [0.0f32; BATCH], [0.0f32; BATCH]);
-            for i in 0..BATCH {
-                dx[i] = t.x * lx[i] + b.x * ly[i] + n.x * lz[i];
-                dy[i] = t.y * lx[i] + b.y * ly[i] + n.y * lz[i];
-                dz[i] = t.z * lx[i] + b.z * ly[i] + n.z * lz[i];
-            }
-            for i in 0..BATCH {
-                let (face, fa, fb) = face_point_branchless(Vec3::new(dx[i], dy[i], dz[i]));
-                let lod = (llod[i] + 0.75 * log2_1_to_3(1.0 + fa * fa + fb * fb)).clamp(0.0, top);
-                // The level below (or at a whole `lod`, possibly the one below that, read with weight 0).
-                let l0 = round_to_int(lod - 0.5).max(0).min(last as i32) as u32;
-                let tl = lod - l0 as f32;
-                level_t[i] = tl;
-                level[i] = l0;
-                level[BATCH + i] = (l0 + 1).min(last);
-                weight[i] = lw[i] * (1.0 - tl);
-                weight[BATCH + i] = lw[i] * tl;
-                (faces[i], faces[BATCH + i]) = (face, face);
-                (u[i], v[i]) = ((fa + 1.0) * 0.5, (fb + 1.0) * 0.5);
-                (u[BATCH + i], v[BATCH + i]) = (u[i], v[i]);
-            }
-            // Each slot's level from the tables, then the blocks as arithmetic over the slots.
-            let mut levels = [LevelShape { size: 1.0, last_corner: 0, stride: 0, offset: 0 }; 2 * BATCH];
-            for r in 0..2 * BATCH {
-                levels[r] = self.level(level[r]);
-            }
-            for r in 0..2 * BATCH {
-                let (up, low, w) = block(levels[r], faces[r], u[r], v[r], weight[r]);
-                (reads.upper[r], reads.lower[r]) = (up, low);
-                (reads.w00[r], reads.w10[r], reads.w01[r], reads.w11[r]) = (w[0], w[1], w[2], w[3]);
-            }
-            let mut list = [0u8; 2 * BATCH];
-            let mut count = 0;
-            for i in 0..BATCH {
-                list[count] = i as u8;
-                list[count + 1] = (BATCH + i) as u8;
-                count += 1 + usize::from(level_t[i] > 0.0);
-                total += lw[i];
+            let lw = &lobe.weight[k];
+            let (reads, list, count) = self.batch_reads([t, b, n], lobe, k, lw);
+            for &w in lw {
+                total += w;
             }
             for &r in &list[..count] {
                 let r = r as usize;
@@ -248,6 +197,76 @@ impl PaddedPyramid {
         } else {
             [0.0; 3]
         }
+    }
+
+    /// Batch `k` of `lobe` in the frame `[t, b, n]` as bilinear reads (`Reads`): per sample, its
+    /// face point and level, a read at that level with weight `weight (1 - t)` in slot `i` and
+    /// one at the next with `weight t` in slot `BATCH + i`; then the slots to sum, listed without
+    /// a branch (the next level's only when `t > 0`), and their count.
+    #[inline(always)]
+    pub(super) fn batch_reads(
+        &self,
+        [t, b, n]: [Vec3; 3],
+        lobe: &Lobe,
+        k: usize,
+        weights: &[f32; BATCH],
+    ) -> (Reads, [u8; 2 * BATCH], usize) {
+        let last = (self.levels - 1) as u32;
+        let top = last as f32;
+        let mut reads = Reads {
+            upper: [0; 2 * BATCH],
+            lower: [0; 2 * BATCH],
+            w00: [0.0; 2 * BATCH],
+            w10: [0.0; 2 * BATCH],
+            w01: [0.0; 2 * BATCH],
+            w11: [0.0; 2 * BATCH],
+        };
+        let (lx, ly, lz, lw, llod) = (&lobe.x[k], &lobe.y[k], &lobe.z[k], weights, &lobe.lod[k]);
+        // per slot (as `Reads`, the lane's face point in both slots): its level and weight
+        let mut faces = [0u32; 2 * BATCH];
+        let (mut u, mut v) = ([0.0f32; 2 * BATCH], [0.0f32; 2 * BATCH]);
+        let mut level = [0u32; 2 * BATCH];
+        let mut weight = [0.0f32; 2 * BATCH];
+        let mut level_t = [0.0f32; BATCH];
+        let (mut dx, mut dy, mut dz) = ([0.0f32; BATCH], [0.0f32; BATCH], [0.0f32; BATCH]);
+        for i in 0..BATCH {
+            dx[i] = t.x * lx[i] + b.x * ly[i] + n.x * lz[i];
+            dy[i] = t.y * lx[i] + b.y * ly[i] + n.y * lz[i];
+            dz[i] = t.z * lx[i] + b.z * ly[i] + n.z * lz[i];
+        }
+        for i in 0..BATCH {
+            let (face, fa, fb) = face_point_branchless(Vec3::new(dx[i], dy[i], dz[i]));
+            let lod = (llod[i] + 0.75 * log2_1_to_3(1.0 + fa * fa + fb * fb)).clamp(0.0, top);
+            // The level below (or at a whole `lod`, possibly the one below that, read with weight 0).
+            let l0 = round_to_int(lod - 0.5).max(0).min(last as i32) as u32;
+            let tl = lod - l0 as f32;
+            level_t[i] = tl;
+            level[i] = l0;
+            level[BATCH + i] = (l0 + 1).min(last);
+            weight[i] = lw[i] * (1.0 - tl);
+            weight[BATCH + i] = lw[i] * tl;
+            (faces[i], faces[BATCH + i]) = (face, face);
+            (u[i], v[i]) = ((fa + 1.0) * 0.5, (fb + 1.0) * 0.5);
+            (u[BATCH + i], v[BATCH + i]) = (u[i], v[i]);
+        }
+        // Each slot's level from the tables, then the blocks as arithmetic over the slots.
+        let mut levels = [LevelShape { size: 1.0, last_corner: 0, stride: 0, offset: 0 }; 2 * BATCH];
+        for r in 0..2 * BATCH {
+            levels[r] = self.level(level[r]);
+        }
+        for r in 0..2 * BATCH {
+            let (up, low, w) = block(levels[r], faces[r], u[r], v[r], weight[r]);
+            (reads.upper[r], reads.lower[r]) = (up, low);
+            (reads.w00[r], reads.w10[r], reads.w01[r], reads.w11[r]) = (w[0], w[1], w[2], w[3]);
+        }
+        let mut list = [0u8; 2 * BATCH];
+        let mut count = 0;
+        for (i, &tl) in level_t.iter().enumerate() {
+            list[count] = i as u8;
+            list[count + 1] = (BATCH + i) as u8;
+            count += 1 + usize::from(tl > 0.0);
+        }
+        (reads, list, count)
     }
 
     /// Level `l`'s shape, from the tables.
@@ -265,7 +284,15 @@ impl PaddedPyramid {
     /// Adds the 2 x 2 block whose rows start at texels `upper` and `lower`, weighted by `wu`
     /// (the upper row's left and right texels) and `wl`, to the two rows' sums.
     #[inline(always)]
-    fn accumulate(&self, upper: u32, lower: u32, wu: [f32; 2], wl: [f32; 2], up: &mut [f32; 8], low: &mut [f32; 8]) {
+    pub(super) fn accumulate(
+        &self,
+        upper: u32,
+        lower: u32,
+        wu: [f32; 2],
+        wl: [f32; 2],
+        up: &mut [f32; 8],
+        low: &mut [f32; 8],
+    ) {
         let (i, j) = (4 * upper as usize, 4 * lower as usize);
         let top: &[f32; 8] = self.rgba[i..i + 8].try_into().expect("8 floats");
         let bottom: &[f32; 8] = self.rgba[j..j + 8].try_into().expect("8 floats");

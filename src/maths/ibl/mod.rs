@@ -3,6 +3,7 @@
 //! Filament's), and the exact GGX sums an engine's render is compared with. Imports
 //! [`super::brdf`], [`super::sampling`], [`super::resample`] and [`super::render`].
 
+pub mod fis_group;
 pub mod fis_kernel;
 pub mod ggx_reference;
 pub mod irradiance_cube;

@@ -22,6 +22,9 @@
 //! coarsest level of the source's pyramid whose texels are at most alpha / 8 wide, where that is
 //! at most 2^26 texel pairs (`maths::ibl::prefilter::exact_source_level`): no sampling error, and within
 //! about 1e-3 of the sum over the finest level (`hdrflow bench --bake` measures both).
+//! The sharp GGX levels of large chains (where 4 texels span at most alpha radians) are
+//! estimated in 4 x 4 (or 2 x 2) groups of texels that share one set of reads, each texel
+//! reweighting them to its own lobe (`maths::ibl::fis_group`; `prefilter::group_side`).
 //! A constant environment gives 1 at every level and texel, both ways, to 1e-3 (tests), and the
 //! error of the estimate against the reference falls as `samples` grows (tests).
 //!
