@@ -32,7 +32,8 @@
 //! map and the exposure as stated here, the map's centre forward and unmirrored; the sun's lines,
 //! read by the client's strict reader of their Rust (clients/bevy/src/sun_lines.rs) and spawned
 //! under the loading code's intensity and default exposure, light the diffuse sphere as the `--sun
-//! keep` bake does (within BOUND_KEEP relative RMSE of it, and BOUND_EXACT of exact E / pi).
+//! keep` bake does (within 0.09 relative RMSE of it and of exact E / pi: Bevy shades direct light
+//! with Burley's diffuse, not Lambert's).
 
 use super::{Chain, Engine, Preset, Quality, SpecSize, ToolPlacement};
 use crate::geometry::cube_frame::CubeFrame;

@@ -16,10 +16,13 @@ use crate::client_sun_lines::read_readme;
 use crate::scene::Geometry;
 use crate::{client, common, run_client, sun_lines, Bake, HEIGHT, WIDTH};
 
-/// The diffuse sphere lit by the extracted bake and the README's sun lines, relative RMSE against
-/// the keep bake's and against exact E / pi: about twice what was measured
-/// (docs/src/guides/baking/bevy.md, "The sun's lines").
-const SUN_BOUND: sun_lines::SunBound = sun_lines::SunBound { keep: 0.08, exact: 0.08 };
+/// The diffuse sphere lit by the extracted bake and the README's sun lines, relative RMSE: 0.043
+/// measured against the keep bake's and against exact E / pi alike (the keep bake is 0.0026 off
+/// exact), nearly all of it Bevy's Burley diffuse for direct lights (`Fd_Burley`, f90 = 2.2 at
+/// this sun and roughness 1: up to 1.13 times Lambert where the sun is), against the Lambertian
+/// E / pi of the maps. About twice each (docs/src/guides/baking/bevy.md, "The sun's lines"); the
+/// mistakes measure 0.77 and more.
+const SUN_BOUND: sun_lines::SunBound = sun_lines::SunBound { keep: 0.09, exact: 0.09 };
 
 /// The `EnvironmentMapLight` intensity of the README's loading code (`intensity: 998.0957,`): the
 /// sun's lines multiply the illuminance by it, so the client renders the sun test's bakes at it.
