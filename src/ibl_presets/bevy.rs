@@ -21,10 +21,11 @@
 //! - The sun (`--sun extract`): a `DirectionalLight` of `I E` lux, `I` the `EnvironmentMapLight`'s
 //!   intensity (998.0957 in the loading code) and `E` the sun's illuminance in the map's units
 //!   (`{sun:illuminance}`). Bevy premultiplies the light's colour by its illuminance
-//!   (`bevy_pbr/src/render/light.rs`) and shades `exposure * (diffuse_color * Fd_Burley + specular)
-//!   * NdotL` times it (`pbr_lighting.wgsl`, `directional_light`), while the maps give `exposure *
-//!   intensity * map`: the sun is the light the map held when its illuminance is `E` times the same
-//!   `intensity`, and a user who changes the intensity (or the camera's `Exposure`) scales both.
+//!   (`bevy_pbr/src/render/light.rs`) and shades
+//!   `exposure * (diffuse_color * Fd_Burley + specular) * NdotL` times it (`pbr_lighting.wgsl`,
+//!   `directional_light`), while the maps give `exposure * intensity * map`: the sun is the light
+//!   the map held when its illuminance is `E` times the same `intensity`, and a user who changes
+//!   the intensity (or the camera's `Exposure`) scales both.
 //!   The field is `shadow_maps_enabled` since Bevy 0.19 (`shadows_enabled` before: contact
 //!   shadows, Bevy PR 22382); the lines say so.
 //!

@@ -9,7 +9,6 @@
 use std::collections::HashMap;
 use std::path::Path;
 
-use hdrflow::values::Image;
 use serde_json::Value as Json;
 
 use crate::client_sun_lines::read_readme;
