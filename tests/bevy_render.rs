@@ -15,6 +15,13 @@
 //! appear as a 360-degree viewer shows it, its centre where the preset says (-Z), not mirrored,
 //! up up.
 //!
+//! The sun's lines (`bevy_render/sun.rs`, `common/sun_lines.rs`): the park map baked with `--sun
+//! extract`, its README's Rust under "The sun:" read by the client's strict reader
+//! (clients/bevy/src/sun_lines.rs, whose own tests run here too) and spawned as the
+//! `DirectionalLight` it describes, under the loading code's intensity and the camera's default
+//! exposure, against the `--sun keep` bake and the map's exact E / pi on the diffuse sphere; no
+//! sun lines, the intensity times pi and the direction negated must fail.
+//!
 //! Needs the client (`scripts/bevy-client.sh` builds it and prints its path; pass that path in
 //! `HDRFLOW_BEVY_RENDER`, default clients/bevy/target/debug/hdrflow-bevy-render) and a Vulkan
 //! driver (Debian `mesa-vulkan-drivers`); without them the tests skip visibly, and fail under
@@ -23,6 +30,8 @@
 //! each frame and its exact reference as EXR into DIR (`scripts/bevy-readme-picture.sh` makes the
 //! book's pictures from them, docs/src/guides/baking/bevy.md).
 
+#[path = "../clients/bevy/src/sun_lines.rs"]
+mod client_sun_lines;
 mod common;
 #[path = "bevy_render/mistakes.rs"]
 mod mistakes;
@@ -30,8 +39,15 @@ mod mistakes;
 mod reference;
 #[path = "bevy_render/scene.rs"]
 mod scene;
+#[path = "bevy_render/sun.rs"]
+mod sun;
+#[path = "common/sun_lines.rs"]
+mod sun_lines;
 #[path = "bevy_render/test_map.rs"]
 mod test_map;
+#[allow(dead_code)]
+#[path = "common/web_page.rs"]
+mod web_page;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -107,13 +123,21 @@ fn bake(sandbox: &common::Sandbox, map: &Path, dir: &str, sets: &[&str], extra: 
     }
 }
 
-/// Runs the client on `bake` into `{name}.exr` and `{name}.json`; `extra` selects the view.
-fn run_client(client: &Path, sandbox: &common::Sandbox, bake: &Bake, name: &str, extra: &[&str]) -> (Image, PathBuf) {
+/// Runs the client on `bake` at `EnvironmentMapLight` intensity `intensity` into `{name}.exr` and
+/// `{name}.json`; `extra` selects the view.
+fn run_client(
+    client: &Path,
+    sandbox: &common::Sandbox,
+    bake: &Bake,
+    name: &str,
+    intensity: &str,
+    extra: &[&str],
+) -> (Image, PathBuf) {
     let (frame, geometry) = (sandbox.join(format!("{name}.exr")), sandbox.join(format!("{name}.json")));
     let runtime = sandbox.join("xdg-runtime");
     std::fs::create_dir_all(&runtime).expect("runtime folder");
     let mut cmd = Command::new(client);
-    cmd.arg("--diffuse").arg(&bake.diffuse).arg("--specular").arg(&bake.specular).arg("--intensity").arg("1");
+    cmd.arg("--diffuse").arg(&bake.diffuse).arg("--specular").arg(&bake.specular).arg("--intensity").arg(intensity);
     cmd.arg("--out").arg(&frame).arg("--geometry").arg(&geometry);
     cmd.args(extra);
     cmd.env("XDG_RUNTIME_DIR", &runtime);
@@ -129,7 +153,7 @@ fn run_client(client: &Path, sandbox: &common::Sandbox, bake: &Bake, name: &str,
 /// Bevy's frame of the six spheres under `bake` and the scene it declares.
 fn render(client: &Path, sandbox: &common::Sandbox, bake: &Bake, name: &str) -> (Image, Geometry) {
     let size = ["--width".to_string(), WIDTH.to_string(), "--height".to_string(), HEIGHT.to_string()];
-    let (image, geometry) = run_client(client, sandbox, bake, name, &size.each_ref().map(String::as_str));
+    let (image, geometry) = run_client(client, sandbox, bake, name, "1", &size.each_ref().map(String::as_str));
     let geometry = Geometry::read(&geometry);
     assert_eq!((image.width, image.height), (geometry.width, geometry.height));
     (image, geometry)
@@ -394,7 +418,7 @@ fn orientation_problems(frame: &Image, view: &SkyView) -> Vec<String> {
 /// checks the markers.
 fn skybox_problems(client: &Path, sandbox: &common::Sandbox, bake: &Bake, name: &str, forward: &str) -> Vec<String> {
     let args = ["--skybox", forward, "--width", "512", "--height", "256"];
-    let (frame, geometry) = run_client(client, sandbox, bake, name, &args);
+    let (frame, geometry) = run_client(client, sandbox, bake, name, "1", &args);
     let view = SkyView::read(&geometry);
     assert_eq!((frame.width, frame.height), (view.width, view.height));
     let stated: Vec<f64> = forward.split(',').map(|c| c.parse().expect("a number")).collect();

@@ -18,6 +18,23 @@
 //!   with glTF-IBL-Sampler and `bevy_mod_environment_map_tools`; its runtime
 //!   `GeneratedEnvironmentMapLight` filters a 32-texel diffuse map. Defaults: a 256 specular chain
 //!   down to 1 x 1 (9 levels), 1024 samples (glTF-IBL-Sampler's), a 32 diffuse map.
+//! - The sun (`--sun extract`): a `DirectionalLight` of `I E` lux, `I` the `EnvironmentMapLight`'s
+//!   intensity (998.0957 in the loading code) and `E` the sun's illuminance in the map's units
+//!   (`{sun:illuminance}`). Bevy premultiplies the light's colour by its illuminance
+//!   (`bevy_pbr/src/render/light.rs`) and shades
+//!   `exposure * (diffuse_color * Fd_Burley + specular) * NdotL` times it (`pbr_lighting.wgsl`,
+//!   `directional_light`), while the maps give `exposure * intensity * map`: the sun is the light
+//!   the map held when its illuminance is `E` times the same `intensity`, and a user who changes
+//!   the intensity (or the camera's `Exposure`) scales both.
+//!   The field is `shadow_maps_enabled` since Bevy 0.19 (`shadows_enabled` before: contact
+//!   shadows, Bevy PR 22382); the lines say so.
+//!
+//! Checked in Bevy itself (0.19.1 on lavapipe, tests/bevy_render.rs): the frame, the roughness
+//! map and the exposure as stated here, the map's centre forward and unmirrored; the sun's lines,
+//! read by the client's strict reader of their Rust (clients/bevy/src/sun_lines.rs) and spawned
+//! under the loading code's intensity and default exposure, light the diffuse sphere as the `--sun
+//! keep` bake does (within 0.09 relative RMSE of it and of exact E / pi: Bevy shades direct light
+//! with Burley's diffuse, not Lambert's).
 
 use super::{Chain, Engine, Preset, Quality, SpecSize, ToolPlacement};
 use crate::geometry::cube_frame::CubeFrame;
@@ -66,8 +83,9 @@ commands.spawn((
 ));
 "#,
     sun_code: r#"// The sun taken out of the map ({file:save_sun}); multiply by the same intensity as above.
+// Bevy 0.16-0.18: `shadows_enabled` (renamed `shadow_maps_enabled` in 0.19).
 commands.spawn((
-    DirectionalLight { illuminance: {sun:illuminance} * 998.0957, color: Color::linear_rgb({sun:color}), shadows_enabled: true, ..default() },
+    DirectionalLight { illuminance: {sun:illuminance} * 998.0957, color: Color::linear_rgb({sun:color}), shadow_maps_enabled: true, ..default() },
     // a directional light shines along its forward (-Z): towards -(direction to the sun)
     Transform::default().looking_to(Vec3::new({sun:from_light}), Vec3::Y),
 ));

@@ -1,8 +1,9 @@
-//! The sun a user cannot lose (issue 36), rendered by each web engine: `hdrflow bake --sun
+//! The sun a user cannot lose (issue 36), rendered by each engine: `hdrflow bake --sun
 //! extract` moves the park map's sun (about two thirds of its light) out of the lighting files,
 //! and the bake's README.txt ends with the engine code that adds it back as a directional light.
 //! The engine's render page loads the extracted bake and runs those lines, read from the README
-//! the bake wrote (`clients/web-common/page.js`, `runSunLines`); its diffuse sphere must match the
+//! the bake wrote (`clients/web-common/page.js`, `runSunLines`; Bevy's client reads its Rust with
+//! a strict reader, clients/bevy/src/sun_lines.rs); its diffuse sphere must match the
 //! same page's render of the `--sun keep` bake, whose sun is still in the map, and three deliberate
 //! mistakes must not: no sun lines, the intensity pi times too large, the direction negated (each
 //! a README with its sun lines edited). Included by `#[path]` beside `common`, `web_page` and
@@ -208,6 +209,24 @@ pub fn assert_scene_sun(
     bound: SunBound,
 ) {
     let g = Geometry::read(&page.results.join("scene.json"));
+    for (name, readme) in &bakes.renders {
+        assert_ran(page.render_report(name), name, readme.is_some());
+    }
+    assert_frames_sun(label, sandbox, &g, bakes, |name| page.frame(name, g.width, g.height), bound);
+}
+
+/// [`assert_sun`] on the six-sphere scene `g` (clients/web-common/scene.js, clients/bevy's
+/// `scene.rs`), `frame(name)` the render `name` of [`scene_renders`]' (or Bevy's) in the map's units:
+/// the diffuse sphere asserted within `bound`, the metal of roughness 0.5 reported.
+#[allow(dead_code)] // three's page has its own scenes
+pub fn assert_frames_sun(
+    label: &str,
+    sandbox: &common::Sandbox,
+    g: &Geometry,
+    bakes: &SunBakes,
+    frame: impl Fn(&str) -> Image,
+    bound: SunBound,
+) {
     let inner = |name: &str| -> Vec<usize> {
         let k = g.spheres.iter().position(|s| s.name == name).unwrap_or_else(|| panic!("no sphere {name}"));
         g.pixels(k, 0.9, 2).iter().map(|p| p.0).collect()
@@ -215,11 +234,7 @@ pub fn assert_scene_sun(
     let (diffuse, metal) = (inner("diffuse"), inner("metal_0.5"));
     let k = g.spheres.iter().position(|s| s.name == "diffuse").expect("a diffuse sphere");
     let exact = exact_diffuse(sandbox, &g.pixels(k, 0.9, 2));
-    for (name, readme) in &bakes.renders {
-        assert_ran(page.render_report(name), name, readme.is_some());
-    }
-    let keep = page.frame("keep", g.width, g.height);
-    let frame = |name: &str| page.frame(name, g.width, g.height);
+    let keep = frame("keep");
     let metal_difference = |name: &str| difference(&frame(name), &keep, &metal);
     let diffuse_difference = |name: &str| difference(&frame(name), &keep, &diffuse);
     let exact_difference = |name: &str| against(&frame(name), &diffuse, &exact);

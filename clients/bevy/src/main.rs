@@ -1,5 +1,14 @@
 //! `hdrflow-bevy-render --diffuse D.ktx2 --specular S.ktx2 --intensity X --out frame.exr
-//! [--width 768 --height 256] [--geometry scene.json] [--timeout SECONDS] [--skybox X,Y,Z]`
+//! [--width 768 --height 256] [--geometry scene.json] [--timeout SECONDS] [--skybox X,Y,Z]
+//! [--sun README.txt] [--default-exposure]`
+//!
+//! With `--sun README.txt`, the README's sun lines (what follows "The sun:", written by `hdrflow
+//! bake --for bevy --sun extract`) are read by [`sun_lines`], a strict reader of exactly the Rust
+//! they use, and the `DirectionalLight` they spawn is spawned in the scene (issue 36): the lines a
+//! user pastes, run in Bevy. With `--default-exposure` the camera has Bevy's default `Exposure`
+//! (EV100 9.7, `Exposure::BLENDER`), as the README's loading code's camera, which sets none, so
+//! that `--intensity 998.0957` (the README's) renders the map 1:1 and the sun at the README's
+//! illuminance; the factor Bevy computes is written to the geometry file.
 //!
 //! With `--skybox X,Y,Z`, no spheres: the specular map is Bevy's `Skybox` (brightness
 //! `intensity`), seen from the origin by a perspective camera looking along (X, Y, Z) with +Y up
@@ -10,14 +19,14 @@
 //!
 //! Renders six spheres (`scene`) lit only by an `EnvironmentMapLight` made of the two KTX2 cube
 //! maps, in Bevy 0.19.1, windowless (on Mesa's lavapipe in CI: `WGPU_BACKEND=vulkan`), reads the
-//! frame back as RGBA32F and writes it as EXR. No other light: no directional or point light,
-//! ambient brightness 0, no skybox (the background stays black, alpha 0), no bloom (Bevy's
-//! post-processing is not even compiled in), no tonemapping, no deband dithering, no MSAA
-//! (`Msaa::Off`, so edge pixels are not blends), an HDR camera (its Rgba16Float main texture is
-//! the one lossy step: 11-bit mantissas, 5e-4 relative), and exposure `ev100 = -log2(1.2)`,
-//! which makes Bevy's factor `2^-ev100 / 1.2` equal to 1 (to f32 rounding; the factor Bevy
-//! computes is written to the geometry file), so that a pixel is `intensity x` what the shader
-//! reads from the maps.
+//! frame back as RGBA32F and writes it as EXR. No other light: no directional light but
+//! `--sun`'s, no point light, ambient brightness 0, no skybox (the background stays black, alpha
+//! 0), no bloom (Bevy's post-processing is not even compiled in), no tonemapping, no deband
+//! dithering, no MSAA (`Msaa::Off`, so edge pixels are not blends), an HDR camera (its
+//! Rgba16Float main texture is the one lossy step: 11-bit mantissas, 5e-4 relative), and exposure
+//! `ev100 = -log2(1.2)` (unless `--default-exposure`), which makes Bevy's factor `2^-ev100 / 1.2`
+//! equal to 1 (to f32 rounding; the factor Bevy computes is written to the geometry file), so that
+//! a pixel is `intensity x` what the shader reads from the maps.
 //!
 //! The KTX2 files are decoded by Bevy's own loader (`Image::from_buffer`, the code its asset
 //! server runs for `.ktx2`), Zstandard supercompression and rgb9e5 included.
@@ -26,6 +35,7 @@
 
 mod capture;
 mod scene;
+mod sun_lines;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -37,7 +47,7 @@ use bevy::camera::{Exposure, Hdr, RenderTarget, ScalingMode};
 use bevy::core_pipeline::Skybox;
 use bevy::core_pipeline::tonemapping::{DebandDither, Tonemapping};
 use bevy::image::{CompressedImageFormats, ImageSampler, ImageType};
-use bevy::light::{AmbientLight, EnvironmentMapLight, GlobalAmbientLight};
+use bevy::light::{AmbientLight, DirectionalLight, EnvironmentMapLight, GlobalAmbientLight};
 use bevy::prelude::*;
 use bevy::render::RenderPlugin;
 use bevy::render::gpu_readback::Readback;
@@ -60,17 +70,27 @@ struct Args {
     timeout: Duration,
     /// `--skybox`: the camera's forward direction
     skybox: Option<Vec3>,
+    /// `--sun`: the README whose sun lines are run
+    sun: Option<PathBuf>,
+    /// `--default-exposure`: Bevy's default `Exposure` instead of the unit one
+    default_exposure: bool,
 }
 
 const USAGE: &str = "usage: hdrflow-bevy-render --diffuse D.ktx2 --specular S.ktx2 --intensity X --out frame.exr \
-                     [--width 768 --height 256] [--geometry scene.json] [--timeout 600] [--skybox X,Y,Z]";
+                     [--width 768 --height 256] [--geometry scene.json] [--timeout 600] [--skybox X,Y,Z] \
+                     [--sun README.txt] [--default-exposure]";
 
 fn parse_args(mut it: impl Iterator<Item = String>) -> Result<Args, String> {
     let (mut diffuse, mut specular, mut intensity, mut out, mut geometry) = (None, None, None, None, None);
     let (mut width, mut height, mut timeout, mut skybox) = (768u32, 256u32, 600.0f64, None);
+    let (mut sun, mut default_exposure) = (None, false);
     while let Some(flag) = it.next() {
         if flag == "--help" || flag == "-h" {
             return Err(USAGE.to_string());
+        }
+        if flag == "--default-exposure" {
+            default_exposure = true;
+            continue;
         }
         let value = it.next().ok_or_else(|| format!("{flag} needs a value\n{USAGE}"))?;
         let number = |what: &str| value.parse::<f64>().map_err(|_| format!("{what} must be a number, not {value:?}"));
@@ -86,6 +106,7 @@ fn parse_args(mut it: impl Iterator<Item = String>) -> Result<Args, String> {
             }
             "--timeout" => timeout = number("--timeout")?,
             "--skybox" => skybox = Some(parse_direction(&value)?),
+            "--sun" => sun = Some(PathBuf::from(&value)),
             _ => return Err(format!("unknown option {flag}\n{USAGE}")),
         }
     }
@@ -110,6 +131,8 @@ fn parse_args(mut it: impl Iterator<Item = String>) -> Result<Args, String> {
         height,
         timeout: Duration::from_secs_f64(timeout),
         skybox,
+        sun,
+        default_exposure,
     })
 }
 
@@ -133,6 +156,30 @@ fn parse_direction(value: &str) -> Result<Vec3, String> {
 /// Bevy's `ev100` for which `2^-ev100 / 1.2 = 1` (`Exposure::exposure`).
 fn unit_ev100() -> f32 {
     -(1.2f32).log2()
+}
+
+/// The camera's exposure: Bevy's default with `--default-exposure` (the README's camera), else
+/// the unit one.
+fn camera_exposure(args: &Args) -> Exposure {
+    if args.default_exposure { Exposure::default() } else { Exposure { ev100: unit_ev100() } }
+}
+
+/// The lights the README's sun lines spawn (`--sun`), as Bevy components: the fields the lines
+/// give, `DirectionalLight::default()`'s for the rest (their `..default()`).
+fn sun_lights(readme: &std::path::Path) -> Result<Vec<(DirectionalLight, Transform)>, String> {
+    let text = std::fs::read_to_string(readme).map_err(|e| format!("cannot read {}: {e}", readme.display()))?;
+    let lights = sun_lines::read_readme(&text).map_err(|e| format!("{}: {e}", readme.display()))?;
+    let light = |l: &sun_lines::SunLight| {
+        let d = DirectionalLight::default();
+        let light = DirectionalLight {
+            illuminance: l.illuminance.unwrap_or(d.illuminance),
+            color: l.color.map_or(d.color, |[r, g, b]| Color::linear_rgb(r, g, b)),
+            shadow_maps_enabled: l.shadow_maps_enabled.unwrap_or(d.shadow_maps_enabled),
+            ..d
+        };
+        (light, Transform::default().looking_to(Vec3::from_array(l.forward), Vec3::from_array(l.up)))
+    };
+    Ok(lights.iter().map(light).collect())
 }
 
 /// A cube map decoded by Bevy's KTX2 loader.
@@ -178,11 +225,23 @@ fn main() -> ExitCode {
             return ExitCode::from(1);
         }
     };
-    let ev100 = unit_ev100();
-    let exposure = Exposure { ev100 }.exposure();
+    // Read before Bevy starts too: lines the reader refuses are an error without a renderer.
+    let suns = match args.sun.as_deref().map(sun_lights).transpose() {
+        Ok(s) => s.unwrap_or_default(),
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(1);
+        }
+    };
+    if args.skybox.is_some() && !suns.is_empty() {
+        eprintln!("error: --sun lights the spheres; the --skybox view has none\n{USAGE}");
+        return ExitCode::from(2);
+    }
+    let ev100 = camera_exposure(&args).ev100;
+    let exposure = camera_exposure(&args).exposure();
     let geometry = match args.skybox {
         Some(forward) => scene::skybox_json(args.width, args.height, args.intensity, ev100, exposure, forward),
-        None => scene::geometry_json(args.width, args.height, args.intensity, ev100, exposure),
+        None => scene::geometry_json(args.width, args.height, args.intensity, ev100, exposure, &suns),
     };
     if let Some(path) = &args.geometry {
         if let Err(e) = std::fs::write(path, &geometry) {
@@ -205,6 +264,7 @@ fn main() -> ExitCode {
     .insert_resource(Frames::default())
     .insert_resource(Started(Instant::now()))
     .insert_resource(MapsToLoad(Some((diffuse, specular))))
+    .insert_resource(SunsToSpawn(suns))
     .insert_resource(args)
     .add_systems(Startup, setup)
     .add_systems(Update, finish);
@@ -218,10 +278,15 @@ fn main() -> ExitCode {
 #[derive(Resource)]
 struct MapsToLoad(Option<(Image, Image)>);
 
+/// The README's sun lights (`--sun`), spawned by `setup`.
+#[derive(Resource)]
+struct SunsToSpawn(Vec<(DirectionalLight, Transform)>);
+
 fn setup(
     mut commands: Commands,
     args: Res<Args>,
     mut maps: ResMut<MapsToLoad>,
+    suns: Res<SunsToSpawn>,
     mut images: ResMut<Assets<Image>>,
     mut meshes: ResMut<Assets<Mesh>>,
     mut materials: ResMut<Assets<StandardMaterial>>,
@@ -245,7 +310,7 @@ fn setup(
             Tonemapping::None,
             DebandDither::Disabled,
             Msaa::Off,
-            Exposure { ev100: unit_ev100() },
+            camera_exposure(&args),
             Skybox { image: Some(images.add(specular)), brightness: args.intensity, rotation: Quat::IDENTITY },
         ));
         commands.spawn(Readback::texture(target)).observe(capture::on_readback);
@@ -286,7 +351,7 @@ fn setup(
         Tonemapping::None,
         DebandDither::Disabled,
         Msaa::Off,
-        Exposure { ev100: unit_ev100() },
+        camera_exposure(&args),
         AmbientLight { brightness: 0.0, ..default() },
         EnvironmentMapLight {
             diffuse_map: images.add(diffuse),
@@ -295,6 +360,9 @@ fn setup(
             ..default()
         },
     ));
+    for sun in &suns.0 {
+        commands.spawn(*sun);
+    }
     commands.spawn(Readback::texture(target)).observe(capture::on_readback);
 }
 

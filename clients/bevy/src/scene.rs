@@ -10,6 +10,9 @@
 
 use std::fmt::Write;
 
+use bevy::light::DirectionalLight;
+use bevy::prelude::Transform;
+
 /// World units across the image: one per sphere.
 pub const VIEW_WIDTH: f32 = 6.0;
 /// Sphere radius in world units (cells are 1 unit wide: a margin of 0.05 each side).
@@ -49,8 +52,16 @@ pub fn centre_x(k: usize) -> f32 {
 }
 
 /// The scene as JSON (hand-written: the client needs no serde). `exposure` is the factor Bevy
-/// multiplies every pixel by (`2^-ev100 / 1.2`), `intensity` the `EnvironmentMapLight` one.
-pub fn geometry_json(width: u32, height: u32, intensity: f32, ev100: f32, exposure: f32) -> String {
+/// multiplies every pixel by (`2^-ev100 / 1.2`), `intensity` the `EnvironmentMapLight` one, `suns`
+/// the directional lights spawned from the README's sun lines (`"sun"`: null without `--sun`).
+pub fn geometry_json(
+    width: u32,
+    height: u32,
+    intensity: f32,
+    ev100: f32,
+    exposure: f32,
+    suns: &[(DirectionalLight, Transform)],
+) -> String {
     let mut s = String::new();
     let _ = write!(
         s,
@@ -74,7 +85,25 @@ pub fn geometry_json(width: u32, height: u32, intensity: f32, ev100: f32, exposu
             if k + 1 < SPHERES.len() { "," } else { "" }
         );
     }
-    s.push_str("  ]\n}\n");
+    s.push_str("  ],\n  \"sun\": ");
+    if suns.is_empty() {
+        s.push_str("null");
+    } else {
+        let lights: Vec<String> = suns
+            .iter()
+            .map(|(l, t)| {
+                let c = l.color.to_linear();
+                let f = t.forward();
+                format!(
+                    "{{\"illuminance\": {}, \"color\": [{}, {}, {}], \"shadow_maps_enabled\": {}, \
+                     \"forward\": [{}, {}, {}]}}",
+                    l.illuminance, c.red, c.green, c.blue, l.shadow_maps_enabled, f.x, f.y, f.z
+                )
+            })
+            .collect();
+        let _ = write!(s, "[{}]", lights.join(", "));
+    }
+    s.push_str("\n}\n");
     s
 }
 
