@@ -16,9 +16,9 @@
 //!
 //! **The error bound.** `|f - L| <= delta = |twist| / 4 + |n| (h_theta^2 + h_phi^2 sin_max) / 8`: the
 //! twist is the bilinear interpolant's departure from `L`, and the second term bounds the bilinear
-//! interpolant's own error, `(1/8)(max |f_uu| + max |f_vv|)`, with `|d_theta theta| = 1` and
-//! `|d_phi phi| = sin(theta) <= sin_max`. So the true and the clipped regions differ only within
-//! the bands `|L_k| <= delta_k`, each of area at most `2 sqrt(2) delta_k / |grad L_k|` in the unit
+//! interpolant's own error, `(1/8)(max |f_uu| + max |f_vv|)`, with `|d^2 d / d theta^2| = 1` and
+//! `|d^2 d / d phi^2| = sin(theta) <= sin_max` for the unit direction `d(theta, phi)`. So the true
+//! and the clipped regions differ only within the bands `|L_k| <= delta_k`, each of area at most `2 sqrt(2) delta_k / |grad L_k|` in the unit
 //! square (its width times the square's longest chord), times `h_theta h_phi sin_max` of solid
 //! angle. A plane with `L_k >= delta_k` at every corner holds on the whole cell and adds nothing;
 //! the bound adds the Taylor remainder `area (h_theta / 2)^3 / 5`. Tested against a fine

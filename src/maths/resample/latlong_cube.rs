@@ -31,8 +31,9 @@
 //!
 //! Error: the clipped solid angles' errors move the texel's mean by at most their sum times
 //! `spread` over the texel's solid angle, so by at most [`GEOMETRIC`] times the spread per
-//! straddler, and each straddler's error in the texel's integral is below `tol` unless the
-//! depth limit stopped it, as in the generic subdivision; the texel's weights are the solid
+//! clipped cell (a straddler that was split adds its quadrants' cells, each within the rule), and
+//! each clipped cell's error in the texel's integral is below `tol` unless the depth limit stopped
+//! it, as in the generic subdivision; the texel's weights are the solid
 //! angles it actually gathered, so a constant map stays constant to rounding. A texel's parallel
 //! edges (small circles) are classified by their corners: the sliver by which a parallel bulges
 //! past a cube edge between two inside corners is at most `dphi^2 / 8` of the texel (3e-7 of a

@@ -97,12 +97,15 @@ impl<const N: usize> Poly<N> {
         let mut a = self.p[self.n - 1];
         let mut fa = f[self.n - 1];
         for (&b, &fb) in self.p[..self.n].iter().zip(f) {
-            if (fa > 0.0 && fb < 0.0) || (fa < 0.0 && fb > 0.0) {
+            // A convex polygon gains at most one vertex; the checks keep a polygon that rounding
+            // made very slightly reflex from overrunning the array (the extra vertex, within
+            // rounding of its neighbours, is dropped).
+            if ((fa > 0.0 && fb < 0.0) || (fa < 0.0 && fb > 0.0)) && out.n < N {
                 let t = fa / (fa - fb);
                 out.p[out.n] = (a.0 + t * (b.0 - a.0), a.1 + t * (b.1 - a.1));
                 out.n += 1;
             }
-            if fb >= 0.0 {
+            if fb >= 0.0 && out.n < N {
                 out.p[out.n] = b;
                 out.n += 1;
             }

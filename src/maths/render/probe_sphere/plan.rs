@@ -17,9 +17,9 @@ use std::sync::{Arc, Mutex, OnceLock};
 
 use rayon::prelude::*;
 
-use super::{scene, trace_row, MirrorRay, ProbeSettings, ProbeShape, Stage};
+use super::{scene, trace_row, MirrorRay, ProbeMaterial, ProbeSettings, ProbeShape, Stage};
 
-/// How many plans the process keeps (the least recently made dropped first).
+/// How many plans the process keeps (the least recently used dropped first).
 const KEPT: usize = 4;
 /// Plans larger than this are made for their render only.
 const MAX_BYTES: usize = 1 << 30;
@@ -30,10 +30,11 @@ pub(super) struct Plan {
     pub(super) rays: Vec<Vec<MirrorRay>>,
 }
 
-/// What a plan depends on: the rough materials' plans differ only in being rough.
+/// What a plan depends on: the mirror's material (its Fresnel weights are in the plan); the rough
+/// materials' plans (hits and coverage) are the same for every rough material.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 struct Key {
-    mirror: bool,
+    mirror: Option<ProbeMaterial>,
     shape: ProbeShape,
     width: usize,
     height: usize,
@@ -48,7 +49,7 @@ static STORE: Mutex<Vec<(Key, Slot)>> = Mutex::new(Vec::new());
 pub(super) fn plan_for(settings: &ProbeSettings) -> Arc<Plan> {
     let mirror = settings.material.principled(settings.smith).is_mirror();
     let key = Key {
-        mirror,
+        mirror: mirror.then_some(settings.material),
         shape: settings.shape,
         width: settings.width,
         height: settings.height,
@@ -66,7 +67,13 @@ pub(super) fn plan_for(settings: &ProbeSettings) -> Arc<Plan> {
         // A poisoned store (a panic while it was held) is only a list of finished plans.
         let mut store = STORE.lock().unwrap_or_else(|e| e.into_inner());
         match store.iter().position(|(k, _)| *k == key) {
-            Some(i) => store[i].1.clone(),
+            // The most recently used last: the first is the one dropped.
+            Some(i) => {
+                let entry = store.remove(i);
+                let slot = entry.1.clone();
+                store.push(entry);
+                slot
+            }
             None => {
                 if store.len() >= KEPT {
                     store.remove(0);
@@ -93,8 +100,9 @@ fn make(settings: &ProbeSettings) -> Plan {
         };
         let mut stages = Vec::with_capacity(settings.width * settings.height);
         let mut rays = Vec::with_capacity(rows.len());
-        for (row, row_rays) in rows {
+        for (row, mut row_rays) in rows {
             stages.extend(row);
+            row_rays.shrink_to_fit();
             rays.push(row_rays);
         }
         Plan { stages, rays }
