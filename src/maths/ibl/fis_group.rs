@@ -26,7 +26,7 @@
 
 use glam::{DVec3, Vec3};
 
-use super::fis_kernel::{Lobe, PaddedPyramid, BATCH};
+use super::fis_kernel::{block_rgb, Lobe, PaddedPyramid, BATCH};
 use crate::geometry::cubemap as cube;
 use crate::maths::brdf::ggx::basis;
 use crate::values::Cubemap;
@@ -82,8 +82,9 @@ impl PaddedPyramid {
             }
             let mut value = [[0.0f32; BATCH]; 3];
             for i in 0..BATCH {
+                let rgb = block_rgb(&up[i], &low[i]);
                 for c in 0..3 {
-                    value[c][i] = (up[i][c] + up[i][c + 4]) + (low[i][c] + low[i][c + 4]);
+                    value[c][i] = rgb[c];
                 }
             }
             let (lx, ly, lz, lw) = (&lobe.x[k], &lobe.y[k], &lobe.z[k], &lobe.weight[k]);
@@ -182,11 +183,10 @@ mod tests {
     use crate::maths::ibl::fis_kernel::LobeSample;
 
     fn random_pyramid(size: usize, seed: u64) -> PaddedPyramid {
-        let mut state = seed;
+        let mut rng = crate::maths::sampling::sequences::SplitMix64::new(seed);
         let mut c = Cubemap::new(size);
         for v in c.data.iter_mut() {
-            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            *v = (0.1 + 10.0 * ((state >> 11) as f64 / (1u64 << 53) as f64)) as f32;
+            *v = (0.1 + 10.0 * rng.next_f64()) as f32;
         }
         let pyr = crate::maths::ibl::prefilter::pyramid(&c);
         PaddedPyramid::new(&pyr.iter().collect::<Vec<_>>())

@@ -154,7 +154,7 @@ impl PaddedPyramid {
             let (upper, lower, [w00, w10, w01, w11]) = block(self.level(l as u32), face, u, v, w);
             let (mut up, mut low) = ([0.0f32; 8], [0.0f32; 8]);
             self.accumulate(upper, lower, [w00, w10], [w01, w11], &mut up, &mut low);
-            Vec3::from_array([0, 1, 2].map(|c| (up[c] + up[c + 4]) + (low[c] + low[c + 4])))
+            Vec3::from_array(block_rgb(&up, &low))
         };
         let mut out = read(l0, 1.0 - t);
         if t > 0.0 {
@@ -193,7 +193,7 @@ impl PaddedPyramid {
             }
         }
         if total > 0.0 {
-            [0, 1, 2].map(|c| ((upper[c] + upper[c + 4]) + (lower[c] + lower[c + 4])) / total)
+            block_rgb(&upper, &lower).map(|v| v / total)
         } else {
             [0.0; 3]
         }
@@ -329,6 +329,13 @@ fn block(level: LevelShape, face: u32, u: f32, v: f32, w: f32) -> (u32, u32, [f3
     let upper = offset + (face * stride + y0 as u32) * stride + x0 as u32;
     let (w0, w1) = (w * (1.0 - ty), w * ty);
     (upper, upper + stride, [w0 * (1.0 - tx), w0 * tx, w1 * (1.0 - tx), w1 * tx])
+}
+
+/// The RGB of a block's two row sums (each a row's two RGBA texels, [`PaddedPyramid::accumulate`]'s):
+/// each channel's texels added within a row, then the rows, in that order at every level.
+#[inline(always)]
+pub(super) fn block_rgb(up: &[f32; 8], low: &[f32; 8]) -> [f32; 3] {
+    [0, 1, 2].map(|c| (up[c] + up[c + 4]) + (low[c] + low[c + 4]))
 }
 
 crate::cpu::dispatch! {

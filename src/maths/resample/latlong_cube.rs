@@ -163,15 +163,6 @@ impl Planes {
     }
 }
 
-/// When a straddling cell's clipped solid angle is kept: its error bound at most the texel's
-/// `geometric` allowance, and its error bound times `spread` (the largest channel difference
-/// between the source texel and the cube texel's estimated mean, 0 for the estimate) at most
-/// the grid's `tol`.
-#[derive(Clone, Copy)]
-struct Rule {
-    spread: f64,
-}
-
 /// A straddling cell's clipping error is kept below this fraction of the cube texel's solid angle.
 const GEOMETRIC: f64 = 1e-2;
 
@@ -305,7 +296,7 @@ impl<'a> Grid<'a> {
         // The estimate: straddlers clipped to the geometric allowance alone.
         let mut estimate = sum;
         for &(tx, ty, cell, corner_values) in straddlers.iter() {
-            let clipped = self.straddling(&planes, cell, corner_values, Rule { spread: 0.0 });
+            let clipped = self.straddling(&planes, cell, corner_values, 0.0);
             estimate.add(self.src.texel_rgb(tx, ty), clipped.omega);
             first.push(clipped);
         }
@@ -316,7 +307,7 @@ impl<'a> Grid<'a> {
             let v = self.src.texel_rgb(tx, ty);
             let spread = (0..3).map(|k| (v[k] as f64 - mean[k]).abs()).fold(0.0, f64::max);
             let w = if spread * clipped.error > self.tol {
-                self.straddling(&planes, cell, corner_values, Rule { spread }).omega
+                self.straddling(&planes, cell, corner_values, spread).omega
             } else {
                 clipped.omega
             };
@@ -331,9 +322,11 @@ impl<'a> Grid<'a> {
     }
 
     /// The solid angle of the part of a straddling cell inside the planes and its error bound:
-    /// the cell clipped by the planes linearised over it ([`clip_cell`]), or, where that bound
-    /// breaks `rule` ([`Rule`]), the sum over its quadrants, down to [`MAX_DEPTH`].
-    fn straddling(&self, planes: &Planes, cell: Cell, corners: [Values; 4], rule: Rule) -> Clipped {
+    /// the cell clipped by the planes linearised over it ([`clip_cell`]), kept when the bound is
+    /// at most the texel's `geometric` allowance and, times `spread` (the largest channel
+    /// difference between the source texel and the cube texel's estimated mean; 0 for the
+    /// estimate), at most `tol`; else the sum over its quadrants, down to [`MAX_DEPTH`].
+    fn straddling(&self, planes: &Planes, cell: Cell, corners: [Values; 4], spread: f64) -> Clipped {
         let (half_theta, half_phi) = self.halves[cell.depth];
         let mid = (rotate(cell.theta[0], half_theta), rotate(cell.phi[0], half_phi));
         let scale = 1.0 / (1u64 << cell.depth) as f64;
@@ -344,7 +337,7 @@ impl<'a> Grid<'a> {
         let [c0, c1, c2, c3] = corners;
         let per_plane = [0, 1, 2, 3].map(|k| [c0[k], c1[k], c2[k], c3[k]]);
         let clipped = clip_cell(&shape, &per_plane, &planes.norms);
-        let kept = clipped.error <= planes.geometric && rule.spread * clipped.error <= self.tol;
+        let kept = clipped.error <= planes.geometric && spread * clipped.error <= self.tol;
         if kept || cell.depth >= MAX_DEPTH {
             return clipped;
         }
@@ -361,7 +354,7 @@ impl<'a> Grid<'a> {
             let part = match overlap(&quadrant) {
                 Overlap::Inside => Clipped { omega: self.child_omega(&child), error: 0.0 },
                 Overlap::Outside => Clipped { omega: 0.0, error: 0.0 },
-                Overlap::Straddles => self.straddling(planes, child, quadrant, rule),
+                Overlap::Straddles => self.straddling(planes, child, quadrant, spread),
             };
             total.omega += part.omega;
             total.error += part.error;

@@ -305,9 +305,7 @@ fn render_tiled(env: &Image, settings: &ProbeSettings, tile: usize) -> ProbeRend
     let pixels: Vec<([f64; 3], f64)> = if bsdf.is_mirror() {
         (0..h)
             .into_par_iter()
-            .flat_map_iter(|r| {
-                finish(row(r), &plan.rays[r], &environment, std::iter::repeat([0.0; 3])).collect::<Vec<_>>()
-            })
+            .flat_map_iter(|r| finish(row(r), &plan.rays[r], &environment, std::iter::repeat([0.0; 3])))
             .collect()
     } else {
         // Bands of `tile` rows: their tiles' rough lobes.
@@ -317,7 +315,7 @@ fn render_tiled(env: &Image, settings: &ProbeSettings, tile: usize) -> ProbeRend
             .flat_map_iter(|band| {
                 let stages = &plan.stages[band * tile * w..((band + 1) * tile).min(h) * w];
                 let shaded = tiles::shade_band(&tree, &bsdf, w, stages, tile);
-                finish(stages, &[], &environment, shaded).collect::<Vec<_>>()
+                finish(stages, &[], &environment, shaded)
             })
             .collect()
     };
