@@ -71,7 +71,7 @@ const MASK: Port<Image> = Port::new("mask");
 pub fn spec() -> OpSpec {
     Op::new(
         "ProbeSphere",
-        3,
+        4,
         "The sphere protocol's mirror, matte-silver or diffuse sphere under a map, as its Blender scene renders it",
         eval,
     )

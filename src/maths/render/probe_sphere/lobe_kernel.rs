@@ -4,12 +4,14 @@
 //!
 //! The list is structure of arrays, padded to a multiple of [`LANES`] with zero-power entries at
 //! the zero direction (masked: `Ng . 0 = 0`), so the body is one branch-free loop over the nodes
-//! that the compiler vectorises (f64, four lanes with AVX2); every test of the scalar lobes
-//! (`Principled::specular`, `disney_diffuse`, `bump_shadowing_term`) is a select here, whose
-//! discarded lane may hold a NaN (`normalize` of `l = -v`) that never reaches the sum. The sum runs
-//! in [`LANES`] partial sums per channel, added in a fixed order at the end, so the result is the
-//! same bits at every level (`cpu::dispatch!`, no fused multiply-add; tested); against the scalar
-//! lobes summed in the tree's order it differs by rounding only (relative 1e-12, tested).
+//! that the compiler vectorises (single precision, eight lanes with AVX2); every test of the scalar
+//! lobes (`Principled::specular`, `disney_diffuse`, `bump_shadowing_term`) is a select here, whose
+//! discarded lane may hold a NaN (at `l = -v`, where the half vector vanishes) that never reaches
+//! the sum. The sum runs in [`LANES`] partial sums per channel, added in a fixed order at the end,
+//! so the result is the same bits at every level (`cpu::dispatch!`, no fused multiply-add;
+//! tested). Single precision because the sum is the render's whole cost and the texel tree's cut
+//! already errs by 1e-3 (its operator states it): against the scalar f64 lobes summed in the
+//! tree's order the sum differs by at most 1e-5 relative (tested).
 
 use std::f64::consts::PI;
 
@@ -21,18 +23,18 @@ use super::Hit;
 use crate::cpu;
 
 /// The nodes evaluated together; the list's length is a multiple of it.
-pub const LANES: usize = 4;
+pub const LANES: usize = 8;
 
 /// A flat cut: node `i` is the direction `(x[i], y[i], z[i])` (unit, Blender's axes) carrying the
 /// power `(r[i], g[i], b[i])`.
 #[derive(Default)]
 pub struct FlatCut {
-    pub x: Vec<f64>,
-    pub y: Vec<f64>,
-    pub z: Vec<f64>,
-    pub r: Vec<f64>,
-    pub g: Vec<f64>,
-    pub b: Vec<f64>,
+    pub x: Vec<f32>,
+    pub y: Vec<f32>,
+    pub z: Vec<f32>,
+    pub r: Vec<f32>,
+    pub g: Vec<f32>,
+    pub b: Vec<f32>,
 }
 
 impl FlatCut {
@@ -43,12 +45,12 @@ impl FlatCut {
     }
 
     pub fn push(&mut self, d: DVec3, p: [f64; 3]) {
-        self.x.push(d.x);
-        self.y.push(d.y);
-        self.z.push(d.z);
-        self.r.push(p[0]);
-        self.g.push(p[1]);
-        self.b.push(p[2]);
+        self.x.push(d.x as f32);
+        self.y.push(d.y as f32);
+        self.z.push(d.z as f32);
+        self.r.push(p[0] as f32);
+        self.g.push(p[1] as f32);
+        self.b.push(p[2] as f32);
     }
 
     pub fn len(&self) -> usize {
@@ -145,54 +147,116 @@ impl PixelLobe {
     }
 }
 
-/// `g(l)` of pixel `k` at unit direction `(x, y, z)`: [`super::shading::rough`]'s lobes, their tests
-/// as selects; the pixel's choices (Smith term, Fresnel, diffuse lobe, bump shadowing) are constants
-/// so that each combination compiles to its own straight loop.
+/// A pixel's constants in single precision, as the kernel reads them.
+#[derive(Clone, Copy)]
+struct Lanes {
+    n: [f32; 3],
+    ni: [f32; 3],
+    ng: [f32; 3],
+    v: [f32; 3],
+    cos_o: f32,
+    a2: f32,
+    g_o: f32,
+    /// `alpha^2 / (4 pi cos_o)`: `D G F / (4 cos_o)` is `spec_scale |h|^4 G F / t^2`
+    spec_scale: f32,
+    ior: f32,
+    /// Fresnel 2: `F = fresnel_base + fresnel_slope F_d(l.m)`
+    fresnel_base: f32,
+    fresnel_slope: f32,
+    cspec0: f32,
+    diffuse: f32,
+    roughness: f32,
+    fv: f32,
+    ni_dot_n: f32,
+}
+
+impl Lanes {
+    fn new(k: &PixelLobe) -> Lanes {
+        let v3 = |d: DVec3| [d.x as f32, d.y as f32, d.z as f32];
+        // F = cspec0 (1 - FH) + FH, FH = (F_d - f0) / (1 - f0): linear in F_d.
+        let slope = if k.fresnel == 2 { (1.0 - k.cspec0) / (1.0 - k.f0) } else { 0.0 };
+        Lanes {
+            n: v3(k.n),
+            ni: v3(k.ni),
+            ng: v3(k.ng),
+            v: v3(k.v),
+            cos_o: k.cos_o as f32,
+            a2: k.a2 as f32,
+            g_o: k.g_o as f32,
+            spec_scale: (k.a2 / (4.0 * PI * k.cos_o)) as f32,
+            ior: k.ior as f32,
+            fresnel_base: (k.cspec0 - slope * k.f0) as f32,
+            fresnel_slope: slope as f32,
+            cspec0: k.cspec0 as f32,
+            diffuse: k.diffuse as f32,
+            roughness: k.roughness as f32,
+            fv: k.fv as f32,
+            ni_dot_n: k.ni_dot_n as f32,
+        }
+    }
+}
+
+/// `g(l)` of a pixel at unit direction `(x, y, z)`: [`super::shading::rough`]'s lobes in single
+/// precision, their tests as selects; the pixel's choices (Smith term, Fresnel, diffuse lobe, bump
+/// shadowing) are constants so that each combination compiles to its own straight loop.
+///
+/// The scalar lobes' divisions and square roots are gathered, with the same values in exact
+/// arithmetic: the half vector `h = l + v` is not normalised (`n.h = cos_i + cos_o`, `|h|^2 = 2 +
+/// 2 l.v`, so `t = (|h x n|^2 + alpha^2 (n.h)^2) / |h|^2` and `l.m = sqrt((1 + l.v) / 2)`);
+/// `G1(l) = 2 cos_i / (cos_i + sqrt(cos_i^2 + alpha^2 (1 - cos_i^2)))` (the scalar form times
+/// `cos_i / cos_i`); the dielectric reflectance is `(A^2 B^2 + C^2 D^2) / (2 D^2 B^2)` of its two
+/// ratios `A / D`, `C / B`, whose clamps never act for `ior > 1`. So the specular lobe takes one
+/// division and three square roots.
 #[inline(always)]
 fn lobe<const CORRELATED: bool, const FRESNEL: u8, const DIFFUSE: bool, const BUMP: bool>(
-    k: &PixelLobe,
-    x: f64,
-    y: f64,
-    z: f64,
-) -> f64 {
-    let dot = |a: DVec3| a.x * x + a.y * y + a.z * z;
-    let (ngl, nil, cos_i) = (dot(k.ng), dot(k.ni), dot(k.n));
+    k: &Lanes,
+    x: f32,
+    y: f32,
+    z: f32,
+) -> f32 {
+    let dot = |a: [f32; 3]| a[0] * x + a[1] * y + a[2] * z;
+    let (ngl, nil, cos_i, lv) = (dot(k.ng), dot(k.ni), dot(k.n), dot(k.v));
     let lit = ngl > 0.0 && cos_i > 0.0;
-    // GGX: the half vector, D, G and Fresnel (Principled::specular).
-    let (hx, hy, hz) = (x + k.v.x, y + k.v.y, z + k.v.z);
-    // As glam's `normalize`: times the reciprocal of the length.
-    let inv = 1.0 / (hx * hx + hy * hy + hz * hz).sqrt();
-    let (mx, my, mz) = (hx * inv, hy * inv, hz * inv);
-    let noh = k.n.x * mx + k.n.y * my + k.n.z * mz;
-    let t = noh * noh * (k.a2 - 1.0) + 1.0;
-    let d = k.a2 / (PI * t * t);
-    let g = if CORRELATED {
-        let gv = cos_i * k.g_o;
-        let gl = k.cos_o * (cos_i * cos_i * (1.0 - k.a2) + k.a2).sqrt();
-        let s = gv + gl;
-        let vis = if s > 0.0 { 0.5 / s } else { 0.0 };
-        vis * 4.0 * k.cos_o * cos_i
+    // GGX: D = alpha^2 |h|^4 / (pi t_num^2), t_num = |h|^2 - (1 - alpha^2) (n.h)^2, taken as
+    // |h x n|^2 + alpha^2 (n.h)^2: the difference cancels at the peak (to 1e-5 in single
+    // precision), the sum does not.
+    let nh = cos_i + k.cos_o;
+    let hh = 2.0 + 2.0 * lv;
+    let (h, n) = ([x + k.v[0], y + k.v[1], z + k.v[2]], k.n);
+    let cross = [h[1] * n[2] - h[2] * n[1], h[2] * n[0] - h[0] * n[2], h[0] * n[1] - h[1] * n[0]];
+    let t_num = cross[0] * cross[0] + cross[1] * cross[1] + cross[2] * cross[2] + k.a2 * nh * nh;
+    // G without its division: G = g_num / g_den.
+    let (g_num, g_den) = if CORRELATED {
+        let s = cos_i * k.g_o + k.cos_o * (cos_i * cos_i * (1.0 - k.a2) + k.a2).sqrt();
+        (2.0 * k.cos_o * cos_i, s)
     } else {
-        k.g_o * (2.0 / (1.0 + (1.0 + k.a2 * (1.0 - cos_i * cos_i) / (cos_i * cos_i)).max(0.0).sqrt()))
+        (k.g_o * 2.0 * cos_i, cos_i + (cos_i * cos_i + k.a2 * (1.0 - cos_i * cos_i)).sqrt())
     };
-    let f = match FRESNEL {
-        0 => k.cspec0,
-        1 => 1.0,
+    // Fresnel F = f_num / f_den.
+    let (f_num, f_den) = match FRESNEL {
+        0 => (k.cspec0, 1.0),
+        1 => (1.0, 1.0),
         _ => {
-            let fh = (dielectric(x * mx + y * my + z * mz, k.ior) - k.f0) / (1.0 - k.f0);
-            k.cspec0 * (1.0 - fh) + fh
+            let c = (0.5 + 0.5 * lv).clamp(0.0, 1.0).sqrt();
+            let sin2_t = (0.5 - 0.5 * lv).max(0.0) / (k.ior * k.ior);
+            let cos_t = (1.0 - sin2_t).max(0.0).sqrt();
+            let (a, d) = (c - k.ior * cos_t, c + k.ior * cos_t);
+            let (cc, b) = (k.ior * c - cos_t, k.ior * c + cos_t);
+            let (num, den) = (a * a * b * b + cc * cc * d * d, 2.0 * d * d * b * b);
+            (k.fresnel_base * den + k.fresnel_slope * num, den)
         }
     };
-    let spec = d * g * f / (4.0 * k.cos_o);
+    let spec = k.spec_scale * hh * hh * g_num * f_num / (t_num * t_num * g_den * f_den);
     let spec = if lit && nil >= 0.0 { spec } else { 0.0 };
     if !DIFFUSE {
         return spec;
     }
     // Disney diffuse with its bump shadowing (Principled::disney_diffuse).
-    let fl = (1.0 - cos_i).clamp(0.0, 1.0).powi(5);
-    let rr = k.roughness * (dot(k.v) + 1.0);
+    let fl = (1.0 - cos_i).clamp(0.0, 1.0);
+    let fl = fl * fl * fl * fl * fl;
+    let rr = k.roughness * (lv + 1.0);
     let fd = (1.0 - 0.5 * k.fv) * (1.0 - 0.5 * fl) + rr * (fl + k.fv + fl * k.fv * (rr - 1.0));
-    let mut value = cos_i * fd / PI;
+    let mut value = cos_i * fd * std::f32::consts::FRAC_1_PI;
     if BUMP {
         let den = cos_i * k.ni_dot_n;
         let gb = if den != 0.0 { nil / den } else { 0.0 };
@@ -209,38 +273,24 @@ fn lobe<const CORRELATED: bool, const FRESNEL: u8, const DIFFUSE: bool, const BU
     spec + k.diffuse * if lit { value } else { 0.0 }
 }
 
-/// `reflectance_unpolarised(|c|, 1, ior)` for `ior > 1` (no total internal reflection), its
-/// clamps as selects.
-#[inline(always)]
-fn dielectric(c: f64, ior: f64) -> f64 {
-    let unit = |x: f64| if x.is_nan() { 1.0 } else { x.clamp(0.0, 1.0) };
-    let c = c.abs().clamp(0.0, 1.0);
-    let sin2_i = (1.0 - c * c).max(0.0);
-    let ratio = 1.0 / ior;
-    let sin2_t = ratio * ratio * sin2_i;
-    let cos_t = (1.0 - sin2_t).max(0.0).sqrt();
-    let r_s = (c - ior * cos_t) / (c + ior * cos_t);
-    let r_p = (ior * c - cos_t) / (ior * c + cos_t);
-    unit(0.5 * (unit(r_s * r_s) + unit(r_p * r_p)))
-}
-
 /// One combination of the pixel's choices: the lobe over every node into `w`, then the sum in
-/// [`LANES`] partial sums per channel.
+/// [`LANES`] partial sums per channel, added in f64 in a fixed order.
 #[inline(always)]
 fn sum_with<const CORRELATED: bool, const FRESNEL: u8, const DIFFUSE: bool, const BUMP: bool>(
     k: &PixelLobe,
     cut: &FlatCut,
-    w: &mut Vec<f64>,
+    w: &mut Vec<f32>,
 ) -> [f64; 3] {
     debug_assert!(cut.len().is_multiple_of(LANES), "a flat cut is padded to whole lanes");
+    let lanes = Lanes::new(k);
     let n = cut.len() / LANES * LANES;
     w.clear();
     w.resize(n, 0.0);
     let (xs, ys, zs) = (&cut.x[..n], &cut.y[..n], &cut.z[..n]);
     for (((w, &x), &y), &z) in w.iter_mut().zip(xs).zip(ys).zip(zs) {
-        *w = lobe::<CORRELATED, FRESNEL, DIFFUSE, BUMP>(k, x, y, z);
+        *w = lobe::<CORRELATED, FRESNEL, DIFFUSE, BUMP>(&lanes, x, y, z);
     }
-    let mut acc = [[0.0f64; LANES]; 3];
+    let mut acc = [[0.0f32; LANES]; 3];
     for (i, w) in w.chunks_exact(LANES).enumerate() {
         for (ch, p) in [&cut.r, &cut.g, &cut.b].into_iter().enumerate() {
             let p = &p[i * LANES..(i + 1) * LANES];
@@ -249,12 +299,12 @@ fn sum_with<const CORRELATED: bool, const FRESNEL: u8, const DIFFUSE: bool, cons
             }
         }
     }
-    acc.map(|a| (a[0] + a[1]) + (a[2] + a[3]))
+    acc.map(|a| a.iter().fold(0.0f64, |s, &v| s + v as f64))
 }
 
 /// [`sum`]'s body: the pixel's combination.
 #[inline(always)]
-fn sum_lanes(k: &PixelLobe, cut: &FlatCut, w: &mut Vec<f64>) -> [f64; 3] {
+fn sum_lanes(k: &PixelLobe, cut: &FlatCut, w: &mut Vec<f32>) -> [f64; 3] {
     macro_rules! pick {
         ($c:literal) => {
             match (k.fresnel, k.diffuse > 0.0, k.bump) {
@@ -281,5 +331,5 @@ cpu::dispatch! {
     #[levels(Avx2)]
     /// `sum g(l_i) P_i` over `cut` (padded, [`FlatCut::pad`]) for pixel `k`; `w` is scratch.
     #[inline(always)]
-    pub fn sum(k: &PixelLobe, cut: &FlatCut, w: &mut Vec<f64>) -> [f64; 3] = sum_lanes;
+    pub fn sum(k: &PixelLobe, cut: &FlatCut, w: &mut Vec<f32>) -> [f64; 3] = sum_lanes;
 }

@@ -56,6 +56,8 @@ pub(super) struct Level {
     pub(super) accept_cos: Vec<f64>,
     /// the sine of the angle whose cosine `accept_cos` is (0 for always and never)
     pub(super) accept_sin: Vec<f64>,
+    /// that angle, `acos(accept_cos)` (NaN for always and never)
+    pub(super) accept_angle: Vec<f64>,
 }
 
 /// The map's texels as a tree of blocks.
@@ -118,6 +120,7 @@ impl TexelTree {
             cos_radius: Vec::new(),
             accept_cos: Vec::new(),
             accept_sin: Vec::new(),
+            accept_angle: Vec::new(),
         };
         let mut levels = vec![level];
         while levels.last().is_some_and(|l| l.width > TOP_WIDTH || l.height > TOP_WIDTH / 2) {
@@ -147,6 +150,7 @@ impl TexelTree {
                 .collect();
             l.accept_sin =
                 l.accept_cos.iter().map(|&c| if c.abs() <= 1.0 { (1.0 - c * c).sqrt() } else { 0.0 }).collect();
+            l.accept_angle = l.accept_cos.iter().map(|&c| c.acos()).collect();
         }
         TexelTree { levels, width, height, cut, w }
     }
@@ -245,6 +249,7 @@ fn group(l: &Level) -> Level {
         cos_radius: Vec::new(),
         accept_cos: Vec::new(),
         accept_sin: Vec::new(),
+        accept_angle: Vec::new(),
     };
     for y in 0..h {
         for x in 0..w {

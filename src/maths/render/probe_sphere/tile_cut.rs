@@ -104,7 +104,7 @@ impl TexelTree {
             } else if beta == 0.0 {
                 c.dot(a) <= accept
             } else {
-                let delta = accept.acos();
+                let delta = l.accept_angle[i];
                 delta + beta < PI && c.dot(a) <= accept * cones.peak.cos - l.accept_sin[i] * cones.peak.sin
             };
             if whole {

@@ -21,7 +21,7 @@ pub const MAX_SPREAD: f64 = 0.2;
 /// Scratch reused across the tiles of a row.
 struct Scratch {
     cut: FlatCut,
-    w: Vec<f64>,
+    w: Vec<f32>,
     lobes: Vec<PixelLobe>,
     at: Vec<usize>,
 }

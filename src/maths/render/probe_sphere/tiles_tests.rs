@@ -26,7 +26,7 @@ fn a_tile_of_one_pixel_sums_the_pixels_own_cut_at_every_level() {
     let cam = Camera::new(160, 90);
     let mut cut = FlatCut::default();
     let mut scratch = Vec::new();
-    let mut checked = 0;
+    let (mut checked, mut worst) = (0, 0.0f64);
     for (material, smith) in MATERIALS {
         let bsdf = material.principled(smith);
         let tree = TexelTree::new(&map, 0.125, shading::lobe_width(&bsdf));
@@ -44,7 +44,8 @@ fn a_tile_of_one_pixel_sums_the_pixels_own_cut_at_every_level() {
                     let portable = lobe_kernel::sum(crate::cpu::Level::Portable, &lobe, &cut, &mut scratch);
                     for ch in 0..3 {
                         let rel = (portable[ch] - own[ch]).abs() / own[ch].abs().max(1e-300);
-                        assert!(rel < 1e-11, "{material:?} {smith:?} ({c}, {r}): {portable:?} vs {own:?}");
+                        worst = worst.max(rel);
+                        assert!(rel < 1e-5, "{material:?} {smith:?} ({c}, {r}): {portable:?} vs {own:?}");
                     }
                     for level in crate::cpu::tested_levels() {
                         let got = lobe_kernel::sum(level, &lobe, &cut, &mut scratch);
@@ -55,6 +56,7 @@ fn a_tile_of_one_pixel_sums_the_pixels_own_cut_at_every_level() {
             }
         }
     }
+    eprintln!("single precision against the f64 lobes: worst {worst:.2e} relative over {checked} pixels");
     assert!(checked > 1500, "{checked}");
 }
 
