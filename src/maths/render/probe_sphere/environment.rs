@@ -66,39 +66,55 @@ impl Environment {
     /// The bilinear lookup at `u` (along the width) and `t` (the polar angle over pi, from the
     /// top), [`coordinates`] of a direction.
     pub fn at(&self, u: f64, t: f64) -> [f64; 3] {
-        let (fx, fy) = (u * self.width as f64 - 0.5, t * self.height as f64 - 0.5);
-        let (x0, y0) = (fx.floor(), fy.floor());
-        let (tx, ty) = (fx - x0, fy - y0);
-        let (w, h) = (self.width as isize, self.height as isize);
-        let (x0, y0) = (x0 as isize, y0 as isize);
-        // The wrap: an index is at most one period out (u and the polar angle are within [0, 1]),
-        // so a comparison does what `rem_euclid`'s division would (kept for anything else).
-        let wrap = |i: isize, n: isize| {
-            let j = if i < 0 {
-                i + n
-            } else if i >= n {
-                i - n
-            } else {
-                i
-            };
-            if (0..n).contains(&j) {
-                j as usize
-            } else {
-                i.rem_euclid(n) as usize
-            }
-        };
-        let (xs, ys) = ([wrap(x0, w), wrap(x0 + 1, w)], [wrap(y0, h), wrap(y0 + 1, h)]);
         let mut out = [0.0; 3];
-        for (dx, dy, wgt) in
-            [(0, 0, (1.0 - tx) * (1.0 - ty)), (1, 0, tx * (1.0 - ty)), (0, 1, (1.0 - tx) * ty), (1, 1, tx * ty)]
-        {
-            let p = self.rgb[ys[dy] * self.width + xs[dx]];
+        for (i, wgt) in taps(self.width, self.height, u, t) {
+            let p = self.rgb[i];
             for c in 0..3 {
                 out[c] += wgt * p[c];
             }
         }
         out
     }
+
+    /// The map's size, width then height.
+    pub fn size(&self) -> (usize, usize) {
+        (self.width, self.height)
+    }
+
+    /// Texel `i` (row-major, row 0 at the top).
+    pub fn texel(&self, i: usize) -> [f64; 3] {
+        self.rgb[i]
+    }
+}
+
+/// The four texels (row-major index, row 0 at the top) and bilinear weights of [`Environment::at`]
+/// at `u`, `t` on a `width` x `height` map: texel centres, `x = u W - 0.5`, `y = t H - 0.5`, both
+/// wrapping.
+pub fn taps(width: usize, height: usize, u: f64, t: f64) -> [(usize, f64); 4] {
+    let (fx, fy) = (u * width as f64 - 0.5, t * height as f64 - 0.5);
+    let (x0, y0) = (fx.floor(), fy.floor());
+    let (tx, ty) = (fx - x0, fy - y0);
+    let (w, h) = (width as isize, height as isize);
+    let (x0, y0) = (x0 as isize, y0 as isize);
+    // The wrap: an index is at most one period out (u and the polar angle are within [0, 1]),
+    // so a comparison does what `rem_euclid`'s division would (kept for anything else).
+    let wrap = |i: isize, n: isize| {
+        let j = if i < 0 {
+            i + n
+        } else if i >= n {
+            i - n
+        } else {
+            i
+        };
+        if (0..n).contains(&j) {
+            j as usize
+        } else {
+            i.rem_euclid(n) as usize
+        }
+    };
+    let (xs, ys) = ([wrap(x0, w), wrap(x0 + 1, w)], [wrap(y0, h), wrap(y0 + 1, h)]);
+    [(0, 0, (1.0 - tx) * (1.0 - ty)), (1, 0, tx * (1.0 - ty)), (0, 1, (1.0 - tx) * ty), (1, 1, tx * ty)]
+        .map(|(dx, dy, wgt)| (ys[dy] * width + xs[dx], wgt))
 }
 
 #[cfg(test)]

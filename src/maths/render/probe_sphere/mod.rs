@@ -42,6 +42,7 @@ pub mod environment;
 pub mod lobe_kernel;
 pub mod mesh;
 mod mesh_search;
+mod mirror_reads;
 mod plan;
 pub mod principled;
 pub mod shading;
@@ -263,26 +264,16 @@ struct MirrorRay {
     weight: f32,
 }
 
-/// Each pixel's `(rgb premultiplied, coverage)`: a mirror pixel's from its rays in `rays`, a
-/// shaded one's from `shaded`.
+/// Each pixel's `(rgb premultiplied, coverage)`: a mirror pixel's the next of `mirror` (its
+/// row's merged reads, [`mirror_reads`]), a shaded one's from `shaded`.
 fn finish<'a>(
     stages: &'a [Stage],
-    rays: &'a [MirrorRay],
-    env: &'a Environment,
+    mut mirror: impl Iterator<Item = [f64; 3]> + 'a,
     shaded: impl IntoIterator<Item = [f64; 3]> + 'a,
 ) -> impl Iterator<Item = ([f64; 3], f64)> + 'a {
-    let mut next = 0;
     stages.iter().zip(shaded).map(move |(s, rgb)| match *s {
         Stage::Done(a) => ([0.0; 3], a),
-        Stage::Mirror { rays: count, n, coverage } => {
-            let mut sum = [0.0; 3];
-            for ray in &rays[next..next + count as usize] {
-                let l = env.at(ray.u as f64, ray.t as f64);
-                (0..3).for_each(|k| sum[k] += ray.weight as f64 * l[k]);
-            }
-            next += count as usize;
-            (sum.map(|v| v / n as f64), coverage)
-        }
+        Stage::Mirror { coverage, .. } => (mirror.next().unwrap_or([0.0; 3]), coverage),
         Stage::Shade(_, _, a) => (rgb, a),
     })
 }
@@ -303,9 +294,11 @@ fn render_tiled(env: &Image, settings: &ProbeSettings, tile: usize) -> ProbeRend
     let (w, h) = (settings.width, settings.height);
     let row = |r: usize| &plan.stages[r * w..(r + 1) * w];
     let pixels: Vec<([f64; 3], f64)> = if bsdf.is_mirror() {
+        let (map_w, map_h) = environment.size();
+        let reads = plan.mirror_reads(map_w, map_h);
         (0..h)
             .into_par_iter()
-            .flat_map_iter(|r| finish(row(r), &plan.rays[r], &environment, std::iter::repeat([0.0; 3])))
+            .flat_map_iter(|r| finish(row(r), reads[r].pixels(&environment), std::iter::repeat([0.0; 3])))
             .collect()
     } else {
         // Bands of `tile` rows: their tiles' rough lobes.
@@ -315,7 +308,7 @@ fn render_tiled(env: &Image, settings: &ProbeSettings, tile: usize) -> ProbeRend
             .flat_map_iter(|band| {
                 let stages = &plan.stages[band * tile * w..((band + 1) * tile).min(h) * w];
                 let shaded = tiles::shade_band(&tree, &bsdf, w, stages, tile);
-                finish(stages, &[], &environment, shaded)
+                finish(stages, std::iter::empty(), shaded)
             })
             .collect()
     };

@@ -9,25 +9,71 @@
 //! is the same bit for bit either way.
 //!
 //! The store holds at most [`KEPT`] plans of at most [`MAX_BYTES`] each (a 960 x 540 mirror's
-//! holds about 120 MB; the two rough materials share one plan). A plan is made on its own thread
-//! pool from a plain thread: a rayon worker that waits for it blocks rather than steals, so no
-//! worker can start another render that waits for the same plan on top of the one making it.
+//! holds about 120 MB; the two rough materials share one plan). A mirror's plan also keeps its
+//! reads merged by texel ([`super::mirror_reads`]) for the last [`KEPT_SIZES`] map sizes it read.
+//! A plan and its reads are made on their own thread pool from a plain thread: a rayon worker
+//! that waits for them blocks rather than steals, so no worker can start another render that
+//! waits for the same plan on top of the one making it.
 
 use std::sync::{Arc, Mutex, OnceLock};
 
 use rayon::prelude::*;
 
+use super::mirror_reads::RowReads;
 use super::{scene, trace_row, MirrorRay, ProbeMaterial, ProbeSettings, ProbeShape, Stage};
 
 /// How many plans the process keeps (the least recently used dropped first).
 const KEPT: usize = 4;
 /// Plans larger than this are made for their render only.
 const MAX_BYTES: usize = 1 << 30;
+/// How many map sizes a mirror plan keeps its reads for.
+const KEPT_SIZES: usize = 2;
 
 /// The stages of every pixel (row-major) and each row's mirror rays.
 pub(super) struct Plan {
     pub(super) stages: Vec<Stage>,
     pub(super) rays: Vec<Vec<MirrorRay>>,
+    /// the mirror's reads of each map size (width, height), most recently used last
+    reads: Mutex<Vec<((usize, usize), ReadsSlot)>>,
+}
+
+type ReadsSlot = Arc<OnceLock<Arc<Vec<RowReads>>>>;
+
+impl Plan {
+    /// Each row's mirror reads of a `width` x `height` map: the kept ones, or made now.
+    pub(super) fn mirror_reads(&self, width: usize, height: usize) -> Arc<Vec<RowReads>> {
+        let slot = {
+            let mut kept = self.reads.lock().unwrap_or_else(|e| e.into_inner());
+            match kept.iter().position(|(size, _)| *size == (width, height)) {
+                Some(i) => {
+                    let entry = kept.remove(i);
+                    let slot = entry.1.clone();
+                    kept.push(entry);
+                    slot
+                }
+                None => {
+                    if kept.len() >= KEPT_SIZES {
+                        kept.remove(0);
+                    }
+                    let slot = ReadsSlot::default();
+                    kept.push(((width, height), slot.clone()));
+                    slot
+                }
+            }
+        };
+        slot.get_or_init(|| {
+            let w = self.stages.len() / self.rays.len().max(1);
+            let row = |r: usize| RowReads::new(&self.stages[r * w..(r + 1) * w], &self.rays[r], width, height);
+            Arc::new(on_own_pool(|parallel| {
+                if parallel {
+                    (0..self.rays.len()).into_par_iter().map(row).collect()
+                } else {
+                    (0..self.rays.len()).map(row).collect()
+                }
+            }))
+        })
+        .clone()
+    }
 }
 
 /// What a plan depends on: the mirror's material (its Fresnel weights are in the plan); the rough
@@ -87,11 +133,9 @@ pub(super) fn plan_for(settings: &ProbeSettings) -> Arc<Plan> {
     slot.get_or_init(|| Arc::new(make(settings))).clone()
 }
 
-/// Traces every row of `settings`' frame, in parallel on a pool of as many threads as the
-/// caller's, from a thread that is no rayon worker (see the module documentation).
+/// Traces every row of `settings`' frame (see the module documentation).
 fn make(settings: &ProbeSettings) -> Plan {
-    let threads = rayon::current_num_threads();
-    let trace = |parallel: bool| {
+    on_own_pool(|parallel| {
         let scene = scene(settings);
         let rows: Vec<(Vec<Stage>, Vec<MirrorRay>)> = if parallel {
             (0..settings.height).into_par_iter().map(|r| trace_row(&scene, r)).collect()
@@ -105,13 +149,18 @@ fn make(settings: &ProbeSettings) -> Plan {
             row_rays.shrink_to_fit();
             rays.push(row_rays);
         }
-        Plan { stages, rays }
-    };
+        Plan { stages, rays, reads: Mutex::new(Vec::new()) }
+    })
+}
+
+/// `work(true)` on a pool of as many threads as the caller's, from a thread that is no rayon
+/// worker; `work(false)` on that thread when the system refuses the pool's threads.
+fn on_own_pool<T: Send>(work: impl Fn(bool) -> T + Sync) -> T {
+    let threads = rayon::current_num_threads();
     std::thread::scope(|s| {
         s.spawn(|| match rayon::ThreadPoolBuilder::new().num_threads(threads).build() {
-            Ok(pool) => pool.install(|| trace(true)),
-            // No pool (the system refused its threads): the rows one after another here.
-            Err(_) => trace(false),
+            Ok(pool) => pool.install(|| work(true)),
+            Err(_) => work(false),
         })
         .join()
         .unwrap_or_else(|panic| std::panic::resume_unwind(panic))
