@@ -273,27 +273,30 @@ fn lobe<const CORRELATED: bool, const FRESNEL: u8, const DIFFUSE: bool, const BU
     spec + k.diffuse * if lit { value } else { 0.0 }
 }
 
-/// One combination of the pixel's choices: the lobe over every node into `w`, then the sum in
-/// [`LANES`] partial sums per channel, added in f64 in a fixed order.
+/// One combination of the pixel's choices: the lobe over [`LANES`] nodes at a time, summed in
+/// [`LANES`] partial sums per channel, added in f64 in a fixed order at the end.
 #[inline(always)]
 fn sum_with<const CORRELATED: bool, const FRESNEL: u8, const DIFFUSE: bool, const BUMP: bool>(
     k: &PixelLobe,
     cut: &FlatCut,
-    w: &mut Vec<f32>,
 ) -> [f64; 3] {
     debug_assert!(cut.len().is_multiple_of(LANES), "a flat cut is padded to whole lanes");
     let lanes = Lanes::new(k);
     let n = cut.len() / LANES * LANES;
-    w.clear();
-    w.resize(n, 0.0);
-    let (xs, ys, zs) = (&cut.x[..n], &cut.y[..n], &cut.z[..n]);
-    for (((w, &x), &y), &z) in w.iter_mut().zip(xs).zip(ys).zip(zs) {
-        *w = lobe::<CORRELATED, FRESNEL, DIFFUSE, BUMP>(&lanes, x, y, z);
-    }
+    let chunk = |v: &[f32], i: usize| -> [f32; LANES] {
+        let mut out = [0.0; LANES];
+        out.copy_from_slice(&v[i * LANES..(i + 1) * LANES]);
+        out
+    };
     let mut acc = [[0.0f32; LANES]; 3];
-    for (i, w) in w.chunks_exact(LANES).enumerate() {
+    for i in 0..n / LANES {
+        let (xs, ys, zs) = (chunk(&cut.x, i), chunk(&cut.y, i), chunk(&cut.z, i));
+        let mut w = [0.0f32; LANES];
+        for j in 0..LANES {
+            w[j] = lobe::<CORRELATED, FRESNEL, DIFFUSE, BUMP>(&lanes, xs[j], ys[j], zs[j]);
+        }
         for (ch, p) in [&cut.r, &cut.g, &cut.b].into_iter().enumerate() {
-            let p = &p[i * LANES..(i + 1) * LANES];
+            let p = chunk(p, i);
             for j in 0..LANES {
                 acc[ch][j] += w[j] * p[j];
             }
@@ -304,19 +307,19 @@ fn sum_with<const CORRELATED: bool, const FRESNEL: u8, const DIFFUSE: bool, cons
 
 /// [`sum`]'s body: the pixel's combination.
 #[inline(always)]
-fn sum_lanes(k: &PixelLobe, cut: &FlatCut, w: &mut Vec<f32>) -> [f64; 3] {
+fn sum_lanes(k: &PixelLobe, cut: &FlatCut) -> [f64; 3] {
     macro_rules! pick {
         ($c:literal) => {
             match (k.fresnel, k.diffuse > 0.0, k.bump) {
-                (0, false, _) => sum_with::<$c, 0, false, false>(k, cut, w),
-                (1, false, _) => sum_with::<$c, 1, false, false>(k, cut, w),
-                (_, false, _) => sum_with::<$c, 2, false, false>(k, cut, w),
-                (0, true, false) => sum_with::<$c, 0, true, false>(k, cut, w),
-                (1, true, false) => sum_with::<$c, 1, true, false>(k, cut, w),
-                (_, true, false) => sum_with::<$c, 2, true, false>(k, cut, w),
-                (0, true, true) => sum_with::<$c, 0, true, true>(k, cut, w),
-                (1, true, true) => sum_with::<$c, 1, true, true>(k, cut, w),
-                (_, true, true) => sum_with::<$c, 2, true, true>(k, cut, w),
+                (0, false, _) => sum_with::<$c, 0, false, false>(k, cut),
+                (1, false, _) => sum_with::<$c, 1, false, false>(k, cut),
+                (_, false, _) => sum_with::<$c, 2, false, false>(k, cut),
+                (0, true, false) => sum_with::<$c, 0, true, false>(k, cut),
+                (1, true, false) => sum_with::<$c, 1, true, false>(k, cut),
+                (_, true, false) => sum_with::<$c, 2, true, false>(k, cut),
+                (0, true, true) => sum_with::<$c, 0, true, true>(k, cut),
+                (1, true, true) => sum_with::<$c, 1, true, true>(k, cut),
+                (_, true, true) => sum_with::<$c, 2, true, true>(k, cut),
             }
         };
     }
@@ -329,7 +332,7 @@ fn sum_lanes(k: &PixelLobe, cut: &FlatCut, w: &mut Vec<f32>) -> [f64; 3] {
 
 cpu::dispatch! {
     #[levels(Avx2)]
-    /// `sum g(l_i) P_i` over `cut` (padded, [`FlatCut::pad`]) for pixel `k`; `w` is scratch.
+    /// `sum g(l_i) P_i` over `cut` (padded, [`FlatCut::pad`]) for pixel `k`.
     #[inline(always)]
-    pub fn sum(k: &PixelLobe, cut: &FlatCut, w: &mut Vec<f32>) -> [f64; 3] = sum_lanes;
+    pub fn sum(k: &PixelLobe, cut: &FlatCut) -> [f64; 3] = sum_lanes;
 }

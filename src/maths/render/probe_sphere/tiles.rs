@@ -21,7 +21,6 @@ pub const MAX_SPREAD: f64 = 0.2;
 /// Scratch reused across the tiles of a row.
 struct Scratch {
     cut: FlatCut,
-    w: Vec<f32>,
     lobes: Vec<PixelLobe>,
     at: Vec<usize>,
 }
@@ -39,7 +38,7 @@ pub(super) fn shade_band(
     if width == 0 {
         return out;
     }
-    let mut scratch = Scratch { cut: FlatCut::default(), w: Vec::new(), lobes: Vec::new(), at: Vec::new() };
+    let mut scratch = Scratch { cut: FlatCut::default(), lobes: Vec::new(), at: Vec::new() };
     let height = stages.len() / width;
     for x0 in (0..width).step_by(tile) {
         let rect = Rect { x0, x1: (x0 + tile).min(width), y0: 0, y1: height };
@@ -98,7 +97,7 @@ fn shade_rect(
     tree.tile_cut(&cones, &mut scratch.cut);
     let level = crate::cpu::level();
     for (k, &at) in scratch.lobes.iter().zip(&scratch.at) {
-        let rgb = lobe_kernel::sum(level, k, &scratch.cut, &mut scratch.w);
+        let rgb = lobe_kernel::sum(level, k, &scratch.cut);
         let a = stages[at].coverage();
         out[at] = rgb.map(|v| v * a);
     }

@@ -25,7 +25,6 @@ fn a_tile_of_one_pixel_sums_the_pixels_own_cut_at_every_level() {
     let map = sky_with_sun(256, 128);
     let cam = Camera::new(160, 90);
     let mut cut = FlatCut::default();
-    let mut scratch = Vec::new();
     let (mut checked, mut worst) = (0, 0.0f64);
     for (material, smith) in MATERIALS {
         let bsdf = material.principled(smith);
@@ -41,14 +40,14 @@ fn a_tile_of_one_pixel_sums_the_pixels_own_cut_at_every_level() {
                         continue;
                     };
                     tree.tile_cut(&TileCones::new(&[lobe]).unwrap(), &mut cut);
-                    let portable = lobe_kernel::sum(crate::cpu::Level::Portable, &lobe, &cut, &mut scratch);
+                    let portable = lobe_kernel::sum(crate::cpu::Level::Portable, &lobe, &cut);
                     for ch in 0..3 {
                         let rel = (portable[ch] - own[ch]).abs() / own[ch].abs().max(1e-300);
                         worst = worst.max(rel);
                         assert!(rel < 1e-5, "{material:?} {smith:?} ({c}, {r}): {portable:?} vs {own:?}");
                     }
                     for level in crate::cpu::tested_levels() {
-                        let got = lobe_kernel::sum(level, &lobe, &cut, &mut scratch);
+                        let got = lobe_kernel::sum(level, &lobe, &cut);
                         assert_eq!(got, portable, "{level}");
                     }
                     checked += 1;
