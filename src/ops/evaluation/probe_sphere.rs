@@ -1,5 +1,5 @@
 //! `ProbeSphere(env, material: Mirror, width: 960, height: 540, samples: 64, cut: 0.125,
-//! shape: Subdivided, smith: Separable)`: the lighting-estimation protocol's sphere under `env`, as
+//! shape: Subdivided, smith: Separable, interpolate: true)`: the lighting-estimation protocol's sphere under `env`, as
 //! its Blender scene renders it (DiffusionLight-evaluation's `stylelight/mirror.py`,
 //! `matte_silver.py`, `diffuse.py`), computed deterministically from the map
 //! (`maths::render::probe_sphere`; the scene and its sources: the book's "The sphere evaluation
@@ -20,7 +20,10 @@
 //!   lobe's peak count as one). Their errors, measured (tests and the book page): the default cut
 //!   runs low by up to 0.7% (MatteSilver) and 0.1% (Diffuse) against the lobe's exact albedo; the
 //!   mirror at 10% of the frame needs about 1024 rays to match a 256-sample Cycles render within
-//!   its noise, at 50% fewer.
+//!   its noise, at 50% fewer. `interpolate` (rough materials) shades every second pixel in each
+//!   direction where the lobes turn slowly across pixels (most of the sphere at 960 x 540) and
+//!   interpolates the others: 1.8x faster, its error against a four times finer cut within 10% of
+//!   shading every pixel (tested).
 //! - Port `image`: RGBA, the radiance premultiplied by the coverage (transparent film, as the
 //!   protocol's EXR files); port `mask`: the coverage (1 on the sphere, 0 off it, fractional on the
 //!   silhouette), the alpha `ImageMetrics` reads.
@@ -62,6 +65,9 @@ crate::params! {
         pub shape: ProbeShape = ProbeShape::Subdivided,
         /// Separable (Cycles of Blender 3.4, Debian's) or Correlated (Blender 3.5+)
         pub smith: Smith = Smith::Separable,
+        /// MatteSilver and Diffuse: shade every second pixel in each direction where the lobes
+        /// turn slowly and interpolate the others (false: shade every pixel)
+        pub interpolate: bool = true,
     }
 }
 
@@ -92,6 +98,7 @@ fn eval(ctx: &mut OpContext, p: ProbeSphereParams) -> Result<Outputs, OpError> {
         samples: p.samples,
         cut: p.cut,
         smith: p.smith,
+        interpolate: p.interpolate,
     };
     let out = render(&p.env, &settings);
     Ok(Outputs::new().port(IMAGE, out.image).port(MASK, out.mask))

@@ -88,6 +88,7 @@ mod tests {
             samples: 16,
             cut: 0.125,
             smith: Smith::Separable,
+            interpolate: false,
         };
         let scene = scene(&settings);
         let (mut checked, mut taps_total, mut merged) = (0, 0, 0);

@@ -29,7 +29,9 @@
 //!
 //! The rough lobes are shaded by tiles of pixels ([`tiles`]): a tile's pixels share one cut of the
 //! texel tree, at least as fine as each pixel's own ([`tile_cut`]), and each sums its own lobes over
-//! it ([`lobe_kernel`], vectorised).
+//! it ([`lobe_kernel`], vectorised). With `interpolate`, only every second pixel in each direction
+//! is shaded where the lobes turn slowly across pixels, and the others are interpolated
+//! ([`interpolation`]).
 //!
 //! Everything before the map is read (the rays, their hits, the coverage, the mirror's reflections
 //! and weights) is the frame's [`plan`], made once per process for each frame and shared by the
@@ -39,6 +41,7 @@
 
 pub mod camera;
 pub mod environment;
+mod interpolation;
 pub mod lobe_kernel;
 pub mod mesh;
 mod mesh_search;
@@ -109,6 +112,9 @@ pub struct ProbeSettings {
     /// the texel sum's refinement ratio (rough materials; [`texel_tree`])
     pub cut: f64,
     pub smith: Smith,
+    /// rough materials: shade every second pixel in each direction where the lobes allow and
+    /// interpolate the others ([`interpolation`])
+    pub interpolate: bool,
 }
 
 /// The render: RGBA (RGB premultiplied by the coverage) and the coverage alone.
@@ -281,7 +287,8 @@ fn finish<'a>(
 /// Renders the protocol's sphere of `settings.material` under `env` (a lat-long map, hdrflow's
 /// convention; see [`environment`] for how Blender reads the same file).
 pub fn render(env: &Image, settings: &ProbeSettings) -> ProbeRender {
-    render_tiled(env, settings, tiles::TILE)
+    // Interpolated, a tile holds a quarter as many shaded pixels: twice the side keeps as many.
+    render_tiled(env, settings, if settings.interpolate { 2 * tiles::TILE } else { tiles::TILE })
 }
 
 /// [`render`] with the rough lobes shaded by tiles of `tile` x `tile` pixels (1: each pixel's own
@@ -301,16 +308,25 @@ fn render_tiled(env: &Image, settings: &ProbeSettings, tile: usize) -> ProbeRend
             .flat_map_iter(|r| finish(row(r), reads[r].pixels(&environment), std::iter::repeat([0.0; 3])))
             .collect()
     } else {
-        // Bands of `tile` rows: their tiles' rough lobes.
-        let tree = TexelTree::new(env, settings.cut, shading::lobe_width(&bsdf));
-        (0..h.div_ceil(tile))
+        // Bands of `tile` rows: their tiles' rough lobes, then the pixels interpolated.
+        let lobe_width = shading::lobe_width(&bsdf);
+        let tree = TexelTree::new(env, settings.cut, lobe_width);
+        let shade = if settings.interpolate {
+            interpolation::shaded_pixels(&plan.stages, w, &bsdf, lobe_width)
+        } else {
+            vec![true; w * h]
+        };
+        let mut rgb: Vec<[f64; 3]> = (0..h.div_ceil(tile))
             .into_par_iter()
             .flat_map_iter(|band| {
-                let stages = &plan.stages[band * tile * w..((band + 1) * tile).min(h) * w];
-                let shaded = tiles::shade_band(&tree, &bsdf, w, stages, tile);
-                finish(stages, std::iter::empty(), shaded)
+                let rows = band * tile * w..((band + 1) * tile).min(h) * w;
+                tiles::shade_band(&tree, &bsdf, w, &plan.stages[rows.clone()], &shade[rows], tile)
             })
-            .collect()
+            .collect();
+        if settings.interpolate {
+            interpolation::fill(&plan.stages, &shade, &mut rgb, w);
+        }
+        finish(&plan.stages, std::iter::empty(), rgb).collect()
     };
     let mut rgba = Vec::with_capacity(w * h * 4);
     let mut alpha = Vec::with_capacity(w * h);

@@ -30,7 +30,16 @@ pub(super) fn sky_with_sun(w: usize, h: usize) -> Image {
 }
 
 fn settings(material: ProbeMaterial, shape: ProbeShape, width: usize, height: usize) -> ProbeSettings {
-    ProbeSettings { material, shape, width, height, samples: 64, cut: 0.125, smith: Smith::Separable }
+    ProbeSettings {
+        material,
+        shape,
+        width,
+        height,
+        samples: 64,
+        cut: 0.125,
+        smith: Smith::Separable,
+        interpolate: false,
+    }
 }
 
 /// `int f cos dl` over the hemisphere of `n` (and above `ng`) by a fine midpoint rule in

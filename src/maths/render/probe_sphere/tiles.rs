@@ -25,13 +25,15 @@ struct Scratch {
     at: Vec<usize>,
 }
 
-/// The premultiplied radiance of every [`Stage::Shade`] pixel of `stages`, a band of at most
-/// `tile` rows of `width` pixels (0 for the other pixels), by tiles of `tile` x `tile`.
+/// The premultiplied radiance of every [`Stage::Shade`] pixel of `stages` that `shade` marks, a
+/// band of at most `tile` rows of `width` pixels (0 for the other pixels), by tiles of `tile` x
+/// `tile`.
 pub(super) fn shade_band(
     tree: &TexelTree,
     bsdf: &Principled,
     width: usize,
     stages: &[Stage],
+    shade: &[bool],
     tile: usize,
 ) -> Vec<[f64; 3]> {
     let mut out = vec![[0.0; 3]; stages.len()];
@@ -42,10 +44,13 @@ pub(super) fn shade_band(
     let height = stages.len() / width;
     for x0 in (0..width).step_by(tile) {
         let rect = Rect { x0, x1: (x0 + tile).min(width), y0: 0, y1: height };
-        shade_rect(tree, bsdf, width, stages, rect, &mut out, &mut scratch);
+        shade_rect(tree, bsdf, (width, stages, shade), rect, &mut out, &mut scratch);
     }
     out
 }
+
+/// A band's width, stages and which of them to shade.
+type Band<'a> = (usize, &'a [Stage], &'a [bool]);
 
 #[derive(Clone, Copy)]
 struct Rect {
@@ -59,16 +64,19 @@ struct Rect {
 fn shade_rect(
     tree: &TexelTree,
     bsdf: &Principled,
-    width: usize,
-    stages: &[Stage],
+    band: Band,
     rect: Rect,
     out: &mut [[f64; 3]],
     scratch: &mut Scratch,
 ) {
+    let (width, stages, shade) = band;
     scratch.lobes.clear();
     scratch.at.clear();
     for y in rect.y0..rect.y1 {
         for x in rect.x0..rect.x1 {
+            if !shade[y * width + x] {
+                continue;
+            }
             if let Stage::Shade(hit, v, _) = stages[y * width + x] {
                 if let Some(lobe) = PixelLobe::new(bsdf, &hit, v) {
                     scratch.lobes.push(lobe);
@@ -88,7 +96,7 @@ fn shade_rect(
         for (x0, x1) in [(rect.x0, xm), (xm, rect.x1)] {
             for (y0, y1) in [(rect.y0, ym), (ym, rect.y1)] {
                 if x0 < x1 && y0 < y1 {
-                    shade_rect(tree, bsdf, width, stages, Rect { x0, x1, y0, y1 }, out, scratch);
+                    shade_rect(tree, bsdf, band, Rect { x0, x1, y0, y1 }, out, scratch);
                 }
             }
         }
