@@ -20,6 +20,7 @@ use std::f64::consts::PI;
 
 use glam::DVec3;
 
+use crate::maths::resample::angles;
 use crate::values::Image;
 
 /// The hdrflow lat-long direction of Blender world direction `d` (the same texel).
@@ -35,10 +36,12 @@ pub fn from_hdrflow(d: DVec3) -> DVec3 {
 }
 
 /// Where Cycles' Environment Texture reads Blender direction `d` (not zero): `u = 0.5 - atan2(y,
-/// x) / (2 pi)` and the polar angle from +Z over pi, both in `[0, 1]`.
+/// x) / (2 pi)` and the polar angle from +Z over pi, both in `[0, 1]`. The angles are
+/// [`angles::atan2`]'s (2e-15 rad from libm's; the polar angle as `atan2(sqrt(x^2 + y^2), z)`,
+/// which needs no normalisation and no `acos`): the mirror's plan takes one per camera ray.
 pub fn coordinates(d: DVec3) -> (f64, f64) {
-    let len = d.length();
-    (0.5 - d.y.atan2(d.x) / (2.0 * PI), (d.z / len).clamp(-1.0, 1.0).acos() / PI)
+    let polar = angles::atan2((d.x * d.x + d.y * d.y).sqrt(), d.z);
+    (0.5 - angles::atan2(d.y, d.x) / (2.0 * PI), polar / PI)
 }
 
 /// An environment map read as Cycles' Environment Texture reads it.

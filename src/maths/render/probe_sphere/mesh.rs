@@ -23,6 +23,7 @@ use std::sync::OnceLock;
 use glam::DVec3;
 
 use super::camera::Ray;
+use crate::maths::resample::angles;
 
 /// Where a ray meets the sphere.
 #[derive(Clone, Copy, Debug)]
@@ -99,14 +100,14 @@ impl SphereMesh {
     }
 }
 
-/// Azimuth in [0, 2 pi) about +Z from +X, and polar angle from +Z.
+/// Azimuth in [0, 2 pi) about +Z from +X, and polar angle from +Z ([`angles::atan2`]'s, within
+/// 2e-15 rad of libm's: far inside the triangles' half-cell padding; every ray's search asks).
 fn angles(d: DVec3) -> (f64, f64) {
-    let len = d.length();
-    let mut az = d.y.atan2(d.x);
+    let mut az = angles::atan2(d.y, d.x);
     if az < 0.0 {
         az += std::f64::consts::TAU;
     }
-    (az, (d.z / len).clamp(-1.0, 1.0).acos())
+    (az, angles::atan2((d.x * d.x + d.y * d.y).sqrt(), d.z))
 }
 
 impl SphereMesh {

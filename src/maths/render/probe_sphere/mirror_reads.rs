@@ -23,27 +23,22 @@ impl RowReads {
     /// The reads of a row of `stages` whose mirror rays are `rays`, on a `width` x `height` map.
     pub(super) fn new(stages: &[Stage], rays: &[MirrorRay], width: usize, height: usize) -> RowReads {
         let mut row = RowReads { counts: Vec::new(), texel: Vec::new(), weight: Vec::new() };
-        let mut pixel: Vec<(u32, f64)> = Vec::new();
+        let mut pixel = TapTable::default();
         let mut next = 0;
         for stage in stages {
             let Stage::Mirror { rays: count, n, .. } = *stage else { continue };
-            pixel.clear();
+            pixel.clear(4 * count as usize);
             for ray in &rays[next..next + count as usize] {
                 let scale = ray.weight as f64 / n as f64;
                 for (i, w) in taps(width, height, ray.u as f64, ray.t as f64) {
-                    pixel.push((i as u32, w * scale));
+                    pixel.add(i as u32, w * scale);
                 }
             }
             next += count as usize;
-            pixel.sort_unstable_by_key(|&(i, _)| i);
             let start = row.texel.len();
-            for &(i, w) in &pixel {
-                if row.texel.len() > start && row.texel.last() == Some(&i) {
-                    *row.weight.last_mut().expect("a texel has its weight") += w;
-                } else {
-                    row.texel.push(i);
-                    row.weight.push(w);
-                }
+            for (i, w) in pixel.sorted() {
+                row.texel.push(i);
+                row.weight.push(w);
             }
             row.counts.push((row.texel.len() - start) as u32);
         }
@@ -65,6 +60,59 @@ impl RowReads {
             }
             sum
         })
+    }
+}
+
+/// A pixel's taps summed by texel: open addressing on the texel index (a pixel's 256 to 1024 taps
+/// land on a few dozen texels, so sorting every tap would cost more than the table).
+#[derive(Default)]
+struct TapTable {
+    keys: Vec<u32>,
+    sums: Vec<f64>,
+    used: Vec<usize>,
+}
+
+impl TapTable {
+    const EMPTY: u32 = u32::MAX;
+
+    /// Empties the table and makes room for `taps` taps.
+    fn clear(&mut self, taps: usize) {
+        let size = (2 * taps).next_power_of_two().max(16);
+        if self.keys.len() < size {
+            self.keys = vec![Self::EMPTY; size];
+            self.sums = vec![0.0; size];
+        } else {
+            for &slot in &self.used {
+                self.keys[slot] = Self::EMPTY;
+            }
+        }
+        self.used.clear();
+    }
+
+    fn add(&mut self, texel: u32, w: f64) {
+        let mask = self.keys.len() - 1;
+        // Fibonacci hashing: neighbouring texels spread over the table.
+        let mut slot = (texel.wrapping_mul(0x9E37_79B9) as usize) & mask;
+        loop {
+            if self.keys[slot] == texel {
+                self.sums[slot] += w;
+                return;
+            }
+            if self.keys[slot] == Self::EMPTY {
+                self.keys[slot] = texel;
+                self.sums[slot] = w;
+                self.used.push(slot);
+                return;
+            }
+            slot = (slot + 1) & mask;
+        }
+    }
+
+    /// The texels and their summed weights, by texel index.
+    fn sorted(&self) -> Vec<(u32, f64)> {
+        let mut out: Vec<(u32, f64)> = self.used.iter().map(|&s| (self.keys[s], self.sums[s])).collect();
+        out.sort_unstable_by_key(|&(i, _)| i);
+        out
     }
 }
 

@@ -1,0 +1,89 @@
+#!/usr/bin/env bash
+# The whole sphere evaluation of examples/evaluation/ against the Blender protocol on the same
+# prepared maps, in one run, in CPU seconds (user + system; the machine is shared, so wall times
+# say less):
+#
+#   bench/peers/evaluation_speed.sh OUT_DIR [PERCENT [SAMPLES [CHECKPOINT]]]
+#
+# PERCENT (default 50, the published renders' 960 x 540) and SAMPLES (default 5, what the
+# protocol's job_distributor.py passes) are Blender's; CHECKPOINT (default turned) names the
+# predictions of examples/evaluation/predictions/. Run from the repository's root after `cargo
+# build --release`. Prints:
+# - Blender: the protocol's scene (bench/peers/blender_protocol_scene.py: CPU, no denoiser, one
+#   process per map for its three spheres, as the protocol runs a script per material over a
+#   folder) on the three truths and three predictions, prepared as the protocol prepares them
+#   (256 x 128, its tonemap, saved as OpenEXR);
+# - hdrflow: `hdrflow batch examples/evaluation/evaluate.ron` over the same pairs from their
+#   .hdr files (resize, tonemap, the 18 spheres, the metrics and the saved files included), with
+#   an empty cache; and over the first pair alone, so that (all - first) / 2 is what each further
+#   pair costs once the frames' plans are made (a batch over a test set pays the plans once);
+# - the ratios.
+# HDRFLOW (default target/release/hdrflow) and BLENDER name the binaries.
+set -euo pipefail
+if [ $# -lt 1 ]; then
+    sed -n '2,22p' "$0"
+    exit 2
+fi
+out=$1
+percent=${2:-50}
+samples=${3:-5}
+checkpoint=${4:-turned}
+here=$(cd "$(dirname "$0")" && pwd)
+root=$(cd "$here/../.." && pwd)
+hdrflow=${HDRFLOW:-$root/target/release/hdrflow}
+blender=${BLENDER:-blender}
+rm -rf "$out"
+mkdir -p "$out/prepared"
+cpu() { awk '{ printf "%.2f", $1 + $2 }' "$1"; }
+
+# The six maps as the protocol prepares them, for Blender (not timed).
+cat >"$out/prepare.ron" <<'EOF'
+(nodes: {
+    "map": LoadHdr(path: "x.hdr"),
+    "small": Resize(image: "map", width: 256, height: 128),
+    "toned": ProtocolTonemap(image: "small"),
+    "save": Save(input: "toned", path: "prepared.exr"),
+})
+EOF
+maps=()
+for gt in "$root"/assets/maps/*.hdr; do
+    name=$(basename "$gt" .hdr)
+    pred="$root/examples/evaluation/predictions/$checkpoint/$name.hdr"
+    for kind in gt pred; do
+        src=$gt
+        [ "$kind" = pred ] && src=$pred
+        "$hdrflow" run "$out/prepare.ron" --set "map.path=\"$src\"" --out "$out/prepared/$kind-$name" \
+            --no-cache -q
+        maps+=("$out/prepared/$kind-$name/prepared.exr")
+    done
+done
+
+# Blender: one process per map, its three spheres.
+: >"$out/blender.cpu"
+for map in "${maps[@]}"; do
+    dir=$(dirname "$map")
+    /usr/bin/time -f "%U %S" -o "$dir/blender.time" "$blender" --background --factory-startup \
+        --python "$here/blender_protocol_scene.py" -- "$map" "$dir/blender" "$percent" "$samples" 0 \
+        mirror,matte_silver,diffuse >"$dir/blender.log" 2>&1
+    cat "$dir/blender.time" >>"$out/blender.cpu"
+done
+blender_cpu=$(awk '{ s += $1 + $2 } END { printf "%.2f", s }' "$out/blender.cpu")
+
+# hdrflow: the batch over every pair, then over the first pair alone, each with an empty cache.
+batch() {
+    local name=$1 gts=$2 preds=$3
+    /usr/bin/time -f "%U %S" -o "$out/$name.time" "$hdrflow" batch "$root/examples/evaluation/evaluate.ron" \
+        --over "gt.path=$gts" --over "pred.path=$preds" --zip --item-dir '{stem}' \
+        --out "$out/$name" --report "$out/$name/batch.json" --cache-dir "$out/$name-cache" -q >/dev/null
+}
+batch all "$root/assets/maps/*.hdr" "$root/examples/evaluation/predictions/$checkpoint/*.hdr"
+first=$(basename "$(ls "$root"/assets/maps/*.hdr | head -1)")
+batch first "$root/assets/maps/$first" "$root/examples/evaluation/predictions/$checkpoint/$first"
+all_cpu=$(cpu "$out/all.time")
+first_cpu=$(cpu "$out/first.time")
+
+awk -v b="$blender_cpu" -v a="$all_cpu" -v f="$first_cpu" -v p="$percent" -v s="$samples" 'BEGIN {
+    printf "Blender, 18 spheres at %s%% and %s samples: %.2f s CPU (%.2f s a pair of maps)\n", p, s, b, b / 3
+    printf "hdrflow, the batch of 3 pairs (18 spheres, empty cache): %.2f s CPU: %.1fx less\n", a, b / a
+    printf "hdrflow, one pair alone: %.2f s CPU; each further pair: %.2f s CPU: %.1fx less than Blender a pair\n", f, (a - f) / 2, (b / 3) / ((a - f) / 2)
+}'
