@@ -6,9 +6,10 @@
 #   bench/peers/evaluation_speed.sh OUT_DIR [PERCENT [SAMPLES [CHECKPOINT]]]
 #
 # PERCENT (default 50, the published renders' 960 x 540) and SAMPLES (default 5, what the
-# protocol's job_distributor.py passes) are Blender's; CHECKPOINT (default turned) names the
-# predictions of examples/evaluation/predictions/. Run from the repository's root after `cargo
-# build --release`. Prints:
+# protocol's job_distributor.py passes) are Blender's (evaluate.ron renders 960 x 540 whatever
+# they are: other values compare different work, and the script says so); CHECKPOINT (default
+# turned) names the predictions of examples/evaluation/predictions/. OUT_DIR must be new or empty.
+# Run from the repository's root after `cargo build --release`. Prints:
 # - Blender: the protocol's scene (bench/peers/blender_protocol_scene.py: CPU, no denoiser, one
 #   process per map for its three spheres, as the protocol runs a script per material over a
 #   folder) on the three truths and three predictions, prepared as the protocol prepares them
@@ -32,7 +33,13 @@ here=$(cd "$(dirname "$0")" && pwd)
 root=$(cd "$here/../.." && pwd)
 hdrflow=${HDRFLOW:-$root/target/release/hdrflow}
 blender=${BLENDER:-blender}
-rm -rf "$out"
+if [ -e "$out" ] && [ -n "$(ls -A "$out")" ]; then
+    echo "$out is not empty: give a new folder" >&2
+    exit 2
+fi
+if [ "$percent" != 50 ]; then
+    echo "note: Blender renders ${percent}% while evaluate.ron renders 960 x 540 (50%)" >&2
+fi
 mkdir -p "$out/prepared"
 cpu() { awk '{ printf "%.2f", $1 + $2 }' "$1"; }
 
@@ -63,8 +70,13 @@ done
 for map in "${maps[@]}"; do
     dir=$(dirname "$map")
     /usr/bin/time -f "%U %S" -o "$dir/blender.time" "$blender" --background --factory-startup \
-        --python "$here/blender_protocol_scene.py" -- "$map" "$dir/blender" "$percent" "$samples" 0 \
-        mirror,matte_silver,diffuse >"$dir/blender.log" 2>&1
+        --python-exit-code 1 --python "$here/blender_protocol_scene.py" -- "$map" "$dir/blender" \
+        "$percent" "$samples" 0 mirror,matte_silver,diffuse >"$dir/blender.log" 2>&1 ||
+        { echo "Blender failed on $map (see $dir/blender.log)" >&2; exit 1; }
+    for material in mirror matte_silver diffuse; do
+        [ -s "$dir/blender/seed0/$material.exr" ] ||
+            { echo "Blender wrote no $material sphere for $map (see $dir/blender.log)" >&2; exit 1; }
+    done
     cat "$dir/blender.time" >>"$out/blender.cpu"
 done
 blender_cpu=$(awk '{ s += $1 + $2 } END { printf "%.2f", s }' "$out/blender.cpu")

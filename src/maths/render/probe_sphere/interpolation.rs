@@ -86,30 +86,37 @@ fn weights(offset: usize) -> [f64; 4] {
 /// Fills the pixels of `rgb` (row-major, `width` wide) that [`shaded_pixels`] left to be
 /// interpolated, from the shaded anchors around them.
 pub(super) fn fill(stages: &[Stage], shaded: &[bool], rgb: &mut [[f64; 3]], width: usize) {
-    // The anchors are read while the rows are written: a copy of them all.
-    let anchors = rgb.to_vec();
-    rgb.par_chunks_mut(width).enumerate().for_each(|(y, row)| {
+    // The anchors are read while the rows are written: a copy of them (a quarter of the image).
+    let (aw, height) = (width.div_ceil(2), rgb.len() / width.max(1));
+    let anchors: Vec<[f64; 3]> = (0..height.div_ceil(2))
+        .flat_map(|j| (0..aw).map(move |i| (i, j)))
+        .map(|(i, j)| rgb[2 * j * width + 2 * i])
+        .collect();
+    rgb.par_chunks_mut(width.max(1)).enumerate().for_each(|(y, row)| {
         for (x, out) in row.iter_mut().enumerate() {
             let i = y * width + x;
             if shaded[i] || !matches!(stages[i], Stage::Shade(..)) {
                 continue;
             }
-            let (x0, y0) = (x - x % 2, y - y % 2);
+            let (ax, ay) = (x / 2, y / 2);
             let (wx, wy) = (weights(x % 2), weights(y % 2));
             let mut sum = [0.0; 3];
             let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
-            for (j, wy) in wy.iter().enumerate() {
-                let ya = y0 + 2 * j - 2;
-                for (k, wx) in wx.iter().enumerate() {
-                    let a = anchors[ya * width + x0 + 2 * k - 2];
+            for (j, &wy) in wy.iter().enumerate() {
+                for (k, &wx) in wx.iter().enumerate() {
+                    let a = anchors[(ay + j - 1) * aw + ax + k - 1];
+                    let w = wy * wx;
                     for c in 0..3 {
-                        sum[c] += wy * wx * a[c];
-                        lo[c] = lo[c].min(a[c]);
-                        hi[c] = hi[c].max(a[c]);
+                        sum[c] += w * a[c];
+                        // The range of the anchors that weigh: along an anchor line, that line's.
+                        if w != 0.0 {
+                            lo[c] = lo[c].min(a[c]);
+                            hi[c] = hi[c].max(a[c]);
+                        }
                     }
                 }
             }
-            *out = [0, 1, 2].map(|c| sum[c].clamp(lo[c], hi[c]));
+            *out = [0, 1, 2].map(|c| sum[c].max(lo[c]).min(hi[c]));
         }
     });
 }

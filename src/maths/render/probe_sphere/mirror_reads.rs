@@ -31,6 +31,8 @@ impl RowReads {
             for ray in &rays[next..next + count as usize] {
                 let scale = ray.weight as f64 / n as f64;
                 for (i, w) in taps(width, height, ray.u as f64, ray.t as f64) {
+                    // A map of 2^32 texels would take 100 GB as the environment's f64 RGB.
+                    debug_assert!(i < u32::MAX as usize, "texel index {i} beyond u32");
                     pixel.add(i as u32, w * scale);
                 }
             }
@@ -75,9 +77,9 @@ struct TapTable {
 impl TapTable {
     const EMPTY: u32 = u32::MAX;
 
-    /// Empties the table and makes room for `taps` taps.
+    /// Empties the table and makes room for `taps` taps (at most half full: a probe always ends).
     fn clear(&mut self, taps: usize) {
-        let size = (2 * taps).next_power_of_two().max(16);
+        let size = (2 * taps).next_power_of_two().clamp(16, 1 << 31);
         if self.keys.len() < size {
             self.keys = vec![Self::EMPTY; size];
             self.sums = vec![0.0; size];
@@ -91,8 +93,10 @@ impl TapTable {
 
     fn add(&mut self, texel: u32, w: f64) {
         let mask = self.keys.len() - 1;
-        // Fibonacci hashing: neighbouring texels spread over the table.
-        let mut slot = (texel.wrapping_mul(0x9E37_79B9) as usize) & mask;
+        // Fibonacci hashing, the product's high bits: a column's texels (a multiple of a
+        // power-of-two width apart) spread over the table as well as a row's.
+        let bits = self.keys.len().trailing_zeros();
+        let mut slot = (texel.wrapping_mul(0x9E37_79B9) >> (32 - bits)) as usize;
         loop {
             if self.keys[slot] == texel {
                 self.sums[slot] += w;

@@ -279,7 +279,11 @@ fn finish<'a>(
 ) -> impl Iterator<Item = ([f64; 3], f64)> + 'a {
     stages.iter().zip(shaded).map(move |(s, rgb)| match *s {
         Stage::Done(a) => ([0.0; 3], a),
-        Stage::Mirror { coverage, .. } => (mirror.next().unwrap_or([0.0; 3]), coverage),
+        Stage::Mirror { coverage, .. } => {
+            let rgb = mirror.next();
+            debug_assert!(rgb.is_some(), "a mirror pixel without its reads");
+            (rgb.unwrap_or([0.0; 3]), coverage)
+        }
         Stage::Shade(_, _, a) => (rgb, a),
     })
 }

@@ -10,7 +10,9 @@
 //!
 //! The store holds at most [`KEPT`] plans of at most [`MAX_BYTES`] each (a 960 x 540 mirror's
 //! holds about 120 MB; the two rough materials share one plan). A mirror's plan also keeps its
-//! reads merged by texel ([`super::mirror_reads`]) for the last [`KEPT_SIZES`] map sizes it read.
+//! reads merged by texel ([`super::mirror_reads`]) for the last [`KEPT_SIZES`] map sizes it read,
+//! which [`MAX_BYTES`] does not count: at most 4/3 of the rays' bytes a size (a few MB at 960 x 540
+//! and a 256 x 128 map, where a pixel's rays share a few texels).
 //! A plan and its reads are made on their own thread pool from a plain thread: a rayon worker
 //! that waits for them blocks rather than steals, so no worker can start another render that
 //! waits for the same plan on top of the one making it.
