@@ -36,33 +36,13 @@ pub(super) struct Plan {
     pub(super) stages: Vec<Stage>,
     pub(super) rays: Vec<Vec<MirrorRay>>,
     /// the mirror's reads of each map size (width, height), most recently used last
-    reads: Mutex<Vec<((usize, usize), ReadsSlot)>>,
+    reads: Recent<(usize, usize), Arc<Vec<RowReads>>>,
 }
-
-type ReadsSlot = Arc<OnceLock<Arc<Vec<RowReads>>>>;
 
 impl Plan {
     /// Each row's mirror reads of a `width` x `height` map: the kept ones, or made now.
     pub(super) fn mirror_reads(&self, width: usize, height: usize) -> Arc<Vec<RowReads>> {
-        let slot = {
-            let mut kept = self.reads.lock().unwrap_or_else(|e| e.into_inner());
-            match kept.iter().position(|(size, _)| *size == (width, height)) {
-                Some(i) => {
-                    let entry = kept.remove(i);
-                    let slot = entry.1.clone();
-                    kept.push(entry);
-                    slot
-                }
-                None => {
-                    if kept.len() >= KEPT_SIZES {
-                        kept.remove(0);
-                    }
-                    let slot = ReadsSlot::default();
-                    kept.push(((width, height), slot.clone()));
-                    slot
-                }
-            }
-        };
+        let slot = recent_slot(&self.reads, (width, height), KEPT_SIZES);
         slot.get_or_init(|| {
             let w = self.stages.len() / self.rays.len().max(1);
             let row = |r: usize| RowReads::new(&self.stages[r * w..(r + 1) * w], &self.rays[r], width, height);
@@ -89,9 +69,7 @@ struct Key {
     samples: usize,
 }
 
-type Slot = Arc<OnceLock<Arc<Plan>>>;
-
-static STORE: Mutex<Vec<(Key, Slot)>> = Mutex::new(Vec::new());
+static STORE: Recent<Key, Arc<Plan>> = Mutex::new(Vec::new());
 
 /// The plan of `settings`' frame: the stored one, or made now (and stored when small enough).
 pub(super) fn plan_for(settings: &ProbeSettings) -> Arc<Plan> {
@@ -111,28 +89,34 @@ pub(super) fn plan_for(settings: &ProbeSettings) -> Arc<Plan> {
     if bytes > MAX_BYTES {
         return Arc::new(make(settings));
     }
-    let slot = {
-        // A poisoned store (a panic while it was held) is only a list of finished plans.
-        let mut store = STORE.lock().unwrap_or_else(|e| e.into_inner());
-        match store.iter().position(|(k, _)| *k == key) {
-            // The most recently used last: the first is the one dropped.
-            Some(i) => {
-                let entry = store.remove(i);
-                let slot = entry.1.clone();
-                store.push(entry);
-                slot
-            }
-            None => {
-                if store.len() >= KEPT {
-                    store.remove(0);
-                }
-                let slot = Slot::default();
-                store.push((key, slot.clone()));
-                slot
-            }
-        }
-    };
+    let slot = recent_slot(&STORE, key, KEPT);
     slot.get_or_init(|| Arc::new(make(settings))).clone()
+}
+
+/// Values made once each, by key, most recently used last.
+type Recent<K, T> = Mutex<Vec<(K, Arc<OnceLock<T>>)>>;
+
+/// The slot of `key` in `list` (most recently used last), made empty when missing, the least
+/// recently used dropped to keep at most `kept`. A poisoned list (a panic while it was held) is
+/// only a list of finished values.
+fn recent_slot<K: PartialEq, T>(list: &Recent<K, T>, key: K, kept: usize) -> Arc<OnceLock<T>> {
+    let mut list = list.lock().unwrap_or_else(|e| e.into_inner());
+    match list.iter().position(|(k, _)| *k == key) {
+        Some(i) => {
+            let entry = list.remove(i);
+            let slot = entry.1.clone();
+            list.push(entry);
+            slot
+        }
+        None => {
+            if list.len() >= kept {
+                list.remove(0);
+            }
+            let slot = Arc::new(OnceLock::new());
+            list.push((key, slot.clone()));
+            slot
+        }
+    }
 }
 
 /// Traces every row of `settings`' frame (see the module documentation).

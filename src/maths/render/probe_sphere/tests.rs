@@ -29,7 +29,7 @@ pub(super) fn sky_with_sun(w: usize, h: usize) -> Image {
     })
 }
 
-fn settings(material: ProbeMaterial, shape: ProbeShape, width: usize, height: usize) -> ProbeSettings {
+pub(super) fn settings(material: ProbeMaterial, shape: ProbeShape, width: usize, height: usize) -> ProbeSettings {
     ProbeSettings {
         material,
         shape,

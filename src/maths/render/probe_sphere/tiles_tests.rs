@@ -6,7 +6,7 @@ use super::lobe_kernel::{self, FlatCut, PixelLobe};
 use super::mesh::{self, hit_ideal};
 use super::principled::Smith;
 use super::shading::{self, rough};
-use super::tests::sky_with_sun;
+use super::tests::{settings, sky_with_sun};
 use super::texel_tree::TexelTree;
 use super::tile_cut::TileCones;
 use super::*;
@@ -89,16 +89,7 @@ fn tiles_stay_as_close_to_a_four_times_finer_cut_as_each_pixels_own_cut() {
     // them; Diffuse 0.055% and 7.3% against 0.057% and 7.3%, 0.006% and 0.16% from them).
     let map = sky_with_sun(256, 128);
     for material in [ProbeMaterial::MatteSilver, ProbeMaterial::Diffuse] {
-        let s = ProbeSettings {
-            material,
-            shape: ProbeShape::Subdivided,
-            width: 160,
-            height: 90,
-            samples: 4,
-            cut: 0.125,
-            smith: Smith::Separable,
-            interpolate: false,
-        };
+        let s = ProbeSettings { samples: 4, ..settings(material, ProbeShape::Subdivided, 160, 90) };
         let tiled = render_tiled(&map, &s, tiles::TILE);
         let own = render_tiled(&map, &s, 1);
         let fine = render_tiled(&map, &ProbeSettings { cut: 0.03125, ..s }, 1);
@@ -124,16 +115,7 @@ fn interpolating_between_shaded_pixels_adds_little_to_the_cuts_own_error() {
     // 5.73e-4, the worst unchanged).
     let map = sky_with_sun(256, 128);
     for material in [ProbeMaterial::MatteSilver, ProbeMaterial::Diffuse] {
-        let s = ProbeSettings {
-            material,
-            shape: ProbeShape::Subdivided,
-            width: 480,
-            height: 270,
-            samples: 4,
-            cut: 0.125,
-            smith: Smith::Separable,
-            interpolate: false,
-        };
+        let s = ProbeSettings { samples: 4, ..settings(material, ProbeShape::Subdivided, 480, 270) };
         let every = render(&map, &s);
         let interpolated = render(&map, &ProbeSettings { interpolate: true, ..s });
         let fine = render(&map, &ProbeSettings { cut: 0.03125, ..s });
