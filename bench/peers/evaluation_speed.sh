@@ -21,6 +21,7 @@
 # - the ratios.
 # HDRFLOW (default target/release/hdrflow) and BLENDER name the binaries.
 set -euo pipefail
+export LC_ALL=C # `times` prints its seconds with this locale's decimal point
 if [ $# -lt 1 ]; then
     sed -n '2,22p' "$0"
     exit 2
@@ -41,7 +42,12 @@ if [ "$percent" != 50 ]; then
     echo "note: Blender renders ${percent}% while evaluate.ron renders 960 x 540 (50%)" >&2
 fi
 mkdir -p "$out/prepared"
-cpu() { awk '{ printf "%.2f", $1 + $2 }' "$1"; }
+# CPU seconds of the children waited for between two `times` snapshots (bash's builtin, written
+# to a file from this shell itself: a subshell would report its own). No /usr/bin/time needed.
+cpu_between() {
+    awk 'function s(t,  m) { split(t, m, "m"); sub("s", "", m[2]); return m[1] * 60 + m[2] }
+         FNR == 2 { c[++n] = s($1) + s($2) } END { printf "%.2f", c[2] - c[1] }' "$1" "$2"
+}
 
 # The six maps as the protocol prepares them, for Blender (not timed).
 cat >"$out/prepare.ron" <<'EOF'
@@ -66,10 +72,10 @@ for gt in "$root"/assets/maps/*.hdr; do
 done
 
 # Blender: one process per map, its three spheres.
-: >"$out/blender.cpu"
+times >"$out/blender.before"
 for map in "${maps[@]}"; do
     dir=$(dirname "$map")
-    /usr/bin/time -f "%U %S" -o "$dir/blender.time" "$blender" --background --factory-startup \
+    "$blender" --background --factory-startup \
         --python-exit-code 1 --python "$here/blender_protocol_scene.py" -- "$map" "$dir/blender" \
         "$percent" "$samples" 0 mirror,matte_silver,diffuse >"$dir/blender.log" 2>&1 ||
         { echo "Blender failed on $map (see $dir/blender.log)" >&2; exit 1; }
@@ -77,22 +83,25 @@ for map in "${maps[@]}"; do
         [ -s "$dir/blender/seed0/$material.exr" ] ||
             { echo "Blender wrote no $material sphere for $map (see $dir/blender.log)" >&2; exit 1; }
     done
-    cat "$dir/blender.time" >>"$out/blender.cpu"
 done
-blender_cpu=$(awk '{ s += $1 + $2 } END { printf "%.2f", s }' "$out/blender.cpu")
+times >"$out/blender.after"
+blender_cpu=$(cpu_between "$out/blender.before" "$out/blender.after")
 
 # hdrflow: the batch over every pair, then over the first pair alone, each with an empty cache.
 batch() {
     local name=$1 gts=$2 preds=$3
-    /usr/bin/time -f "%U %S" -o "$out/$name.time" "$hdrflow" batch "$root/examples/evaluation/evaluate.ron" \
+    "$hdrflow" batch "$root/examples/evaluation/evaluate.ron" \
         --over "gt.path=$gts" --over "pred.path=$preds" --zip --item-dir '{stem}' \
         --out "$out/$name" --report "$out/$name/batch.json" --cache-dir "$out/$name-cache" -q >/dev/null
 }
-batch all "$root/assets/maps/*.hdr" "$root/examples/evaluation/predictions/$checkpoint/*.hdr"
 first=$(basename "$(ls "$root"/assets/maps/*.hdr | head -1)")
+times >"$out/t0"
+batch all "$root/assets/maps/*.hdr" "$root/examples/evaluation/predictions/$checkpoint/*.hdr"
+times >"$out/t1"
 batch first "$root/assets/maps/$first" "$root/examples/evaluation/predictions/$checkpoint/$first"
-all_cpu=$(cpu "$out/all.time")
-first_cpu=$(cpu "$out/first.time")
+times >"$out/t2"
+all_cpu=$(cpu_between "$out/t0" "$out/t1")
+first_cpu=$(cpu_between "$out/t1" "$out/t2")
 
 awk -v b="$blender_cpu" -v a="$all_cpu" -v f="$first_cpu" -v p="$percent" -v s="$samples" 'BEGIN {
     printf "Blender, 18 spheres at %s%% and %s samples: %.2f s CPU (%.2f s a pair of maps)\n", p, s, b, b / 3
