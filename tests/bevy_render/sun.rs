@@ -51,11 +51,9 @@ fn bevy_adds_the_readmes_sun_as_the_map_held_it() {
     let intensity = readme_intensity(&bakes.extract.join("README.txt"));
     assert_eq!(intensity, readme_intensity(&bakes.keep.join("README.txt")), "the two bakes' intensity");
 
-    let mut renders = vec![("keep", bakes.keep.clone(), None)];
-    renders.extend(bakes.renders.iter().map(|(name, readme)| (*name, bakes.extract.clone(), readme.clone())));
     let mut frames = HashMap::new();
     let mut geometry = None;
-    for (name, dir, readme) in &renders {
+    for (name, dir, readme) in bakes.all_renders() {
         let (w, h) = (WIDTH.to_string(), HEIGHT.to_string());
         let mut extra = vec!["--width", &w, "--height", &h, "--default-exposure"];
         if let Some(readme) = readme {
@@ -67,8 +65,8 @@ fn bevy_adds_the_readmes_sun_as_the_map_held_it() {
         let scale = g.intensity * g.exposure;
         assert!((scale - 1.0).abs() < 1e-5, "{name}: intensity {} x exposure {} = {scale}", g.intensity, g.exposure);
         let json: Json = serde_json::from_slice(&common::read_file(&json)).expect("the geometry's JSON");
-        assert_spawned(name, &json["sun"], readme.as_deref());
-        frames.insert(*name, frame);
+        assert_spawned(name, &json["sun"], readme);
+        frames.insert(name, frame);
         geometry = Some(g);
     }
     let g = geometry.expect("renders");

@@ -40,6 +40,16 @@ pub struct SunBakes {
     pub renders: Vec<(&'static str, Option<PathBuf>)>,
 }
 
+impl SunBakes {
+    /// Every render of a sun test: `("keep", the keep bake, no sun lines)`, then each of
+    /// [`SunBakes::renders`] on the extracted bake.
+    #[allow(dead_code)] // three's page has its own scenes
+    pub fn all_renders(&self) -> impl Iterator<Item = (&'static str, &Path, Option<&Path>)> {
+        std::iter::once(("keep", self.keep.as_path(), None))
+            .chain(self.renders.iter().map(|(name, readme)| (*name, self.extract.as_path(), readme.as_deref())))
+    }
+}
+
 /// The park map at [`PARK_SIZE`] as a Radiance `.hdr` in the sandbox (`park.hdr`).
 pub fn park_map(sandbox: &common::Sandbox) -> PathBuf {
     let path = Path::new(common::MANIFEST_DIR).join("assets/maps/rooitou_park_1k.hdr");
@@ -189,13 +199,15 @@ pub fn assert_ran(report: &Json, name: &str, wanted: bool) {
 /// mistake's), as `entry(name, bake folder)` gives a render of that page, plus `"sun"`.
 #[allow(dead_code)] // three's page has its own scenes
 pub fn scene_renders(sandbox: &common::Sandbox, bakes: &SunBakes, entry: impl Fn(&str, &Path) -> Json) -> Vec<Json> {
-    let mut renders = vec![entry("keep", &bakes.keep)];
-    for (name, readme) in &bakes.renders {
-        let mut e = entry(name, &bakes.extract);
-        e["sun"] = readme.as_ref().map(|p| web_page::rel(sandbox, p)).into();
-        renders.push(e);
-    }
-    renders
+    bakes
+        .all_renders()
+        .map(|(name, dir, readme)| {
+            // The pages read a null "sun" as none.
+            let mut e = entry(name, dir);
+            e["sun"] = readme.map(|p| web_page::rel(sandbox, p)).into();
+            e
+        })
+        .collect()
 }
 
 /// [`assert_sun`] on a page of [`scene_renders`]: the diffuse sphere asserted within `bound`, the

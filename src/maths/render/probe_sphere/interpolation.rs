@@ -20,6 +20,7 @@ use rayon::prelude::*;
 
 use super::lobe_kernel::PixelLobe;
 use super::principled::Principled;
+use super::shading::lobe_width;
 use super::Stage;
 
 /// The largest angle between neighbouring anchors' peaks, in lobe widths, for a pixel between
@@ -28,8 +29,9 @@ pub const MAX_STEP: f64 = 0.5;
 
 /// Whether each pixel (row-major, `width` wide) is to be shaded itself: the anchors and every
 /// shaded pixel that cannot be interpolated; `false` for the pixels interpolated and for those
-/// not shaded at all. `lobe_width` is [`super::shading::lobe_width`]'s.
-pub(super) fn shaded_pixels(stages: &[Stage], width: usize, bsdf: &Principled, lobe_width: f64) -> Vec<bool> {
+/// not shaded at all. It depends on the frame and the material alone, so the frame's plan keeps
+/// it ([`super::plan`]).
+pub(super) fn shaded_pixels(stages: &[Stage], width: usize, bsdf: &Principled) -> Vec<bool> {
     let height = stages.len() / width.max(1);
     let full = |x: usize, y: usize| matches!(stages[y * width + x], Stage::Shade(_, _, a) if a == 1.0);
     // The anchors' peaks, on the grid of even columns and rows; None where not fully covered.
@@ -44,7 +46,7 @@ pub(super) fn shaded_pixels(stages: &[Stage], width: usize, bsdf: &Principled, l
             }
         })
         .collect();
-    let min_cos = (MAX_STEP * lobe_width).min(std::f64::consts::PI).cos();
+    let min_cos = (MAX_STEP * lobe_width(bsdf)).min(std::f64::consts::PI).cos();
     let interpolable = |x: usize, y: usize| {
         let (ax, ay) = (x / 2, y / 2);
         if ax == 0 || ay == 0 || ax + 2 >= aw || ay + 2 >= ah {

@@ -69,36 +69,49 @@ impl FlatCut {
     }
 }
 
-/// The constants of one pixel's lobes: its normals, view and the closures' parameters.
+/// One pixel's lobes: the directions the tile's cones bound ([`super::tile_cut`]) and the
+/// kernel's constants.
 #[derive(Clone, Copy, Debug)]
 pub struct PixelLobe {
     /// the corrected normal the closures use
     pub n: DVec3,
-    /// the interpolated (shading) normal
-    pub ni: DVec3,
     /// the triangle's normal
     pub ng: DVec3,
-    /// towards the camera
-    pub v: DVec3,
     /// the specular lobe's peak, the mirror direction of `v` about `n`
     pub peak: DVec3,
-    cos_o: f64,
-    a2: f64,
-    /// separable Smith: `G1(cos_o)`; correlated: `sqrt(cos_o^2 (1 - a2) + a2)`
-    g_o: f64,
     correlated: bool,
     /// Fresnel: 0 the constant `cspec0`, 1 the constant 1, 2 the remapped dielectric
     fresnel: u8,
-    ior: f64,
-    f0: f64,
-    cspec0: f64,
-    diffuse: f64,
-    roughness: f64,
-    /// the diffuse lobe's `(1 - cos_o)^5`
-    fv: f64,
-    /// whether `n` differs from `ni` (the diffuse lobe's bump shadowing applies)
+    /// whether `n` differs from the interpolated normal (the diffuse lobe's bump shadowing applies)
     bump: bool,
-    ni_dot_n: f64,
+    lanes: Lanes,
+}
+
+/// A pixel's constants in single precision, as the kernel reads them.
+#[derive(Clone, Copy, Debug)]
+struct Lanes {
+    n: [f32; 3],
+    /// the interpolated (shading) normal
+    ni: [f32; 3],
+    ng: [f32; 3],
+    /// towards the camera
+    v: [f32; 3],
+    cos_o: f32,
+    a2: f32,
+    /// separable Smith: `G1(cos_o)`; correlated: `sqrt(cos_o^2 (1 - a2) + a2)`
+    g_o: f32,
+    /// `alpha^2 / (4 pi cos_o)`: `D G F / (4 cos_o)` is `spec_scale |h|^4 G F / t^2`
+    spec_scale: f32,
+    ior: f32,
+    /// Fresnel 2: `F = fresnel_base + fresnel_slope F_d(l.m)`
+    fresnel_base: f32,
+    fresnel_slope: f32,
+    cspec0: f32,
+    diffuse: f32,
+    roughness: f32,
+    /// the diffuse lobe's `(1 - cos_o)^5`
+    fv: f32,
+    ni_dot_n: f32,
 }
 
 impl PixelLobe {
@@ -117,82 +130,36 @@ impl PixelLobe {
         } else {
             2.0 / (1.0 + (1.0 + a2 * (1.0 - cos_o * cos_o) / (cos_o * cos_o)).max(0.0).sqrt())
         };
+        let f0 = bsdf.dielectric_f0();
         let fresnel = if bsdf.ior == 1.0 {
             0
-        } else if bsdf.dielectric_f0() >= 1.0 {
+        } else if f0 >= 1.0 {
             1
         } else {
             2
         };
-        Some(PixelLobe {
-            n,
-            ni: hit.normal,
-            ng: hit.ng,
-            v,
-            peak: 2.0 * cos_o * n - v,
-            cos_o,
-            a2,
-            g_o,
-            correlated,
-            fresnel,
-            ior: bsdf.ior,
-            f0: bsdf.dielectric_f0(),
-            cspec0: bsdf.cspec0,
-            diffuse: bsdf.diffuse,
-            roughness: bsdf.roughness,
-            fv: (1.0 - cos_o).clamp(0.0, 1.0).powi(5),
-            bump: n != hit.normal,
-            ni_dot_n: hit.normal.dot(n),
-        })
-    }
-}
-
-/// A pixel's constants in single precision, as the kernel reads them.
-#[derive(Clone, Copy)]
-struct Lanes {
-    n: [f32; 3],
-    ni: [f32; 3],
-    ng: [f32; 3],
-    v: [f32; 3],
-    cos_o: f32,
-    a2: f32,
-    g_o: f32,
-    /// `alpha^2 / (4 pi cos_o)`: `D G F / (4 cos_o)` is `spec_scale |h|^4 G F / t^2`
-    spec_scale: f32,
-    ior: f32,
-    /// Fresnel 2: `F = fresnel_base + fresnel_slope F_d(l.m)`
-    fresnel_base: f32,
-    fresnel_slope: f32,
-    cspec0: f32,
-    diffuse: f32,
-    roughness: f32,
-    fv: f32,
-    ni_dot_n: f32,
-}
-
-impl Lanes {
-    fn new(k: &PixelLobe) -> Lanes {
-        let v3 = |d: DVec3| [d.x as f32, d.y as f32, d.z as f32];
         // F = cspec0 (1 - FH) + FH, FH = (F_d - f0) / (1 - f0): linear in F_d.
-        let slope = if k.fresnel == 2 { (1.0 - k.cspec0) / (1.0 - k.f0) } else { 0.0 };
-        Lanes {
-            n: v3(k.n),
-            ni: v3(k.ni),
-            ng: v3(k.ng),
-            v: v3(k.v),
-            cos_o: k.cos_o as f32,
-            a2: k.a2 as f32,
-            g_o: k.g_o as f32,
-            spec_scale: (k.a2 / (4.0 * PI * k.cos_o)) as f32,
-            ior: k.ior as f32,
-            fresnel_base: (k.cspec0 - slope * k.f0) as f32,
+        let slope = if fresnel == 2 { (1.0 - bsdf.cspec0) / (1.0 - f0) } else { 0.0 };
+        let v3 = |d: DVec3| [d.x as f32, d.y as f32, d.z as f32];
+        let lanes = Lanes {
+            n: v3(n),
+            ni: v3(hit.normal),
+            ng: v3(hit.ng),
+            v: v3(v),
+            cos_o: cos_o as f32,
+            a2: a2 as f32,
+            g_o: g_o as f32,
+            spec_scale: (a2 / (4.0 * PI * cos_o)) as f32,
+            ior: bsdf.ior as f32,
+            fresnel_base: (bsdf.cspec0 - slope * f0) as f32,
             fresnel_slope: slope as f32,
-            cspec0: k.cspec0 as f32,
-            diffuse: k.diffuse as f32,
-            roughness: k.roughness as f32,
-            fv: k.fv as f32,
-            ni_dot_n: k.ni_dot_n as f32,
-        }
+            cspec0: bsdf.cspec0 as f32,
+            diffuse: bsdf.diffuse as f32,
+            roughness: bsdf.roughness as f32,
+            fv: (1.0 - cos_o).clamp(0.0, 1.0).powi(5) as f32,
+            ni_dot_n: hit.normal.dot(n) as f32,
+        };
+        Some(PixelLobe { n, ng: hit.ng, peak: 2.0 * cos_o * n - v, correlated, fresnel, bump: n != hit.normal, lanes })
     }
 }
 
@@ -283,7 +250,7 @@ fn sum_with<const CORRELATED: bool, const FRESNEL: u8, const DIFFUSE: bool, cons
     cut: &FlatCut,
 ) -> [f64; 3] {
     debug_assert!(cut.len().is_multiple_of(LANES), "a flat cut is padded to whole lanes");
-    let lanes = Lanes::new(k);
+    let lanes = &k.lanes;
     let n = cut.len() / LANES * LANES;
     let chunk = |v: &[f32], i: usize| -> [f32; LANES] {
         let mut out = [0.0; LANES];
@@ -295,7 +262,7 @@ fn sum_with<const CORRELATED: bool, const FRESNEL: u8, const DIFFUSE: bool, cons
         let (xs, ys, zs) = (chunk(&cut.x, i), chunk(&cut.y, i), chunk(&cut.z, i));
         let mut w = [0.0f32; LANES];
         for j in 0..LANES {
-            w[j] = lobe::<CORRELATED, FRESNEL, DIFFUSE, BUMP>(&lanes, xs[j], ys[j], zs[j]);
+            w[j] = lobe::<CORRELATED, FRESNEL, DIFFUSE, BUMP>(lanes, xs[j], ys[j], zs[j]);
         }
         for (ch, p) in [&cut.r, &cut.g, &cut.b].into_iter().enumerate() {
             let p = chunk(p, i);
@@ -312,7 +279,7 @@ fn sum_with<const CORRELATED: bool, const FRESNEL: u8, const DIFFUSE: bool, cons
 fn sum_lanes(k: &PixelLobe, cut: &FlatCut) -> [f64; 3] {
     macro_rules! pick {
         ($c:literal) => {
-            match (k.fresnel, k.diffuse > 0.0, k.bump) {
+            match (k.fresnel, k.lanes.diffuse > 0.0, k.bump) {
                 (0, false, _) => sum_with::<$c, 0, false, false>(k, cut),
                 (1, false, _) => sum_with::<$c, 1, false, false>(k, cut),
                 (_, false, _) => sum_with::<$c, 2, false, false>(k, cut),

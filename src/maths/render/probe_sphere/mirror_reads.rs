@@ -38,7 +38,8 @@ impl RowReads {
             }
             next += count as usize;
             let start = row.texel.len();
-            for (i, w) in pixel.sorted() {
+            pixel.sort();
+            for (i, w) in pixel.entries() {
                 row.texel.push(i);
                 row.weight.push(w);
             }
@@ -112,11 +113,15 @@ impl TapTable {
         }
     }
 
-    /// The texels and their summed weights, by texel index.
-    fn sorted(&self) -> Vec<(u32, f64)> {
-        let mut out: Vec<(u32, f64)> = self.used.iter().map(|&s| (self.keys[s], self.sums[s])).collect();
-        out.sort_unstable_by_key(|&(i, _)| i);
-        out
+    /// Orders [`TapTable::entries`] by texel index.
+    fn sort(&mut self) {
+        let keys = &self.keys;
+        self.used.sort_unstable_by_key(|&slot| keys[slot]);
+    }
+
+    /// The texels and their summed weights, in the order of the slots used.
+    fn entries(&self) -> impl Iterator<Item = (u32, f64)> + '_ {
+        self.used.iter().map(|&s| (self.keys[s], self.sums[s]))
     }
 }
 

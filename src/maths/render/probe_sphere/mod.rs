@@ -53,6 +53,8 @@ pub mod texel_tree;
 pub mod tile_cut;
 mod tiles;
 
+use std::sync::Arc;
+
 use glam::DVec3;
 use rayon::prelude::*;
 
@@ -313,13 +315,8 @@ fn render_tiled(env: &Image, settings: &ProbeSettings, tile: usize) -> ProbeRend
             .collect()
     } else {
         // Bands of `tile` rows: their tiles' rough lobes, then the pixels interpolated.
-        let lobe_width = shading::lobe_width(&bsdf);
-        let tree = TexelTree::new(env, settings.cut, lobe_width);
-        let shade = if settings.interpolate {
-            interpolation::shaded_pixels(&plan.stages, w, &bsdf, lobe_width)
-        } else {
-            vec![true; w * h]
-        };
+        let tree = TexelTree::new(env, settings.cut, shading::lobe_width(&bsdf));
+        let shade = if settings.interpolate { plan.shaded_pixels(&bsdf) } else { Arc::new(vec![true; w * h]) };
         let mut rgb: Vec<[f64; 3]> = (0..h.div_ceil(tile))
             .into_par_iter()
             .flat_map_iter(|band| {

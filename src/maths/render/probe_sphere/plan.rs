@@ -21,7 +21,9 @@ use std::sync::{Arc, Mutex, OnceLock};
 
 use rayon::prelude::*;
 
+use super::interpolation;
 use super::mirror_reads::RowReads;
+use super::principled::Principled;
 use super::{scene, trace_row, MirrorRay, ProbeMaterial, ProbeSettings, ProbeShape, Stage};
 
 /// How many plans the process keeps (the least recently used dropped first).
@@ -30,6 +32,8 @@ const KEPT: usize = 4;
 const MAX_BYTES: usize = 1 << 30;
 /// How many map sizes a mirror plan keeps its reads for.
 const KEPT_SIZES: usize = 2;
+/// How many rough materials a plan keeps its interpolation masks for (the protocol has two).
+const KEPT_MATERIALS: usize = 2;
 
 /// The stages of every pixel (row-major) and each row's mirror rays.
 pub(super) struct Plan {
@@ -37,14 +41,28 @@ pub(super) struct Plan {
     pub(super) rays: Vec<Vec<MirrorRay>>,
     /// the mirror's reads of each map size (width, height), most recently used last
     reads: Recent<(usize, usize), Arc<Vec<RowReads>>>,
+    /// which pixels each rough material shades itself ([`interpolation`])
+    shaded: Recent<Principled, Arc<Vec<bool>>>,
 }
 
 impl Plan {
+    /// The frame's width, pixels.
+    fn width(&self) -> usize {
+        self.stages.len() / self.rays.len().max(1)
+    }
+
+    /// [`interpolation::shaded_pixels`] of `bsdf` on this frame: the kept mask, or made now.
+    pub(super) fn shaded_pixels(&self, bsdf: &Principled) -> Arc<Vec<bool>> {
+        let slot = recent_slot(&self.shaded, *bsdf, KEPT_MATERIALS);
+        slot.get_or_init(|| Arc::new(on_own_pool(|_| interpolation::shaded_pixels(&self.stages, self.width(), bsdf))))
+            .clone()
+    }
+
     /// Each row's mirror reads of a `width` x `height` map: the kept ones, or made now.
     pub(super) fn mirror_reads(&self, width: usize, height: usize) -> Arc<Vec<RowReads>> {
         let slot = recent_slot(&self.reads, (width, height), KEPT_SIZES);
         slot.get_or_init(|| {
-            let w = self.stages.len() / self.rays.len().max(1);
+            let w = self.width();
             let row = |r: usize| RowReads::new(&self.stages[r * w..(r + 1) * w], &self.rays[r], width, height);
             Arc::new(on_own_pool(|parallel| {
                 if parallel {
@@ -135,7 +153,7 @@ fn make(settings: &ProbeSettings) -> Plan {
             row_rays.shrink_to_fit();
             rays.push(row_rays);
         }
-        Plan { stages, rays, reads: Mutex::new(Vec::new()) }
+        Plan { stages, rays, reads: Mutex::new(Vec::new()), shaded: Mutex::new(Vec::new()) }
     })
 }
 

@@ -121,7 +121,7 @@ fn interpolating_between_shaded_pixels_adds_little_to_the_cuts_own_error() {
         let fine = render(&map, &ProbeSettings { cut: 0.03125, ..s });
         let plan = plan::plan_for(&s);
         let bsdf = material.principled(Smith::Separable);
-        let shaded = interpolation::shaded_pixels(&plan.stages, s.width, &bsdf, shading::lobe_width(&bsdf));
+        let shaded = plan.shaded_pixels(&bsdf);
         let lit = plan.stages.iter().filter(|st| matches!(st, Stage::Shade(..))).count();
         let filled = lit - shaded.iter().filter(|&&b| b).count();
         let (every_mean, every_worst) = difference(&every, &fine);
