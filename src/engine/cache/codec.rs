@@ -13,8 +13,9 @@
 use crate::engine::registry::Registry;
 use crate::engine::value::Value;
 
-/// Bump when the byte layout of the entry (not of one type's payload) changes.
-pub const CODEC_VERSION: u32 = 2;
+/// Bump when the byte layout of the entry, or of a built-in type's payload, changes: entries of
+/// another version are ignored and recomputed. 3: images store their zero runs as counts.
+pub const CODEC_VERSION: u32 = 3;
 
 /// Encodes a node's outputs.
 pub fn encode(outputs: &[(String, Value)]) -> Vec<u8> {

@@ -49,7 +49,11 @@ impl SphereMesh {
             }
         }
         let mut best: Option<(f64, usize, f64, f64)> = None;
-        self.each_candidate(ray, |id| {
+        self.each_candidate(ray, |id, past| {
+            // Every triangle a nearer hit could be on was listed at a point before `past`.
+            if best.is_some_and(|b| past > b.0) {
+                return true;
+            }
             if let Some((t, u, v)) = self.intersect(id, ray) {
                 if best.is_none_or(|b| t < b.0 || (t == b.0 && id < b.1)) {
                     best = Some((t, id, u, v));
@@ -74,7 +78,7 @@ impl SphereMesh {
             }
         }
         let mut found = None;
-        self.each_candidate(ray, |id| {
+        self.each_candidate(ray, |id, _| {
             if self.intersect(id, ray).is_some() {
                 found = Some(id);
                 return true;
@@ -87,9 +91,13 @@ impl SphereMesh {
         found.is_some()
     }
 
-    /// Calls `test` once on each triangle of the cells of points along the ray's segment in the
-    /// shell, until it returns true.
-    fn each_candidate(&self, ray: &Ray, mut test: impl FnMut(usize) -> bool) {
+    /// Calls `test(id, past)` once on each triangle of the cells of points along the ray's segment
+    /// in the shell, in the order of the points, until it returns true. `past` is the distance
+    /// along the ray one point spacing before the current point: the triangles through which the
+    /// ray passes at distances below it were all listed at the points already visited (a point
+    /// of the segment is within half a spacing of one of the two points around it, well within
+    /// the boxes' padding), so a nearest-hit search that has a hit nearer than `past` can stop.
+    fn each_candidate(&self, ray: &Ray, mut test: impl FnMut(usize, f64) -> bool) {
         let Some((t0, t1)) = shell_segment(ray, self.outer, self.inner) else { return };
         STAMPS.with(|stamps| {
             let mut stamps = stamps.borrow_mut();
@@ -104,8 +112,10 @@ impl SphereMesh {
             let span = d0.angle_between(d1);
             let points = ((span / SEGMENT_STEP).ceil() as usize + 1).max(2);
             let mut last_cell = usize::MAX;
+            let spacing = (t1 - t0) / (points - 1) as f64;
             for k in 0..points {
                 let t = t0 + (t1 - t0) * k as f64 / (points - 1) as f64;
+                let past = t - spacing;
                 let cell = self.cell_index(ray.origin + t * ray.dir);
                 if cell == last_cell {
                     continue;
@@ -117,7 +127,7 @@ impl SphereMesh {
                         continue;
                     }
                     seen[id] = query;
-                    if test(id) {
+                    if test(id, past) {
                         return;
                     }
                 }
