@@ -97,7 +97,7 @@ fn percentile_of(n: usize, q: f64, each: impl Fn(&mut dyn FnMut(f32))) -> Option
     let lo = (pos.floor() as usize).min(n - 1);
     let hi = (lo + 1).min(n - 1);
     let t = pos - lo as f64;
-    let (a, b) = if hi + 1 <= n / 64 {
+    let (a, b) = if hi < n / 64 {
         // The hi + 1 smallest in a max-heap: its top is the hi-th, the next the lo-th.
         let mut heap = BinaryHeap::with_capacity(hi + 1);
         each(&mut |x| {
