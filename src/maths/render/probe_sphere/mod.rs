@@ -306,34 +306,37 @@ fn render_tiled(env: &Image, settings: &ProbeSettings, tile: usize) -> ProbeRend
     let bsdf = settings.material.principled(settings.smith);
     let (w, h) = (settings.width, settings.height);
     let row = |r: usize| &plan.stages[r * w..(r + 1) * w];
-    let pixels: Vec<([f64; 3], f64)> = if bsdf.is_mirror() {
+    // The pixels go straight into the image and the mask, a row at a time.
+    let mut rgba = vec![0.0f32; w * h * 4];
+    let mut alpha = vec![0.0f32; w * h];
+    let put = |rgba: &mut [f32], alpha: &mut [f32], pixels: &mut dyn Iterator<Item = ([f64; 3], f64)>| {
+        for ((out, a), (rgb, coverage)) in rgba.chunks_exact_mut(4).zip(alpha).zip(pixels) {
+            out.copy_from_slice(&[rgb[0] as f32, rgb[1] as f32, rgb[2] as f32, coverage as f32]);
+            *a = coverage as f32;
+        }
+    };
+    let rows = rgba.par_chunks_mut(4 * w.max(1)).zip(alpha.par_chunks_mut(w.max(1))).enumerate();
+    if bsdf.is_mirror() {
         let (map_w, map_h) = environment.size();
         let reads = plan.mirror_reads(map_w, map_h);
-        (0..h)
-            .into_par_iter()
-            .flat_map_iter(|r| finish(row(r), reads[r].pixels(&environment), std::iter::repeat([0.0; 3])))
-            .collect()
+        rows.for_each(|(r, (rgba, alpha))| {
+            put(rgba, alpha, &mut finish(row(r), reads[r].pixels(&environment), std::iter::repeat([0.0; 3])))
+        });
     } else {
         // Bands of `tile` rows: their tiles' rough lobes, then the pixels interpolated.
         let tree = TexelTree::new(env, settings.cut, shading::lobe_width(&bsdf));
         let shade = if settings.interpolate { plan.shaded_pixels(&bsdf) } else { Arc::new(vec![true; w * h]) };
-        let mut rgb: Vec<[f64; 3]> = (0..h.div_ceil(tile))
-            .into_par_iter()
-            .flat_map_iter(|band| {
-                let rows = band * tile * w..((band + 1) * tile).min(h) * w;
-                tiles::shade_band(&tree, &bsdf, w, &plan.stages[rows.clone()], &shade[rows], tile)
-            })
-            .collect();
+        let mut rgb = vec![[0.0; 3]; w * h];
+        rgb.par_chunks_mut(tile * w.max(1)).enumerate().for_each(|(band, out)| {
+            let pixels = band * tile * w..band * tile * w + out.len();
+            tiles::shade_band(&tree, &bsdf, (w, &plan.stages[pixels.clone()], &shade[pixels]), tile, out)
+        });
         if settings.interpolate {
             interpolation::fill(&plan.stages, &shade, &mut rgb, w);
         }
-        finish(&plan.stages, std::iter::empty(), rgb).collect()
-    };
-    let mut rgba = Vec::with_capacity(w * h * 4);
-    let mut alpha = Vec::with_capacity(w * h);
-    for (rgb, a) in pixels {
-        rgba.extend_from_slice(&[rgb[0] as f32, rgb[1] as f32, rgb[2] as f32, a as f32]);
-        alpha.push(a as f32);
+        rows.for_each(|(r, (rgba, alpha))| {
+            put(rgba, alpha, &mut finish(row(r), std::iter::empty(), rgb[r * w..(r + 1) * w].iter().copied()))
+        });
     }
     ProbeRender { image: Image::from_vec(w, h, 4, rgba), mask: Image::from_vec(w, h, 1, alpha) }
 }

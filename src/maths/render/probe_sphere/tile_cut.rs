@@ -86,17 +86,17 @@ impl TexelTree {
     pub fn tile_cut(&self, cones: &TileCones, out: &mut FlatCut) {
         out.clear();
         let (a, beta) = (cones.peak.axis, cones.peak.angle);
-        self.walk(|l, k, x, y, i| {
-            let (c, p) = (l.centre[i], l.power[i]);
+        self.walk(|node, k, x, y| {
+            let (c, p) = (node.centre, node.power);
             if p == [0.0; 3] {
                 return false;
             }
-            let (sr, cr) = (l.sin_radius[i], l.cos_radius[i]);
-            let below = |h: &Cone| l.radius[i] + h.angle < 0.5 * PI && c.dot(h.axis) < -(sr * h.cos + cr * h.sin);
+            let (sr, cr) = (node.sin_radius, node.cos_radius);
+            let below = |h: &Cone| node.radius + h.angle < 0.5 * PI && c.dot(h.axis) < -(sr * h.cos + cr * h.sin);
             if cones.horizons.iter().any(below) {
                 return false;
             }
-            let accept = l.accept_cos[i];
+            let accept = node.accept_cos;
             let whole = if accept > 1.0 {
                 true
             } else if accept < -1.0 {
@@ -104,8 +104,8 @@ impl TexelTree {
             } else if beta == 0.0 {
                 c.dot(a) <= accept
             } else {
-                let delta = l.accept_angle[i];
-                delta + beta < PI && c.dot(a) <= accept * cones.peak.cos - l.accept_sin[i] * cones.peak.sin
+                let delta = node.accept_angle;
+                delta + beta < PI && c.dot(a) <= accept * cones.peak.cos - node.accept_sin * cones.peak.sin
             };
             if whole {
                 out.push(c, p);
@@ -113,7 +113,7 @@ impl TexelTree {
             } else if k > 0 {
                 true
             } else {
-                self.split_texel(x, y, l.radius[i], p, (c.angle_between(a) - beta).max(0.0), out);
+                self.split_texel(x, y, node.radius, p, (c.angle_between(a) - beta).max(0.0), out);
                 false
             }
         });

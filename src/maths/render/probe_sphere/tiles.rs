@@ -26,31 +26,23 @@ struct Scratch {
 }
 
 /// The premultiplied radiance of every [`Stage::Shade`] pixel of `stages` that `shade` marks, a
-/// band of at most `tile` rows of `width` pixels (0 for the other pixels), by tiles of `tile` x
-/// `tile`.
-pub(super) fn shade_band(
-    tree: &TexelTree,
-    bsdf: &Principled,
-    width: usize,
-    stages: &[Stage],
-    shade: &[bool],
-    tile: usize,
-) -> Vec<[f64; 3]> {
-    let mut out = vec![[0.0; 3]; stages.len()];
+/// band of at most `tile` rows of `width` pixels, into `out` (the band's pixels; the others are
+/// left as they are), by tiles of `tile` x `tile`.
+pub(super) fn shade_band(tree: &TexelTree, bsdf: &Principled, band: Band, tile: usize, out: &mut [[f64; 3]]) {
+    let (width, stages, _) = band;
     if width == 0 {
-        return out;
+        return;
     }
     let mut scratch = Scratch { cut: FlatCut::default(), lobes: Vec::new(), at: Vec::new() };
     let height = stages.len() / width;
     for x0 in (0..width).step_by(tile) {
         let rect = Rect { x0, x1: (x0 + tile).min(width), y0: 0, y1: height };
-        shade_rect(tree, bsdf, (width, stages, shade), rect, &mut out, &mut scratch);
+        shade_rect(tree, bsdf, band, rect, out, &mut scratch);
     }
-    out
 }
 
 /// A band's width, stages and which of them to shade.
-type Band<'a> = (usize, &'a [Stage], &'a [bool]);
+pub(super) type Band<'a> = (usize, &'a [Stage], &'a [bool]);
 
 #[derive(Clone, Copy)]
 struct Rect {
