@@ -17,13 +17,20 @@
 # - hdrflow: `hdrflow batch examples/evaluation/evaluate.ron` over the same pairs from their
 #   .hdr files (resize, tonemap, the 18 spheres, the metrics and the saved files included), with
 #   an empty cache; and over the first pair alone, so that (all - first) / 2 is what each further
-#   pair costs once the frames' plans are made (a batch over a test set pays the plans once);
-# - the ratios.
+#   pair costs once the frames' plans are made (a batch over a test set pays the plans once); and
+#   the other checkpoint's predictions with that cache (the truths' spheres read back, as at every
+#   checkpoint after the first), against Blender's 9 prediction spheres;
+# - the ratios;
+# - with PROTOCOL_DIR set to a DiffusionLight-evaluation checkout, also Blender running the
+#   protocol's own stylelight/{mirror,matte_silver,diffuse}.py on the same six prepared maps, one
+#   process a material over the folder as its job_distributor.py runs them (copies of the scripts
+#   with utils/utils.py's defaults set to the CPU and no denoiser, which Debian's build lacks;
+#   nothing of the checkout is changed), and that ratio.
 # HDRFLOW (default target/release/hdrflow) and BLENDER name the binaries.
 set -euo pipefail
 export LC_ALL=C # `times` prints its seconds with this locale's decimal point
 if [ $# -lt 1 ]; then
-    sed -n '2,22p' "$0"
+    sed -n '2,29p' "$0"
     exit 2
 fi
 out=$1
@@ -87,6 +94,39 @@ done
 times >"$out/blender.after"
 blender_cpu=$(cpu_between "$out/blender.before" "$out/blender.after")
 
+# The protocol's own scripts, when a checkout is given.
+protocol_cpu=
+if [ -n "${PROTOCOL_DIR:-}" ]; then
+    scripts="$PROTOCOL_DIR/stylelight"
+    [ -f "$scripts/mirror.py" ] && [ -f "$scripts/utils/utils.py" ] ||
+        { echo "PROTOCOL_DIR=$PROTOCOL_DIR: no stylelight/mirror.py and utils/utils.py there" >&2; exit 1; }
+    cp -r "$scripts" "$out/protocol"
+    utils="$out/protocol/utils/utils.py"
+    for flag in use_denoising prefer_cuda_use; do
+        grep -q "$flag: bool = True" "$utils" ||
+            { echo "$utils: no '$flag: bool = True' default to turn off" >&2; exit 1; }
+        sed -i "s/$flag: bool = True/$flag: bool = False/" "$utils"
+    done
+    mkdir -p "$out/protocol-maps" "$out/protocol-renders"
+    for map in "${maps[@]}"; do
+        # The scripts name a render after the map's name up to its first '-'.
+        name=$(basename "$(dirname "$map")")
+        cp "$map" "$out/protocol-maps/${name//-/_}.exr"
+    done
+    times >"$out/protocol.before"
+    for material in mirror matte_silver diffuse; do
+        (cd "$out/protocol" && "$blender" --background --factory-startup --python-exit-code 1 \
+            --python "$material.py" -- "$percent" "$samples" "$out/protocol-maps" "$out/protocol-renders" \
+            0 "${#maps[@]}") >"$out/protocol-$material.log" 2>&1 ||
+            { echo "the protocol's $material.py failed (see $out/protocol-$material.log)" >&2; exit 1; }
+        made=$(ls "$out/protocol-renders/$material" | wc -l)
+        [ "$made" -eq "${#maps[@]}" ] ||
+            { echo "the protocol's $material.py wrote $made of ${#maps[@]} renders" >&2; exit 1; }
+    done
+    times >"$out/protocol.after"
+    protocol_cpu=$(cpu_between "$out/protocol.before" "$out/protocol.after")
+fi
+
 # hdrflow: the batch over every pair, then over the first pair alone, each with an empty cache.
 batch() {
     local name=$1 gts=$2 preds=$3
@@ -100,11 +140,26 @@ batch all "$root/assets/maps/*.hdr" "$root/examples/evaluation/predictions/$chec
 times >"$out/t1"
 batch first "$root/assets/maps/$first" "$root/examples/evaluation/predictions/$checkpoint/$first"
 times >"$out/t2"
+# Another checkpoint's predictions against the same truths, with the first batch's cache: the
+# truths' spheres are read back, as at every checkpoint after the first.
+other=blurred
+[ "$checkpoint" = blurred ] && other=turned
+cp -r "$out/all-cache" "$out/next-cache"
+times >"$out/t3"
+batch next "$root/assets/maps/*.hdr" "$root/examples/evaluation/predictions/$other/*.hdr"
+times >"$out/t4"
 all_cpu=$(cpu_between "$out/t0" "$out/t1")
 first_cpu=$(cpu_between "$out/t1" "$out/t2")
+next_cpu=$(cpu_between "$out/t3" "$out/t4")
 
-awk -v b="$blender_cpu" -v a="$all_cpu" -v f="$first_cpu" -v p="$percent" -v s="$samples" 'BEGIN {
-    printf "Blender, 18 spheres at %s%% and %s samples: %.2f s CPU (%.2f s a pair of maps)\n", p, s, b, b / 3
+awk -v b="$blender_cpu" -v a="$all_cpu" -v f="$first_cpu" -v n="$next_cpu" -v o="$other" -v p="$percent" -v s="$samples" 'BEGIN {
+    printf "Blender, the protocol'"'"'s scene (blender_protocol_scene.py), 18 spheres at %s%% and %s samples: %.2f s CPU (%.2f s a pair of maps)\n", p, s, b, b / 3
     printf "hdrflow, the batch of 3 pairs (18 spheres, empty cache): %.2f s CPU: %.1fx less\n", a, b / a
     printf "hdrflow, one pair alone: %.2f s CPU; each further pair: %.2f s CPU: %.1fx less than Blender a pair\n", f, (a - f) / 2, (b / 3) / ((a - f) / 2)
+    printf "hdrflow, the %s checkpoint against the same truths (their spheres cached): %.2f s CPU: %.1fx less than Blender'"'"'s 9 prediction spheres\n", o, n, (b / 2) / n
 }'
+if [ -n "$protocol_cpu" ]; then
+    awk -v b="$protocol_cpu" -v a="$all_cpu" -v f="$first_cpu" -v n="$next_cpu" -v p="$percent" -v s="$samples" 'BEGIN {
+        printf "Blender, the protocol'"'"'s own three scripts, 18 spheres at %s%% and %s samples: %.2f s CPU (%.2f s a pair of maps): %.1fx the batch, %.1fx a further pair, %.1fx the next checkpoint\n", p, s, b, b / 3, b / a, (b / 3) / ((a - f) / 2), (b / 2) / n
+    }'
+fi
