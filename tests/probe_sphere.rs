@@ -109,3 +109,82 @@ fn out_of_range_sizes_are_rejected_before_running() {
     assert_ne!(out.code, Some(0));
     out.assert_stderr_contains("width").assert_stderr_contains("samples");
 }
+
+/// The `.val` entries of a cache folder (two levels: `v1/<2 hex>/<key>.val`).
+fn cache_entries(dir: &std::path::Path) -> Vec<std::path::PathBuf> {
+    let mut out = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).into_iter().flatten().flatten() {
+            let p = e.path();
+            if p.is_dir() {
+                stack.push(p);
+            } else if p.extension().is_some_and(|x| x == "val") {
+                out.push(p);
+            }
+        }
+    }
+    out
+}
+
+#[test]
+fn a_later_process_reads_the_frames_plan_from_the_cache() {
+    let sb = Sandbox::new();
+    sb.write("a.pfm", hdrflow::formats::pfm::encode(&world(64, 32)));
+    let mut other = world(64, 32);
+    other.data.iter_mut().for_each(|v| *v *= 0.5);
+    sb.write("b.pfm", hdrflow::formats::pfm::encode(&other));
+    let graph = |map: &str| {
+        format!(
+            r#"(nodes: {{
+                "env": LoadHdr(path: "{map}"),
+                "mirror": ProbeSphere(env: "env", material: Mirror, width: 96, height: 54, samples: 8),
+                "diffuse": ProbeSphere(env: "env", material: Diffuse, width: 96, height: 54, samples: 8),
+                "s1": Save(input: "mirror", path: "mirror.exr"),
+                "s2": Save(input: "diffuse", path: "diffuse.exr"),
+            }})"#
+        )
+    };
+    let first = sb.write("a.ron", graph("a.pfm"));
+    sb.run_ok(&first, &[]);
+    // The mirror's and the rough materials' stages, and the mirror's reads of a 64 x 32 map, are
+    // entries of the cache.
+    let entries = cache_entries(&sb.cache());
+    let holding = |needle: &[u8]| {
+        entries.iter().filter(|p| read_file(p).windows(needle.len()).any(|w| w == needle)).cloned().collect::<Vec<_>>()
+    };
+    let plans = holding(b"HFSTAGE1");
+    assert_eq!(plans.len(), 2, "a mirror and a rough plan");
+    assert_eq!(holding(b"HFREADS1").len(), 1, "the mirror's reads of one map size");
+    // A plan read back gives what a plan made here gives: the other map with the cache, and
+    // without it.
+    let second = sb.write("b.ron", graph("b.pfm"));
+    sb.run_ok(&second, &[]);
+    let with_plans: Vec<Vec<u8>> = ["mirror.exr", "diffuse.exr"].iter().map(|n| read_file(&sb.out().join(n))).collect();
+    sb.run_ok(&second, &["--no-cache"]);
+    for (name, bytes) in ["mirror.exr", "diffuse.exr"].iter().zip(&with_plans) {
+        assert_eq!(&read_file(&sb.out().join(name)), bytes, "{name}");
+    }
+    // The later process did read them: a stored plan altered (its first pixel's coverage set to
+    // 0.5, the entry's checksum made again) shows in the next render of a new map.
+    let mirror_plan = plans
+        .iter()
+        .find(|p| read_file(p).windows(6).any(|w| w == b"Mirror"))
+        .expect("the mirror's plan entry")
+        .clone();
+    let mut entry = read_file(&mirror_plan);
+    let at = entry.windows(8).position(|w| w == b"HFSTAGE1").expect("the stages") + 16;
+    assert_eq!(entry[at], 0, "the first pixel is off the sphere");
+    entry[at + 1..at + 9].copy_from_slice(&0.5f64.to_bits().to_le_bytes());
+    let sum = *blake3::hash(&entry[52..]).as_bytes();
+    entry[20..52].copy_from_slice(&sum);
+    std::fs::write(&mirror_plan, &entry).expect("the altered entry");
+    let mut third = world(64, 32);
+    third.data.iter_mut().for_each(|v| *v *= 2.0);
+    sb.write("c.pfm", hdrflow::formats::pfm::encode(&third));
+    let c = sb.write("c.ron", graph("c.pfm"));
+    sb.run_ok(&c, &[]);
+    let mirror = load(&sb.out().join("mirror.exr"));
+    let a = mirror.channel_index("A").expect("alpha");
+    assert_eq!(mirror.data[a], 0.5, "the first pixel's coverage came from the stored plan");
+}

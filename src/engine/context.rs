@@ -56,6 +56,23 @@ pub struct OpContext<'a> {
     pub(crate) warnings: Vec<String>,
     /// Where [`OpContext::release`] hands a value back (the scheduler; None: it is just dropped).
     pub(crate) release_to: Option<&'a (dyn Fn(Value) + Sync)>,
+    /// The operator's own data kept between runs ([`AuxStore`]); None without a cache.
+    pub aux: Option<&'a dyn AuxStore>,
+}
+
+/// An operator's own data kept between runs in the run's persistent cache: what it makes from
+/// its parameters alone, costs time to make and is no output (`ProbeSphere`'s frame plans: the
+/// camera rays, hits and mirror reads of a frame, seconds to make, the same for every map). A
+/// new process, a later checkpoint's run or a cluster's shard loads them instead of making them
+/// again. The engine keys `name` under the operator (its name, version and code hash) and the
+/// engine salt, so the data of other code is never served, and stores it as an ordinary cache
+/// entry (checksummed, evicted with the others). Saving can fail silently (the cache's limit, a
+/// full disk): the data is then made again next time.
+pub trait AuxStore: Sync {
+    /// The bytes saved under `name`, if the cache has them.
+    fn load(&self, name: &str) -> Option<Vec<u8>>;
+    /// Keeps `bytes` under `name`.
+    fn save(&self, name: &str, bytes: &[u8]);
 }
 
 impl<'a> OpContext<'a> {

@@ -89,6 +89,19 @@ pub fn node_key_with(
     *h.finalize().as_bytes()
 }
 
+/// The key of an operator's own data named `name` (`engine::context::AuxStore`): its domain, the
+/// engine salt, the operator's name, version and code hash, and the name.
+pub fn aux_key(op: &str, version: u32, code_hash: &[u8; 32], name: &str) -> Key {
+    let mut h = blake3::Hasher::new();
+    h.update(b"hdrflow.aux-key.v1\0");
+    h.update(&ENGINE_SALT);
+    put_str(&mut h, op);
+    h.update(&version.to_le_bytes());
+    h.update(code_hash);
+    put_str(&mut h, name);
+    *h.finalize().as_bytes()
+}
+
 /// The key of a value supplied in place of a node's output (`Pipeline::provide`): the value's
 /// type name and its cache payload (for an image: width, height, channel names, then the f32
 /// samples), so the same content gets the same key whatever node or run supplies it.

@@ -14,6 +14,6 @@ pub mod key;
 pub mod policy;
 pub mod store;
 
-pub use key::{key_hex, node_key, node_key_with, provided_key, provided_key_with, Key};
+pub use key::{aux_key, key_hex, node_key, node_key_with, provided_key, provided_key_with, Key};
 pub use policy::{Persist, PersistPolicy};
 pub use store::CacheStore;

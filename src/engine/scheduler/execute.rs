@@ -7,11 +7,14 @@ use std::time::Instant;
 
 use super::state::{State, Timing};
 use super::NodeStatus;
-use crate::engine::cache::policy;
+use crate::engine::cache::{aux_key, policy, CacheStore};
+use crate::engine::context::AuxStore;
 use crate::engine::error::{CacheError, RunError};
 use crate::engine::graph::Pipeline;
+use crate::engine::op::OpSpec;
 use crate::engine::op::{OpContext, Outputs};
-use crate::engine::value::{Absent, Value};
+use crate::engine::registry::Registry;
+use crate::engine::value::{Absent, FileBlob, Value};
 
 /// A node's outputs matched to its ports, and what else it produced (open ports no consumer
 /// names: cached, so that a later pipeline naming them is served, but not kept in memory).
@@ -162,6 +165,7 @@ fn evaluate(s: &State, i: usize, release: &(dyn Fn(Value) + Sync)) -> Result<Mat
     let read = |k: usize| s.slots[i][k].remaining.load(Ordering::SeqCst) > 0;
     let unread_ports: Vec<&str> =
         node.ports.iter().enumerate().filter(|&(k, _)| !read(k)).map(|(_, p)| &*p.name).collect();
+    let aux = s.cache.map(|cache| CacheAux { cache, registry: &s.p.registry, spec: &node.spec });
     let mut ctx = OpContext {
         node: &node.name,
         params: &node.params,
@@ -173,6 +177,7 @@ fn evaluate(s: &State, i: usize, release: &(dyn Fn(Value) + Sync)) -> Result<Mat
         savers: s.p.registry.savers(),
         warnings: Vec::new(),
         release_to: Some(release),
+        aux: aux.as_ref().map(|a| a as &dyn AuxStore),
     };
     let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| (node.spec.eval)(&mut ctx)));
     for w in std::mem::take(&mut ctx.warnings) {
@@ -194,6 +199,34 @@ fn evaluate(s: &State, i: usize, release: &(dyn Fn(Value) + Sync)) -> Result<Mat
                 .unwrap_or_else(|| "unknown panic".into());
             Err(RunError::Panic(format!("node {:?} ({}): {msg}", node.name, node.spec.name)))
         }
+    }
+}
+
+/// The run's cache as an operator's store of its own data ([`AuxStore`]): an entry of one `aux`
+/// port holding the bytes as a file value, under [`aux_key`].
+struct CacheAux<'a> {
+    cache: &'a CacheStore,
+    registry: &'a Registry,
+    spec: &'a OpSpec,
+}
+
+impl CacheAux<'_> {
+    fn key(&self, name: &str) -> crate::engine::cache::Key {
+        aux_key(self.spec.name, self.spec.version, &self.spec.code_hash, name)
+    }
+}
+
+impl AuxStore for CacheAux<'_> {
+    fn load(&self, name: &str) -> Option<Vec<u8>> {
+        let outputs = self.cache.get(&self.key(name), self.registry).ok()??;
+        let (_, value) = outputs.into_iter().find(|(port, _)| port == "aux")?;
+        value.get::<FileBlob>().map(|blob| blob.bytes.clone())
+    }
+
+    fn save(&self, name: &str, bytes: &[u8]) {
+        let blob = Value::new(FileBlob::new(name.to_string(), bytes.to_vec()));
+        // A failure (the run's cache limit, a full disk) only means making the data again.
+        let _ = self.cache.put(&self.key(name), &[("aux".to_string(), blob)]);
     }
 }
 

@@ -30,13 +30,18 @@
 //! - `shape: Ideal` renders the unit sphere instead of Blender's subdivided mesh; `smith:
 //!   Correlated` takes Blender 3.5+'s Smith term (the published renders used 3.6.5).
 //!
+//! The frame's plan (its camera rays, their hits and the mirror's reads: the same for every map)
+//! is kept in the run's cache, so that a later process reads it instead of tracing it again.
+//!
 //! A map that is not 2:1 is read as lat-long with a warning; NaN or infinite texels are an error.
 
+use crate::engine::context::AuxStore;
 use crate::engine::fields::Input;
 use crate::engine::op::{OpContext, OpError, OpSpec, Outputs};
 use crate::engine::typed_op::{Op, Port};
+use crate::maths::render::probe_sphere::plan_bytes::PlanStore;
 use crate::maths::render::probe_sphere::principled::Smith;
-use crate::maths::render::probe_sphere::{render, ProbeMaterial, ProbeSettings, ProbeShape};
+use crate::maths::render::probe_sphere::{render_with, ProbeMaterial, ProbeSettings, ProbeShape};
 use crate::ops::latlong_input::{check_finite, warn_unless_latlong};
 use crate::values::ty::*;
 use crate::values::Image;
@@ -100,6 +105,20 @@ fn eval(ctx: &mut OpContext, p: ProbeSphereParams) -> Result<Outputs, OpError> {
         smith: p.smith,
         interpolate: p.interpolate,
     };
-    let out = render(&p.env, &settings);
+    let plans = ctx.aux.map(Plans);
+    let out = render_with(&p.env, &settings, plans.as_ref().map(|s| s as &dyn PlanStore));
     Ok(Outputs::new().port(IMAGE, out.image).port(MASK, out.mask))
+}
+
+/// The frames' plans kept in the run's cache (`AuxStore`): a new process reads them instead of
+/// tracing the frame again.
+struct Plans<'a>(&'a dyn AuxStore);
+
+impl PlanStore for Plans<'_> {
+    fn load(&self, name: &str) -> Option<Vec<u8>> {
+        self.0.load(name)
+    }
+    fn save(&self, name: &str, bytes: &[u8]) {
+        self.0.save(name, bytes)
+    }
 }

@@ -14,9 +14,9 @@ use super::{MirrorRay, Stage};
 /// One row's merged reads: for each mirror pixel of the row, in order, `counts` entries of
 /// `texel` and `weight` (the ray weights times the bilinear ones over `n`).
 pub(super) struct RowReads {
-    counts: Vec<u32>,
-    texel: Vec<u32>,
-    weight: Vec<f64>,
+    pub(super) counts: Vec<u32>,
+    pub(super) texel: Vec<u32>,
+    pub(super) weight: Vec<f64>,
 }
 
 impl RowReads {

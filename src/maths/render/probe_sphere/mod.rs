@@ -47,6 +47,7 @@ pub mod mesh;
 mod mesh_search;
 mod mirror_reads;
 mod plan;
+pub mod plan_bytes;
 pub mod principled;
 pub mod shading;
 pub mod texel_tree;
@@ -293,15 +294,26 @@ fn finish<'a>(
 /// Renders the protocol's sphere of `settings.material` under `env` (a lat-long map, hdrflow's
 /// convention; see [`environment`] for how Blender reads the same file).
 pub fn render(env: &Image, settings: &ProbeSettings) -> ProbeRender {
+    render_with(env, settings, None)
+}
+
+/// [`render`], its frame's plan kept in (and read from) `store` between processes
+/// ([`plan_bytes::PlanStore`]): the same image whether the plan was read or made.
+pub fn render_with(env: &Image, settings: &ProbeSettings, store: Option<&dyn plan_bytes::PlanStore>) -> ProbeRender {
     // Interpolated, a tile holds a quarter as many shaded pixels: twice the side keeps as many.
-    render_tiled(env, settings, if settings.interpolate { 2 * tiles::TILE } else { tiles::TILE })
+    render_tiled(env, settings, if settings.interpolate { 2 * tiles::TILE } else { tiles::TILE }, store)
 }
 
 /// [`render`] with the rough lobes shaded by tiles of `tile` x `tile` pixels (1: each pixel's own
 /// cut of the texel tree, [`texel_tree::TexelTree::sum`]'s).
-fn render_tiled(env: &Image, settings: &ProbeSettings, tile: usize) -> ProbeRender {
+fn render_tiled(
+    env: &Image,
+    settings: &ProbeSettings,
+    tile: usize,
+    store: Option<&dyn plan_bytes::PlanStore>,
+) -> ProbeRender {
     let tile = tile.max(1);
-    let plan = plan::plan_for(settings);
+    let plan = plan::plan_for(settings, store);
     let environment = Environment::new(env);
     let bsdf = settings.material.principled(settings.smith);
     let (w, h) = (settings.width, settings.height);
@@ -318,7 +330,7 @@ fn render_tiled(env: &Image, settings: &ProbeSettings, tile: usize) -> ProbeRend
     let rows = rgba.par_chunks_mut(4 * w.max(1)).zip(alpha.par_chunks_mut(w.max(1))).enumerate();
     if bsdf.is_mirror() {
         let (map_w, map_h) = environment.size();
-        let reads = plan.mirror_reads(map_w, map_h);
+        let reads = plan.mirror_reads(map_w, map_h, store);
         rows.for_each(|(r, (rgba, alpha))| {
             put(rgba, alpha, &mut finish(row(r), reads[r].pixels(&environment), std::iter::repeat([0.0; 3])))
         });

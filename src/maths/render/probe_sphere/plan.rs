@@ -13,6 +13,14 @@
 //! reads merged by texel ([`super::mirror_reads`]) for the last [`KEPT_SIZES`] map sizes it read,
 //! which [`MAX_BYTES`] does not count: at most 4/3 of the rays' bytes a size (a few MB at 960 x 540
 //! and a 256 x 128 map, where a pixel's rays share a few texels).
+//!
+//! **Between processes.** Given a [`PlanStore`] (the run's persistent cache, through the
+//! operator), a plan's stages and a mirror's reads of each map size are also kept there, and a
+//! process that finds them reads them instead of tracing (a later checkpoint's run, a cluster's
+//! shard): seconds saved a frame. A plan read back has no rays; should it need the reads of a map
+//! size the store does not have, it traces its rays again (the same rays: the trace is
+//! deterministic).
+//!
 //! A plan and its reads are made on their own thread pool from a plain thread: a rayon worker
 //! that waits for them blocks rather than steals, so no worker can start another render that
 //! waits for the same plan on top of the one making it.
@@ -23,6 +31,7 @@ use rayon::prelude::*;
 
 use super::interpolation;
 use super::mirror_reads::RowReads;
+use super::plan_bytes::{decode_reads, decode_stages, encode_reads, encode_stages, PlanStore};
 use super::principled::Principled;
 use super::{scene, trace_row, MirrorRay, ProbeMaterial, ProbeSettings, ProbeShape, Stage};
 
@@ -37,8 +46,12 @@ const KEPT_MATERIALS: usize = 2;
 
 /// The stages of every pixel (row-major) and each row's mirror rays.
 pub(super) struct Plan {
+    /// what the plan was made for (to trace its rays again) and its name in a [`PlanStore`]
+    settings: ProbeSettings,
+    name: String,
     pub(super) stages: Vec<Stage>,
-    pub(super) rays: Vec<Vec<MirrorRay>>,
+    /// made with the stages, or traced again when a plan read from a store needs them
+    rays: OnceLock<Vec<Vec<MirrorRay>>>,
     /// the mirror's reads of each map size (width, height), most recently used last
     reads: Recent<(usize, usize), Arc<Vec<RowReads>>>,
     /// which pixels each rough material shades itself ([`interpolation`])
@@ -48,7 +61,12 @@ pub(super) struct Plan {
 impl Plan {
     /// The frame's width, pixels.
     fn width(&self) -> usize {
-        self.stages.len() / self.rays.len().max(1)
+        self.settings.width
+    }
+
+    /// Each row's mirror rays.
+    fn rays(&self) -> &Vec<Vec<MirrorRay>> {
+        self.rays.get_or_init(|| trace(&self.settings).1)
     }
 
     /// [`interpolation::shaded_pixels`] of `bsdf` on this frame: the kept mask, or made now.
@@ -58,19 +76,35 @@ impl Plan {
             .clone()
     }
 
-    /// Each row's mirror reads of a `width` x `height` map: the kept ones, or made now.
-    pub(super) fn mirror_reads(&self, width: usize, height: usize) -> Arc<Vec<RowReads>> {
+    /// Each row's mirror reads of a `width` x `height` map: the kept ones, those of `store`, or
+    /// made now (and saved to `store`).
+    pub(super) fn mirror_reads(
+        &self,
+        width: usize,
+        height: usize,
+        store: Option<&dyn PlanStore>,
+    ) -> Arc<Vec<RowReads>> {
         let slot = recent_slot(&self.reads, (width, height), KEPT_SIZES);
         slot.get_or_init(|| {
-            let w = self.width();
-            let row = |r: usize| RowReads::new(&self.stages[r * w..(r + 1) * w], &self.rays[r], width, height);
-            Arc::new(on_own_pool(|parallel| {
+            let name = format!("{} reads {width}x{height}", self.name);
+            let texels = width.saturating_mul(height);
+            let stored = store.and_then(|s| s.load(&name));
+            if let Some(rows) = stored.and_then(|b| decode_reads(&b, &self.stages, self.width(), texels)) {
+                return Arc::new(rows);
+            }
+            let (w, rays) = (self.width(), self.rays());
+            let row = |r: usize| RowReads::new(&self.stages[r * w..(r + 1) * w], &rays[r], width, height);
+            let rows: Vec<RowReads> = on_own_pool(|parallel| {
                 if parallel {
-                    (0..self.rays.len()).into_par_iter().map(row).collect()
+                    (0..rays.len()).into_par_iter().map(row).collect()
                 } else {
-                    (0..self.rays.len()).map(row).collect()
+                    (0..rays.len()).map(row).collect()
                 }
-            }))
+            });
+            if let Some(store) = store {
+                store.save(&name, &encode_reads(&rows));
+            }
+            Arc::new(rows)
         })
         .clone()
     }
@@ -89,8 +123,9 @@ struct Key {
 
 static STORE: Recent<Key, Arc<Plan>> = Mutex::new(Vec::new());
 
-/// The plan of `settings`' frame: the stored one, or made now (and stored when small enough).
-pub(super) fn plan_for(settings: &ProbeSettings) -> Arc<Plan> {
+/// The plan of `settings`' frame: the kept one, that of `store`, or made now (kept when small
+/// enough, and saved to `store`).
+pub(super) fn plan_for(settings: &ProbeSettings, store: Option<&dyn PlanStore>) -> Arc<Plan> {
     let mirror = settings.material.principled(settings.smith).is_mirror();
     let key = Key {
         mirror: mirror.then_some(settings.material),
@@ -104,11 +139,25 @@ pub(super) fn plan_for(settings: &ProbeSettings) -> Arc<Plan> {
     let bytes = pixels
         .saturating_mul(std::mem::size_of::<Stage>())
         .saturating_add(rays.saturating_mul(std::mem::size_of::<MirrorRay>()));
+    let name = format!("probe sphere plan v1 {key:?}");
     if bytes > MAX_BYTES {
-        return Arc::new(make(settings));
+        return Arc::new(make(settings, name));
     }
     let slot = recent_slot(&STORE, key, KEPT);
-    slot.get_or_init(|| Arc::new(make(settings))).clone()
+    slot.get_or_init(|| {
+        let stored = store.and_then(|s| s.load(&name)).and_then(|b| decode_stages(&b, pixels));
+        Arc::new(match stored {
+            Some(stages) => Plan { stages, rays: OnceLock::new(), ..make_empty(settings, name) },
+            None => {
+                let plan = make(settings, name);
+                if let Some(store) = store {
+                    store.save(&plan.name, &encode_stages(&plan.stages));
+                }
+                plan
+            }
+        })
+    })
+    .clone()
 }
 
 /// Values made once each, by key, most recently used last.
@@ -137,8 +186,26 @@ fn recent_slot<K: PartialEq, T>(list: &Recent<K, T>, key: K, kept: usize) -> Arc
     }
 }
 
-/// Traces every row of `settings`' frame (see the module documentation).
-fn make(settings: &ProbeSettings) -> Plan {
+/// A plan of `settings` with no stages, rays, reads or masks yet.
+fn make_empty(settings: &ProbeSettings, name: String) -> Plan {
+    Plan {
+        settings: *settings,
+        name,
+        stages: Vec::new(),
+        rays: OnceLock::new(),
+        reads: Mutex::new(Vec::new()),
+        shaded: Mutex::new(Vec::new()),
+    }
+}
+
+/// The plan of `settings`' frame, traced (see the module documentation).
+fn make(settings: &ProbeSettings, name: String) -> Plan {
+    let (stages, rays) = trace(settings);
+    Plan { stages, rays: OnceLock::from(rays), ..make_empty(settings, name) }
+}
+
+/// Every row of `settings`' frame traced: the pixels' stages and each row's mirror rays.
+fn trace(settings: &ProbeSettings) -> (Vec<Stage>, Vec<Vec<MirrorRay>>) {
     on_own_pool(|parallel| {
         let scene = scene(settings);
         let rows: Vec<(Vec<Stage>, Vec<MirrorRay>)> = if parallel {
@@ -153,7 +220,7 @@ fn make(settings: &ProbeSettings) -> Plan {
             row_rays.shrink_to_fit();
             rays.push(row_rays);
         }
-        Plan { stages, rays, reads: Mutex::new(Vec::new()), shaded: Mutex::new(Vec::new()) }
+        (stages, rays)
     })
 }
 
@@ -169,4 +236,51 @@ fn on_own_pool<T: Send>(work: impl Fn(bool) -> T + Sync) -> T {
         .join()
         .unwrap_or_else(|panic| std::panic::resume_unwind(panic))
     })
+}
+
+/// What the tests of [`super::plan_bytes`] need of plans: a store in memory, and one frame's plan
+/// made and read back from it.
+#[cfg(test)]
+pub(super) mod tests_support {
+    use std::collections::HashMap;
+
+    use super::*;
+
+    /// A [`PlanStore`] in memory.
+    #[derive(Default)]
+    pub(in super::super) struct MemoryStore(Mutex<HashMap<String, Vec<u8>>>);
+
+    impl PlanStore for MemoryStore {
+        fn load(&self, name: &str) -> Option<Vec<u8>> {
+            self.0.lock().unwrap().get(name).cloned()
+        }
+        fn save(&self, name: &str, bytes: &[u8]) {
+            self.0.lock().unwrap().insert(name.to_string(), bytes.to_vec());
+        }
+    }
+
+    /// A plan's stages and its reads of a 64 x 32 map (none for a rough frame).
+    pub(in super::super) type Parts = (Vec<Stage>, Vec<RowReads>);
+
+    /// The parts of `settings`' plan made here, and of a plan read back from a store it was
+    /// saved to (its reads from rays traced again).
+    pub(in super::super) fn made_and_read_back(settings: &ProbeSettings) -> (Parts, Parts) {
+        let store = MemoryStore::default();
+        let made = make(settings, "plan".into());
+        store.save("plan", &encode_stages(&made.stages));
+        let stages = decode_stages(&store.load("plan").unwrap(), settings.width * settings.height).unwrap();
+        let read = Plan { stages, rays: OnceLock::new(), ..make_empty(settings, "plan".into()) };
+        let mirror = settings.material.principled(settings.smith).is_mirror();
+        let reads = |plan: &Plan| -> Vec<RowReads> {
+            if !mirror {
+                return Vec::new();
+            }
+            let rows = plan.mirror_reads(64, 32, None);
+            rows.iter()
+                .map(|r| RowReads { counts: r.counts.clone(), texel: r.texel.clone(), weight: r.weight.clone() })
+                .collect()
+        };
+        let (made_reads, read_reads) = (reads(&made), reads(&read));
+        ((made.stages, made_reads), (read.stages, read_reads))
+    }
 }

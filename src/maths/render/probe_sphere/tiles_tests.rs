@@ -90,9 +90,9 @@ fn tiles_stay_as_close_to_a_four_times_finer_cut_as_each_pixels_own_cut() {
     let map = sky_with_sun(256, 128);
     for material in [ProbeMaterial::MatteSilver, ProbeMaterial::Diffuse] {
         let s = ProbeSettings { samples: 4, ..settings(material, ProbeShape::Subdivided, 160, 90) };
-        let tiled = render_tiled(&map, &s, tiles::TILE);
-        let own = render_tiled(&map, &s, 1);
-        let fine = render_tiled(&map, &ProbeSettings { cut: 0.03125, ..s }, 1);
+        let tiled = render_tiled(&map, &s, tiles::TILE, None);
+        let own = render_tiled(&map, &s, 1, None);
+        let fine = render_tiled(&map, &ProbeSettings { cut: 0.03125, ..s }, 1, None);
         let (tiled_mean, tiled_worst) = difference(&tiled, &fine);
         let (own_mean, own_worst) = difference(&own, &fine);
         let (apart_mean, apart_worst) = difference(&tiled, &own);
@@ -119,7 +119,7 @@ fn interpolating_between_shaded_pixels_adds_little_to_the_cuts_own_error() {
         let every = render(&map, &s);
         let interpolated = render(&map, &ProbeSettings { interpolate: true, ..s });
         let fine = render(&map, &ProbeSettings { cut: 0.03125, ..s });
-        let plan = plan::plan_for(&s);
+        let plan = plan::plan_for(&s, None);
         let bsdf = material.principled(Smith::Separable);
         let shaded = plan.shaded_pixels(&bsdf);
         let lit = plan.stages.iter().filter(|st| matches!(st, Stage::Shade(..))).count();
