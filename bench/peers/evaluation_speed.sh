@@ -33,7 +33,7 @@ if [ $# -lt 1 ]; then
     sed -n '2,29p' "$0"
     exit 2
 fi
-out=$1
+out=$(realpath -m "$1") # absolute: the protocol's scripts run from their own folder
 percent=${2:-50}
 samples=${3:-5}
 checkpoint=${4:-turned}
