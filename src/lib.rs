@@ -39,6 +39,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod batch;
+pub mod bytes;
 pub mod choice;
 pub mod cli;
 pub mod colour;

@@ -72,7 +72,7 @@ pub trait AuxStore: Sync {
     /// The bytes saved under `name`, if the cache has them.
     fn load(&self, name: &str) -> Option<Vec<u8>>;
     /// Keeps `bytes` under `name`.
-    fn save(&self, name: &str, bytes: &[u8]);
+    fn save(&self, name: &str, bytes: Vec<u8>);
 }
 
 impl<'a> OpContext<'a> {

@@ -2,7 +2,6 @@
 //! The engine never names an operator nor a data type: operators reach it only through
 //! `OpSpec` and the `Registry`, data types through `TypeSpec` and `ValueData`.
 
-pub mod bytes;
 pub mod cache;
 pub mod context;
 pub mod error;

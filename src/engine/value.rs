@@ -248,7 +248,7 @@ impl ValueData for FileBlob {
         self.files().map(|(p, b)| p.len() + b.len()).sum()
     }
     fn encode(&self, out: &mut Vec<u8>) {
-        let mut w = crate::engine::bytes::Writer(out);
+        let mut w = crate::bytes::Writer(out);
         w.str(&self.rel_path);
         w.bytes(&self.bytes);
         w.u64(self.more.len() as u64);
@@ -260,7 +260,7 @@ impl ValueData for FileBlob {
 }
 
 fn decode_file(bytes: &[u8]) -> Result<Value, String> {
-    let mut r = crate::engine::bytes::Reader::new(bytes);
+    let mut r = crate::bytes::Reader::new(bytes);
     let rel_path = r.str()?;
     let data = r.bytes()?.to_vec();
     let n = r.usize()?;

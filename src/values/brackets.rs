@@ -8,7 +8,7 @@
 //! frames plus the f32 output). An aligned frame keeps its size; the pixels its shift uncovered
 //! are filled from the edge and marked 0 in its `covered` mask, which a merge gives no weight.
 
-use crate::engine::bytes::{Reader, Writer};
+use crate::bytes::{Reader, Writer};
 use crate::engine::value::{TypeSpec, Value, ValueData, ValueType};
 
 /// One frame's codes, row-major RGB interleaved (`width * height * 3`), row 0 at the top.

@@ -10,7 +10,7 @@
 //! with `null` for a missing field. Reading the block is the file formats' job
 //! (`crate::formats::photo`); this module holds the data and its codec only.
 
-use crate::engine::bytes::{Reader, Writer};
+use crate::bytes::{Reader, Writer};
 use crate::engine::value::{TypeSpec, Value, ValueData, ValueType};
 
 /// The camera settings of one photograph, where its EXIF gives them.

@@ -55,7 +55,7 @@ pub fn decode(bytes: &[u8], registry: &Registry) -> Result<Vec<(String, Value)>,
     Ok(out)
 }
 
-pub use crate::engine::bytes::{Reader, Writer};
+pub use crate::bytes::{Reader, Writer};
 
 #[cfg(test)]
 mod tests {

@@ -220,11 +220,11 @@ impl AuxStore for CacheAux<'_> {
     fn load(&self, name: &str) -> Option<Vec<u8>> {
         let outputs = self.cache.get(&self.key(name), self.registry).ok()??;
         let (_, value) = outputs.into_iter().find(|(port, _)| port == "aux")?;
-        value.get::<FileBlob>().map(|blob| blob.bytes.clone())
+        value.take::<FileBlob>().map(|blob| blob.bytes)
     }
 
-    fn save(&self, name: &str, bytes: &[u8]) {
-        let blob = Value::new(FileBlob::new(name.to_string(), bytes.to_vec()));
+    fn save(&self, name: &str, bytes: Vec<u8>) {
+        let blob = Value::new(FileBlob::new(name.to_string(), bytes));
         // A failure (the run's cache limit, a full disk) only means making the data again.
         let _ = self.cache.put(&self.key(name), &[("aux".to_string(), blob)]);
     }

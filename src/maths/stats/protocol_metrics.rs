@@ -88,8 +88,6 @@ fn from_order_key(k: u32) -> f32 {
 /// pass is about one comparison a value instead of a selection over a copy of all (the metrics'
 /// cost, before). Falls back to [`numpy_percentile`] when the heap would hold over 1/64 of them.
 fn percentile_of(n: usize, q: f64, each: impl Fn(&mut dyn FnMut(f32))) -> Option<f64> {
-    use std::cmp::Reverse;
-    use std::collections::BinaryHeap;
     if n == 0 {
         return None;
     }
@@ -98,37 +96,14 @@ fn percentile_of(n: usize, q: f64, each: impl Fn(&mut dyn FnMut(f32))) -> Option
     let hi = (lo + 1).min(n - 1);
     let t = pos - lo as f64;
     let (a, b) = if hi < n / 64 {
-        // The hi + 1 smallest in a max-heap: its top is the hi-th, the next the lo-th.
-        let mut heap = BinaryHeap::with_capacity(hi + 1);
-        each(&mut |x| {
-            let k = order_key(x);
-            if heap.len() <= hi {
-                heap.push(k);
-            } else if let Some(mut top) = heap.peek_mut() {
-                if k < *top {
-                    *top = k;
-                }
-            }
-        });
-        let b = heap.pop()?;
-        let a = if hi == lo { b } else { heap.pop()? };
-        (from_order_key(a), from_order_key(b))
+        // Ranks hi and lo among the smallest.
+        let [b, a] = largest_two_of_smallest(hi + 1, &each, order_key, from_order_key);
+        (if hi == lo { b } else { a }, b)
     } else if n - lo <= n / 64 {
-        // The n - lo largest in a min-heap: its top is the lo-th, the next the hi-th.
-        let mut heap = BinaryHeap::with_capacity(n - lo);
-        each(&mut |x| {
-            let k = Reverse(order_key(x));
-            if heap.len() < n - lo {
-                heap.push(k);
-            } else if let Some(mut top) = heap.peek_mut() {
-                if k < *top {
-                    *top = k;
-                }
-            }
-        });
-        let a = heap.pop()?.0;
-        let b = if hi == lo { a } else { heap.pop()?.0 };
-        (from_order_key(a), from_order_key(b))
+        // Ranks lo and hi are the (n - lo)-th and (n - hi)-th largest: the smallest in the
+        // reversed order.
+        let [a, b] = largest_two_of_smallest(n - lo, &each, |x| !order_key(x), |k| from_order_key(!k));
+        (a, if hi == lo { a } else { b })
     } else {
         let mut v = Vec::with_capacity(n);
         each(&mut |x| v.push(x as f64));
@@ -136,6 +111,30 @@ fn percentile_of(n: usize, q: f64, each: impl Fn(&mut dyn FnMut(f32))) -> Option
     };
     let (a, b) = (a as f64, b as f64);
     Some(if t >= 0.5 { b - (b - a) * (1.0 - t) } else { a + (b - a) * t })
+}
+
+/// Of the `k` values `each` yields that are smallest under `key` (at least one; `value` inverts
+/// `key`), the largest and the next (the same again when `k` is 1), through a max-heap of `k` keys.
+fn largest_two_of_smallest(
+    k: usize,
+    each: &impl Fn(&mut dyn FnMut(f32)),
+    key: impl Fn(f32) -> u32,
+    value: impl Fn(u32) -> f32,
+) -> [f32; 2] {
+    let mut heap = std::collections::BinaryHeap::with_capacity(k);
+    each(&mut |x| {
+        let kx = key(x);
+        if heap.len() < k {
+            heap.push(kx);
+        } else if let Some(mut top) = heap.peek_mut() {
+            if kx < *top {
+                *top = kx;
+            }
+        }
+    });
+    let first = heap.pop().map_or(0.0, &value);
+    let second = heap.pop().map_or(first, &value);
+    [first, second]
 }
 
 /// `(x - P0.01) / (P99.9 - P0.01)` of each first-three-channel sample of `img` (module docs).

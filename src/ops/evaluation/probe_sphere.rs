@@ -118,7 +118,7 @@ impl PlanStore for Plans<'_> {
     fn load(&self, name: &str) -> Option<Vec<u8>> {
         self.0.load(name)
     }
-    fn save(&self, name: &str, bytes: &[u8]) {
+    fn save(&self, name: &str, bytes: Vec<u8>) {
         self.0.save(name, bytes)
     }
 }

@@ -88,23 +88,19 @@ impl Plan {
         slot.get_or_init(|| {
             let name = format!("{} reads {width}x{height}", self.name);
             let texels = width.saturating_mul(height);
-            let stored = store.and_then(|s| s.load(&name));
-            if let Some(rows) = stored.and_then(|b| decode_reads(&b, &self.stages, self.width(), texels)) {
-                return Arc::new(rows);
-            }
-            let (w, rays) = (self.width(), self.rays());
-            let row = |r: usize| RowReads::new(&self.stages[r * w..(r + 1) * w], &rays[r], width, height);
-            let rows: Vec<RowReads> = on_own_pool(|parallel| {
-                if parallel {
-                    (0..rays.len()).into_par_iter().map(row).collect()
-                } else {
-                    (0..rays.len()).map(row).collect()
-                }
-            });
-            if let Some(store) = store {
-                store.save(&name, &encode_reads(&rows));
-            }
-            Arc::new(rows)
+            let decode = |bytes: &[u8]| decode_reads(bytes, &self.stages, self.width(), texels);
+            let make = || {
+                let (w, rays) = (self.width(), self.rays());
+                let row = |r: usize| RowReads::new(&self.stages[r * w..(r + 1) * w], &rays[r], width, height);
+                on_own_pool(|parallel| {
+                    if parallel {
+                        (0..rays.len()).into_par_iter().map(row).collect()
+                    } else {
+                        (0..rays.len()).map(row).collect()
+                    }
+                })
+            };
+            Arc::new(kept_in(store, &name, decode, make, |rows| encode_reads(rows)))
         })
         .clone()
     }
@@ -145,19 +141,30 @@ pub(super) fn plan_for(settings: &ProbeSettings, store: Option<&dyn PlanStore>) 
     }
     let slot = recent_slot(&STORE, key, KEPT);
     slot.get_or_init(|| {
-        let stored = store.and_then(|s| s.load(&name)).and_then(|b| decode_stages(&b, pixels));
-        Arc::new(match stored {
-            Some(stages) => Plan { stages, rays: OnceLock::new(), ..make_empty(settings, name) },
-            None => {
-                let plan = make(settings, name);
-                if let Some(store) = store {
-                    store.save(&plan.name, &encode_stages(&plan.stages));
-                }
-                plan
-            }
-        })
+        let decode = |bytes: &[u8]| {
+            decode_stages(bytes, pixels).map(|stages| Plan { stages, ..make_empty(settings, name.clone()) })
+        };
+        Arc::new(kept_in(store, &name, decode, || make(settings, name.clone()), |plan| encode_stages(&plan.stages)))
     })
     .clone()
+}
+
+/// `name`'s value in `store` when it is there and decodes; else `make`'s, saved to `store`.
+fn kept_in<T>(
+    store: Option<&dyn PlanStore>,
+    name: &str,
+    decode: impl FnOnce(&[u8]) -> Option<T>,
+    make: impl FnOnce() -> T,
+    encode: impl FnOnce(&T) -> Vec<u8>,
+) -> T {
+    if let Some(value) = store.and_then(|s| s.load(name)).and_then(|bytes| decode(&bytes)) {
+        return value;
+    }
+    let value = make();
+    if let Some(store) = store {
+        store.save(name, encode(&value));
+    }
+    value
 }
 
 /// Values made once each, by key, most recently used last.
@@ -254,8 +261,8 @@ pub(super) mod tests_support {
         fn load(&self, name: &str) -> Option<Vec<u8>> {
             self.0.lock().unwrap().get(name).cloned()
         }
-        fn save(&self, name: &str, bytes: &[u8]) {
-            self.0.lock().unwrap().insert(name.to_string(), bytes.to_vec());
+        fn save(&self, name: &str, bytes: Vec<u8>) {
+            self.0.lock().unwrap().insert(name.to_string(), bytes);
         }
     }
 
@@ -267,7 +274,7 @@ pub(super) mod tests_support {
     pub(in super::super) fn made_and_read_back(settings: &ProbeSettings) -> (Parts, Parts) {
         let store = MemoryStore::default();
         let made = make(settings, "plan".into());
-        store.save("plan", &encode_stages(&made.stages));
+        store.save("plan", encode_stages(&made.stages));
         let stages = decode_stages(&store.load("plan").unwrap(), settings.width * settings.height).unwrap();
         let read = Plan { stages, rays: OnceLock::new(), ..make_empty(settings, "plan".into()) };
         let mirror = settings.material.principled(settings.smith).is_mirror();

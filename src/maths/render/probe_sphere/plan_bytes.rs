@@ -1,170 +1,143 @@
 //! A frame's plan as bytes, for keeping it between processes ([`super::plan`], [`PlanStore`]):
-//! the pixels' stages, and a mirror's reads of one map size. Every value is stored by its bits
-//! (f64 as `to_bits`, little-endian), so a plan read back gives renders equal bit for bit to the
-//! plan it was written from (tested). Decoding checks every count against the bytes left and
-//! returns `None` on anything unexpected: a plan that cannot be read is made again.
+//! the pixels' stages, and a mirror's reads of one map size, in the cache's byte codec
+//! ([`crate::bytes`]: little-endian, f64 by its bits, every length checked before anything is
+//! allocated). A plan read back gives renders equal bit for bit to the plan it was written from
+//! (tested); bytes that are not a plan of this frame decode to `None`, and the plan is made again.
 //!
-//! Layout: a magic string and a format version, then (stages) the pixel count and one record a
-//! pixel: tag 0 `Done(coverage)`, tag 1 `Mirror(rays u32, n u32, coverage)`, tag 2 `Shade(t, point,
-//! normal, ng, v, coverage)` (14 f64); or (reads) the row count, then per row its three arrays,
-//! each a count and its values.
+//! Layout: a magic string (its last byte the format's version), then (stages) the pixel count and
+//! one record a pixel: tag 0 `Done(coverage)`, tag 1 `Mirror(rays u32, n u32, coverage)`, tag 2
+//! `Shade(t, point, normal, ng, v, coverage)` (14 f64); or (reads) the row count, then per row
+//! its pixels' tap counts, texels and weights, each a length-prefixed array.
 
 use glam::DVec3;
 
 use super::mesh::Hit;
 use super::mirror_reads::RowReads;
 use super::Stage;
+use crate::bytes::{Reader, Writer};
 
 /// Where a frame's plan is kept between processes: the run's persistent cache, through the
 /// operator (`engine::context::AuxStore`). `name` says what the bytes are; the caller makes it
 /// unique to the code that wrote them.
 pub trait PlanStore: Sync {
     fn load(&self, name: &str) -> Option<Vec<u8>>;
-    fn save(&self, name: &str, bytes: &[u8]);
+    fn save(&self, name: &str, bytes: Vec<u8>);
 }
 
 const STAGES_MAGIC: &[u8; 8] = b"HFSTAGE1";
 const READS_MAGIC: &[u8; 8] = b"HFREADS1";
 
-struct Out(Vec<u8>);
-
-impl Out {
-    fn u32(&mut self, v: u32) {
-        self.0.extend_from_slice(&v.to_le_bytes());
-    }
-    fn u64(&mut self, v: u64) {
-        self.0.extend_from_slice(&v.to_le_bytes());
-    }
-    fn f64(&mut self, v: f64) {
-        self.0.extend_from_slice(&v.to_bits().to_le_bytes());
-    }
-    fn vec3(&mut self, v: DVec3) {
-        [v.x, v.y, v.z].into_iter().for_each(|x| self.f64(x));
-    }
+fn vec3(w: &mut Writer, v: DVec3) {
+    [v.x, v.y, v.z].into_iter().for_each(|x| w.f64(x));
 }
 
-struct In<'a>(&'a [u8]);
+fn read_vec3(r: &mut Reader) -> Result<DVec3, String> {
+    Ok(DVec3::new(r.f64()?, r.f64()?, r.f64()?))
+}
 
-impl<'a> In<'a> {
-    fn take(&mut self, n: usize) -> Option<&'a [u8]> {
-        if self.0.len() < n {
-            return None;
-        }
-        let (head, rest) = self.0.split_at(n);
-        self.0 = rest;
-        Some(head)
-    }
-    fn u8(&mut self) -> Option<u8> {
-        Some(self.take(1)?[0])
-    }
-    fn u32(&mut self) -> Option<u32> {
-        Some(u32::from_le_bytes(self.take(4)?.try_into().ok()?))
-    }
-    fn u64(&mut self) -> Option<u64> {
-        Some(u64::from_le_bytes(self.take(8)?.try_into().ok()?))
-    }
-    /// A count of items of at least `item` bytes each, checked against the bytes left.
-    fn count(&mut self, item: usize) -> Option<usize> {
-        let n = usize::try_from(self.u64()?).ok()?;
-        (n.checked_mul(item)? <= self.0.len()).then_some(n)
-    }
-    fn f64(&mut self) -> Option<f64> {
-        Some(f64::from_bits(self.u64()?))
-    }
-    fn vec3(&mut self) -> Option<DVec3> {
-        Some(DVec3::new(self.f64()?, self.f64()?, self.f64()?))
-    }
+fn magic(r: &mut Reader, magic: &[u8; 8]) -> Result<(), String> {
+    (r.take(8)? == magic).then_some(()).ok_or_else(|| "not a plan of this format".to_string())
 }
 
 /// The stages as bytes.
 pub(super) fn encode_stages(stages: &[Stage]) -> Vec<u8> {
-    let mut out = Out(Vec::with_capacity(16 + stages.len() * 9));
-    out.0.extend_from_slice(STAGES_MAGIC);
-    out.u64(stages.len() as u64);
+    let mut out = Vec::with_capacity(16 + stages.len() * 9);
+    let w = &mut Writer(&mut out);
+    w.0.extend_from_slice(STAGES_MAGIC);
+    w.u64(stages.len() as u64);
     for stage in stages {
         match *stage {
             Stage::Done(a) => {
-                out.0.push(0);
-                out.f64(a);
+                w.u8(0);
+                w.f64(a);
             }
             Stage::Mirror { rays, n, coverage } => {
-                out.0.push(1);
-                out.u32(rays);
-                out.u32(n);
-                out.f64(coverage);
+                w.u8(1);
+                w.u32(rays);
+                w.u32(n);
+                w.f64(coverage);
             }
             Stage::Shade(hit, v, a) => {
-                out.0.push(2);
-                out.f64(hit.t);
-                out.vec3(hit.point);
-                out.vec3(hit.normal);
-                out.vec3(hit.ng);
-                out.vec3(v);
-                out.f64(a);
+                w.u8(2);
+                w.f64(hit.t);
+                [hit.point, hit.normal, hit.ng, v].into_iter().for_each(|x| vec3(w, x));
+                w.f64(a);
             }
         }
     }
-    out.0
+    out
 }
 
 /// The stages [`encode_stages`] wrote, if they are `pixels` of them.
 pub(super) fn decode_stages(bytes: &[u8], pixels: usize) -> Option<Vec<Stage>> {
-    let mut r = In(bytes);
-    (r.take(8)? == STAGES_MAGIC).then_some(())?;
-    let n = r.count(9)?;
-    (n == pixels).then_some(())?;
-    let mut stages = Vec::with_capacity(n);
-    for _ in 0..n {
+    read_stages(&mut Reader::new(bytes), pixels).ok()
+}
+
+fn read_stages(r: &mut Reader, pixels: usize) -> Result<Vec<Stage>, String> {
+    magic(r, STAGES_MAGIC)?;
+    if r.usize()? != pixels {
+        return Err("another frame's plan".into());
+    }
+    r.need(pixels.saturating_mul(9))?;
+    let mut stages = Vec::with_capacity(pixels);
+    for _ in 0..pixels {
         stages.push(match r.u8()? {
             0 => Stage::Done(r.f64()?),
             1 => Stage::Mirror { rays: r.u32()?, n: r.u32()?, coverage: r.f64()? },
             2 => {
-                let (t, point, normal, ng) = (r.f64()?, r.vec3()?, r.vec3()?, r.vec3()?);
-                Stage::Shade(Hit { t, point, normal, ng }, r.vec3()?, r.f64()?)
+                let t = r.f64()?;
+                let (point, normal, ng) = (read_vec3(r)?, read_vec3(r)?, read_vec3(r)?);
+                Stage::Shade(Hit { t, point, normal, ng }, read_vec3(r)?, r.f64()?)
             }
-            _ => return None,
+            tag => return Err(format!("stage tag {tag}")),
         });
     }
-    r.0.is_empty().then_some(stages)
+    r.finish()?;
+    Ok(stages)
 }
 
 /// A mirror's reads of one map size as bytes.
 pub(super) fn encode_reads(rows: &[RowReads]) -> Vec<u8> {
-    let items: usize = rows.iter().map(|r| r.counts.len() + 3 * r.texel.len()).sum();
-    let mut out = Out(Vec::with_capacity(16 + rows.len() * 24 + items * 4));
-    out.0.extend_from_slice(READS_MAGIC);
-    out.u64(rows.len() as u64);
+    let taps: usize = rows.iter().map(|r| r.counts.len() + 3 * r.texel.len()).sum();
+    let mut out = Vec::with_capacity(16 + rows.len() * 24 + taps * 4);
+    let w = &mut Writer(&mut out);
+    w.0.extend_from_slice(READS_MAGIC);
+    w.u64(rows.len() as u64);
     for row in rows {
-        out.u64(row.counts.len() as u64);
-        row.counts.iter().for_each(|&c| out.u32(c));
-        out.u64(row.texel.len() as u64);
-        row.texel.iter().for_each(|&t| out.u32(t));
-        row.weight.iter().for_each(|&w| out.f64(w));
+        w.u32s(&row.counts);
+        w.u32s(&row.texel);
+        w.f64s(&row.weight);
     }
-    out.0
+    out
 }
 
-/// The reads [`encode_reads`] wrote, if they are `height` rows whose pixel counts match the
-/// mirror pixels of `stages` (`width` a row) and whose texels lie in a map of `texels`.
+/// The reads [`encode_reads`] wrote, if they are a row each of `stages` (`width` a row) with a
+/// tap count per mirror pixel, and texels that lie in a map of `texels`.
 pub(super) fn decode_reads(bytes: &[u8], stages: &[Stage], width: usize, texels: usize) -> Option<Vec<RowReads>> {
-    let mut r = In(bytes);
-    (r.take(8)? == READS_MAGIC).then_some(())?;
-    let height = r.count(16)?;
-    (height * width == stages.len()).then_some(())?;
+    read_reads(&mut Reader::new(bytes), stages, width, texels).ok()
+}
+
+fn read_reads(r: &mut Reader, stages: &[Stage], width: usize, texels: usize) -> Result<Vec<RowReads>, String> {
+    magic(r, READS_MAGIC)?;
+    let height = r.usize()?;
+    if height.checked_mul(width) != Some(stages.len()) {
+        return Err("another frame's reads".into());
+    }
     let mut rows = Vec::with_capacity(height);
-    for row in 0..height {
-        let mirrors = stages[row * width..(row + 1) * width].iter().filter(|s| matches!(s, Stage::Mirror { .. }));
-        let pixels = r.count(4)?;
-        (pixels == mirrors.count()).then_some(())?;
-        let counts: Vec<u32> = (0..pixels).map(|_| r.u32()).collect::<Option<_>>()?;
-        let taps = r.count(12)?;
-        (counts.iter().map(|&c| c as usize).sum::<usize>() == taps).then_some(())?;
-        let texel: Vec<u32> = (0..taps).map(|_| r.u32()).collect::<Option<_>>()?;
-        texel.iter().all(|&t| (t as usize) < texels).then_some(())?;
-        let weight: Vec<f64> = (0..taps).map(|_| r.f64()).collect::<Option<_>>()?;
+    for row in stages.chunks_exact(width.max(1)).take(height) {
+        let (counts, texel, weight) = (r.u32s()?, r.u32s()?, r.f64s()?);
+        let mirrors = row.iter().filter(|s| matches!(s, Stage::Mirror { .. })).count();
+        let taps = counts.iter().map(|&c| c as usize).sum::<usize>();
+        if counts.len() != mirrors || texel.len() != taps || weight.len() != taps {
+            return Err("reads that do not match the frame".into());
+        }
+        if texel.iter().any(|&t| t as usize >= texels) {
+            return Err("a texel beyond the map".into());
+        }
         rows.push(RowReads { counts, texel, weight });
     }
-    r.0.is_empty().then_some(rows)
+    r.finish()?;
+    Ok(rows)
 }
 
 #[cfg(test)]

@@ -44,10 +44,7 @@ pub(super) const MAX_SPLIT: usize = 32;
 pub(super) struct Level {
     pub(super) width: usize,
     pub(super) height: usize,
-    pub(super) power: Vec<[f64; 3]>,
-    pub(super) centre: Vec<DVec3>,
-    pub(super) radius: Vec<f64>,
-    /// every node with what the sums test, in the same order
+    /// row-major
     pub(super) nodes: Vec<Node>,
 }
 
@@ -69,6 +66,35 @@ pub(super) struct Node {
     pub(super) accept_sin: f64,
     /// that angle, `acos(accept_cos)` (NaN for always and never)
     pub(super) accept_angle: f64,
+}
+
+impl Node {
+    /// The node of axis `centre`, `power` and bounding radius `radius`, with the tests of a tree
+    /// refined with ratio `cut` around a lobe `w` wide ([`TexelTree::new`]).
+    fn new(centre: DVec3, power: [f64; 3], radius: f64, cut: f64, w: f64) -> Node {
+        let accept_cos = if radius <= cut * w.min(1.0) {
+            2.0
+        } else if radius > cut {
+            -2.0
+        } else {
+            let delta = radius + radius / cut - w;
+            if delta >= PI {
+                -2.0
+            } else {
+                delta.cos()
+            }
+        };
+        Node {
+            centre,
+            power,
+            radius,
+            sin_radius: radius.min(0.5 * PI).sin(),
+            cos_radius: radius.min(0.5 * PI).cos(),
+            accept_cos,
+            accept_sin: if accept_cos.abs() <= 1.0 { (1.0 - accept_cos * accept_cos).sqrt() } else { 0.0 },
+            accept_angle: accept_cos.acos(),
+        }
+    }
 }
 
 /// The map's texels as a tree of blocks.
@@ -103,9 +129,7 @@ impl TexelTree {
     /// r + r / cut - w`.
     pub fn new(map: &Image, cut: f64, w: f64) -> TexelTree {
         let (width, height) = (map.width, map.height);
-        let mut power = Vec::with_capacity(width * height);
-        let mut centre = Vec::with_capacity(width * height);
-        let mut radius = Vec::with_capacity(width * height);
+        let mut nodes = Vec::with_capacity(width * height);
         for y in 0..height {
             let (t0, t1) = (PI * y as f64 / height as f64, PI * (y + 1) as f64 / height as f64);
             let omega = box_solid_angle(1.0 / width as f64, t0, t1);
@@ -116,48 +140,13 @@ impl TexelTree {
                     .iter()
                     .map(|&(u, t)| c.angle_between(direction(u, t)))
                     .fold(0.0, f64::max);
-                power.push(map.rgb(x, y).map(|v| v as f64 * omega));
-                centre.push(c);
-                radius.push(r);
+                nodes.push(Node::new(c, map.rgb(x, y).map(|v| v as f64 * omega), r, cut, w));
             }
         }
-        let level = Level { width, height, power, centre, radius, nodes: Vec::new() };
-        let mut levels = vec![level];
-        while levels.last().is_some_and(|l| l.width > TOP_WIDTH || l.height > TOP_WIDTH / 2) {
-            let next = group(levels.last().unwrap());
+        let mut levels = vec![Level { width, height, nodes }];
+        while let Some(l) = levels.last().filter(|l| l.width > TOP_WIDTH || l.height > TOP_WIDTH / 2) {
+            let next = group(l, cut, w);
             levels.push(next);
-        }
-        let accept_cos = |r: f64| {
-            if r <= cut * w.min(1.0) {
-                2.0
-            } else if r > cut {
-                -2.0
-            } else {
-                let delta = r + r / cut - w;
-                if delta >= PI {
-                    -2.0
-                } else {
-                    delta.cos()
-                }
-            }
-        };
-        for l in &mut levels {
-            l.nodes = (0..l.radius.len())
-                .map(|i| {
-                    let r = l.radius[i];
-                    let accept_cos = accept_cos(r);
-                    Node {
-                        centre: l.centre[i],
-                        power: l.power[i],
-                        radius: r,
-                        sin_radius: r.min(0.5 * PI).sin(),
-                        cos_radius: r.min(0.5 * PI).cos(),
-                        accept_cos,
-                        accept_sin: if accept_cos.abs() <= 1.0 { (1.0 - accept_cos * accept_cos).sqrt() } else { 0.0 },
-                        accept_angle: accept_cos.acos(),
-                    }
-                })
-                .collect();
         }
         TexelTree { levels, width, height, cut, w }
     }
@@ -243,39 +232,33 @@ impl TexelTree {
     }
 }
 
-/// The next level: 2 x 2 blocks of `l` with their power, mean direction and bounding cone.
-fn group(l: &Level) -> Level {
-    let (w, h) = (l.width.div_ceil(2), l.height.div_ceil(2));
-    let mut level = Level {
-        width: w,
-        height: h,
-        power: Vec::with_capacity(w * h),
-        centre: Vec::with_capacity(w * h),
-        radius: Vec::with_capacity(w * h),
-        nodes: Vec::new(),
-    };
-    for y in 0..h {
-        for x in 0..w {
-            let children: Vec<usize> = (2 * y..(2 * y + 2).min(l.height))
-                .flat_map(|cy| (2 * x..(2 * x + 2).min(l.width)).map(move |cx| cy * l.width + cx))
-                .collect();
+/// The next level: 2 x 2 blocks of `l` with their power, mean direction and bounding cone, and
+/// the tests of a tree of ratio `cut` and lobe width `w`.
+fn group(l: &Level, cut: f64, w: f64) -> Level {
+    let (width, height) = (l.width.div_ceil(2), l.height.div_ceil(2));
+    let mut nodes = Vec::with_capacity(width * height);
+    for y in 0..height {
+        for x in 0..width {
+            let children = || {
+                (2 * y..(2 * y + 2).min(l.height))
+                    .flat_map(move |cy| (2 * x..(2 * x + 2).min(l.width)).map(move |cx| &l.nodes[cy * l.width + cx]))
+            };
             let mut power = [0.0; 3];
             let (mut lum, mut geo) = (DVec3::ZERO, DVec3::ZERO);
-            for &i in &children {
-                let p = l.power[i];
+            for child in children() {
+                let p = child.power;
                 (0..3).for_each(|ch| power[ch] += p[ch]);
                 // Weights: the child's luminance power, and its share of the sphere (its radius
                 // squared stands for its solid angle, to first order).
                 let y_power = 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2];
-                lum += y_power.max(0.0) * l.centre[i];
-                geo += l.radius[i] * l.radius[i] * l.centre[i];
+                lum += y_power.max(0.0) * child.centre;
+                geo += child.radius * child.radius * child.centre;
             }
-            let c = if lum.length() > 1e-300 { lum.normalize() } else { geo.normalize_or(l.centre[children[0]]) };
-            let r = children.iter().map(|&i| c.angle_between(l.centre[i]) + l.radius[i]).fold(0.0, f64::max);
-            level.power.push(power);
-            level.centre.push(c);
-            level.radius.push(r.min(PI));
+            let first = l.nodes[2 * y * l.width + 2 * x].centre;
+            let c = if lum.length() > 1e-300 { lum.normalize() } else { geo.normalize_or(first) };
+            let r = children().map(|child| c.angle_between(child.centre) + child.radius).fold(0.0, f64::max);
+            nodes.push(Node::new(c, power, r.min(PI), cut, w));
         }
     }
-    level
+    Level { width, height, nodes }
 }

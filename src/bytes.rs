@@ -1,6 +1,7 @@
 //! The byte codec every cache payload is written with: little-endian numbers and
 //! length-prefixed strings and slices, each length checked before anything is allocated.
-//! A leaf of the engine: value types (`engine::value`, `types`) and the cache both use it.
+//! A leaf below every layer: the engine's cache and value types (`engine::value`, `values`) and
+//! the frame plans `maths::render::probe_sphere` keeps between runs all use it.
 
 /// Appends little-endian primitives to a buffer.
 pub struct Writer<'a>(pub &'a mut Vec<u8>);
@@ -8,6 +9,9 @@ pub struct Writer<'a>(pub &'a mut Vec<u8>);
 impl Writer<'_> {
     pub fn u8(&mut self, v: u8) {
         self.0.push(v);
+    }
+    pub fn u32(&mut self, v: u32) {
+        self.0.extend_from_slice(&v.to_le_bytes());
     }
     pub fn u64(&mut self, v: u64) {
         self.0.extend_from_slice(&v.to_le_bytes());
@@ -33,6 +37,13 @@ impl Writer<'_> {
     pub fn f32s(&mut self, v: &[f32]) {
         self.u64(v.len() as u64);
         self.f32s_raw(v);
+    }
+    pub fn u32s(&mut self, v: &[u32]) {
+        self.u64(v.len() as u64);
+        self.0.reserve(v.len() * 4);
+        for x in v {
+            self.0.extend_from_slice(&x.to_le_bytes());
+        }
     }
     pub fn f64s(&mut self, v: &[f64]) {
         self.u64(v.len() as u64);
@@ -77,6 +88,9 @@ impl<'a> Reader<'a> {
     pub fn u8(&mut self) -> Result<u8, String> {
         Ok(self.take(1)?[0])
     }
+    pub fn u32(&mut self) -> Result<u32, String> {
+        Ok(u32::from_le_bytes(self.take(4)?.try_into().expect("4 bytes")))
+    }
     pub fn u64(&mut self) -> Result<u64, String> {
         Ok(u64::from_le_bytes(self.take(8)?.try_into().expect("8 bytes")))
     }
@@ -105,6 +119,11 @@ impl<'a> Reader<'a> {
         let n = self.usize()?;
         let raw = self.take(n.checked_mul(4).ok_or("length overflows")?)?;
         Ok(raw.chunks_exact(4).map(|c| f32::from_le_bytes(c.try_into().expect("4 bytes"))).collect())
+    }
+    pub fn u32s(&mut self) -> Result<Vec<u32>, String> {
+        let n = self.usize()?;
+        let raw = self.take(n.checked_mul(4).ok_or("length overflows")?)?;
+        Ok(raw.chunks_exact(4).map(|c| u32::from_le_bytes(c.try_into().expect("4 bytes"))).collect())
     }
     pub fn f64s(&mut self) -> Result<Vec<f64>, String> {
         let n = self.usize()?;
