@@ -14,6 +14,8 @@
 //!   The bound per material is in [`BOUNDS`], with the ratios measured when it was set.
 //! - The same spheres of the map turned by a quarter turn (`Rotate(yaw: 90)`) must exceed the
 //!   bounds many times over, so the comparison can fail.
+//! - The three prepared maps are written with three of `Save`'s lossless EXR compressions (Zip,
+//!   Rle, Piz), so Blender's own OpenEXR reads each kind hdrflow writes.
 //! - The wall time of both is printed, not asserted (speed belongs to the benchmarks).
 //!
 //! Blender runs with `--python-exit-code 1`, so an error in the script fails the test with its
@@ -67,15 +69,22 @@ fn load(path: &Path) -> Image {
 }
 
 /// The graph that prepares `map` as the protocol does, saves it for Blender, and renders the
-/// three spheres of it and of it turned by 90 degrees.
+/// three spheres of it and of it turned by 90 degrees. Each map is saved with another of
+/// `Save`'s lossless EXR compressions, so Blender's OpenEXR reads each of them (a file it read
+/// wrongly would light its spheres wrongly).
 fn graph(map: &Path, name: &str) -> String {
     let (w, h) = (1920 * PERCENT / 100, 1080 * PERCENT / 100);
+    let compression = match MAPS.iter().position(|&m| m == name) {
+        Some(0) => "Zip",
+        Some(1) => "Rle",
+        _ => "Piz",
+    };
     let mut nodes = format!(
         r#""env": LoadHdr(path: {}),
         "small": Resize(image: "env", width: 256, height: 128),
         "toned": ProtocolTonemap(image: "small"),
         "turned": Rotate(image: "toned", yaw: 90),
-        "save_map": Save(input: "toned", path: "maps/{name}.exr"),
+        "save_map": Save(input: "toned", path: "maps/{name}.exr", compression: {compression}),
 "#,
         common::ron_path(map)
     );

@@ -14,6 +14,9 @@ crate::choice! {
     pub enum ExrCompression {
         /// deflate, 16-line blocks (OpenEXR's ZIP_COMPRESSION), lossless
         Zip,
+        /// run-length encoding, one line a block, lossless (OpenEXR's RLE_COMPRESSION): fast, and small
+        /// for images with large flat areas (a render's transparent background)
+        Rle,
         /// wavelet + Huffman, 32-line blocks, lossless
         Piz,
         /// DWAA (DCT, 32-line blocks, default level 45): lossy (about 2e-3 at values near 0.5, f32 or half)
@@ -91,6 +94,7 @@ pub(super) fn encode_inner(image: &Image, options: &EncodeOptions) -> Result<Vec
     // Scanline blocks, increasing Y.
     let compression = match options.compression {
         ExrCompression::Zip => ::exr::prelude::Compression::ZIP16,
+        ExrCompression::Rle => ::exr::prelude::Compression::RLE,
         ExrCompression::Piz => ::exr::prelude::Compression::PIZ,
         ExrCompression::Dwaa => ::exr::prelude::Compression::DWAA(None),
         ExrCompression::None => ::exr::prelude::Compression::Uncompressed,

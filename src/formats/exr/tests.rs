@@ -376,7 +376,7 @@ fn every_compression_and_half_round_trip_with_alpha_and_names() {
     for (i, v) in img.data.iter_mut().enumerate() {
         *v = 0.5 + 0.25 * ((i / 4 % w) as f32 * 0.1).sin() + 0.01 * (i % 4) as f32;
     }
-    for compression in [ExrCompression::Zip, ExrCompression::Piz, ExrCompression::Dwaa, ExrCompression::None] {
+    for compression in ExrCompression::ALL {
         for half in [false, true] {
             let o = EncodeOptions { compression, half };
             let bytes = encode_with(&img, &o).unwrap();
@@ -384,6 +384,7 @@ fn every_compression_and_half_round_trip_with_alpha_and_names() {
             let header = &meta.headers[0];
             let want = match compression {
                 ExrCompression::Zip => Compression::ZIP16,
+                ExrCompression::Rle => Compression::RLE,
                 ExrCompression::Piz => Compression::PIZ,
                 ExrCompression::Dwaa => Compression::DWAA(None),
                 ExrCompression::None => Compression::Uncompressed,

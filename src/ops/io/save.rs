@@ -73,7 +73,7 @@ crate::params! {
         pub sh: Option<Input<AnyValue>>,
         /// (.png of an image or cube map) Srgb8 (an 8-bit sRGB preview), Linear16 (16-bit linear values clamped to [0, 1], for data such as a BRDF LUT: two channels as R, G with B = 0) or Rgbp (PlayCanvas' 8-bit RGBP, values up to 64, beyond that clamped with one warning; exposure not applied)
         pub png_format: PngFormat = PngFormat::Srgb8,
-        /// (.exr) Zip (lossless, 16-line blocks), Piz (lossless wavelet), Dwaa (lossy DCT, 32-line blocks) or None
+        /// (.exr) Zip (lossless, 16-line blocks), Rle (lossless run lengths: twice as fast as Zip, compact only where large areas are flat, such as a render's transparent background), Piz (lossless wavelet), Dwaa (lossy DCT, 32-line blocks) or None
         pub compression: crate::formats::exr::ExrCompression = crate::formats::exr::ExrCompression::Zip,
         /// (.exr) store half floats (16-bit; values beyond 65504 become infinite) instead of f32
         pub half: bool = false,
