@@ -347,6 +347,34 @@ mod tests {
     }
 
     #[test]
+    fn any_hit_agrees_with_testing_every_triangle_across_the_silhouette() {
+        // Rays from the camera and from points of its lens towards a band around the silhouette,
+        // where some pass through the inner ball (taken without a search), some graze the mesh
+        // and some miss it.
+        let m = subdivided();
+        let (mut hit, mut missed, mut through_inner) = (0, 0, 0);
+        for (k, lens) in [(0.0, 0.0), (0.085, 0.0), (-0.06, 0.06)].into_iter().enumerate() {
+            let origin = super::super::camera::POSITION + DVec3::new(lens.0, 0.0, lens.1);
+            for i in 0..2000 {
+                let a = i as f64 * 0.0031416 + k as f64;
+                let radius = 0.97 + 0.035 * ((i * 7919) % 1000) as f64 / 999.0;
+                let target = DVec3::new(radius * a.cos(), 0.0, radius * a.sin());
+                let ray = Ray { origin, dir: (target - origin).normalize() };
+                let brute = (0..m.triangles.len()).any(|id| m.intersect(id, &ray).is_some());
+                let mut hint = Some((i * 31) % m.triangles.len());
+                assert_eq!(m.hits(&ray, &mut hint), brute, "lens {k}, ray {i} at radius {radius}");
+                if brute {
+                    hit += 1;
+                } else {
+                    missed += 1;
+                }
+                through_inner += usize::from(super::super::mesh_search::through_ball(&ray, m.inner));
+            }
+        }
+        assert!(hit > 1000 && missed > 1000 && through_inner > 500, "{hit} {missed} {through_inner}");
+    }
+
+    #[test]
     fn the_mesh_is_convex_but_for_shallow_dents() {
         let m = subdivided();
         let mut worst: f64 = 0.0;

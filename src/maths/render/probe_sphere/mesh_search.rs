@@ -17,7 +17,8 @@
 //! triangle (tested).
 //!
 //! **Any hit.** The mesh is closed: a ray hits it when it hits any triangle, so [`SphereMesh::hits`]
-//! stops at the first (ring or grid), whatever its steepness.
+//! stops at the first (ring or grid), whatever its steepness; and a ray through the ball of radius
+//! `inner`, which lies inside the mesh, hits it without a test (tested against every triangle).
 
 use std::cell::RefCell;
 
@@ -69,6 +70,12 @@ impl SphereMesh {
     /// Whether `ray` hits the mesh (any triangle), trying first the triangle `hint` names and its
     /// ring; leaves in `hint` a triangle hit.
     pub fn hits(&self, ray: &Ray, hint: &mut Option<usize>) -> bool {
+        // The ball of radius `inner` clears every triangle's plane and holds the origin, so it lies
+        // inside the closed mesh: a ray from outside that passes through it crosses the mesh. Most
+        // of the rough spheres' silhouette rays do, and skip the search (the hint is kept).
+        if through_ball(ray, self.inner) {
+            return true;
+        }
         if let Some(h) = *hint {
             for id in std::iter::once(h).chain(self.rings[h].iter().map(|&i| i as usize)) {
                 if self.intersect(id, ray).is_some() {
@@ -134,4 +141,12 @@ impl SphereMesh {
             }
         });
     }
+}
+
+/// Whether `ray` (from outside the ball) passes through the interior of the ball of radius `r`
+/// about the origin, ahead of its origin, with a margin of 1e-9 relative for rounding.
+pub(super) fn through_ball(ray: &Ray, r: f64) -> bool {
+    let b = ray.origin.dot(ray.dir);
+    let closest_squared = ray.origin.length_squared() - b * b;
+    b < 0.0 && closest_squared < r * r * (1.0 - 1e-9)
 }
