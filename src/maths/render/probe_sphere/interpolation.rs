@@ -15,6 +15,8 @@
 //! finer cut of the texel tree: on the protocol's frame it is small beside the cut's own (tested
 //! on a smaller frame; the book page gives the measurements on the CC0 maps).
 
+use std::ops::Range;
+
 use glam::DVec3;
 use rayon::prelude::*;
 
@@ -86,8 +88,9 @@ fn weights(offset: usize) -> [f64; 4] {
 }
 
 /// Fills the pixels of `rgb` (row-major, `width` wide) that [`shaded_pixels`] left to be
-/// interpolated, from the shaded anchors around them.
-pub(super) fn fill(stages: &[Stage], shaded: &[bool], rgb: &mut [[f64; 3]], width: usize) {
+/// interpolated, from the shaded anchors around them; `spans` holds each row's pixels that are
+/// not empty ([`super::plan::Plan::spans`]), the only ones looked at.
+pub(super) fn fill(stages: &[Stage], spans: &[Range<usize>], shaded: &[bool], rgb: &mut [[f64; 3]], width: usize) {
     // The anchors are read while the rows are written: a copy of them (a quarter of the image).
     let (aw, height) = (width.div_ceil(2), rgb.len() / width.max(1));
     let anchors: Vec<[f64; 3]> = (0..height.div_ceil(2))
@@ -95,8 +98,8 @@ pub(super) fn fill(stages: &[Stage], shaded: &[bool], rgb: &mut [[f64; 3]], widt
         .map(|(i, j)| rgb[2 * j * width + 2 * i])
         .collect();
     rgb.par_chunks_mut(width.max(1)).enumerate().for_each(|(y, row)| {
-        for (x, out) in row.iter_mut().enumerate() {
-            let i = y * width + x;
+        for x in spans[y].clone() {
+            let (i, out) = (y * width + x, &mut row[x]);
             if shaded[i] || !matches!(stages[i], Stage::Shade(..)) {
                 continue;
             }

@@ -318,12 +318,16 @@ fn render_tiled(
     let environment = Environment::new(env);
     let bsdf = settings.material.principled(settings.smith);
     let (w, h) = (settings.width, settings.height);
-    let row = |r: usize| &plan.stages[r * w..(r + 1) * w];
-    // The pixels go straight into the image and the mask, a row at a time.
+    // Row r's span of pixels that are not empty ([`plan::Plan::spans`]), as a range of the frame.
+    let span = |r: usize| r * w + plan.spans[r].start..r * w + plan.spans[r].end;
+    // The pixels go straight into the image and the mask, a row's span at a time (the rest stay 0).
     let mut rgba = vec![0.0f32; w * h * 4];
     let mut alpha = vec![0.0f32; w * h];
-    let put = |rgba: &mut [f32], alpha: &mut [f32], pixels: &mut dyn Iterator<Item = ([f64; 3], f64)>| {
-        for ((out, a), (rgb, coverage)) in rgba.chunks_exact_mut(4).zip(alpha).zip(pixels) {
+    let put = |r: usize, rgba: &mut [f32], alpha: &mut [f32], pixels: &mut dyn Iterator<Item = ([f64; 3], f64)>| {
+        let x = plan.spans[r].clone();
+        for ((out, a), (rgb, coverage)) in
+            rgba[4 * x.start..4 * x.end].chunks_exact_mut(4).zip(&mut alpha[x]).zip(pixels)
+        {
             out.copy_from_slice(&[rgb[0] as f32, rgb[1] as f32, rgb[2] as f32, coverage as f32]);
             *a = coverage as f32;
         }
@@ -333,7 +337,8 @@ fn render_tiled(
         let (map_w, map_h) = environment.size();
         let reads = plan.mirror_reads(map_w, map_h, store);
         rows.for_each(|(r, (rgba, alpha))| {
-            put(rgba, alpha, &mut finish(row(r), reads[r].pixels(&environment), std::iter::repeat([0.0; 3])))
+            let stages = &plan.stages[span(r)];
+            put(r, rgba, alpha, &mut finish(stages, reads[r].pixels(&environment), std::iter::repeat([0.0; 3])))
         });
     } else {
         // Bands of `tile` rows: their tiles' rough lobes, then the pixels interpolated.
@@ -345,10 +350,10 @@ fn render_tiled(
             tiles::shade_band(&tree, &bsdf, (w, &plan.stages[pixels.clone()], &shade[pixels]), tile, out)
         });
         if settings.interpolate {
-            interpolation::fill(&plan.stages, &shade, &mut rgb, w);
+            interpolation::fill(&plan.stages, &plan.spans, &shade, &mut rgb, w);
         }
         rows.for_each(|(r, (rgba, alpha))| {
-            put(rgba, alpha, &mut finish(row(r), std::iter::empty(), rgb[r * w..(r + 1) * w].iter().copied()))
+            put(r, rgba, alpha, &mut finish(&plan.stages[span(r)], std::iter::empty(), rgb[span(r)].iter().copied()))
         });
     }
     ProbeRender { image: Image::from_vec(w, h, 4, rgba), mask: Image::from_vec(w, h, 1, alpha) }

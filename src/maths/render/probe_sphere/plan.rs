@@ -25,6 +25,7 @@
 //! that waits for them blocks rather than steals, so no worker can start another render that
 //! waits for the same plan on top of the one making it.
 
+use std::ops::Range;
 use std::sync::{Arc, Mutex, OnceLock};
 
 use rayon::prelude::*;
@@ -50,6 +51,10 @@ pub(super) struct Plan {
     settings: ProbeSettings,
     name: String,
     pub(super) stages: Vec<Stage>,
+    /// each row's columns from its first to its last stage that is not empty (`Done(0.0)`, off
+    /// the sphere): the passes of a render over every pixel read these alone, about a sixth of a
+    /// protocol frame's 62 MB of stages
+    pub(super) spans: Vec<Range<usize>>,
     /// made with the stages, or traced again when a plan read from a store needs them
     rays: OnceLock<Vec<Vec<MirrorRay>>>,
     /// the mirror's reads of each map size (width, height), most recently used last
@@ -142,7 +147,11 @@ pub(super) fn plan_for(settings: &ProbeSettings, store: Option<&dyn PlanStore>) 
     let slot = recent_slot(&STORE, key, KEPT);
     slot.get_or_init(|| {
         let decode = |bytes: &[u8]| {
-            decode_stages(bytes, pixels).map(|stages| Plan { stages, ..make_empty(settings, name.clone()) })
+            decode_stages(bytes, pixels).map(|stages| Plan {
+                spans: spans(&stages, settings.width),
+                stages,
+                ..make_empty(settings, name.clone())
+            })
         };
         Arc::new(kept_in(store, &name, decode, || make(settings, name.clone()), |plan| encode_stages(&plan.stages)))
     })
@@ -199,6 +208,7 @@ fn make_empty(settings: &ProbeSettings, name: String) -> Plan {
         settings: *settings,
         name,
         stages: Vec::new(),
+        spans: Vec::new(),
         rays: OnceLock::new(),
         reads: Mutex::new(Vec::new()),
         shaded: Mutex::new(Vec::new()),
@@ -208,7 +218,20 @@ fn make_empty(settings: &ProbeSettings, name: String) -> Plan {
 /// The plan of `settings`' frame, traced (see the module documentation).
 fn make(settings: &ProbeSettings, name: String) -> Plan {
     let (stages, rays) = trace(settings);
-    Plan { stages, rays: OnceLock::from(rays), ..make_empty(settings, name) }
+    Plan { spans: spans(&stages, settings.width), stages, rays: OnceLock::from(rays), ..make_empty(settings, name) }
+}
+
+/// Each row's span of `stages` (`width` a row) between its first and last stage that is not
+/// empty; an empty range for a row of empty stages.
+fn spans(stages: &[Stage], width: usize) -> Vec<Range<usize>> {
+    let empty = |s: &Stage| matches!(s, Stage::Done(a) if *a == 0.0);
+    stages
+        .chunks(width.max(1))
+        .map(|row| match row.iter().position(|s| !empty(s)) {
+            Some(first) => first..row.len() - row.iter().rev().position(|s| !empty(s)).unwrap_or(0),
+            None => 0..0,
+        })
+        .collect()
 }
 
 /// Every row of `settings`' frame traced: the pixels' stages and each row's mirror rays.
@@ -251,6 +274,9 @@ fn on_own_pool<T: Send>(work: impl Fn(bool) -> T + Sync) -> T {
 pub(super) mod tests_support {
     use std::collections::HashMap;
 
+    use glam::DVec3;
+
+    use super::super::Hit;
     use super::*;
 
     /// A [`PlanStore`] in memory.
@@ -266,6 +292,22 @@ pub(super) mod tests_support {
         }
     }
 
+    #[test]
+    fn a_rows_span_runs_from_its_first_to_its_last_stage_that_is_not_empty() {
+        let hit = Hit { t: 1.0, point: DVec3::Z, normal: DVec3::Z, ng: DVec3::Z };
+        let (empty, shade) = (Stage::Done(0.0), Stage::Shade(hit, DVec3::Z, 0.5));
+        let mirror = Stage::Mirror { rays: 3, n: 4, coverage: 0.75 };
+        // A black pixel partly covered (a ray hit nothing lit) is not empty either.
+        let rows = [
+            [empty, Stage::Done(0.25), empty, shade, empty],
+            [empty; 5],
+            [mirror, empty, empty, empty, mirror],
+            [empty, empty, shade, empty, empty],
+        ];
+        let stages: Vec<Stage> = rows.concat();
+        assert_eq!(spans(&stages, 5), [1..4, 0..0, 0..5, 2..3]);
+    }
+
     /// A plan's stages and its reads of a 64 x 32 map (none for a rough frame).
     pub(in super::super) type Parts = (Vec<Stage>, Vec<RowReads>);
 
@@ -276,7 +318,12 @@ pub(super) mod tests_support {
         let made = make(settings, "plan".into());
         store.save("plan", encode_stages(&made.stages));
         let stages = decode_stages(&store.load("plan").unwrap(), settings.width * settings.height).unwrap();
-        let read = Plan { stages, rays: OnceLock::new(), ..make_empty(settings, "plan".into()) };
+        let read = Plan {
+            spans: spans(&stages, settings.width),
+            stages,
+            rays: OnceLock::new(),
+            ..make_empty(settings, "plan".into())
+        };
         let mirror = settings.material.principled(settings.smith).is_mirror();
         let reads = |plan: &Plan| -> Vec<RowReads> {
             if !mirror {
