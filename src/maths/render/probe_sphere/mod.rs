@@ -34,9 +34,9 @@
 //! ([`interpolation`]).
 //!
 //! Everything before the map is read (the rays, their hits, the coverage, the mirror's reflections
-//! and weights) is the frame's [`plan`], made once per process for each frame and shared by the
-//! renders of every map; given a [`plan_bytes::PlanStore`] (the run's cache) it is kept there and
-//! read back by later processes. Bands of rows run in parallel (rayon); every pixel is a pure
+//! and weights, the rough materials' tiles and lobes) is the frame's [`plan`], made once per
+//! process for each frame and shared by the renders of every map; given a
+//! [`plan_bytes::PlanStore`] (the run's cache) it is kept there and read back by later processes. Bands of rows run in parallel (rayon); every pixel is a pure
 //! function of the inputs and of its tile's pixels, so the image is the same bit for bit whatever
 //! the number of threads and whether the plan was kept, stored or read back.
 
@@ -54,8 +54,6 @@ pub mod shading;
 pub mod texel_tree;
 pub mod tile_cut;
 mod tiles;
-
-use std::sync::Arc;
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -343,14 +341,13 @@ fn render_tiled(
     } else {
         // Bands of `tile` rows: their tiles' rough lobes, then the pixels interpolated.
         let tree = TexelTree::new(env, settings.cut, shading::lobe_width(&bsdf));
-        let shade = if settings.interpolate { plan.shaded_pixels(&bsdf) } else { Arc::new(vec![true; w * h]) };
+        let tiles = plan.tiles(&bsdf, tile, settings.interpolate);
         let mut rgb = vec![[0.0; 3]; w * h];
-        rgb.par_chunks_mut(tile * w.max(1)).enumerate().for_each(|(band, out)| {
-            let pixels = band * tile * w..band * tile * w + out.len();
-            tiles::shade_band(&tree, &bsdf, (w, &plan.stages[pixels.clone()], &shade[pixels]), tile, out)
+        rgb.par_chunks_mut(tile * w.max(1)).zip(tiles.par_iter()).for_each(|(out, band)| {
+            tiles::shade_tiles(&tree, band, out);
         });
         if settings.interpolate {
-            interpolation::fill(&plan.stages, &plan.spans, &shade, &mut rgb, w);
+            interpolation::fill(&plan.stages, &plan.spans, &plan.shaded_pixels(&bsdf), &mut rgb, w);
         }
         rows.for_each(|(r, (rgba, alpha))| {
             put(r, rgba, alpha, &mut finish(&plan.stages[span(r)], std::iter::empty(), rgb[span(r)].iter().copied()))

@@ -34,6 +34,7 @@ use super::interpolation;
 use super::mirror_reads::RowReads;
 use super::plan_bytes::{decode_reads, decode_stages, encode_reads, encode_stages, PlanStore};
 use super::principled::Principled;
+use super::tiles::{self, Tile};
 use super::{scene, trace_row, MirrorRay, ProbeMaterial, ProbeSettings, ProbeShape, Stage};
 
 /// How many plans the process keeps (the least recently used dropped first).
@@ -44,6 +45,9 @@ const MAX_BYTES: usize = 1 << 30;
 const KEPT_SIZES: usize = 2;
 /// How many rough materials a plan keeps its interpolation masks for (the protocol has two).
 const KEPT_MATERIALS: usize = 2;
+
+/// A frame's tiles of one rough material, a list per band of tile rows.
+pub(super) type BandTiles = Vec<Vec<Tile>>;
 
 /// The stages of every pixel (row-major) and each row's mirror rays.
 pub(super) struct Plan {
@@ -61,6 +65,9 @@ pub(super) struct Plan {
     reads: Recent<(usize, usize), Arc<Vec<RowReads>>>,
     /// which pixels each rough material shades itself ([`interpolation`])
     shaded: Recent<Principled, Arc<Vec<bool>>>,
+    /// each rough material's tiles, by tile side and whether it interpolates: a list per band of
+    /// tile rows ([`tiles::band_tiles`])
+    tiles: Recent<(Principled, usize, bool), Arc<BandTiles>>,
 }
 
 impl Plan {
@@ -79,6 +86,33 @@ impl Plan {
         let slot = recent_slot(&self.shaded, *bsdf, KEPT_MATERIALS);
         slot.get_or_init(|| Arc::new(on_own_pool(|_| interpolation::shaded_pixels(&self.stages, self.width(), bsdf))))
             .clone()
+    }
+
+    /// The tiles of `bsdf` on this frame, `tile` pixels a side, with the pixels
+    /// [`Plan::shaded_pixels`] marks when `interpolate` (else every pixel to shade), a list per
+    /// band of `tile` rows: the kept ones, or made now.
+    pub(super) fn tiles(&self, bsdf: &Principled, tile: usize, interpolate: bool) -> Arc<BandTiles> {
+        let slot = recent_slot(&self.tiles, (*bsdf, tile, interpolate), KEPT_MATERIALS);
+        if let Some(tiles) = slot.get() {
+            return tiles.clone();
+        }
+        let shade = if interpolate { self.shaded_pixels(bsdf) } else { Arc::new(vec![true; self.stages.len()]) };
+        slot.get_or_init(|| {
+            let band = tile.max(1) * self.width().max(1);
+            let tiles_of = |b: usize| {
+                let pixels = b * band..((b + 1) * band).min(self.stages.len());
+                tiles::band_tiles(bsdf, (self.width(), &self.stages[pixels.clone()], &shade[pixels]), tile.max(1))
+            };
+            let bands = self.stages.len().div_ceil(band);
+            Arc::new(on_own_pool(|parallel| {
+                if parallel {
+                    (0..bands).into_par_iter().map(tiles_of).collect()
+                } else {
+                    (0..bands).map(tiles_of).collect()
+                }
+            }))
+        })
+        .clone()
     }
 
     /// Each row's mirror reads of a `width` x `height` map: the kept ones, those of `store`, or
@@ -212,6 +246,7 @@ fn make_empty(settings: &ProbeSettings, name: String) -> Plan {
         rays: OnceLock::new(),
         reads: Mutex::new(Vec::new()),
         shaded: Mutex::new(Vec::new()),
+        tiles: Mutex::new(Vec::new()),
     }
 }
 

@@ -4,8 +4,10 @@
 //! [`MAX_SPREAD`] (near the silhouette, where the normal turns fast) is split into quarters, down to
 //! single pixels, so that its cut stays close to its pixels' own.
 //!
-//! Bands of tile rows run in parallel ([`super::render`]); a pixel's value depends only on its
-//! tile's pixels, so the image is the same whatever the number of threads.
+//! The tiles, their pixels' lobes and cones depend on the frame and the material, not on the map:
+//! the frame's plan keeps them ([`band_tiles`]), and a render cuts the tree and sums
+//! ([`shade_tiles`]). Bands of tile rows run in parallel ([`super::render`]); a pixel's value
+//! depends only on its tile's pixels, so the image is the same whatever the number of threads.
 
 use super::lobe_kernel::{self, FlatCut, PixelLobe};
 use super::principled::Principled;
@@ -18,26 +20,43 @@ pub const TILE: usize = 8;
 /// The largest spread (half-angle, radians) of a tile's lobe peaks before it is split.
 pub const MAX_SPREAD: f64 = 0.2;
 
-/// Scratch reused across the tiles of a row.
-struct Scratch {
-    cut: FlatCut,
+/// A tile's pixels (their index in the band and coverage), their lobes and the cones that bound
+/// them: all a tile needs before the map is read, so a frame's plan keeps its tiles for each rough
+/// material ([`super::plan::Plan::tiles`]) and a render only cuts the tree and sums.
+pub(super) struct Tile {
+    cones: TileCones,
     lobes: Vec<PixelLobe>,
     at: Vec<usize>,
+    coverage: Vec<f64>,
 }
 
-/// The premultiplied radiance of every [`Stage::Shade`] pixel of `stages` that `shade` marks, a
-/// band of at most `tile` rows of `width` pixels, into `out` (the band's pixels; the others are
-/// left as they are), by tiles of `tile` x `tile`.
-pub(super) fn shade_band(tree: &TexelTree, bsdf: &Principled, band: Band, tile: usize, out: &mut [[f64; 3]]) {
+/// The tiles of a band of at most `tile` rows of `width` pixels (`stages`, with `shade` marking
+/// the [`Stage::Shade`] pixels to shade), by tiles of `tile` x `tile`, split while their lobes'
+/// peaks spread too far.
+pub(super) fn band_tiles(bsdf: &Principled, band: Band, tile: usize) -> Vec<Tile> {
     let (width, stages, _) = band;
+    let mut tiles = Vec::new();
     if width == 0 {
-        return;
+        return tiles;
     }
-    let mut scratch = Scratch { cut: FlatCut::default(), lobes: Vec::new(), at: Vec::new() };
     let height = stages.len() / width;
     for x0 in (0..width).step_by(tile) {
         let rect = Rect { x0, x1: (x0 + tile).min(width), y0: 0, y1: height };
-        shade_rect(tree, bsdf, band, rect, out, &mut scratch);
+        split(bsdf, band, rect, &mut tiles);
+    }
+    tiles
+}
+
+/// The premultiplied radiance of every pixel of `tiles` (a band's, [`band_tiles`]) into `out` (the
+/// band's pixels; the others are left as they are).
+pub(super) fn shade_tiles(tree: &TexelTree, tiles: &[Tile], out: &mut [[f64; 3]]) {
+    let mut cut = FlatCut::default();
+    let level = crate::cpu::level();
+    for t in tiles {
+        tree.tile_cut(&t.cones, &mut cut);
+        for ((k, &at), &a) in t.lobes.iter().zip(&t.at).zip(&t.coverage) {
+            out[at] = lobe_kernel::sum(level, k, &cut).map(|v| v * a);
+        }
     }
 }
 
@@ -52,53 +71,41 @@ struct Rect {
     y1: usize,
 }
 
-/// The pixels of `rect` into `out`, split while their peaks spread too far.
-fn shade_rect(
-    tree: &TexelTree,
-    bsdf: &Principled,
-    band: Band,
-    rect: Rect,
-    out: &mut [[f64; 3]],
-    scratch: &mut Scratch,
-) {
+/// The tile of the pixels of `rect` into `tiles`, or its quarters' while their peaks spread too
+/// far.
+fn split(bsdf: &Principled, band: Band, rect: Rect, tiles: &mut Vec<Tile>) {
     let (width, stages, shade) = band;
-    scratch.lobes.clear();
-    scratch.at.clear();
+    let (mut lobes, mut at, mut coverage) = (Vec::new(), Vec::new(), Vec::new());
     for y in rect.y0..rect.y1 {
         for x in rect.x0..rect.x1 {
             if !shade[y * width + x] {
                 continue;
             }
-            if let Stage::Shade(hit, v, _) = stages[y * width + x] {
+            if let Stage::Shade(hit, v, a) = stages[y * width + x] {
                 if let Some(lobe) = PixelLobe::new(bsdf, &hit, v) {
-                    scratch.lobes.push(lobe);
-                    scratch.at.push(y * width + x);
+                    lobes.push(lobe);
+                    at.push(y * width + x);
+                    coverage.push(a);
                 }
             }
         }
     }
-    if scratch.lobes.is_empty() {
+    if lobes.is_empty() {
         return;
     }
     let single = rect.x1 - rect.x0 == 1 && rect.y1 - rect.y0 == 1;
-    let cones = TileCones::new(&scratch.lobes);
+    let cones = TileCones::new(&lobes);
     let Some(cones) = cones.filter(|c| single || c.peak_spread() <= MAX_SPREAD) else {
-        // Quarters (halves of a thin rectangle), each shaded on its own.
+        // Quarters (halves of a thin rectangle), each a tile of its own.
         let (xm, ym) = ((rect.x0 + rect.x1).div_ceil(2), (rect.y0 + rect.y1).div_ceil(2));
         for (x0, x1) in [(rect.x0, xm), (xm, rect.x1)] {
             for (y0, y1) in [(rect.y0, ym), (ym, rect.y1)] {
                 if x0 < x1 && y0 < y1 {
-                    shade_rect(tree, bsdf, band, Rect { x0, x1, y0, y1 }, out, scratch);
+                    split(bsdf, band, Rect { x0, x1, y0, y1 }, tiles);
                 }
             }
         }
         return;
     };
-    tree.tile_cut(&cones, &mut scratch.cut);
-    let level = crate::cpu::level();
-    for (k, &at) in scratch.lobes.iter().zip(&scratch.at) {
-        let rgb = lobe_kernel::sum(level, k, &scratch.cut);
-        let a = stages[at].coverage();
-        out[at] = rgb.map(|v| v * a);
-    }
+    tiles.push(Tile { cones, lobes, at, coverage });
 }
