@@ -36,9 +36,10 @@
 //! Everything before the map is read (the rays, their hits, the coverage, the mirror's reflections
 //! and weights, the rough materials' tiles and lobes) is the frame's [`plan`], made once per
 //! process for each frame and shared by the renders of every map; given a
-//! [`plan_bytes::PlanStore`] (the run's cache) it is kept there and read back by later processes. Bands of rows run in parallel (rayon); every pixel is a pure
-//! function of the inputs and of its tile's pixels, so the image is the same bit for bit whatever
-//! the number of threads and whether the plan was kept, stored or read back.
+//! [`plan_bytes::PlanStore`] (the run's cache) it is kept there and read back by later processes.
+//! Bands of rows run in parallel (rayon); every pixel is a pure function of the inputs and of its
+//! tile's pixels, so the image is the same bit for bit whatever the number of threads and whether
+//! the plan was kept, stored or read back.
 
 pub mod camera;
 pub mod environment;
