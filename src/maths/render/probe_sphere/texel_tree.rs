@@ -31,6 +31,7 @@
 //! operator's tests state the default's error against the lobe's albedo and against `cut / 4`.
 
 use std::f64::consts::PI;
+use std::sync::{Arc, Mutex};
 
 use glam::DVec3;
 
@@ -108,6 +109,38 @@ pub struct TexelTree {
     pub(super) w: f64,
 }
 
+/// Level 0 of a tree of a `width` x `height` map with parameters `cut` and `w`, without the
+/// texels' power: the centres, radii and tests, which depend on those alone. The last few are
+/// kept, since an evaluation makes trees of one size and two materials for every map.
+fn texels(width: usize, height: usize, cut: f64, w: f64) -> Arc<Vec<Node>> {
+    type Key = (usize, usize, u64, u64);
+    static KEPT: Mutex<Vec<(Key, Arc<Vec<Node>>)>> = Mutex::new(Vec::new());
+    let key = (width, height, cut.to_bits(), w.to_bits());
+    if let Some((_, nodes)) = KEPT.lock().unwrap_or_else(|e| e.into_inner()).iter().find(|(k, _)| *k == key) {
+        return nodes.clone();
+    }
+    let mut nodes = Vec::with_capacity(width * height);
+    for y in 0..height {
+        let (t0, t1) = (PI * y as f64 / height as f64, PI * (y + 1) as f64 / height as f64);
+        for x in 0..width {
+            let (u0, u1) = (x as f64 / width as f64, (x + 1) as f64 / width as f64);
+            let c = direction(0.5 * (u0 + u1), 0.5 * (t0 + t1));
+            let r = [(u0, t0), (u1, t0), (u0, t1), (u1, t1)]
+                .iter()
+                .map(|&(u, t)| c.angle_between(direction(u, t)))
+                .fold(0.0, f64::max);
+            nodes.push(Node::new(c, [0.0; 3], r, cut, w));
+        }
+    }
+    let nodes = Arc::new(nodes);
+    let mut kept = KEPT.lock().unwrap_or_else(|e| e.into_inner());
+    if kept.len() >= 4 {
+        kept.remove(0);
+    }
+    kept.push((key, nodes.clone()));
+    nodes
+}
+
 /// The Blender direction at texture coordinate `u` and polar angle `theta` (from +Z): the inverse
 /// of Cycles' `u = 0.5 - atan2(y, x) / (2 pi)`.
 pub(super) fn direction(u: f64, theta: f64) -> DVec3 {
@@ -129,18 +162,12 @@ impl TexelTree {
     /// r + r / cut - w`.
     pub fn new(map: &Image, cut: f64, w: f64) -> TexelTree {
         let (width, height) = (map.width, map.height);
-        let mut nodes = Vec::with_capacity(width * height);
-        for y in 0..height {
+        let mut nodes = Vec::clone(&texels(width, height, cut, w));
+        for (y, row) in nodes.chunks_mut(width.max(1)).enumerate() {
             let (t0, t1) = (PI * y as f64 / height as f64, PI * (y + 1) as f64 / height as f64);
             let omega = box_solid_angle(1.0 / width as f64, t0, t1);
-            for x in 0..width {
-                let (u0, u1) = (x as f64 / width as f64, (x + 1) as f64 / width as f64);
-                let c = direction(0.5 * (u0 + u1), 0.5 * (t0 + t1));
-                let r = [(u0, t0), (u1, t0), (u0, t1), (u1, t1)]
-                    .iter()
-                    .map(|&(u, t)| c.angle_between(direction(u, t)))
-                    .fold(0.0, f64::max);
-                nodes.push(Node::new(c, map.rgb(x, y).map(|v| v as f64 * omega), r, cut, w));
+            for (x, node) in row.iter_mut().enumerate() {
+                node.power = map.rgb(x, y).map(|v| v as f64 * omega);
             }
         }
         let mut levels = vec![Level { width, height, nodes }];
