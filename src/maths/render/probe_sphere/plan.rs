@@ -43,7 +43,8 @@ const KEPT: usize = 4;
 const MAX_BYTES: usize = 1 << 30;
 /// How many map sizes a mirror plan keeps its reads for.
 const KEPT_SIZES: usize = 2;
-/// How many rough materials a plan keeps its interpolation masks for (the protocol has two).
+/// How many rough materials a plan keeps its interpolation masks and tiles for (the protocol has
+/// two).
 const KEPT_MATERIALS: usize = 2;
 
 /// A frame's tiles of one rough material, a list per band of tile rows.
@@ -180,13 +181,8 @@ pub(super) fn plan_for(settings: &ProbeSettings, store: Option<&dyn PlanStore>) 
     }
     let slot = recent_slot(&STORE, key, KEPT);
     slot.get_or_init(|| {
-        let decode = |bytes: &[u8]| {
-            decode_stages(bytes, pixels).map(|stages| Plan {
-                spans: spans(&stages, settings.width),
-                stages,
-                ..make_empty(settings, name.clone())
-            })
-        };
+        let decode =
+            |bytes: &[u8]| decode_stages(bytes, pixels).map(|stages| with_stages(settings, name.clone(), stages));
         Arc::new(kept_in(store, &name, decode, || make(settings, name.clone()), |plan| encode_stages(&plan.stages)))
     })
     .clone()
@@ -236,13 +232,13 @@ fn recent_slot<K: PartialEq, T>(list: &Recent<K, T>, key: K, kept: usize) -> Arc
     }
 }
 
-/// A plan of `settings` with no stages, rays, reads or masks yet.
-fn make_empty(settings: &ProbeSettings, name: String) -> Plan {
+/// A plan of `settings` with its `stages` and no rays, reads, masks or tiles yet.
+fn with_stages(settings: &ProbeSettings, name: String, stages: Vec<Stage>) -> Plan {
     Plan {
         settings: *settings,
         name,
-        stages: Vec::new(),
-        spans: Vec::new(),
+        spans: spans(&stages, settings.width),
+        stages,
         rays: OnceLock::new(),
         reads: Mutex::new(Vec::new()),
         shaded: Mutex::new(Vec::new()),
@@ -253,7 +249,7 @@ fn make_empty(settings: &ProbeSettings, name: String) -> Plan {
 /// The plan of `settings`' frame, traced (see the module documentation).
 fn make(settings: &ProbeSettings, name: String) -> Plan {
     let (stages, rays) = trace(settings);
-    Plan { spans: spans(&stages, settings.width), stages, rays: OnceLock::from(rays), ..make_empty(settings, name) }
+    Plan { rays: OnceLock::from(rays), ..with_stages(settings, name, stages) }
 }
 
 /// Each row's span of `stages` (`width` a row) between its first and last stage that is not
@@ -353,12 +349,7 @@ pub(super) mod tests_support {
         let made = make(settings, "plan".into());
         store.save("plan", encode_stages(&made.stages));
         let stages = decode_stages(&store.load("plan").unwrap(), settings.width * settings.height).unwrap();
-        let read = Plan {
-            spans: spans(&stages, settings.width),
-            stages,
-            rays: OnceLock::new(),
-            ..make_empty(settings, "plan".into())
-        };
+        let read = with_stages(settings, "plan".into(), stages);
         let mirror = settings.material.principled(settings.smith).is_mirror();
         let reads = |plan: &Plan| -> Vec<RowReads> {
             if !mirror {

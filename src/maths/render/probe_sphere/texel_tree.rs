@@ -109,9 +109,13 @@ pub struct TexelTree {
     pub(super) w: f64,
 }
 
+/// Maps of at most this many texels have their tree's level 0 kept (96 MB of nodes at most).
+const KEPT_TEXELS: usize = 1 << 20;
+
 /// Level 0 of a tree of a `width` x `height` map with parameters `cut` and `w`, without the
-/// texels' power: the centres, radii and tests, which depend on those alone. The last few are
-/// kept, since an evaluation makes trees of one size and two materials for every map.
+/// texels' power: the centres, radii and tests, which depend on those alone. The last four of at
+/// most [`KEPT_TEXELS`] are kept, since an evaluation makes trees of one size (the protocol's
+/// 256 x 128) and two materials for every map.
 fn texels(width: usize, height: usize, cut: f64, w: f64) -> Arc<Vec<Node>> {
     type Key = (usize, usize, u64, u64);
     static KEPT: Mutex<Vec<(Key, Arc<Vec<Node>>)>> = Mutex::new(Vec::new());
@@ -133,6 +137,9 @@ fn texels(width: usize, height: usize, cut: f64, w: f64) -> Arc<Vec<Node>> {
         }
     }
     let nodes = Arc::new(nodes);
+    if width.saturating_mul(height) > KEPT_TEXELS {
+        return nodes;
+    }
     let mut kept = KEPT.lock().unwrap_or_else(|e| e.into_inner());
     if kept.len() >= 4 {
         kept.remove(0);
