@@ -88,9 +88,9 @@ struct Samples<'a> {
 }
 
 /// Pixels in a block of [`Samples`]: a block none of whose values could enter a full heap is
-/// passed over after one min or max of its values (alpha included, which only loosens the test),
-/// so that a sphere render's background (most of its pixels, zeros) costs a sweep instead of a
-/// heap comparison a sample.
+/// passed over after one minimum of its values' heap keys (alpha included, which only loosens the
+/// test), so that a sphere render's background (most of its pixels, zeros) costs a vectorised
+/// sweep instead of a heap comparison a sample.
 const BLOCK: usize = 16;
 
 impl Samples<'_> {

@@ -51,6 +51,7 @@ mod mirror_reads;
 mod plan;
 pub mod plan_bytes;
 pub mod principled;
+mod recent;
 pub mod shading;
 pub mod texel_tree;
 pub mod tile_cut;

@@ -34,6 +34,7 @@ use super::interpolation;
 use super::mirror_reads::RowReads;
 use super::plan_bytes::{decode_reads, decode_stages, encode_reads, encode_stages, PlanStore};
 use super::principled::Principled;
+use super::recent::{recent_slot, Recent};
 use super::tiles::{self, Tile};
 use super::{scene, trace_row, MirrorRay, ProbeMaterial, ProbeSettings, ProbeShape, Stage};
 
@@ -104,14 +105,7 @@ impl Plan {
                 let pixels = b * band..((b + 1) * band).min(self.stages.len());
                 tiles::band_tiles(bsdf, (self.width(), &self.stages[pixels.clone()], &shade[pixels]), tile.max(1))
             };
-            let bands = self.stages.len().div_ceil(band);
-            Arc::new(on_own_pool(|parallel| {
-                if parallel {
-                    (0..bands).into_par_iter().map(tiles_of).collect()
-                } else {
-                    (0..bands).map(tiles_of).collect()
-                }
-            }))
+            Arc::new(map_on_own_pool(self.stages.len().div_ceil(band), tiles_of))
         })
         .clone()
     }
@@ -131,13 +125,8 @@ impl Plan {
             let decode = |bytes: &[u8]| decode_reads(bytes, &self.stages, self.width(), texels);
             let make = || {
                 let (w, rays) = (self.width(), self.rays());
-                let row = |r: usize| RowReads::new(&self.stages[r * w..(r + 1) * w], &rays[r], width, height);
-                on_own_pool(|parallel| {
-                    if parallel {
-                        (0..rays.len()).into_par_iter().map(row).collect()
-                    } else {
-                        (0..rays.len()).map(row).collect()
-                    }
+                map_on_own_pool(rays.len(), |r| {
+                    RowReads::new(&self.stages[r * w..(r + 1) * w], &rays[r], width, height)
                 })
             };
             Arc::new(kept_in(store, &name, decode, make, |rows| encode_reads(rows)))
@@ -206,32 +195,6 @@ fn kept_in<T>(
     value
 }
 
-/// Values made once each, by key, most recently used last.
-type Recent<K, T> = Mutex<Vec<(K, Arc<OnceLock<T>>)>>;
-
-/// The slot of `key` in `list` (most recently used last), made empty when missing, the least
-/// recently used dropped to keep at most `kept`. A poisoned list (a panic while it was held) is
-/// only a list of finished values.
-fn recent_slot<K: PartialEq, T>(list: &Recent<K, T>, key: K, kept: usize) -> Arc<OnceLock<T>> {
-    let mut list = list.lock().unwrap_or_else(|e| e.into_inner());
-    match list.iter().position(|(k, _)| *k == key) {
-        Some(i) => {
-            let entry = list.remove(i);
-            let slot = entry.1.clone();
-            list.push(entry);
-            slot
-        }
-        None => {
-            if list.len() >= kept {
-                list.remove(0);
-            }
-            let slot = Arc::new(OnceLock::new());
-            list.push((key, slot.clone()));
-            slot
-        }
-    }
-}
-
 /// A plan of `settings` with its `stages` and no rays, reads, masks or tiles yet.
 fn with_stages(settings: &ProbeSettings, name: String, stages: Vec<Stage>) -> Plan {
     Plan {
@@ -267,22 +230,21 @@ fn spans(stages: &[Stage], width: usize) -> Vec<Range<usize>> {
 
 /// Every row of `settings`' frame traced: the pixels' stages and each row's mirror rays.
 fn trace(settings: &ProbeSettings) -> (Vec<Stage>, Vec<Vec<MirrorRay>>) {
-    on_own_pool(|parallel| {
-        let scene = scene(settings);
-        let rows: Vec<(Vec<Stage>, Vec<MirrorRay>)> = if parallel {
-            (0..settings.height).into_par_iter().map(|r| trace_row(&scene, r)).collect()
-        } else {
-            (0..settings.height).map(|r| trace_row(&scene, r)).collect()
-        };
-        let mut stages = Vec::with_capacity(settings.width * settings.height);
-        let mut rays = Vec::with_capacity(rows.len());
-        for (row, mut row_rays) in rows {
-            stages.extend(row);
-            row_rays.shrink_to_fit();
-            rays.push(row_rays);
-        }
-        (stages, rays)
-    })
+    let scene = scene(settings);
+    let rows = map_on_own_pool(settings.height, |r| trace_row(&scene, r));
+    let mut stages = Vec::with_capacity(settings.width * settings.height);
+    let mut rays = Vec::with_capacity(rows.len());
+    for (row, mut row_rays) in rows {
+        stages.extend(row);
+        row_rays.shrink_to_fit();
+        rays.push(row_rays);
+    }
+    (stages, rays)
+}
+
+/// `f(i)` for every `i < n`, in order, run in parallel on a pool of its own ([`on_own_pool`]).
+fn map_on_own_pool<T: Send>(n: usize, f: impl Fn(usize) -> T + Sync) -> Vec<T> {
+    on_own_pool(|parallel| if parallel { (0..n).into_par_iter().map(&f).collect() } else { (0..n).map(&f).collect() })
 }
 
 /// `work(true)` on a pool of as many threads as the caller's, from a thread that is no rayon

@@ -35,6 +35,8 @@ use std::sync::{Arc, Mutex};
 
 use glam::DVec3;
 
+use super::recent::{recent_slot, Recent};
+
 use crate::values::Image;
 
 /// The coarsest level visited has at most this many nodes across.
@@ -117,35 +119,27 @@ const KEPT_TEXELS: usize = 1 << 20;
 /// most [`KEPT_TEXELS`] are kept, since an evaluation makes trees of one size (the protocol's
 /// 256 x 128) and two materials for every map.
 fn texels(width: usize, height: usize, cut: f64, w: f64) -> Arc<Vec<Node>> {
-    type Key = (usize, usize, u64, u64);
-    static KEPT: Mutex<Vec<(Key, Arc<Vec<Node>>)>> = Mutex::new(Vec::new());
-    let key = (width, height, cut.to_bits(), w.to_bits());
-    if let Some((_, nodes)) = KEPT.lock().unwrap_or_else(|e| e.into_inner()).iter().find(|(k, _)| *k == key) {
-        return nodes.clone();
-    }
-    let mut nodes = Vec::with_capacity(width * height);
-    for y in 0..height {
-        let (t0, t1) = (PI * y as f64 / height as f64, PI * (y + 1) as f64 / height as f64);
-        for x in 0..width {
-            let (u0, u1) = (x as f64 / width as f64, (x + 1) as f64 / width as f64);
-            let c = direction(0.5 * (u0 + u1), 0.5 * (t0 + t1));
-            let r = [(u0, t0), (u1, t0), (u0, t1), (u1, t1)]
-                .iter()
-                .map(|&(u, t)| c.angle_between(direction(u, t)))
-                .fold(0.0, f64::max);
-            nodes.push(Node::new(c, [0.0; 3], r, cut, w));
+    static KEPT: Recent<(usize, usize, u64, u64), Arc<Vec<Node>>> = Mutex::new(Vec::new());
+    let make = || {
+        let mut nodes = Vec::with_capacity(width * height);
+        for y in 0..height {
+            let (t0, t1) = (PI * y as f64 / height as f64, PI * (y + 1) as f64 / height as f64);
+            for x in 0..width {
+                let (u0, u1) = (x as f64 / width as f64, (x + 1) as f64 / width as f64);
+                let c = direction(0.5 * (u0 + u1), 0.5 * (t0 + t1));
+                let r = [(u0, t0), (u1, t0), (u0, t1), (u1, t1)]
+                    .iter()
+                    .map(|&(u, t)| c.angle_between(direction(u, t)))
+                    .fold(0.0, f64::max);
+                nodes.push(Node::new(c, [0.0; 3], r, cut, w));
+            }
         }
-    }
-    let nodes = Arc::new(nodes);
+        Arc::new(nodes)
+    };
     if width.saturating_mul(height) > KEPT_TEXELS {
-        return nodes;
+        return make();
     }
-    let mut kept = KEPT.lock().unwrap_or_else(|e| e.into_inner());
-    if kept.len() >= 4 {
-        kept.remove(0);
-    }
-    kept.push((key, nodes.clone()));
-    nodes
+    recent_slot(&KEPT, (width, height, cut.to_bits(), w.to_bits()), 4).get_or_init(make).clone()
 }
 
 /// The Blender direction at texture coordinate `u` and polar angle `theta` (from +Z): the inverse
