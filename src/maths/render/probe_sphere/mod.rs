@@ -349,7 +349,7 @@ fn render_tiled(
             tiles::shade_tiles(&tree, band, out);
         });
         if settings.interpolate {
-            interpolation::fill(&plan.stages, &plan.spans, &plan.shaded_pixels(&bsdf), &mut rgb, w);
+            interpolation::fill(&plan.spans, &plan.fills(&bsdf), &mut rgb, w);
         }
         rows.for_each(|(r, (rgba, alpha))| {
             put(r, rgba, alpha, &mut finish(&plan.stages[span(r)], std::iter::empty(), rgb[span(r)].iter().copied()))

@@ -30,7 +30,7 @@ use std::sync::{Arc, Mutex, OnceLock};
 
 use rayon::prelude::*;
 
-use super::interpolation;
+use super::interpolation::{self, Fill};
 use super::mirror_reads::RowReads;
 use super::plan_bytes::{decode_reads, decode_stages, encode_reads, encode_stages, PlanStore};
 use super::principled::Principled;
@@ -65,8 +65,8 @@ pub(super) struct Plan {
     rays: OnceLock<Vec<Vec<MirrorRay>>>,
     /// the mirror's reads of each map size (width, height), most recently used last
     reads: Recent<(usize, usize), Arc<Vec<RowReads>>>,
-    /// which pixels each rough material shades itself ([`interpolation`])
-    shaded: Recent<Principled, Arc<Vec<bool>>>,
+    /// how each rough material gets each pixel: shaded or interpolated ([`interpolation`])
+    fills: Recent<Principled, Arc<Vec<Fill>>>,
     /// each rough material's tiles, by tile side and whether it interpolates: a list per band of
     /// tile rows ([`tiles::band_tiles`])
     tiles: Recent<(Principled, usize, bool), Arc<BandTiles>>,
@@ -83,22 +83,21 @@ impl Plan {
         self.rays.get_or_init(|| trace(&self.settings).1)
     }
 
-    /// [`interpolation::shaded_pixels`] of `bsdf` on this frame: the kept mask, or made now.
-    pub(super) fn shaded_pixels(&self, bsdf: &Principled) -> Arc<Vec<bool>> {
-        let slot = recent_slot(&self.shaded, *bsdf, KEPT_MATERIALS);
-        slot.get_or_init(|| Arc::new(on_own_pool(|_| interpolation::shaded_pixels(&self.stages, self.width(), bsdf))))
-            .clone()
+    /// [`interpolation::fills`] of `bsdf` on this frame: the kept ones, or made now.
+    pub(super) fn fills(&self, bsdf: &Principled) -> Arc<Vec<Fill>> {
+        let slot = recent_slot(&self.fills, *bsdf, KEPT_MATERIALS);
+        slot.get_or_init(|| Arc::new(on_own_pool(|_| interpolation::fills(&self.stages, self.width(), bsdf)))).clone()
     }
 
     /// The tiles of `bsdf` on this frame, `tile` pixels a side, with the pixels
-    /// [`Plan::shaded_pixels`] marks when `interpolate` (else every pixel to shade), a list per
+    /// [`Plan::fills`] marks to shade when `interpolate` (else every pixel), a list per
     /// band of `tile` rows: the kept ones, or made now.
     pub(super) fn tiles(&self, bsdf: &Principled, tile: usize, interpolate: bool) -> Arc<BandTiles> {
         let slot = recent_slot(&self.tiles, (*bsdf, tile, interpolate), KEPT_MATERIALS);
         if let Some(tiles) = slot.get() {
             return tiles.clone();
         }
-        let shade = if interpolate { self.shaded_pixels(bsdf) } else { Arc::new(vec![true; self.stages.len()]) };
+        let shade = if interpolate { self.fills(bsdf) } else { Arc::new(vec![Fill::Shade; self.stages.len()]) };
         slot.get_or_init(|| {
             let band = tile.max(1) * self.width().max(1);
             let tiles_of = |b: usize| {
@@ -204,7 +203,7 @@ fn with_stages(settings: &ProbeSettings, name: String, stages: Vec<Stage>) -> Pl
         stages,
         rays: OnceLock::new(),
         reads: Mutex::new(Vec::new()),
-        shaded: Mutex::new(Vec::new()),
+        fills: Mutex::new(Vec::new()),
         tiles: Mutex::new(Vec::new()),
     }
 }

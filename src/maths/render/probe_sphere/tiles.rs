@@ -9,6 +9,7 @@
 //! ([`shade_tiles`]). Bands of tile rows run in parallel ([`super::render`]); a pixel's value
 //! depends only on its tile's pixels, so the image is the same whatever the number of threads.
 
+use super::interpolation::Fill;
 use super::lobe_kernel::{self, FlatCut, PixelLobe};
 use super::principled::Principled;
 use super::texel_tree::TexelTree;
@@ -60,8 +61,8 @@ pub(super) fn shade_tiles(tree: &TexelTree, tiles: &[Tile], out: &mut [[f64; 3]]
     }
 }
 
-/// A band's width, stages and which of them to shade.
-pub(super) type Band<'a> = (usize, &'a [Stage], &'a [bool]);
+/// A band's width, stages and how each gets its radiance (those marked [`Fill::Shade`] are shaded).
+pub(super) type Band<'a> = (usize, &'a [Stage], &'a [Fill]);
 
 #[derive(Clone, Copy)]
 struct Rect {
@@ -78,7 +79,7 @@ fn split(bsdf: &Principled, band: Band, rect: Rect, tiles: &mut Vec<Tile>) {
     let (mut lobes, mut at, mut coverage) = (Vec::new(), Vec::new(), Vec::new());
     for y in rect.y0..rect.y1 {
         for x in rect.x0..rect.x1 {
-            if !shade[y * width + x] {
+            if shade[y * width + x] != Fill::Shade {
                 continue;
             }
             if let Stage::Shade(hit, v, a) = stages[y * width + x] {
