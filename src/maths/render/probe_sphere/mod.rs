@@ -29,9 +29,9 @@
 //!
 //! The rough lobes are shaded by tiles of pixels ([`tiles`]): a tile's pixels share one cut of the
 //! texel tree, at least as fine as each pixel's own ([`tile_cut`]), and each sums its own lobes over
-//! it ([`lobe_kernel`], vectorised). With `interpolate`, only every second pixel in each direction
-//! is shaded where the lobes turn slowly across pixels, and the others are interpolated
-//! ([`interpolation`]).
+//! it ([`lobe_kernel`], vectorised). With `interpolate`, only every fourth or every second pixel in
+//! each direction is shaded where the lobes turn slowly across pixels, and the others are
+//! interpolated ([`interpolation`]).
 //!
 //! Everything before the map is read (the rays, their hits, the coverage, the mirror's reflections
 //! and weights, the rough materials' tiles and lobes) is the frame's [`plan`], made once per
@@ -116,8 +116,8 @@ pub struct ProbeSettings {
     /// the texel sum's refinement ratio (rough materials; [`texel_tree`])
     pub cut: f64,
     pub smith: Smith,
-    /// rough materials: shade every second pixel in each direction where the lobes allow and
-    /// interpolate the others ([`interpolation`])
+    /// rough materials: shade every fourth or second pixel in each direction where the lobes
+    /// allow and interpolate the others ([`interpolation`])
     pub interpolate: bool,
 }
 

@@ -113,7 +113,8 @@ fn interpolating_between_shaded_pixels_adds_little_to_the_cuts_own_error() {
     // 960 x 540 its middle is interpolated at stride 4. Against a four times finer cut the mean and
     // worst errors stay within 10% of shading every pixel's (measured: at 480 x 270 half the
     // pixels interpolated, MatteSilver 2.36e-3 against 2.24e-3, Diffuse 6.13e-4 against 5.73e-4;
-    // at 960 x 540 ...; the worst unchanged).
+    // at 960 x 540 the middle at stride 4, 33k and 40k of 62k pixels, MatteSilver 2.30e-3 against
+    // 2.55e-3, Diffuse 6.14e-4 against 5.77e-4; the worst unchanged).
     let map = sky_with_sun(256, 128);
     for (width, height) in [(480, 270), (960, 540)] {
         for material in [ProbeMaterial::MatteSilver, ProbeMaterial::Diffuse] {
