@@ -26,13 +26,24 @@
 #   process a material over the folder as its job_distributor.py runs them (copies of the scripts
 #   with utils/utils.py's defaults set to the CPU and no denoiser, which Debian's build lacks;
 #   nothing of the checkout is changed), and that ratio.
-# HDRFLOW (default target/release/hdrflow) and BLENDER name the binaries.
+# HDRFLOW (default target/release/hdrflow) and BLENDER name the binaries. REPEATS (default 1) runs
+# every measurement that many times, in rounds (Blender's scene, the protocol's scripts, then the
+# three batches), and reports each one's median: this machine's CPU times swing by 20% within an
+# hour, the differenced further pair most.
 set -euo pipefail
 export LC_ALL=C # `times` prints its seconds with this locale's decimal point
 if [ $# -lt 1 ]; then
-    sed -n '2,29p' "$0"
+    sed -n '2,32p' "$0"
     exit 2
 fi
+repeats=${REPEATS:-1}
+case $repeats in
+'' | *[!0-9]* | 0) echo "REPEATS=$repeats: give a whole number of runs, at least 1" >&2; exit 2 ;;
+esac
+# The median of the numbers given (the mean of the middle two for an even count).
+median() {
+    printf '%s\n' "$@" | sort -g | awk '{ v[NR] = $1 } END { printf "%.2f", NR % 2 ? v[(NR + 1) / 2] : (v[NR / 2] + v[NR / 2 + 1]) / 2 }'
+}
 out=$(realpath -m "$1") # absolute: the protocol's scripts run from their own folder
 percent=${2:-50}
 samples=${3:-5}
@@ -79,23 +90,21 @@ for gt in "$root"/assets/maps/*.hdr; do
 done
 
 # Blender: one process per map, its three spheres.
-times >"$out/blender.before"
-for map in "${maps[@]}"; do
-    dir=$(dirname "$map")
-    "$blender" --background --factory-startup \
-        --python-exit-code 1 --python "$here/blender_protocol_scene.py" -- "$map" "$dir/blender" \
-        "$percent" "$samples" 0 mirror,matte_silver,diffuse >"$dir/blender.log" 2>&1 ||
-        { echo "Blender failed on $map (see $dir/blender.log)" >&2; exit 1; }
-    for material in mirror matte_silver diffuse; do
-        [ -s "$dir/blender/seed0/$material.exr" ] ||
-            { echo "Blender wrote no $material sphere for $map (see $dir/blender.log)" >&2; exit 1; }
+blender_scene() {
+    for map in "${maps[@]}"; do
+        dir=$(dirname "$map")
+        "$blender" --background --factory-startup \
+            --python-exit-code 1 --python "$here/blender_protocol_scene.py" -- "$map" "$dir/blender" \
+            "$percent" "$samples" 0 mirror,matte_silver,diffuse >"$dir/blender.log" 2>&1 ||
+            { echo "Blender failed on $map (see $dir/blender.log)" >&2; exit 1; }
+        for material in mirror matte_silver diffuse; do
+            [ -s "$dir/blender/seed0/$material.exr" ] ||
+                { echo "Blender wrote no $material sphere for $map (see $dir/blender.log)" >&2; exit 1; }
+        done
     done
-done
-times >"$out/blender.after"
-blender_cpu=$(cpu_between "$out/blender.before" "$out/blender.after")
+}
 
 # The protocol's own scripts, when a checkout is given.
-protocol_cpu=
 if [ -n "${PROTOCOL_DIR:-}" ]; then
     scripts="$PROTOCOL_DIR/stylelight"
     [ -f "$scripts/mirror.py" ] && [ -f "$scripts/utils/utils.py" ] ||
@@ -113,7 +122,8 @@ if [ -n "${PROTOCOL_DIR:-}" ]; then
         name=$(basename "$(dirname "$map")")
         cp "$map" "$out/protocol-maps/${name//-/_}.exr"
     done
-    times >"$out/protocol.before"
+fi
+protocol_scripts() {
     for material in mirror matte_silver diffuse; do
         (cd "$out/protocol" && "$blender" --background --factory-startup --python-exit-code 1 \
             --python "$material.py" -- "$percent" "$samples" "$out/protocol-maps" "$out/protocol-renders" \
@@ -123,9 +133,7 @@ if [ -n "${PROTOCOL_DIR:-}" ]; then
         [ "$made" -eq "${#maps[@]}" ] ||
             { echo "the protocol's $material.py wrote $made of ${#maps[@]} renders" >&2; exit 1; }
     done
-    times >"$out/protocol.after"
-    protocol_cpu=$(cpu_between "$out/protocol.before" "$out/protocol.after")
-fi
+}
 
 # hdrflow: the batch over every pair, then over the first pair alone, each with an empty cache.
 batch() {
@@ -135,22 +143,53 @@ batch() {
         --out "$out/$name" --report "$out/$name/batch.json" --cache-dir "$out/$name-cache" -q >/dev/null
 }
 first=$(basename "$(ls "$root"/assets/maps/*.hdr | head -1)")
-times >"$out/t0"
-batch all "$root/assets/maps/*.hdr" "$root/examples/evaluation/predictions/$checkpoint/*.hdr"
-times >"$out/t1"
-batch first "$root/assets/maps/$first" "$root/examples/evaluation/predictions/$checkpoint/$first"
-times >"$out/t2"
-# Another checkpoint's predictions against the same truths, with the first batch's cache: the
-# truths' spheres are read back, as at every checkpoint after the first.
 other=blurred
 [ "$checkpoint" = blurred ] && other=turned
-cp -r "$out/all-cache" "$out/next-cache"
-times >"$out/t3"
-batch next "$root/assets/maps/*.hdr" "$root/examples/evaluation/predictions/$other/*.hdr"
-times >"$out/t4"
-all_cpu=$(cpu_between "$out/t0" "$out/t1")
-first_cpu=$(cpu_between "$out/t1" "$out/t2")
-next_cpu=$(cpu_between "$out/t3" "$out/t4")
+
+# The rounds: each measurement's CPU seconds, one a round (the first round's folders are all,
+# first and next; a later round's carry its number, all-2 ...).
+blender_runs=() protocol_runs=() all_runs=() first_runs=() next_runs=()
+for r in $(seq "$repeats"); do
+    n=
+    [ "$r" -gt 1 ] && n=-$r
+    times >"$out/t0"
+    blender_scene
+    times >"$out/t1"
+    blender_runs+=("$(cpu_between "$out/t0" "$out/t1")")
+    if [ -n "${PROTOCOL_DIR:-}" ]; then
+        times >"$out/t0"
+        protocol_scripts
+        times >"$out/t1"
+        protocol_runs+=("$(cpu_between "$out/t0" "$out/t1")")
+    fi
+    times >"$out/t0"
+    batch "all$n" "$root/assets/maps/*.hdr" "$root/examples/evaluation/predictions/$checkpoint/*.hdr"
+    times >"$out/t1"
+    batch "first$n" "$root/assets/maps/$first" "$root/examples/evaluation/predictions/$checkpoint/$first"
+    times >"$out/t2"
+    # Another checkpoint's predictions against the same truths, with the first batch's cache: the
+    # truths' spheres are read back, as at every checkpoint after the first.
+    cp -r "$out/all$n-cache" "$out/next$n-cache"
+    times >"$out/t3"
+    batch "next$n" "$root/assets/maps/*.hdr" "$root/examples/evaluation/predictions/$other/*.hdr"
+    times >"$out/t4"
+    all_runs+=("$(cpu_between "$out/t0" "$out/t1")")
+    first_runs+=("$(cpu_between "$out/t1" "$out/t2")")
+    next_runs+=("$(cpu_between "$out/t3" "$out/t4")")
+done
+blender_cpu=$(median "${blender_runs[@]}")
+protocol_cpu=
+[ -n "${PROTOCOL_DIR:-}" ] && protocol_cpu=$(median "${protocol_runs[@]}")
+all_cpu=$(median "${all_runs[@]}")
+first_cpu=$(median "${first_runs[@]}")
+next_cpu=$(median "${next_runs[@]}")
+if [ "$repeats" -gt 1 ]; then
+    scripts_runs=
+    [ -n "$protocol_cpu" ] && scripts_runs="the protocol's scripts ${protocol_runs[*]}; "
+    echo "medians of $repeats rounds; each round's CPU seconds: Blender's scene ${blender_runs[*]};" \
+        "${scripts_runs}the batch ${all_runs[*]}; one pair ${first_runs[*]};" \
+        "the next checkpoint ${next_runs[*]}" >&2
+fi
 
 awk -v b="$blender_cpu" -v a="$all_cpu" -v f="$first_cpu" -v n="$next_cpu" -v o="$other" -v p="$percent" -v s="$samples" 'BEGIN {
     printf "Blender, the protocol'"'"'s scene (blender_protocol_scene.py), 18 spheres at %s%% and %s samples: %.2f s CPU (%.2f s a pair of maps)\n", p, s, b, b / 3
