@@ -84,9 +84,9 @@ pub(super) fn difference(a: &ProbeRender, reference: &ProbeRender) -> (f64, f64)
 fn tiles_stay_as_close_to_a_four_times_finer_cut_as_each_pixels_own_cut() {
     // The tiles' cut is at least as fine as each pixel's: against the pixels' own sums at cut/4 its
     // error is no larger (mean and worst), and it departs from the pixels' own sums at the default
-    // cut by less than that cut's own error (measured on the mesh: MatteSilver 0.23% mean, 1.4%
-    // worst against cut/4 where the pixels' own cuts give 0.36% and 1.6%, 0.14% and 0.95% from
-    // them; Diffuse 0.055% and 7.3% against 0.057% and 7.3%, 0.006% and 0.16% from them).
+    // cut by less than that cut's own error (measured on the mesh: MatteSilver 0.14% mean, 1.35%
+    // worst against cut/4 where the pixels' own cuts give 0.36% and 1.6%, 0.23% and 1.28% from
+    // them; Diffuse 0.054% and 7.3% against 0.057% and 7.3%, 0.0099% and 0.16% from them).
     let map = sky_with_sun(256, 128);
     for material in [ProbeMaterial::MatteSilver, ProbeMaterial::Diffuse] {
         let s = ProbeSettings { samples: 4, ..settings(material, ProbeShape::Subdivided, 160, 90) };
@@ -112,9 +112,11 @@ fn interpolating_between_shaded_pixels_adds_little_to_the_cuts_own_error() {
     // interpolation covers the sphere's middle at stride 2 and leaves the rim to the shading; at
     // 960 x 540 its middle is interpolated at stride 4. Against a four times finer cut the mean and
     // worst errors stay within 10% of shading every pixel's (measured: at 480 x 270 half the
-    // pixels interpolated, MatteSilver 2.36e-3 against 2.24e-3, Diffuse 6.13e-4 against 5.73e-4;
-    // at 960 x 540 the middle at stride 4, 33k and 40k of 62k pixels, MatteSilver 2.30e-3 against
-    // 2.55e-3, Diffuse 6.14e-4 against 5.77e-4; the worst unchanged).
+    // pixels interpolated, MatteSilver 1.29e-3 against 1.66e-3, Diffuse 5.95e-4 against 5.54e-4;
+    // at 960 x 540 the middle at stride 4, 33k and 40k of 62k pixels, MatteSilver 1.30e-3 against
+    // 2.40e-3, Diffuse 5.94e-4 against 5.66e-4; the worst unchanged or smaller). Interpolated, the
+    // tiles are four times as wide, and a wider tile's shared cut is finer: hence the matte
+    // silver's lower error.
     let map = sky_with_sun(256, 128);
     for (width, height) in [(480, 270), (960, 540)] {
         for material in [ProbeMaterial::MatteSilver, ProbeMaterial::Diffuse] {
