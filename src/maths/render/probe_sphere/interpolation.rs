@@ -30,9 +30,10 @@ use super::shading::lobe_width;
 use super::Stage;
 
 /// The largest angle between neighbouring anchors' peaks, in lobe widths, for a pixel between
-/// them to be interpolated: at stride 2, and at stride 4 (smaller: the interpolation's error
-/// grows with the step, and the coarse pass covers most of the sphere).
+/// them to be interpolated at stride 2.
 pub const MAX_STEP: f64 = 0.5;
+/// [`MAX_STEP`] at stride 4: smaller, since the interpolation's error grows with the step and the
+/// coarse pass covers most of the sphere.
 pub const MAX_COARSE_STEP: f64 = 0.4;
 
 /// How a pixel of a rough sphere gets its radiance.
@@ -69,28 +70,34 @@ pub(super) fn fills(stages: &[Stage], width: usize, bsdf: &Principled) -> Vec<Fi
             }
         })
         .collect();
-    // Whether the pixel at (x, y) can be interpolated from the anchors of `stride` around it,
-    // neighbouring anchors' peaks at most `step` lobe widths apart.
-    let interpolable = |x: usize, y: usize, stride: usize, step: f64| {
-        let min_cos = (step * lobe_width(bsdf)).min(std::f64::consts::PI).cos();
-        let k = stride / 2;
-        let (sw, sh) = (width.div_ceil(stride), height.div_ceil(stride));
-        let (ax, ay) = (x / stride, y / stride);
-        if ax == 0 || ay == 0 || ax + 2 >= sw || ay + 2 >= sh {
-            return false;
-        }
-        let peak = |i: usize, j: usize| peaks[j * k * aw + i * k];
-        for j in ay - 1..=ay + 2 {
-            for i in ax - 1..=ax + 2 {
-                let Some(p) = peak(i, j) else { return false };
-                let near = |q: Option<DVec3>| q.is_some_and(|q| p.dot(q) >= min_cos);
-                if (i > ax - 1 && !near(peak(i - 1, j))) || (j > ay - 1 && !near(peak(i, j - 1))) {
+    // For each pass, whether the pixels of each cell of its anchor grid (the cell whose top-left
+    // anchor is (ax, ay)) can be interpolated from the 4 x 4 anchors around it: all fully covered,
+    // neighbouring anchors' peaks at most the pass's step apart. The same for every pixel of the
+    // cell, so it is decided once a cell.
+    let cells: Vec<Vec<bool>> = PASSES
+        .iter()
+        .map(|&(stride, _, step)| {
+            let min_cos = (step * lobe_width(bsdf)).min(std::f64::consts::PI).cos();
+            let (k, sw, sh) = (stride / 2, width.div_ceil(stride), height.div_ceil(stride));
+            let peak = |i: usize, j: usize| peaks[j * k * aw + i * k];
+            let interpolable = |ax: usize, ay: usize| {
+                if ax == 0 || ay == 0 || ax + 2 >= sw || ay + 2 >= sh {
                     return false;
                 }
-            }
-        }
-        true
-    };
+                for j in ay - 1..=ay + 2 {
+                    for i in ax - 1..=ax + 2 {
+                        let Some(p) = peak(i, j) else { return false };
+                        let near = |q: Option<DVec3>| q.is_some_and(|q| p.dot(q) >= min_cos);
+                        if (i > ax - 1 && !near(peak(i - 1, j))) || (j > ay - 1 && !near(peak(i, j - 1))) {
+                            return false;
+                        }
+                    }
+                }
+                true
+            };
+            (0..sw * sh).into_par_iter().map(|c| interpolable(c % sw, c / sw)).collect()
+        })
+        .collect();
     (0..width * height)
         .into_par_iter()
         .map(|i| {
@@ -101,11 +108,11 @@ pub(super) fn fills(stages: &[Stage], width: usize, bsdf: &Principled) -> Vec<Fi
             if !full(x, y) {
                 return Fill::Shade;
             }
-            for (stride, fill, step) in PASSES {
+            for (&(stride, fill, _), cells) in PASSES.iter().zip(&cells) {
                 if x % stride == 0 && y % stride == 0 {
                     return Fill::Shade;
                 }
-                if interpolable(x, y, stride, step) {
+                if cells[(y / stride) * width.div_ceil(stride) + x / stride] {
                     return fill;
                 }
             }
@@ -139,13 +146,14 @@ fn fill_pass(spans: &[Range<usize>], fills: &[Fill], rgb: &mut [[f64; 3]], width
         .flat_map(|j| (0..aw).map(move |i| (i, j)))
         .map(|(i, j)| rgb[stride * j * width + stride * i])
         .collect();
+    let table: Vec<[f64; 4]> = (0..stride).map(|offset| weights(offset, stride)).collect();
     rgb.par_chunks_mut(width.max(1)).enumerate().for_each(|(y, row)| {
         for x in spans[y].clone() {
             if fills[y * width + x] != which {
                 continue;
             }
             let (ax, ay) = (x / stride, y / stride);
-            let (wx, wy) = (weights(x % stride, stride), weights(y % stride, stride));
+            let (wx, wy) = (table[x % stride], table[y % stride]);
             let mut sum = [0.0; 3];
             let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
             for (j, &wy) in wy.iter().enumerate() {

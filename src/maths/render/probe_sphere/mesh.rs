@@ -318,6 +318,11 @@ mod tests {
         assert!(m.positions.iter().zip(&m.normals).all(|(p, n)| p.dot(*n) > 0.99 * p.length()));
     }
 
+    /// The distance to the nearest hit of `ray` over every triangle (infinite when none).
+    fn nearest_of_every_triangle(m: &SphereMesh, ray: &Ray) -> f64 {
+        (0..m.triangles.len()).filter_map(|id| m.intersect(id, ray)).map(|(t, _, _)| t).fold(f64::INFINITY, f64::min)
+    }
+
     #[test]
     fn grid_lookup_finds_the_same_hit_as_testing_every_triangle() {
         let m = subdivided();
@@ -328,10 +333,7 @@ mod tests {
                 // Directions over the sphere's disc and a little beyond it (the silhouette).
                 let target = DVec3::new(-1.05 + 2.1 * i as f64 / 59.0, 0.0, -1.05 + 2.1 * j as f64 / 59.0);
                 let ray = Ray { origin, dir: (target - origin).normalize() };
-                let brute = (0..m.triangles.len())
-                    .filter_map(|id| m.intersect(id, &ray))
-                    .map(|(t, _, _)| t)
-                    .fold(f64::INFINITY, f64::min);
+                let brute = nearest_of_every_triangle(m, &ray);
                 let mut hint = Some((i * 67 + j * 13) % m.triangles.len());
                 let hinted = m.hit_near(&ray, &mut hint).map(|h| h.t);
                 assert_eq!(hinted, m.hit(&ray).map(|h| h.t), "{i} {j}: a hint changed the hit");
@@ -397,10 +399,7 @@ mod tests {
                     // silhouette.
                     let target = DVec3::new(-0.3 + 0.6 * i as f64 / 119.0, 0.0, 0.86 + 0.16 * j as f64 / 59.0);
                     let ray = Ray { origin, dir: (target - origin).normalize() };
-                    let brute = (0..m.triangles.len())
-                        .filter_map(|id| m.intersect(id, &ray))
-                        .map(|(t, _, _)| t)
-                        .fold(f64::INFINITY, f64::min);
+                    let brute = nearest_of_every_triangle(m, &ray);
                     let mut hint = Some((i * 41 + j * 7 + k) % m.triangles.len());
                     let hinted = m.hit_near(&ray, &mut hint).map(|h| h.t);
                     let grid = m.hit(&ray);
